@@ -1,0 +1,194 @@
+//! The [`MotionBoard`] trait: what the controller's real-time tasks need from a motion board,
+//! whichever board it is (a mapped DPRAM, several of them, a test double). Every method is
+//! non-blocking and allocation-free, so the Pulse Generator, Error Check and I/O Monitor may
+//! call it from their cycles.
+
+use wrc_robot::MAX_AXES;
+
+use crate::layout::MAX_BOARDS;
+
+pub use crate::dpram::Torn;
+
+/// The command FIFO of at least one axis has no room for another period. Nothing was
+/// pushed (all axes take a period together or none does); try again next cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the board's command FIFO is full; nothing was pushed")]
+pub struct Full;
+
+/// The board has not yet acknowledged the previous command; try again next cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the board has not acknowledged the previous command yet")]
+pub struct Busy;
+
+/// One axis as the board last reported it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AxisFeedback {
+    /// Axis status bits, [`crate::layout::axis_status`].
+    pub status: u32,
+    /// Alarm cause bits, [`crate::layout::alarm`]; 0 when not alarmed.
+    pub alarm: u32,
+    /// Commanded position [pulse].
+    pub commanded: i64,
+    /// Encoder position [pulse].
+    pub encoder: i64,
+    /// Following error, commanded − encoder [pulse].
+    pub following_error: i64,
+    /// Increment executed in the last board period [pulse/period].
+    pub increment: i64,
+    /// Entries waiting in the FIFO [periods].
+    pub fifo_level: u32,
+    /// FIFO underruns since the board started.
+    pub underruns: u32,
+    /// Alarms raised since the board started.
+    pub alarms: u32,
+    /// Entries consumed without being executed (axis alarmed or stopping).
+    pub discarded: u32,
+}
+
+/// One board's own state.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BoardFeedback {
+    /// Board status bits, [`crate::layout::board_status`].
+    pub status: u32,
+    /// The board's watchdog counter (advances every board period while the board runs).
+    pub board_watchdog: u32,
+    /// Board periods since the board started.
+    pub period_count: u64,
+    /// Host-watchdog trips since the board started.
+    pub watchdog_trips: u32,
+    /// Periods the simulated board started late and caught up.
+    pub late_periods: u32,
+    /// Digital inputs, bit n = input n.
+    pub inputs: u32,
+    /// Digital outputs as the board drives them.
+    pub outputs: u32,
+    /// Board epoch; changes when the board restarts.
+    pub epoch: u32,
+}
+
+/// A snapshot of every axis and board, filled by [`MotionBoard::read_feedback`]; make it
+/// once and reuse it every cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Feedback {
+    /// Axes in use (`axes[..axis_count]`).
+    pub axis_count: usize,
+    /// Per axis, in controller axis order.
+    pub axes: [AxisFeedback; MAX_AXES],
+    /// Boards in use (`boards[..board_count]`).
+    pub board_count: usize,
+    /// Per board, in board order.
+    pub boards: [BoardFeedback; MAX_BOARDS],
+}
+
+impl Default for Feedback {
+    fn default() -> Self {
+        Feedback {
+            axis_count: 0,
+            axes: [AxisFeedback::default(); MAX_AXES],
+            board_count: 0,
+            boards: [BoardFeedback::default(); MAX_BOARDS],
+        }
+    }
+}
+
+impl Feedback {
+    /// True when any board is stopped or stopping (watchdog, E-stop) or any axis is alarmed.
+    pub fn any_fault(&self) -> bool {
+        use crate::layout::board_status as b;
+        self.boards[..self.board_count].iter().any(|board| {
+            board.status & (b::WATCHDOG_TRIPPED | b::ESTOP | b::STOPPING | b::ALARM) != 0
+        })
+    }
+
+    /// Sum of all axes' underruns.
+    pub fn underruns(&self) -> u64 {
+        self.axes[..self.axis_count]
+            .iter()
+            .map(|a| u64::from(a.underruns))
+            .sum()
+    }
+}
+
+/// A motion board (or several) as the controller's real-time tasks use it.
+///
+/// Axes are numbered 0.. in the controller's (robot's) order; I/O words one per board.
+/// Implementations do not allocate, block, print or make system calls in these methods.
+pub trait MotionBoard: Send {
+    /// Axes driven [count].
+    fn axis_count(&self) -> usize;
+
+    /// Boards behind this handle, i.e. digital I/O words [count].
+    fn board_count(&self) -> usize;
+
+    /// Board period: one pushed increment is executed per period [µs].
+    fn period_us(&self) -> u32;
+
+    /// Periods that can be pushed right now without [`Full`] [periods].
+    fn fifo_free(&self) -> usize;
+
+    /// Queue one period's increments, `increments[axis]` [pulse/period] for
+    /// `axis < axis_count()` (the rest is ignored). All axes or none.
+    fn push(&mut self, increments: &[i64; MAX_AXES]) -> Result<(), Full>;
+
+    /// Fill `out` with the current state of every axis and board.
+    fn read_feedback(&self, out: &mut Feedback) -> Result<(), Torn>;
+
+    /// Digital inputs of board `board`, bit n = input n (0 for a board that does not exist).
+    fn read_inputs(&self, board: usize) -> u32;
+
+    /// Set the digital outputs of board `board` (ignored for a board that does not exist).
+    fn write_outputs(&mut self, board: usize, outputs: u32);
+
+    /// The outputs last written to board `board`.
+    fn outputs(&self, board: usize) -> u32;
+
+    /// Tell the board(s) the host is alive; call once per cycle. The board stops all axes
+    /// when this stops for its configured number of periods.
+    fn refresh_watchdog(&mut self);
+
+    /// Clear the alarms of the axes in `axes` (bit n = axis n). Idempotent.
+    fn clear_alarms(&mut self, axes: u16) -> Result<(), Busy>;
+
+    /// Clear watchdog trip, E-stop latch and all alarms, so the board accepts motion again.
+    /// Idempotent.
+    fn reset(&mut self) -> Result<(), Busy>;
+}
+
+impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
+    fn axis_count(&self) -> usize {
+        (**self).axis_count()
+    }
+    fn board_count(&self) -> usize {
+        (**self).board_count()
+    }
+    fn period_us(&self) -> u32 {
+        (**self).period_us()
+    }
+    fn fifo_free(&self) -> usize {
+        (**self).fifo_free()
+    }
+    fn push(&mut self, increments: &[i64; MAX_AXES]) -> Result<(), Full> {
+        (**self).push(increments)
+    }
+    fn read_feedback(&self, out: &mut Feedback) -> Result<(), Torn> {
+        (**self).read_feedback(out)
+    }
+    fn read_inputs(&self, board: usize) -> u32 {
+        (**self).read_inputs(board)
+    }
+    fn write_outputs(&mut self, board: usize, outputs: u32) {
+        (**self).write_outputs(board, outputs)
+    }
+    fn outputs(&self, board: usize) -> u32 {
+        (**self).outputs(board)
+    }
+    fn refresh_watchdog(&mut self) {
+        (**self).refresh_watchdog()
+    }
+    fn clear_alarms(&mut self, axes: u16) -> Result<(), Busy> {
+        (**self).clear_alarms(axes)
+    }
+    fn reset(&mut self) -> Result<(), Busy> {
+        (**self).reset()
+    }
+}

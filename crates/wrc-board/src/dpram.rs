@@ -1,0 +1,339 @@
+//! The DPRAM access protocols, both ends: the single-producer/single-consumer command FIFO
+//! per axis, the seqlock on each axis's feedback record, the host command and fault mailboxes
+//! and plain counters. Every method is one or a few atomic loads and stores on the mapping:
+//! no allocation, no lock, no system call, so both the host's real-time cycle and the
+//! board's period may call them.
+//!
+//! Protocols (a writer never leaves a half-written record visible):
+//! - **Header**: the board zeroes `magic` first, writes the other fields and the rest of
+//!   the DPRAM, then stores `magic` with release ordering; a reader loads `magic` with
+//!   acquire ordering first and trusts the header only if it is [`MAGIC`].
+//! - **FIFO** (host → board, per axis): the host writes an entry (`seq` = the write index,
+//!   the increment) into slot `write % capacity`, then publishes it by storing `write + 1`
+//!   with release ordering. The board loads `write` with acquire ordering, reads the entry,
+//!   checks its `seq`, then frees the slot by storing `read + 1` with release ordering. The
+//!   host pushes only while `write − read < fifo_depth`.
+//! - **Feedback** (board → host, per axis): a seqlock. The board makes `fb_seq` odd, writes
+//!   the record, makes `fb_seq` even again (release). The host reads `fb_seq` (acquire),
+//!   the record, `fb_seq` again; equal and even means a consistent snapshot, otherwise it
+//!   retries a bounded number of times and then reports [`Torn`].
+//! - **Mailboxes** (host commands, injected faults): the writer stores code and arguments,
+//!   then bumps `seq` (release); the board acts once per period when `seq != ack`, then stores
+//!   `ack = seq` (release). A writer posts a new command only when `ack == seq`.
+//! - **Single words** (watchdogs, status, I/O, counters): one writer each, plain atomic
+//!   stores; readers see either the old or the new value.
+
+use std::sync::atomic::{fence, Ordering};
+
+use crate::driver::Mapping;
+use crate::layout::{self, axis, header, Header, LayoutError, FIFO_CAPACITY, MAGIC};
+
+/// A feedback record could not be read consistently: the board kept rewriting it (or a
+/// foreign writer left it odd). Try again next cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("the board rewrote the feedback record while it was read; try again next cycle")]
+pub struct Torn;
+
+/// One axis's feedback record, as the board publishes it every period.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AxisRecord {
+    /// Axis status bits, [`layout::axis_status`].
+    pub status: u32,
+    /// Commanded position [pulse].
+    pub commanded: i64,
+    /// Encoder position [pulse].
+    pub encoder: i64,
+    /// Following error, commanded − encoder [pulse].
+    pub following_error: i64,
+    /// Alarm cause bits, [`layout::alarm`]; 0 when not alarmed.
+    pub alarm: u32,
+    /// Increment executed in the last period [pulse/period].
+    pub increment: i64,
+}
+
+/// What the board found at the head of an axis FIFO.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pop {
+    /// No entry: the FIFO is empty.
+    Empty,
+    /// The next period's increment [pulse/period].
+    Entry(i64),
+    /// The entry's sequence number or the indices are wrong; the FIFO was resynchronised.
+    SequenceError,
+}
+
+/// Seqlock read attempts before [`Torn`].
+const SEQLOCK_TRIES: usize = 8;
+
+/// A mapped DPRAM with a checked header: the protocol operations of both ends.
+#[derive(Debug)]
+pub struct Dpram {
+    map: Mapping,
+    header: Header,
+}
+
+impl Dpram {
+    /// Attach to an initialised DPRAM: check magic (acquire), version, size and fields.
+    pub fn attach(map: Mapping) -> Result<Dpram, (Mapping, LayoutError)> {
+        let magic = map.u32(header::MAGIC).load(Ordering::Acquire);
+        let len = map.len();
+        let parsed = Header::from_words(
+            |offset| {
+                if offset == header::MAGIC {
+                    magic
+                } else {
+                    map.u32(offset).load(Ordering::Relaxed)
+                }
+            },
+            len,
+        );
+        match parsed {
+            Ok(header) => Ok(Dpram { map, header }),
+            Err(e) => Err((map, e)),
+        }
+    }
+
+    /// Board side: initialise the DPRAM (zero everything, write `header`, magic last).
+    pub fn initialize(map: Mapping, header: Header) -> Dpram {
+        map.u32(header::MAGIC).store(0, Ordering::Release);
+        for offset in (4..layout::LAYOUT_SIZE).step_by(4) {
+            map.u32(offset).store(0, Ordering::Relaxed);
+        }
+        for (offset, value) in header.words() {
+            map.u32(offset).store(value, Ordering::Relaxed);
+        }
+        map.u32(header::MAGIC).store(MAGIC, Ordering::Release);
+        Dpram { map, header }
+    }
+
+    /// The checked header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// Give the mapping back.
+    pub fn into_mapping(self) -> Mapping {
+        self.map
+    }
+
+    /// The mapping.
+    pub fn mapping(&self) -> &Mapping {
+        &self.map
+    }
+
+    /// Load a 32-bit word (acquire).
+    #[inline]
+    pub fn load(&self, offset: usize) -> u32 {
+        self.map.u32(offset).load(Ordering::Acquire)
+    }
+
+    /// Store a 32-bit word (release).
+    #[inline]
+    pub fn store(&self, offset: usize, value: u32) {
+        self.map.u32(offset).store(value, Ordering::Release)
+    }
+
+    /// Load a 64-bit word (acquire).
+    #[inline]
+    pub fn load64(&self, offset: usize) -> u64 {
+        self.map.u64(offset).load(Ordering::Acquire)
+    }
+
+    /// Store a 64-bit word (release).
+    #[inline]
+    pub fn store64(&self, offset: usize, value: u64) {
+        self.map.u64(offset).store(value, Ordering::Release)
+    }
+
+    /// Add 1 to a 32-bit counter that only the caller writes (wrapping).
+    #[inline]
+    pub fn bump(&self, offset: usize) {
+        let w = self.map.u32(offset);
+        w.store(w.load(Ordering::Relaxed).wrapping_add(1), Ordering::Release);
+    }
+
+    /// Whether magic still reads [`MAGIC`] (false while the board re-initialises).
+    pub fn is_live(&self) -> bool {
+        self.load(header::MAGIC) == MAGIC && self.load(header::EPOCH) == self.header.epoch
+    }
+
+    // ---- FIFO ----
+
+    /// Entries waiting in axis `channel`'s FIFO [periods] (as the host sees it; a corrupt
+    /// index pair reads as full).
+    #[inline]
+    pub fn fifo_level(&self, channel: usize) -> u32 {
+        let base = layout::axis_base(channel);
+        let write = self
+            .map
+            .u32(base + axis::FIFO_WRITE)
+            .load(Ordering::Relaxed);
+        let read = self.load(base + axis::FIFO_READ);
+        write.wrapping_sub(read).min(FIFO_CAPACITY as u32)
+    }
+
+    /// Host: free slots in axis `channel`'s FIFO [periods].
+    #[inline]
+    pub fn fifo_free(&self, channel: usize) -> u32 {
+        self.header
+            .fifo_depth
+            .saturating_sub(self.fifo_level(channel))
+    }
+
+    /// Host: write `increment` into the next slot and publish it. The caller has checked
+    /// [`Dpram::fifo_free`] (only the host pushes, so the room cannot shrink meanwhile).
+    #[inline]
+    pub fn fifo_push(&self, channel: usize, increment: i64) {
+        let base = layout::axis_base(channel);
+        let write = self
+            .map
+            .u32(base + axis::FIFO_WRITE)
+            .load(Ordering::Relaxed);
+        let slot = layout::fifo_slot(channel, write);
+        self.map
+            .u32(slot + axis::entry::SEQ)
+            .store(write, Ordering::Relaxed);
+        self.map
+            .u32(slot + axis::entry::FLAGS)
+            .store(0, Ordering::Relaxed);
+        self.map
+            .u64(slot + axis::entry::INCREMENT)
+            .store(increment as u64, Ordering::Relaxed);
+        self.store(base + axis::FIFO_WRITE, write.wrapping_add(1));
+    }
+
+    /// Board: take the entry at the head of axis `channel`'s FIFO.
+    #[inline]
+    pub fn fifo_pop(&self, channel: usize) -> Pop {
+        let base = layout::axis_base(channel);
+        let write = self.load(base + axis::FIFO_WRITE);
+        let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
+        let available = write.wrapping_sub(read);
+        if available == 0 {
+            return Pop::Empty;
+        }
+        if available > FIFO_CAPACITY as u32 {
+            self.store(base + axis::FIFO_READ, write);
+            return Pop::SequenceError;
+        }
+        let slot = layout::fifo_slot(channel, read);
+        let seq = self
+            .map
+            .u32(slot + axis::entry::SEQ)
+            .load(Ordering::Relaxed);
+        let increment = self
+            .map
+            .u64(slot + axis::entry::INCREMENT)
+            .load(Ordering::Relaxed) as i64;
+        self.store(base + axis::FIFO_READ, read.wrapping_add(1));
+        if seq == read {
+            Pop::Entry(increment)
+        } else {
+            Pop::SequenceError
+        }
+    }
+
+    /// Board: drop every waiting entry of axis `channel`; returns how many.
+    pub fn fifo_drain(&self, channel: usize) -> u32 {
+        let base = layout::axis_base(channel);
+        let write = self.load(base + axis::FIFO_WRITE);
+        let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
+        self.store(base + axis::FIFO_READ, write);
+        write.wrapping_sub(read).min(FIFO_CAPACITY as u32)
+    }
+
+    // ---- feedback seqlock ----
+
+    /// Board: publish axis `channel`'s feedback record.
+    pub fn write_feedback(&self, channel: usize, record: &AxisRecord) {
+        let base = layout::axis_base(channel);
+        let seq = self.map.u32(base + axis::FB_SEQ);
+        let s = seq.load(Ordering::Relaxed);
+        let s = if s % 2 == 1 { s.wrapping_add(1) } else { s };
+        seq.store(s.wrapping_add(1), Ordering::Relaxed);
+        fence(Ordering::Release);
+        let m = &self.map;
+        m.u32(base + axis::STATUS)
+            .store(record.status, Ordering::Relaxed);
+        m.u64(base + axis::COMMANDED)
+            .store(record.commanded as u64, Ordering::Relaxed);
+        m.u64(base + axis::ENCODER)
+            .store(record.encoder as u64, Ordering::Relaxed);
+        m.u64(base + axis::FOLLOWING_ERROR)
+            .store(record.following_error as u64, Ordering::Relaxed);
+        m.u32(base + axis::ALARM)
+            .store(record.alarm, Ordering::Relaxed);
+        m.u64(base + axis::INCREMENT)
+            .store(record.increment as u64, Ordering::Relaxed);
+        seq.store(s.wrapping_add(2), Ordering::Release);
+    }
+
+    /// Host: read axis `channel`'s feedback record consistently into `out`.
+    pub fn read_feedback(&self, channel: usize, out: &mut AxisRecord) -> Result<(), Torn> {
+        let base = layout::axis_base(channel);
+        let m = &self.map;
+        let seq = m.u32(base + axis::FB_SEQ);
+        for _ in 0..SEQLOCK_TRIES {
+            let s1 = seq.load(Ordering::Acquire);
+            if s1 % 2 == 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            let record = AxisRecord {
+                status: m.u32(base + axis::STATUS).load(Ordering::Relaxed),
+                commanded: m.u64(base + axis::COMMANDED).load(Ordering::Relaxed) as i64,
+                encoder: m.u64(base + axis::ENCODER).load(Ordering::Relaxed) as i64,
+                following_error: m.u64(base + axis::FOLLOWING_ERROR).load(Ordering::Relaxed) as i64,
+                alarm: m.u32(base + axis::ALARM).load(Ordering::Relaxed),
+                increment: m.u64(base + axis::INCREMENT).load(Ordering::Relaxed) as i64,
+            };
+            fence(Ordering::Acquire);
+            if seq.load(Ordering::Relaxed) == s1 {
+                *out = record;
+                return Ok(());
+            }
+        }
+        Err(Torn)
+    }
+
+    // ---- mailboxes ----
+
+    /// Writer: post (`code`, `args`) to the mailbox at `seq_offset` (code and arguments
+    /// follow it, the ack word is `ack_offset`). False when the previous one is not yet
+    /// acknowledged.
+    pub fn post(&self, seq_offset: usize, ack_offset: usize, code: u32, args: &[u32]) -> bool {
+        let seq = self.load(seq_offset);
+        if self.load(ack_offset) != seq {
+            return false;
+        }
+        self.map.u32(seq_offset + 4).store(code, Ordering::Relaxed);
+        for (i, arg) in args.iter().enumerate() {
+            self.map
+                .u32(seq_offset + 8 + 4 * i)
+                .store(*arg, Ordering::Relaxed);
+        }
+        self.store(seq_offset, seq.wrapping_add(1));
+        true
+    }
+
+    /// Board: the pending (code, arg0, arg1) of a mailbox, or `None`; call
+    /// [`Dpram::acknowledge`] after acting on it.
+    pub fn pending(&self, seq_offset: usize, ack_offset: usize) -> Option<(u32, u32, u32)> {
+        let seq = self.load(seq_offset);
+        if self.map.u32(ack_offset).load(Ordering::Relaxed) == seq {
+            return None;
+        }
+        let m = &self.map;
+        Some((
+            m.u32(seq_offset + 4).load(Ordering::Relaxed),
+            m.u32(seq_offset + 8).load(Ordering::Relaxed),
+            m.u32(seq_offset + 12).load(Ordering::Relaxed),
+        ))
+    }
+
+    /// Board: mark the mailbox's pending entry done.
+    pub fn acknowledge(&self, seq_offset: usize, ack_offset: usize) {
+        let seq = self.load(seq_offset);
+        self.store(ack_offset, seq);
+    }
+}

@@ -1,0 +1,289 @@
+//! The driver: [`DpramBoard`] maps one board's DPRAM (shared-memory file of a simulated
+//! board, PCI BAR resource file or UIO device of a real one), checks it, and implements
+//! [`MotionBoard`] on it with the protocols of [`crate::dpram`].
+
+mod mmap;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use wrc_robot::MAX_AXES;
+
+pub use mmap::Mapping;
+
+use crate::board::{AxisFeedback, BoardFeedback, Busy, Feedback, Full, MotionBoard, Torn};
+use crate::dpram::{AxisRecord, Dpram};
+use crate::layout::{self, axis, command, control, io, Header, LayoutError};
+
+/// A DPRAM that cannot be used; every variant names the path.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OpenError {
+    /// The operating system refused (missing file, permissions, mmap).
+    #[error("DPRAM {path}: {what}: {error}", path = path.display())]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// What was attempted.
+        what: &'static str,
+        /// Why it failed (in the message, so not also a `source`).
+        error: std::io::Error,
+    },
+    /// Not a regular file, PCI resource file or UIO device.
+    #[error("DPRAM {path}: cannot be mapped: expected a shared-memory file, a PCI resource file (/sys/bus/pci/devices/…/resourceN) or a UIO device (/dev/uioN)", path = path.display())]
+    NotMappable {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Shorter than the layout.
+    #[error("DPRAM {path}: truncated: {len} bytes, the layout needs {need}", path = path.display(), need = layout::LAYOUT_SIZE)]
+    Truncated {
+        /// The path.
+        path: PathBuf,
+        /// Its length [byte].
+        len: u64,
+    },
+    /// The header is wrong (foreign file, other version, bad field, not initialised yet).
+    #[error("DPRAM {path}: {problem}", path = path.display())]
+    Layout {
+        /// The path.
+        path: PathBuf,
+        /// What is wrong.
+        problem: LayoutError,
+    },
+    /// A valid board, but not the one the configuration describes.
+    #[error("DPRAM {path}: the board reports {field} = {found}, the configuration expects {expected}", path = path.display())]
+    Mismatch {
+        /// The path.
+        path: PathBuf,
+        /// The header field.
+        field: &'static str,
+        /// What the board reports.
+        found: u32,
+        /// What was expected.
+        expected: u32,
+    },
+}
+
+impl OpenError {
+    /// True when waiting may help: the file does not exist yet or the board is still
+    /// initialising it.
+    pub fn is_not_ready(&self) -> bool {
+        match self {
+            OpenError::Io { error, .. } => error.kind() == std::io::ErrorKind::NotFound,
+            OpenError::Layout { problem, .. } => matches!(problem, LayoutError::NotReady),
+            OpenError::Truncated { len: 0, .. } => true,
+            _ => false,
+        }
+    }
+}
+
+/// What the configuration expects of a board; `None` accepts anything.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Expect {
+    /// Board id.
+    pub board_id: Option<u32>,
+    /// Axes in use.
+    pub axis_count: Option<u32>,
+    /// Board period [µs].
+    pub period_us: Option<u32>,
+}
+
+/// One board driven through its mapped DPRAM.
+#[derive(Debug)]
+pub struct DpramBoard {
+    dpram: Dpram,
+    host_watchdog: u32,
+    outputs: u32,
+}
+
+impl DpramBoard {
+    /// Map and check the DPRAM at `path`.
+    pub fn open(path: &Path, expect: Expect) -> Result<DpramBoard, OpenError> {
+        DpramBoard::attach(Mapping::open(path)?, expect)
+    }
+
+    /// Check an already-made mapping (for example [`Mapping::anonymous`] shared with a
+    /// simulated board in the same process).
+    pub fn attach(map: Mapping, expect: Expect) -> Result<DpramBoard, OpenError> {
+        let dpram = Dpram::attach(map).map_err(|(map, problem)| OpenError::Layout {
+            path: map.path().to_path_buf(),
+            problem,
+        })?;
+        let h = *dpram.header();
+        let path = || dpram.mapping().path().to_path_buf();
+        for (field, found, expected) in [
+            ("board_id", h.board_id, expect.board_id),
+            ("axis_count", h.axis_count, expect.axis_count),
+            ("period_us", h.period_us, expect.period_us),
+        ] {
+            if let Some(expected) = expected {
+                if found != expected {
+                    return Err(OpenError::Mismatch {
+                        path: path(),
+                        field,
+                        found,
+                        expected,
+                    });
+                }
+            }
+        }
+        let outputs = dpram.load(io::OUTPUTS);
+        let host_watchdog = dpram.load(control::HOST_WATCHDOG);
+        Ok(DpramBoard {
+            dpram,
+            host_watchdog,
+            outputs,
+        })
+    }
+
+    /// [`DpramBoard::open`], retrying while the file is missing or the board is still
+    /// initialising, up to `timeout`. For start-up only (it sleeps).
+    pub fn open_waiting(
+        path: &Path,
+        expect: Expect,
+        timeout: Duration,
+    ) -> Result<DpramBoard, OpenError> {
+        let start = Instant::now();
+        loop {
+            match DpramBoard::open(path, expect) {
+                Err(e) if e.is_not_ready() && start.elapsed() < timeout => {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                other => return other,
+            }
+        }
+    }
+
+    /// The checked header.
+    pub fn header(&self) -> &Header {
+        self.dpram.header()
+    }
+
+    /// The DPRAM (protocol-level access, e.g. for fault injection).
+    pub fn dpram(&self) -> &Dpram {
+        &self.dpram
+    }
+
+    /// Fill `axes[..axis_count]` and `board` from this board.
+    pub(crate) fn read_into(
+        &self,
+        axes: &mut [AxisFeedback],
+        board: &mut BoardFeedback,
+    ) -> Result<(), Torn> {
+        let d = &self.dpram;
+        let mut record = AxisRecord::default();
+        for (channel, out) in axes.iter_mut().enumerate().take(self.axis_count()) {
+            d.read_feedback(channel, &mut record)?;
+            let base = layout::axis_base(channel);
+            *out = AxisFeedback {
+                status: record.status,
+                alarm: record.alarm,
+                commanded: record.commanded,
+                encoder: record.encoder,
+                following_error: record.following_error,
+                increment: record.increment,
+                fifo_level: d.fifo_level(channel),
+                underruns: d.load(base + axis::UNDERRUNS),
+                alarms: d.load(base + axis::ALARMS),
+                discarded: d.load(base + axis::DISCARDED),
+            };
+        }
+        *board = BoardFeedback {
+            status: d.load(control::BOARD_STATUS),
+            board_watchdog: d.load(control::BOARD_WATCHDOG),
+            period_count: d.load64(control::PERIOD_COUNT),
+            watchdog_trips: d.load(control::WATCHDOG_TRIPS),
+            late_periods: d.load(control::LATE_PERIODS),
+            inputs: d.load(io::INPUTS),
+            outputs: d.load(io::OUTPUTS_APPLIED),
+            epoch: d.load(layout::header::EPOCH),
+        };
+        Ok(())
+    }
+
+    fn command(&mut self, code: u32, arg: u32) -> Result<(), Busy> {
+        if self
+            .dpram
+            .post(control::COMMAND_SEQ, control::COMMAND_ACK, code, &[arg])
+        {
+            Ok(())
+        } else {
+            Err(Busy)
+        }
+    }
+}
+
+impl MotionBoard for DpramBoard {
+    fn axis_count(&self) -> usize {
+        self.dpram.header().axis_count as usize
+    }
+
+    fn board_count(&self) -> usize {
+        1
+    }
+
+    fn period_us(&self) -> u32 {
+        self.dpram.header().period_us
+    }
+
+    fn fifo_free(&self) -> usize {
+        (0..self.axis_count())
+            .map(|c| self.dpram.fifo_free(c))
+            .min()
+            .unwrap_or(0) as usize
+    }
+
+    fn push(&mut self, increments: &[i64; MAX_AXES]) -> Result<(), Full> {
+        if self.fifo_free() == 0 {
+            return Err(Full);
+        }
+        for (channel, increment) in increments.iter().enumerate().take(self.axis_count()) {
+            self.dpram.fifo_push(channel, *increment);
+        }
+        Ok(())
+    }
+
+    fn read_feedback(&self, out: &mut Feedback) -> Result<(), Torn> {
+        out.axis_count = self.axis_count();
+        out.board_count = 1;
+        let (axes, boards) = (&mut out.axes, &mut out.boards);
+        self.read_into(axes, &mut boards[0])
+    }
+
+    fn read_inputs(&self, board: usize) -> u32 {
+        if board == 0 {
+            self.dpram.load(io::INPUTS)
+        } else {
+            0
+        }
+    }
+
+    fn write_outputs(&mut self, board: usize, outputs: u32) {
+        if board == 0 {
+            self.outputs = outputs;
+            self.dpram.store(io::OUTPUTS, outputs);
+        }
+    }
+
+    fn outputs(&self, board: usize) -> u32 {
+        if board == 0 {
+            self.outputs
+        } else {
+            0
+        }
+    }
+
+    fn refresh_watchdog(&mut self) {
+        self.host_watchdog = self.host_watchdog.wrapping_add(1);
+        self.dpram.store(control::HOST_WATCHDOG, self.host_watchdog);
+    }
+
+    fn clear_alarms(&mut self, axes: u16) -> Result<(), Busy> {
+        self.command(command::CLEAR_ALARMS, u32::from(axes))
+    }
+
+    fn reset(&mut self) -> Result<(), Busy> {
+        self.command(command::RESET, 0)
+    }
+}

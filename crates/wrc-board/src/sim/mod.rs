@@ -1,0 +1,699 @@
+//! The simulated board: [`SimBoard`] plays the board's DSP on a DPRAM, one board period per
+//! [`SimBoard::step`]. It is a plain struct with no clock and no thread: [`runner`] steps it
+//! at the board clock in the `wrc board-sim` process, tests step it directly. A step does not
+//! allocate, block or make system calls.
+//!
+//! Each period: execute the host's command and any injected fault; watch the host watchdog;
+//! update the digital I/O and the E-stop; then per axis take one FIFO entry (counting an
+//! underrun if a streaming axis finds none), check it against the motor's velocity limit,
+//! interpolate it over the sub-steps through the servo lag, check following error and limit
+//! switches, and publish the feedback record.
+
+pub mod io;
+pub mod runner;
+pub mod servo;
+pub mod watchdog;
+
+use std::path::Path;
+use std::sync::atomic::Ordering;
+
+use wrc_config::{BoardConfig, Config};
+
+use crate::dpram::{AxisRecord, Dpram, Pop};
+use crate::driver::{Mapping, OpenError};
+use crate::fault::Fault;
+use crate::layout::{
+    self, alarm, axis, axis_status, board_status, command, control, header, Header, LayoutError,
+    AXES_PER_BOARD,
+};
+
+use io::{IoSettings, SimIo, Vacuum};
+use servo::{Drive, ServoAxis, ServoSettings};
+use watchdog::HostWatchdog;
+
+/// Everything the simulated board needs to know.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSettings {
+    /// Board id (0..4).
+    pub board_id: u32,
+    /// Board period [µs].
+    pub period_us: u32,
+    /// Usable FIFO depth (1..=64) [periods].
+    pub fifo_depth: u32,
+    /// Host watchdog limit [periods].
+    pub watchdog_periods: u32,
+    /// Interpolation sub-steps per period (the DSP's servo rate / board period).
+    pub substeps: u32,
+    /// Axes in channel order (1..=4).
+    pub axes: Vec<ServoSettings>,
+    /// Digital I/O.
+    pub io: IoSettings,
+}
+
+impl SimSettings {
+    /// Settings for `board` of `config`: motor limits from the robot's axes
+    /// (`max_velocity × pulses_per_unit × overspeed_margin` unless given), limit switches
+    /// 1 % of the travel beyond the soft limits, power-on position = home.
+    pub fn from_config(config: &Config, board: &BoardConfig) -> SimSettings {
+        let period_s = config.motion.period_s;
+        let sim = &board.sim;
+        let axes = board
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(channel, &index)| {
+                let a = &config.robot.axes()[index];
+                let ppu = a.pulses_per_unit.abs();
+                let max_velocity_pps = sim
+                    .motor_limit_pps
+                    .get(channel)
+                    .copied()
+                    .flatten()
+                    .unwrap_or(a.limits.max_velocity * ppu * sim.overspeed_margin);
+                let lag_s = sim.servo_lag_ms / 1000.0;
+                let beyond = 0.01 * (a.max - a.min) * ppu;
+                let (lo, hi) = {
+                    let (p, q) = (a.units_to_pulses(a.min), a.units_to_pulses(a.max));
+                    (p.min(q), p.max(q))
+                };
+                ServoSettings {
+                    max_velocity_pps,
+                    stop_deceleration_pps2: a.limits.max_acceleration * ppu,
+                    lag_s,
+                    // Twice the steady lag at the motor limit, plus a period of travel.
+                    following_error_limit: sim.following_error_limit.unwrap_or(
+                        (max_velocity_pps * (2.0 * lag_s + period_s)).ceil() as i64 + 10,
+                    ),
+                    limit_pos: hi + beyond.ceil() as i64,
+                    limit_neg: lo - beyond.ceil() as i64,
+                    initial: a.units_to_pulses(a.home),
+                }
+            })
+            .collect();
+        SimSettings {
+            board_id: board.id,
+            period_us: (period_s * 1e6).round() as u32,
+            fifo_depth: board.fifo_depth,
+            watchdog_periods: board.watchdog_periods,
+            substeps: sim.substeps,
+            axes,
+            io: IoSettings {
+                estop_input: sim.estop_input,
+                interlock_inputs: sim
+                    .interlock_inputs
+                    .iter()
+                    .fold(0, |m, b| m | 1 << (b & 31)),
+                vacuum: sim
+                    .vacuum
+                    .iter()
+                    .map(|v| Vacuum {
+                        valve_output: v.valve_output,
+                        sensor_input: v.sensor_input,
+                        delay_periods: ((v.delay_ms / 1000.0) / period_s).ceil() as u32,
+                        wafer: v.wafer,
+                    })
+                    .collect(),
+            },
+        }
+    }
+}
+
+/// Why a simulated board cannot start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// The DPRAM file cannot be created or mapped.
+    #[error(transparent)]
+    Open(#[from] OpenError),
+    /// The file holds something that is not a wrc DPRAM: refusing to overwrite it.
+    #[error("DPRAM {path}: {problem}; refusing to overwrite it (remove it or choose another --dpram path)", path = path.display())]
+    Foreign {
+        /// The path.
+        path: std::path::PathBuf,
+        /// What is in it.
+        problem: LayoutError,
+    },
+    /// Settings out of range.
+    #[error("simulated board settings: {0}")]
+    Settings(String),
+}
+
+/// The simulated board's DSP.
+#[derive(Debug)]
+pub struct SimBoard {
+    dpram: Dpram,
+    axes: [Option<ServoAxis>; AXES_PER_BOARD],
+    streaming: [bool; AXES_PER_BOARD],
+    underrun: [bool; AXES_PER_BOARD],
+    io: SimIo,
+    watchdog: HostWatchdog,
+    estop_latched: bool,
+    period_s: f64,
+    substeps: u32,
+    periods: u64,
+}
+
+impl SimBoard {
+    /// Create (or take over) the DPRAM file at `path` and initialise it. An existing file
+    /// that is not a wrc DPRAM is refused, not overwritten.
+    pub fn create(path: &Path, settings: &SimSettings) -> Result<SimBoard, SimError> {
+        let map = Mapping::create(path)?;
+        let (epoch, map) = match Dpram::attach(map) {
+            // A board restarting on its own DPRAM: a new epoch tells the host.
+            Ok(old) => (old.header().epoch.wrapping_add(1), old.into_mapping()),
+            // A new (zeroed) file, or a board that died while initialising.
+            Err((map, LayoutError::NotReady))
+                if all_zero_header(&map)
+                    || map.u32(header::VERSION).load(Ordering::Relaxed) == layout::VERSION =>
+            {
+                (1, map)
+            }
+            Err((map, problem)) => {
+                let problem = match problem {
+                    LayoutError::NotReady => LayoutError::Foreign { found: 0 },
+                    other => other,
+                };
+                return Err(SimError::Foreign {
+                    path: map.path().to_path_buf(),
+                    problem,
+                });
+            }
+        };
+        SimBoard::new(map, settings, epoch)
+    }
+
+    /// Initialise `map` as a board with `settings`; `epoch` goes into the header.
+    pub fn new(map: Mapping, settings: &SimSettings, epoch: u32) -> Result<SimBoard, SimError> {
+        let bad = |what: String| Err(SimError::Settings(what));
+        if settings.axes.is_empty() || settings.axes.len() > AXES_PER_BOARD {
+            return bad(format!(
+                "{} axes; a board drives 1 to 4",
+                settings.axes.len()
+            ));
+        }
+        if !(1..=layout::FIFO_CAPACITY as u32).contains(&settings.fifo_depth) {
+            return bad(format!(
+                "fifo depth {}; expected 1 to 64 periods",
+                settings.fifo_depth
+            ));
+        }
+        if !(100..=1_000_000).contains(&settings.period_us) {
+            return bad(format!(
+                "period {} µs; expected 100 to 1000000",
+                settings.period_us
+            ));
+        }
+        if settings.board_id as usize >= layout::MAX_BOARDS {
+            return bad(format!("board id {}; expected 0 to 3", settings.board_id));
+        }
+        let header = Header {
+            board_id: settings.board_id,
+            axis_count: settings.axes.len() as u32,
+            period_us: settings.period_us,
+            fifo_depth: settings.fifo_depth,
+            epoch,
+        };
+        let dpram = Dpram::initialize(map, header);
+        let mut axes = [None; AXES_PER_BOARD];
+        for (slot, s) in axes.iter_mut().zip(&settings.axes) {
+            *slot = Some(ServoAxis::new(*s));
+        }
+        let board = SimBoard {
+            watchdog: HostWatchdog::new(
+                settings.watchdog_periods,
+                dpram.load(control::HOST_WATCHDOG),
+            ),
+            dpram,
+            axes,
+            streaming: [false; AXES_PER_BOARD],
+            underrun: [false; AXES_PER_BOARD],
+            io: SimIo::new(&settings.io),
+            estop_latched: false,
+            period_s: f64::from(settings.period_us) / 1e6,
+            substeps: settings.substeps.max(1),
+            periods: 0,
+        };
+        board.publish();
+        Ok(board)
+    }
+
+    /// The DPRAM the board plays on.
+    pub fn dpram(&self) -> &Dpram {
+        &self.dpram
+    }
+
+    /// Board period [µs].
+    pub fn period_us(&self) -> u32 {
+        self.dpram.header().period_us
+    }
+
+    /// Axis `channel`'s model (for tests and diagnostics).
+    pub fn axis(&self, channel: usize) -> Option<&ServoAxis> {
+        self.axes.get(channel).and_then(|a| a.as_ref())
+    }
+
+    /// Apply a fault directly (the mailbox path does the same).
+    pub fn apply_fault(&mut self, fault: Fault) {
+        match fault {
+            Fault::Alarm { axis } => {
+                let channel = usize::from(axis);
+                self.raise(channel, alarm::AMPLIFIER);
+            }
+            Fault::EncoderStuck { axis, on } => {
+                if let Some(a) = self
+                    .axes
+                    .get_mut(usize::from(axis))
+                    .and_then(|a| a.as_mut())
+                {
+                    a.encoder_stuck = on;
+                }
+            }
+            Fault::SensorFlip { input, on } => {
+                let bit = 1u32 << (input & 31);
+                self.io.flipped = if on {
+                    self.io.flipped | bit
+                } else {
+                    self.io.flipped & !bit
+                };
+            }
+            Fault::Estop { on } => self.io.estop_pressed = on,
+            Fault::Clear => {
+                self.io.flipped = 0;
+                self.io.estop_pressed = false;
+                for a in self.axes.iter_mut().flatten() {
+                    a.encoder_stuck = false;
+                }
+            }
+        }
+    }
+
+    /// Count a period the runner started late (it is caught up by stepping).
+    pub fn note_late(&self) {
+        self.dpram.bump(control::LATE_PERIODS);
+    }
+
+    /// Run one board period.
+    pub fn step(&mut self) {
+        self.periods += 1;
+        self.dpram.store64(control::PERIOD_COUNT, self.periods);
+        self.dpram.bump(control::BOARD_WATCHDOG);
+
+        if let Some((code, arg, _)) = self
+            .dpram
+            .pending(control::COMMAND_SEQ, control::COMMAND_ACK)
+        {
+            self.execute(code, arg);
+            self.dpram
+                .acknowledge(control::COMMAND_SEQ, control::COMMAND_ACK);
+        }
+        if let Some((code, a0, a1)) = self.dpram.pending(layout::fault::SEQ, layout::fault::ACK) {
+            if let Some(fault) = Fault::decode(code, a0, a1) {
+                self.apply_fault(fault);
+            }
+            self.dpram
+                .acknowledge(layout::fault::SEQ, layout::fault::ACK);
+        }
+
+        if self.watchdog.step(self.dpram.load(control::HOST_WATCHDOG)) {
+            self.dpram.bump(control::WATCHDOG_TRIPS);
+        }
+
+        let outputs = self.dpram.load(layout::io::OUTPUTS);
+        let inputs = self.io.step(outputs);
+        self.dpram.store(layout::io::OUTPUTS_APPLIED, outputs);
+        self.dpram.store(layout::io::INPUTS, inputs);
+        if self.io.estop(inputs) {
+            self.estop_latched = true;
+        }
+        let stop = self.watchdog.is_tripped() || self.estop_latched;
+
+        for channel in 0..AXES_PER_BOARD {
+            let Some(a) = self.axes[channel].as_mut() else {
+                continue;
+            };
+            let base = layout::axis_base(channel);
+            self.underrun[channel] = false;
+            let drive = if a.alarm() != 0 || stop || a.is_stopping() {
+                let dropped = self.dpram.fifo_drain(channel);
+                if dropped > 0 {
+                    let d = self
+                        .dpram
+                        .load(base + axis::DISCARDED)
+                        .wrapping_add(dropped);
+                    self.dpram.store(base + axis::DISCARDED, d);
+                }
+                Drive::Stop
+            } else {
+                match self.dpram.fifo_pop(channel) {
+                    Pop::Entry(increment) => {
+                        self.streaming[channel] = true;
+                        Drive::Increment(increment)
+                    }
+                    Pop::Empty => {
+                        if self.streaming[channel] {
+                            self.underrun[channel] = true;
+                            self.dpram.bump(base + axis::UNDERRUNS);
+                        }
+                        Drive::Hold
+                    }
+                    Pop::SequenceError => {
+                        if a.raise(alarm::FIFO_SEQUENCE) {
+                            self.dpram.bump(base + axis::ALARMS);
+                        }
+                        Drive::Hold
+                    }
+                }
+            };
+            if a.step(drive, self.period_s, self.substeps) {
+                self.dpram.bump(base + axis::ALARMS);
+            }
+            if !stop {
+                a.end_stop();
+            }
+        }
+        self.publish();
+    }
+
+    fn raise(&mut self, channel: usize, cause: u32) {
+        if let Some(a) = self.axes.get_mut(channel).and_then(|a| a.as_mut()) {
+            if a.raise(cause) {
+                self.dpram.bump(layout::axis_base(channel) + axis::ALARMS);
+            }
+        }
+    }
+
+    fn execute(&mut self, code: u32, arg: u32) {
+        match code {
+            command::CLEAR_ALARMS => {
+                for (channel, a) in self.axes.iter_mut().enumerate() {
+                    if let Some(a) = a.as_mut().filter(|_| arg & (1 << channel) != 0) {
+                        a.clear_alarm();
+                        self.streaming[channel] = false;
+                    }
+                }
+            }
+            command::RESET => {
+                self.watchdog.reset();
+                self.estop_latched = false;
+                for (channel, a) in self.axes.iter_mut().enumerate() {
+                    if let Some(a) = a.as_mut() {
+                        a.clear_alarm();
+                        self.streaming[channel] = false;
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Write every axis's feedback record and the board status.
+    fn publish(&self) {
+        let mut status = board_status::RUNNING;
+        if self.watchdog.is_armed() {
+            status |= board_status::WATCHDOG_ARMED;
+        }
+        if self.watchdog.is_tripped() {
+            status |= board_status::WATCHDOG_TRIPPED;
+        }
+        if self.estop_latched {
+            status |= board_status::ESTOP;
+        }
+        for (channel, a) in self.axes.iter().enumerate() {
+            let Some(a) = a else { continue };
+            let mut s = a.status();
+            if self.underrun[channel] {
+                s |= axis_status::UNDERRUN;
+            }
+            if self.streaming[channel] {
+                s |= axis_status::STREAMING;
+            }
+            if a.alarm() != 0 {
+                status |= board_status::ALARM;
+            }
+            if a.is_stopping() {
+                status |= board_status::STOPPING;
+            }
+            self.dpram.write_feedback(
+                channel,
+                &AxisRecord {
+                    status: s,
+                    commanded: a.commanded(),
+                    encoder: a.encoder(),
+                    following_error: a.commanded() - a.encoder(),
+                    alarm: a.alarm(),
+                    increment: a.increment(),
+                },
+            );
+        }
+        self.dpram.store(control::BOARD_STATUS, status);
+    }
+}
+
+fn all_zero_header(map: &Mapping) -> bool {
+    (0..0x40)
+        .step_by(4)
+        .all(|o| map.u32(o).load(Ordering::Relaxed) == 0)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use wrc_robot::MAX_AXES;
+
+    use super::*;
+    use crate::board::{Feedback, MotionBoard};
+    use crate::driver::{DpramBoard, Expect};
+
+    /// Two axes at 10 ms: 100 000 pulse/s limit, 500 000 pulse/s² stop deceleration.
+    pub(crate) fn settings() -> SimSettings {
+        let axis = ServoSettings {
+            max_velocity_pps: 100_000.0,
+            stop_deceleration_pps2: 500_000.0,
+            lag_s: 0.004,
+            following_error_limit: 3_000,
+            limit_pos: 1_000_000,
+            limit_neg: -1_000_000,
+            initial: 0,
+        };
+        SimSettings {
+            board_id: 0,
+            period_us: 10_000,
+            fifo_depth: 4,
+            watchdog_periods: 5,
+            substeps: 10,
+            axes: vec![axis, axis],
+            io: IoSettings {
+                estop_input: Some(15),
+                interlock_inputs: 0,
+                vacuum: vec![],
+            },
+        }
+    }
+
+    fn pair() -> (SimBoard, DpramBoard) {
+        pair_with(&settings())
+    }
+
+    fn pair_with(settings: &SimSettings) -> (SimBoard, DpramBoard) {
+        let map = Mapping::anonymous().unwrap();
+        let sim = SimBoard::new(map.share(), settings, 1).unwrap();
+        let host = DpramBoard::attach(map, Expect::default()).unwrap();
+        (sim, host)
+    }
+
+    fn inc(a: i64, b: i64) -> [i64; MAX_AXES] {
+        let mut i = [0; MAX_AXES];
+        i[0] = a;
+        i[1] = b;
+        i
+    }
+
+    fn feedback(host: &DpramBoard) -> Feedback {
+        let mut f = Feedback::default();
+        host.read_feedback(&mut f).unwrap();
+        f
+    }
+
+    #[test]
+    fn fifo_fills_to_depth_and_drains_one_per_period() {
+        let (mut sim, mut host) = pair();
+        for _ in 0..4 {
+            host.push(&inc(10, -10)).unwrap();
+        }
+        assert_eq!(host.push(&inc(10, -10)), Err(crate::Full));
+        for n in 1..=4 {
+            sim.step();
+            let f = feedback(&host);
+            assert_eq!(
+                (f.axes[0].commanded, f.axes[1].commanded),
+                (10 * n, -10 * n)
+            );
+            assert_eq!(f.axes[0].fifo_level, 4 - n as u32);
+        }
+        assert_eq!(host.fifo_free(), 4);
+    }
+
+    #[test]
+    fn every_underrun_is_counted_once_streaming() {
+        let (mut sim, mut host) = pair();
+        for _ in 0..3 {
+            sim.step(); // idle before the first push: not an underrun
+        }
+        assert_eq!(feedback(&host).underruns(), 0);
+        host.push(&inc(5, 5)).unwrap();
+        sim.step();
+        sim.step(); // starved
+        sim.step(); // starved
+        let f = feedback(&host);
+        assert_eq!((f.axes[0].underruns, f.axes[1].underruns), (2, 2));
+        assert!(f.axes[0].status & axis_status::UNDERRUN != 0);
+        assert_eq!(f.axes[0].commanded, 5, "a starved axis holds its position");
+        host.push(&inc(5, 5)).unwrap();
+        sim.step();
+        assert!(feedback(&host).axes[0].status & axis_status::UNDERRUN == 0);
+    }
+
+    #[test]
+    fn overspeed_alarms_only_that_axis_and_clears() {
+        let (mut sim, mut host) = pair();
+        // 1001 pulses in 10 ms = 100 100 pulse/s > 100 000.
+        host.push(&inc(1_001, 1_000)).unwrap();
+        host.push(&inc(500, 500)).unwrap();
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(f.axes[0].alarm, alarm::OVERSPEED);
+        assert_eq!(f.axes[0].alarms, 1);
+        assert_eq!(
+            f.axes[0].commanded, 0,
+            "the over-speed entry is not executed"
+        );
+        assert_eq!((f.axes[1].alarm, f.axes[1].commanded), (0, 1_000));
+        assert!(f.boards[0].status & board_status::ALARM != 0);
+        sim.step();
+        assert_eq!(feedback(&host).axes[0].discarded, 1);
+        host.clear_alarms(0b01).unwrap();
+        assert_eq!(host.clear_alarms(0b01), Err(crate::Busy));
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(f.axes[0].alarm, 0);
+        assert!(f.axes[0].status & axis_status::SERVO_ON != 0);
+        host.push(&inc(100, 0)).unwrap();
+        sim.step();
+        assert_eq!(feedback(&host).axes[0].increment, 100);
+    }
+
+    #[test]
+    fn stale_host_watchdog_stops_all_axes_with_controlled_deceleration() {
+        // A FIFO deeper than the watchdog limit, so the axes are still moving when it trips.
+        let (mut sim, mut host) = pair_with(&SimSettings {
+            fifo_depth: 8,
+            ..settings()
+        });
+        // Cruise at 900 pulse/period (90 000 pulse/s) with the watchdog refreshed.
+        for _ in 0..8 {
+            host.push(&inc(900, -900)).unwrap();
+        }
+        for _ in 0..10 {
+            host.refresh_watchdog();
+            let _ = host.push(&inc(900, -900));
+            sim.step();
+        }
+        assert_eq!(feedback(&host).axes[0].increment, 900);
+        // The host dies: the FIFO still holds entries, but the board stops after 5 periods.
+        let decel_per_period = 500_000.0 * 0.01 * 0.01; // 50 pulse/period²
+        let mut velocities = vec![];
+        for _ in 0..40 {
+            sim.step();
+            let f = feedback(&host);
+            velocities.push(f.axes[0].increment);
+            assert_eq!(f.axes[1].increment, -f.axes[0].increment);
+        }
+        let f = feedback(&host);
+        assert!(f.boards[0].status & board_status::WATCHDOG_TRIPPED != 0);
+        assert_eq!(f.boards[0].watchdog_trips, 1);
+        assert_eq!(*velocities.last().unwrap(), 0);
+        let trip = velocities.iter().position(|v| *v < 900).unwrap();
+        assert!(trip <= 6, "{velocities:?}");
+        for w in velocities[trip - 1..].windows(2) {
+            let dv = (w[0] - w[1]) as f64;
+            assert!(
+                (0.0..=decel_per_period + 1.0).contains(&dv),
+                "not a controlled deceleration: {velocities:?}"
+            );
+        }
+        assert_eq!(f.axes[0].alarm, 0, "a watchdog stop is not a servo alarm");
+        // No new motion is taken until the host resets.
+        host.refresh_watchdog();
+        host.push(&inc(10, 10)).unwrap();
+        sim.step();
+        assert_eq!(feedback(&host).axes[0].increment, 0);
+        host.reset().unwrap();
+        host.refresh_watchdog();
+        sim.step();
+        host.refresh_watchdog();
+        host.push(&inc(10, 10)).unwrap();
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(f.axes[0].increment, 10);
+        assert!(f.boards[0].status & board_status::WATCHDOG_TRIPPED == 0);
+    }
+
+    #[test]
+    fn estop_input_stops_and_latches_until_reset() {
+        let (mut sim, mut host) = pair();
+        for _ in 0..3 {
+            host.push(&inc(400, 0)).unwrap();
+            sim.step();
+        }
+        assert!(Fault::Estop { on: true }.inject(sim.dpram()));
+        for _ in 0..20 {
+            sim.step();
+        }
+        let f = feedback(&host);
+        assert!(f.boards[0].inputs & (1 << 15) != 0);
+        assert!(f.boards[0].status & board_status::ESTOP != 0);
+        assert_eq!(f.axes[0].increment, 0);
+        sim.apply_fault(Fault::Estop { on: false });
+        host.reset().unwrap();
+        sim.step();
+        assert!(feedback(&host).boards[0].status & board_status::ESTOP == 0);
+    }
+
+    #[test]
+    fn injected_faults_reach_the_axes() {
+        let (mut sim, host) = pair();
+        assert!(Fault::Alarm { axis: 1 }.inject(sim.dpram()));
+        assert!(
+            !Fault::Clear.inject(sim.dpram()),
+            "one fault at a time until acknowledged"
+        );
+        sim.step();
+        assert_eq!(feedback(&host).axes[1].alarm, alarm::AMPLIFIER);
+        assert!(Fault::SensorFlip { input: 3, on: true }.inject(sim.dpram()));
+        sim.step();
+        assert!(host.read_inputs(0) & (1 << 3) != 0);
+    }
+
+    #[test]
+    fn a_corrupt_fifo_entry_is_a_sequence_alarm() {
+        let (mut sim, mut host) = pair();
+        host.push(&inc(1, 1)).unwrap();
+        // Overwrite the entry's sequence number as a foreign writer would.
+        sim.dpram().store(layout::fifo_slot(0, 0), 77);
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(f.axes[0].alarm, alarm::FIFO_SEQUENCE);
+        assert_eq!(f.axes[1].alarm, 0);
+    }
+
+    #[test]
+    fn from_config_derives_motor_limits_from_the_robot() {
+        let config = Config::embedded_default();
+        let s = SimSettings::from_config(&config, &config.boards[0]);
+        assert_eq!(s.axes.len(), 4);
+        // j1: 180 °/s × 1000 pulse/° × 1.2.
+        assert!((s.axes[0].max_velocity_pps - 216_000.0).abs() < 1e-6);
+        assert_eq!(s.axes[0].initial, -75_000);
+        assert_eq!(s.period_us, 10_000);
+        assert_eq!(s.io.vacuum[0].delay_periods, 5);
+    }
+}

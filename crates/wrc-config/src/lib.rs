@@ -1,0 +1,219 @@
+//! wrc's configuration: a TOML file describing the robot (arm geometry and axes) and the
+//! velocity generator. A default file, the paper's robot, is embedded in the binary
+//! ([`DEFAULT_TOML`]); `--config FILE` replaces it. Every error names the file, the key and
+//! the reason.
+//!
+//! ```
+//! let config = wrc_config::Config::embedded_default();
+//! assert_eq!(config.robot.axis_count(), 4);
+//! assert_eq!(config.motion.period_s, 0.010);
+//! ```
+#![deny(missing_docs)]
+
+mod board;
+mod raw;
+mod tasks;
+
+use std::path::Path;
+
+use wrc_motion::MotionSettings;
+use wrc_robot::Robot;
+
+pub use board::{default_dpram, BoardConfig, BoardSimConfig, VacuumConfig};
+
+/// The embedded default configuration (`config/default.toml`).
+pub const DEFAULT_TOML: &str = include_str!("../../../config/default.toml");
+
+/// Name used for the embedded file in messages.
+pub const EMBEDDED_NAME: &str = "<embedded default config>";
+
+/// A configuration that cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read config file {file}: {reason}")]
+    Read {
+        /// The file.
+        file: String,
+        /// Why.
+        reason: std::io::Error,
+    },
+    /// The file is not valid TOML, has an unknown key or a value of the wrong type.
+    #[error("config file {file}: {message}")]
+    Parse {
+        /// The file.
+        file: String,
+        /// The TOML parser's message, with line, column and key.
+        message: String,
+    },
+    /// A value is of the right type but not usable.
+    #[error("config file {file}: key {key}: {reason}")]
+    Invalid {
+        /// The file.
+        file: String,
+        /// The key, as written in the file (`axis.j1.max_velocity`).
+        key: String,
+        /// What is wrong and what is expected.
+        reason: String,
+    },
+}
+
+/// A loaded, validated configuration.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Where it came from: a path, or [`EMBEDDED_NAME`].
+    pub source: String,
+    /// The robot.
+    pub robot: Robot,
+    /// Velocity generator settings.
+    pub motion: MotionSettings,
+    /// Motion boards (`[[board]]`), in board order; at least one.
+    pub boards: Vec<BoardConfig>,
+    /// Real-time tasks (`[[task]]`): priority and period of each; the paper's Table 1 when the
+    /// file has no `[[task]]` section.
+    pub tasks: wrc_rt::TaskTable,
+}
+
+impl Config {
+    /// The embedded default configuration.
+    pub fn embedded_default() -> Config {
+        // The embedded file is checked by a unit test, so this cannot fail in a release.
+        Config::parse(DEFAULT_TOML, EMBEDDED_NAME).expect("the embedded default config is valid")
+    }
+
+    /// Load `path`, or the embedded default when `path` is `None`.
+    pub fn load(path: Option<&Path>) -> Result<Config, ConfigError> {
+        match path {
+            None => Config::parse(DEFAULT_TOML, EMBEDDED_NAME),
+            Some(path) => {
+                let file = path.display().to_string();
+                let text = std::fs::read_to_string(path).map_err(|reason| ConfigError::Read {
+                    file: file.clone(),
+                    reason,
+                })?;
+                Config::parse(&text, &file)
+            }
+        }
+    }
+
+    /// Parse configuration text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<Config, ConfigError> {
+        let raw: raw::RawConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            file: file.to_string(),
+            message: e.to_string().trim_end().replace('\n', "\n  "),
+        })?;
+        raw.into_config(file)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_default_is_the_paper_robot() {
+        let config = Config::embedded_default();
+        assert_eq!(config.robot, Robot::paper_default());
+        assert_eq!(config.motion, MotionSettings::default());
+        assert_eq!(config.source, EMBEDDED_NAME);
+    }
+
+    fn err(text: &str) -> String {
+        Config::parse(text, "cell.toml").unwrap_err().to_string()
+    }
+
+    fn with(from: &str, to: &str) -> String {
+        assert!(DEFAULT_TOML.contains(from), "{from}");
+        DEFAULT_TOML.replacen(from, to, 1)
+    }
+
+    #[test]
+    fn errors_name_file_key_and_reason() {
+        let e = err(&with("max_velocity = 180.0", "max_velocity = -1.0"));
+        assert!(
+            e.contains("cell.toml")
+                && e.contains("axis.j1.max_velocity")
+                && e.contains("greater than 0"),
+            "{e}"
+        );
+
+        let e = err(&with("link1_mm = 200.0", "link1_mm = nan"));
+        assert!(e.contains("robot.link1_mm") && e.contains("finite"), "{e}");
+
+        let e = err(&with("profile = \"fir\"", "profile = \"scurve\""));
+        assert!(
+            e.contains("motion.profile") && e.contains("scurve") && e.contains("fir"),
+            "{e}"
+        );
+
+        let e = err(&with("period_ms = 10.0", "period_ms = 0.0"));
+        assert!(e.contains("motion.period_ms"), "{e}");
+
+        let e = err(&with("hand_mm = 0.0", "hand_mm = 0.0\nhandd_mm = 3"));
+        assert!(e.contains("cell.toml") && e.contains("handd_mm"), "{e}");
+
+        let e = err(&with("max_velocity = 180.0", "max_velocity = \"fast\""));
+        assert!(e.contains("cell.toml") && e.contains("max_velocity"), "{e}");
+
+        let e = err(&with("role = \"elbow\"", "role = \"knee\""));
+        assert!(e.contains("axis.j2.role") && e.contains("knee"), "{e}");
+
+        let e = err(&with("unit = \"mm\"", "unit = \"inch\""));
+        assert!(e.contains("axis.z.unit"), "{e}");
+
+        let e = err(&with("name = \"j2\"", "name = \"j1\""));
+        assert!(e.contains("axis.j1") && e.contains("twice"), "{e}");
+
+        let e = err("this is = = not toml");
+        assert!(e.contains("cell.toml"), "{e}");
+    }
+
+    #[test]
+    fn missing_file_is_named() {
+        let e = Config::load(Some(Path::new("/nonexistent/wrc.toml")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/nonexistent/wrc.toml"), "{e}");
+    }
+
+    #[test]
+    fn other_arms_need_no_code_changes() {
+        // A SCARA-like arm with other link lengths, no wrist and no Z.
+        let text = r#"
+            [robot]
+            link1_mm = 300.0
+            link2_mm = 150.0
+            [[axis]]
+            name = "shoulder"
+            role = "shoulder"
+            unit = "deg"
+            pulses_per_unit = 500.0
+            min = -90.0
+            max = 90.0
+            max_velocity = 90.0
+            max_acceleration = 300.0
+            max_jerk = 3000.0
+            home = 0.0
+            [[axis]]
+            name = "elbow"
+            role = "elbow"
+            unit = "deg"
+            pulses_per_unit = 500.0
+            min = -150.0
+            max = 150.0
+            max_velocity = 90.0
+            max_acceleration = 300.0
+            max_jerk = 3000.0
+            home = 90.0
+        "#;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scara.toml");
+        std::fs::write(&path, text).unwrap();
+        let config = Config::load(Some(&path)).unwrap();
+        assert_eq!(config.robot.axis_count(), 2);
+        assert!(config.robot.arm().wrist.is_none() && config.robot.arm().z.is_none());
+        assert_eq!(config.motion, MotionSettings::default());
+        assert_eq!(config.source, path.display().to_string());
+    }
+}

@@ -1,0 +1,191 @@
+//! The configuration file as written (serde types) and its conversion into validated models.
+
+use serde::Deserialize;
+use wrc_motion::{LineLimits, MotionSettings, Profile};
+use wrc_robot::{Axis, AxisName, AxisRole, Limits, ModelError, Robot, Unit};
+
+use crate::{Config, ConfigError};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawConfig {
+    robot: RawRobot,
+    #[serde(default)]
+    motion: RawMotion,
+    #[serde(default)]
+    axis: Vec<RawAxis>,
+    #[serde(default)]
+    board: Vec<crate::board::RawBoard>,
+    #[serde(default)]
+    task: Vec<crate::tasks::RawTask>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRobot {
+    #[serde(default = "default_name")]
+    name: String,
+    link1_mm: f64,
+    link2_mm: f64,
+    #[serde(default)]
+    hand_mm: f64,
+    #[serde(default = "default_margin")]
+    singularity_margin_mm: f64,
+}
+
+fn default_name() -> String {
+    "robot".into()
+}
+
+fn default_margin() -> f64 {
+    2.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawMotion {
+    period_ms: f64,
+    profile: String,
+    paper_n: Option<f64>,
+    paper_a: Option<f64>,
+    speed_pct: f64,
+    line_max_speed_mm_s: f64,
+    line_max_accel_mm_s2: f64,
+    line_max_jerk_mm_s3: f64,
+}
+
+impl Default for RawMotion {
+    fn default() -> Self {
+        let d = MotionSettings::default();
+        RawMotion {
+            period_ms: d.period_s * 1000.0,
+            profile: "fir".into(),
+            paper_n: None,
+            paper_a: None,
+            speed_pct: d.speed_pct,
+            line_max_speed_mm_s: d.line.max_speed_mm_s,
+            line_max_accel_mm_s2: d.line.max_accel_mm_s2,
+            line_max_jerk_mm_s3: d.line.max_jerk_mm_s3,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAxis {
+    name: String,
+    role: String,
+    unit: String,
+    pulses_per_unit: f64,
+    min: f64,
+    max: f64,
+    max_velocity: f64,
+    max_acceleration: f64,
+    max_jerk: f64,
+    home: f64,
+}
+
+impl RawConfig {
+    pub(crate) fn into_config(self, file: &str) -> Result<Config, ConfigError> {
+        let invalid = |key: String, reason: String| ConfigError::Invalid {
+            file: file.to_string(),
+            key,
+            reason,
+        };
+        let mut axes = Vec::with_capacity(self.axis.len());
+        for (i, raw) in self.axis.into_iter().enumerate() {
+            let name = AxisName::new(&raw.name).ok_or_else(|| {
+                invalid(
+                    format!("axis[{}].name", i + 1),
+                    format!(
+                        "{:?} is not a usable axis name: use 1 to {} letters, digits, '_' or '-'",
+                        raw.name,
+                        AxisName::MAX_LEN
+                    ),
+                )
+            })?;
+            let role = match raw.role.as_str() {
+                "shoulder" => AxisRole::Shoulder,
+                "elbow" => AxisRole::Elbow,
+                "wrist" => AxisRole::Wrist,
+                "z" => AxisRole::Z,
+                "auxiliary" => AxisRole::Auxiliary,
+                other => {
+                    return Err(invalid(
+                        format!("axis.{name}.role"),
+                        format!(
+                        "unknown role {other:?}; expected shoulder, elbow, wrist, z or auxiliary"
+                    ),
+                    ))
+                }
+            };
+            let unit = match raw.unit.as_str() {
+                "deg" => Unit::Deg,
+                "mm" => Unit::Mm,
+                other => {
+                    return Err(invalid(
+                        format!("axis.{name}.unit"),
+                        format!("unknown unit {other:?}; expected deg or mm"),
+                    ))
+                }
+            };
+            axes.push(Axis {
+                name,
+                role,
+                unit,
+                pulses_per_unit: raw.pulses_per_unit,
+                min: raw.min,
+                max: raw.max,
+                limits: Limits {
+                    max_velocity: raw.max_velocity,
+                    max_acceleration: raw.max_acceleration,
+                    max_jerk: raw.max_jerk,
+                },
+                home: raw.home,
+            });
+        }
+        let r = self.robot;
+        let robot = Robot::new(
+            r.name,
+            axes,
+            r.link1_mm,
+            r.link2_mm,
+            r.hand_mm,
+            r.singularity_margin_mm,
+        )
+        .map_err(|ModelError { key, reason, .. }| invalid(key, reason))?;
+
+        let m = self.motion;
+        let profile = match m.profile.as_str() {
+            "fir" => Profile::Fir,
+            "paper" => {
+                Profile::paper(m.paper_n, m.paper_a).map_err(|e| invalid(e.key, e.reason))?
+            }
+            other => {
+                return Err(invalid(
+                    "motion.profile".into(),
+                    format!("unknown profile {other:?}; expected \"fir\" or \"paper\""),
+                ))
+            }
+        };
+        let motion = MotionSettings {
+            period_s: m.period_ms / 1000.0,
+            profile,
+            speed_pct: m.speed_pct,
+            line: LineLimits {
+                max_speed_mm_s: m.line_max_speed_mm_s,
+                max_accel_mm_s2: m.line_max_accel_mm_s2,
+                max_jerk_mm_s3: m.line_max_jerk_mm_s3,
+            },
+        };
+        motion.validate().map_err(|e| invalid(e.key, e.reason))?;
+        let boards = crate::board::boards(self.board, &robot, file)?;
+        Ok(Config {
+            source: file.to_string(),
+            robot,
+            motion,
+            boards,
+            tasks: crate::tasks::tasks(self.task, file)?,
+        })
+    }
+}

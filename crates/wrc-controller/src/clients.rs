@@ -1,0 +1,397 @@
+//! Line-protocol clients, shared by the Ethernet and RS232C tasks: non-blocking streams,
+//! framing, parsing, routing requests to the Command Interpreter (STOP and ESTOP through its
+//! urgent path: queue + semaphore), fixed output buffers, and the status stream.
+//!
+//! Real-time promise: every buffer is allocated when the set is made; a cycle makes only
+//! non-blocking socket calls (the I/O the task exists for), never allocates or prints.
+
+use std::io::{self, Read, Write};
+use std::net::TcpStream;
+use std::os::unix::net::UnixStream;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_protocol::{
+    Code, Command, Event, LineReader, Parser, ReplyBuf, Request, StatusBody, WhereBody,
+};
+use wrc_robot::{Robot, MAX_AXES};
+use wrc_rt::ipc::{MessageQueue, Semaphore};
+
+use crate::shared::{OutLine, Shared, SourceId, Urgent};
+
+/// Bytes of output kept per client before it counts as not reading.
+pub const OUT_CAP: usize = 64 * 1024;
+
+/// A request or a disconnection, for the Command Interpreter.
+#[derive(Debug, Clone, Copy)]
+pub enum Incoming {
+    /// A parsed request from a source.
+    Request(SourceId, Request),
+    /// A source went away.
+    Disconnected(SourceId),
+}
+
+/// A byte stream a client talks over.
+#[derive(Debug)]
+pub enum Stream {
+    /// A host on TCP.
+    Tcp(TcpStream),
+    /// A local GUI on the Unix socket.
+    Unix(UnixStream),
+    /// The teaching pendant's serial line (a tty opened non-blocking).
+    Serial(std::fs::File),
+}
+
+impl Read for Stream {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self {
+            Stream::Tcp(s) => s.read(buf),
+            Stream::Unix(s) => s.read(buf),
+            Stream::Serial(s) => s.read(buf),
+        }
+    }
+}
+
+impl Write for Stream {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match self {
+            Stream::Tcp(s) => s.write(buf),
+            Stream::Unix(s) => s.write(buf),
+            Stream::Serial(s) => s.write(buf),
+        }
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Where requests go.
+#[derive(Clone)]
+pub struct Routes {
+    /// Requests for the Command Interpreter's periodic cycle.
+    pub incoming: Arc<MessageQueue<Incoming>>,
+    /// STOP, ESTOP (and Error Check's faults) for its urgent path.
+    pub urgent: Arc<MessageQueue<Urgent>>,
+    /// Wakes the urgent path at once.
+    pub wake: Arc<Semaphore>,
+}
+
+struct Slot {
+    stream: Option<Stream>,
+    source: SourceId,
+    reader: LineReader,
+    out: Box<[u8]>,
+    out_len: usize,
+    subscribed: bool,
+    checksum: bool,
+    generation: u32,
+}
+
+/// A fixed-capacity set of clients of one kind.
+pub struct ClientSet {
+    kind: u32,
+    slots: Vec<Slot>,
+    parser: Parser,
+    routes: Routes,
+    replies: Arc<MessageQueue<OutLine>>,
+    shared: Arc<Shared>,
+    robot: Robot,
+    buf: ReplyBuf,
+    read_buf: Box<[u8; 4096]>,
+    /// Clients dropped because they stopped reading their replies.
+    pub dropped_slow: u64,
+}
+
+impl ClientSet {
+    /// Room for `capacity` clients of `kind` ([`SourceId::TCP`], …); `checksum` accepts the
+    /// serial `*HH` suffix. Allocates every buffer now.
+    pub fn new(
+        kind: u32,
+        capacity: usize,
+        checksum: bool,
+        robot: Robot,
+        shared: Arc<Shared>,
+        routes: Routes,
+        replies: Arc<MessageQueue<OutLine>>,
+    ) -> ClientSet {
+        let slots = (0..capacity)
+            .map(|_| Slot {
+                stream: None,
+                source: SourceId::NONE,
+                reader: LineReader::new(),
+                out: vec![0u8; OUT_CAP].into_boxed_slice(),
+                out_len: 0,
+                subscribed: false,
+                checksum: false,
+                generation: 0,
+            })
+            .collect();
+        ClientSet {
+            kind,
+            slots,
+            parser: Parser::new(robot.axis_count()).with_checksum(checksum),
+            routes,
+            replies,
+            shared,
+            robot,
+            buf: ReplyBuf::new(),
+            read_buf: Box::new([0; 4096]),
+            dropped_slow: 0,
+        }
+    }
+
+    /// Take a new client; `false` (and the stream is closed) when every slot is in use.
+    pub fn add(&mut self, stream: Stream) -> bool {
+        let kind = self.kind;
+        let Some((i, slot)) = self
+            .slots
+            .iter_mut()
+            .enumerate()
+            .find(|(_, s)| s.stream.is_none())
+        else {
+            return false;
+        };
+        slot.generation = slot.generation.wrapping_add(1);
+        slot.source = SourceId::new(kind, i as u32, slot.generation);
+        slot.stream = Some(stream);
+        slot.reader.clear();
+        slot.out_len = 0;
+        slot.subscribed = false;
+        slot.checksum = false;
+        true
+    }
+
+    /// Clients connected now.
+    pub fn connected(&self) -> usize {
+        self.slots.iter().filter(|s| s.stream.is_some()).count()
+    }
+
+    fn push_out(slot: &mut Slot, bytes: &[u8]) -> bool {
+        if slot.out_len + bytes.len() > slot.out.len() {
+            return false;
+        }
+        slot.out[slot.out_len..slot.out_len + bytes.len()].copy_from_slice(bytes);
+        slot.out_len += bytes.len();
+        true
+    }
+
+    fn close(&mut self, i: usize) {
+        let slot = &mut self.slots[i];
+        if slot.stream.take().is_some() {
+            let _ = self
+                .routes
+                .incoming
+                .try_send(Incoming::Disconnected(slot.source));
+        }
+        slot.out_len = 0;
+        slot.subscribed = false;
+    }
+
+    /// Read every client, parse complete lines and route them.
+    pub fn poll_reads(&mut self) {
+        for i in 0..self.slots.len() {
+            while let Some(stream) = self.slots[i].stream.as_mut() {
+                match stream.read(&mut self.read_buf[..]) {
+                    Ok(0) => {
+                        self.close(i);
+                        break;
+                    }
+                    Ok(n) => self.handle_bytes(i, n),
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    Err(_) => {
+                        self.close(i);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    fn handle_bytes(&mut self, i: usize, n: usize) {
+        let mut input: &[u8] = &self.read_buf[..n];
+        // Split borrows: the reader lives in the slot, the parser and buffers in self.
+        let ClientSet {
+            slots,
+            parser,
+            routes,
+            buf,
+            shared,
+            ..
+        } = self;
+        let slot = &mut slots[i];
+        while let Some(line) = slot.reader.read(&mut input) {
+            let reply: Option<&[u8]> = match line {
+                Err(e) => Some(buf.line_error(&e)),
+                Ok(line) => match parser.parse(line) {
+                    Err(rejected) => Some(buf.rejected(&rejected)),
+                    Ok(request) => {
+                        slot.checksum |= request.checksum;
+                        if matches!(request.command, Command::Stop | Command::Estop) {
+                            shared
+                                .urgent_read_ns
+                                .store(Shared::now_ns(), Ordering::Release);
+                        }
+                        route(slot, request, routes, buf)
+                    }
+                },
+            };
+            if let Some(bytes) = reply {
+                let _ = Self::push_out(slot, bytes);
+            }
+        }
+    }
+
+    /// Take the Command Interpreter's and monitors' lines and queue them for their clients.
+    pub fn route_replies(&mut self) {
+        while let Ok(line) = self.replies.try_recv() {
+            if line.to == SourceId::NONE {
+                for slot in self.slots.iter_mut().filter(|s| s.stream.is_some()) {
+                    let _ = Self::push_out(slot, line.bytes());
+                }
+            } else if line.to.kind() == self.kind {
+                let i = line.to.slot();
+                if let Some(slot) = self.slots.get_mut(i) {
+                    if slot.stream.is_some()
+                        && slot.source == line.to
+                        && !Self::push_out(slot, line.bytes())
+                    {
+                        self.dropped_slow += 1;
+                        self.close(i);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Send one status-stream sample to every subscriber (dropped for a client whose
+    /// output is backed up).
+    pub fn status_stream(&mut self) {
+        if !self
+            .slots
+            .iter()
+            .any(|s| s.subscribed && s.stream.is_some())
+        {
+            return;
+        }
+        let shared = &self.shared;
+        let commanded = shared.commanded_pulses();
+        let mut joints = [0.0; MAX_AXES];
+        for (i, a) in self.robot.axes().iter().enumerate() {
+            joints[i] = a.pulses_to_units(commanded[i]);
+        }
+        let tcp = self.robot.forward(&joints);
+        let owner = SourceId(shared.owner.load(Ordering::Acquire));
+        let mut name = [0u8; 24];
+        let owner_name = source_name(owner, &mut name);
+        let status = StatusBody {
+            state: shared.state(),
+            homed: shared.homed.load(Ordering::Acquire),
+            speed_pct: f64::from(shared.speed_pct.load(Ordering::Acquire)),
+            owner: owner_name,
+            err: Code::from_number(shared.error_code.load(Ordering::Acquire) as u16),
+        };
+        let position = WhereBody {
+            joints: &joints[..self.robot.axis_count()],
+            tcp,
+        };
+        for slot in self
+            .slots
+            .iter_mut()
+            .filter(|s| s.subscribed && s.stream.is_some())
+        {
+            let line = self
+                .buf
+                .event(slot.checksum, &Event::Status { status, position });
+            if slot.out_len + line.len() <= slot.out.len() / 2 {
+                let _ = Self::push_out(slot, line);
+            }
+        }
+    }
+
+    /// Write what is queued for each client, without blocking.
+    pub fn flush(&mut self) {
+        for i in 0..self.slots.len() {
+            let slot = &mut self.slots[i];
+            let Some(stream) = slot.stream.as_mut() else {
+                continue;
+            };
+            let mut sent = 0;
+            let mut failed = false;
+            while sent < slot.out_len {
+                match stream.write(&slot.out[sent..slot.out_len]) {
+                    Ok(0) => break,
+                    Ok(n) => sent += n,
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    Err(_) => {
+                        failed = true;
+                        break;
+                    }
+                }
+            }
+            if failed {
+                self.close(i);
+                continue;
+            }
+            slot.out.copy_within(sent..slot.out_len, 0);
+            slot.out_len -= sent;
+        }
+    }
+}
+
+/// Route one parsed request; returns a reply to send at once, if any.
+fn route<'b>(
+    slot: &mut Slot,
+    request: Request,
+    routes: &Routes,
+    buf: &'b mut ReplyBuf,
+) -> Option<&'b [u8]> {
+    let to = request.reply_to();
+    match request.command {
+        Command::Stop | Command::Estop => {
+            let urgent = if matches!(request.command, Command::Stop) {
+                Urgent::Stop(slot.source, to)
+            } else {
+                Urgent::Estop(slot.source, to)
+            };
+            // Emergency first: wake the Command Interpreter's urgent path now.
+            if routes.urgent.try_send(urgent).is_ok() {
+                routes.wake.post();
+                None
+            } else {
+                Some(buf.nak(
+                    to,
+                    Code::Busy,
+                    "too many emergency requests at once; repeat it",
+                ))
+            }
+        }
+        Command::Subscribe => {
+            slot.subscribed = true;
+            Some(buf.ack(to, ""))
+        }
+        Command::Unsubscribe => {
+            slot.subscribed = false;
+            Some(buf.ack(to, ""))
+        }
+        _ => match routes
+            .incoming
+            .try_send(Incoming::Request(slot.source, request))
+        {
+            Ok(()) => None,
+            Err(_) => Some(buf.nak(to, Code::Busy, "the controller is busy; repeat the request")),
+        },
+    }
+}
+
+/// Write a source's name (`tcp3`, `gui0`, `pendant`) into `buf`; `None` for nobody.
+pub fn source_name(source: SourceId, buf: &mut [u8; 24]) -> Option<&str> {
+    if source == SourceId::NONE {
+        return None;
+    }
+    let mut w: &mut [u8] = &mut buf[..];
+    let _ = write!(w, "{source}");
+    let len = 24 - w.len();
+    std::str::from_utf8(&buf[..len]).ok()
+}

@@ -1,0 +1,421 @@
+//! Starting and stopping the controller: open the motion boards, bind the endpoints, build
+//! the eight tasks of Table 1 with their queues, and run them on the real-time runtime.
+//! Everything that may fail (a busy port, a missing board) fails here, before the first
+//! cycle, with a message that names the endpoint or the file.
+
+use std::net::{SocketAddr, TcpListener, UdpSocket};
+use std::os::unix::net::UnixListener;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use wrc_board::{DpramBoard, Expect, MotionBoard, MultiBoard};
+use wrc_config::Config;
+use wrc_motion::VelocityGenerator as Generator;
+use wrc_rt::ipc::{mailbox, spsc, MessageQueue, Semaphore};
+use wrc_rt::{RealtimeMode, RunningRuntime, Runtime, RuntimeOptions, SchedReport, StopReport};
+
+use crate::clients::{ClientSet, Routes};
+use crate::command_interpreter::{CommandInterpreter, Outputs, UrgentPath};
+use crate::error_check::{ErrorCheck, Limits};
+use crate::ethernet::Ethernet;
+use crate::io_monitor::IoMonitor;
+use crate::pulse_generator::PulseGenerator;
+use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
+use crate::shared::{Shared, SourceId};
+use crate::simulator_manager::SimulatorManager;
+use crate::velocity_generator::VelocityGenerator;
+
+/// Host clients served at once (TCP).
+pub const MAX_HOSTS: usize = 256;
+/// Local GUI clients served at once (Unix socket).
+pub const MAX_GUIS: usize = 16;
+
+/// Where the controller listens and sends.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Host protocol on TCP (default 127.0.0.1:7100); `None`: no TCP.
+    pub tcp: Option<SocketAddr>,
+    /// Local GUI socket path; `None`: no Unix socket.
+    pub socket: Option<PathBuf>,
+    /// Simulator datagrams go here (default 127.0.0.1:7200).
+    pub sim_addr: SocketAddr,
+    /// Teaching pendant: device, baud rate and parity.
+    pub serial: Option<(PathBuf, u32, Parity)>,
+    /// Real-time scheduling (SCHED_FIFO when allowed).
+    pub realtime: RealtimeMode,
+    /// The DPRAM file of each board, in configuration order.
+    pub boards: Vec<PathBuf>,
+    /// How long to wait for a board to appear (a simulated board starting up).
+    pub board_wait: Duration,
+}
+
+/// Why the controller could not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StartError {
+    /// A board could not be opened.
+    #[error("motion board: {0}")]
+    Board(#[from] wrc_board::OpenError),
+    /// The boards do not fit the robot's axes.
+    #[error("motion boards: {0}")]
+    Boards(#[from] wrc_board::MultiError),
+    /// An endpoint could not be bound.
+    #[error("cannot listen on {what} {at}: {reason}")]
+    Bind {
+        /// TCP port, Unix socket or UDP sender.
+        what: &'static str,
+        /// The address or path.
+        at: String,
+        /// Why.
+        reason: std::io::Error,
+    },
+    /// The serial port could not be used.
+    #[error(transparent)]
+    Serial(#[from] SerialError),
+    /// The configuration's motion settings.
+    #[error("{0}")]
+    Settings(#[from] wrc_motion::SettingsError),
+    /// The runtime could not start a task.
+    #[error("{0}")]
+    Runtime(#[from] wrc_rt::RuntimeError),
+}
+
+/// A running controller.
+pub struct Running {
+    runtime: Option<RunningRuntime>,
+    urgent: Option<JoinHandle<()>>,
+    quit: Arc<AtomicBool>,
+    shared: Arc<Shared>,
+    /// Where it listens: TCP address actually bound (with the real port when 0 was asked).
+    pub tcp: Option<SocketAddr>,
+    /// The Unix socket path.
+    pub socket: Option<PathBuf>,
+    /// Where the simulator datagrams go.
+    pub sim_addr: SocketAddr,
+}
+
+fn open_boards(
+    config: &Config,
+    paths: &[PathBuf],
+    wait: Duration,
+) -> Result<MultiBoard<DpramBoard>, StartError> {
+    let mut boards = Vec::with_capacity(paths.len());
+    let mut map = vec![(0usize, 0usize); config.robot.axis_count()];
+    for (b, (board, path)) in config.boards.iter().zip(paths).enumerate() {
+        let expect = Expect {
+            board_id: Some(board.id),
+            axis_count: Some(board.axes.len() as u32),
+            period_us: None,
+        };
+        boards.push(DpramBoard::open_waiting(path, expect, wait)?);
+        for (channel, &axis) in board.axes.iter().enumerate() {
+            if let Some(m) = map.get_mut(axis) {
+                *m = (b, channel);
+            }
+        }
+    }
+    Ok(MultiBoard::new(boards, &map)?)
+}
+
+impl Running {
+    /// The shared state (for tests and the binary's status line).
+    pub fn shared(&self) -> &Arc<Shared> {
+        &self.shared
+    }
+
+    /// Every task's statistics so far (allocates; for reports and benchmarks).
+    pub fn task_stats(&self) -> Vec<wrc_rt::TaskSnapshot> {
+        self.runtime
+            .as_ref()
+            .map(|r| r.snapshot())
+            .unwrap_or_default()
+    }
+
+    /// What scheduling the tasks got.
+    pub fn scheduling(&self) -> Option<&SchedReport> {
+        self.runtime.as_ref().map(|r| r.scheduling())
+    }
+
+    /// Controlled shutdown: stop any motion (waiting up to `timeout` for the robot to come
+    /// to rest), then end every task after its current cycle.
+    pub fn shutdown(mut self, timeout: Duration) -> Option<StopReport> {
+        self.shared.request_stop();
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            let stopped = self.shared.stopped_epoch.load(Ordering::Acquire)
+                == self.shared.stop_epoch.load(Ordering::Acquire)
+                && self.shared.in_flight.load(Ordering::Acquire) == 0;
+            if stopped {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        self.finish(timeout)
+    }
+
+    fn finish(&mut self, timeout: Duration) -> Option<StopReport> {
+        self.quit.store(true, Ordering::Release);
+        let report = self.runtime.take().map(|r| r.stop(timeout));
+        if let Some(h) = self.urgent.take() {
+            let _ = h.join();
+        }
+        if let Some(path) = &self.socket {
+            let _ = std::fs::remove_file(path);
+        }
+        report
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.finish(Duration::from_secs(1));
+    }
+}
+
+/// Start the controller for `config` with `options`.
+pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> {
+    let robot = config.robot.clone();
+    let axis_count = robot.axis_count();
+    let open = || open_boards(config, &options.boards, options.board_wait);
+    let pg_board = open()?;
+    let ec_board = open()?;
+    let io_board = open()?;
+    let ci_board = open()?;
+    let sm_board = open()?;
+
+    // Endpoints, before anything runs.
+    let tcp = match options.tcp {
+        Some(addr) => {
+            let l = TcpListener::bind(addr).map_err(|reason| StartError::Bind {
+                what: "TCP port",
+                at: addr.to_string(),
+                reason,
+            })?;
+            l.set_nonblocking(true).map_err(|reason| StartError::Bind {
+                what: "TCP port",
+                at: addr.to_string(),
+                reason,
+            })?;
+            Some(l)
+        }
+        None => None,
+    };
+    let tcp_addr = tcp.as_ref().and_then(|l| l.local_addr().ok());
+    let unix = match &options.socket {
+        Some(path) => Some(bind_unix(path)?),
+        None => None,
+    };
+    let udp = UdpSocket::bind("0.0.0.0:0")
+        .and_then(|s| s.set_nonblocking(true).map(|()| s))
+        .map_err(|reason| StartError::Bind {
+            what: "UDP sender",
+            at: options.sim_addr.to_string(),
+            reason,
+        })?;
+    let serial = match &options.serial {
+        Some((path, baud, parity)) => Some(open_serial(path, *baud, *parity)?),
+        None => None,
+    };
+
+    // Shared state, starting from the board's position.
+    let shared = Arc::new(Shared::default());
+    let mut feedback = wrc_board::Feedback::default();
+    let _ = pg_board.read_feedback(&mut feedback);
+    let mut start = [0i64; wrc_robot::MAX_AXES];
+    for (i, s) in start.iter_mut().enumerate().take(axis_count) {
+        *s = feedback.axes[i].commanded;
+        shared.commanded[i].store(*s, Ordering::Release);
+    }
+    for b in 0..pg_board.board_count().min(4) {
+        shared.outputs[b].store(pg_board.outputs(b), Ordering::Release);
+    }
+    let mut generator = Generator::new(robot.clone(), config.motion)?;
+    let _ = generator.set_position_pulses(&start);
+    shared
+        .speed_pct
+        .store(config.motion.speed_pct.round() as u32, Ordering::Release);
+
+    // Queues (the paper's Table 5 kinds) between the tasks.
+    let (ring_tx, ring_rx) = spsc::channel(16);
+    let (resume_tx, resume_rx) = mailbox(generator.state());
+    let orders = Arc::new(MessageQueue::new(crate::command_interpreter::MAX_TICKETS));
+    let done = Arc::new(MessageQueue::new(
+        4 * crate::command_interpreter::MAX_TICKETS,
+    ));
+    let incoming = Arc::new(MessageQueue::new(1024));
+    let urgent = Arc::new(MessageQueue::new(64));
+    let wake = Arc::new(Semaphore::new(0));
+    let network_out = Arc::new(MessageQueue::new(4096));
+    let serial_out = Arc::new(MessageQueue::new(256));
+    let owner_lost = Arc::new(AtomicBool::new(false));
+    let stats = Arc::new(OnceLock::new());
+    let routes = Routes {
+        incoming: incoming.clone(),
+        urgent: urgent.clone(),
+        wake: wake.clone(),
+    };
+
+    let tasks = &config.tasks;
+    let spec = |name: &str| {
+        tasks.get(name).cloned().unwrap_or_else(|| {
+            wrc_rt::TaskTable::paper_table1()
+                .get(name)
+                .cloned()
+                .expect("Table 1 task")
+        })
+    };
+    let mut runtime = Runtime::new(RuntimeOptions {
+        realtime: options.realtime,
+        ..Default::default()
+    });
+    runtime.add(
+        spec("error_check"),
+        ErrorCheck::new(
+            ec_board,
+            axis_count,
+            shared.clone(),
+            urgent.clone(),
+            wake.clone(),
+            Limits::for_robot(&robot),
+            owner_lost.clone(),
+            stats.clone(),
+        ),
+    );
+    runtime.add(
+        spec("pulse_generator"),
+        PulseGenerator::new(
+            pg_board,
+            ring_rx,
+            shared.clone(),
+            done.clone(),
+            resume_tx,
+            generator.clone(),
+        ),
+    );
+    runtime.add(
+        spec("simulator_manager"),
+        SimulatorManager::new(
+            sm_board,
+            robot.clone(),
+            shared.clone(),
+            udp,
+            options.sim_addr,
+        ),
+    );
+    runtime.add(
+        spec("velocity_generator"),
+        VelocityGenerator::new(
+            generator.clone(),
+            orders.clone(),
+            ring_tx,
+            shared.clone(),
+            done.clone(),
+            resume_rx,
+        ),
+    );
+    let mut interpreter = CommandInterpreter::new(
+        robot.clone(),
+        ci_board,
+        generator,
+        shared.clone(),
+        incoming,
+        urgent,
+        wake.clone(),
+        orders,
+        done,
+        Outputs {
+            network: network_out.clone(),
+            serial: serial_out.clone(),
+        },
+        owner_lost,
+    );
+    interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
+    runtime.add(spec("command_interpreter"), interpreter);
+    runtime.add(
+        spec("io_monitor"),
+        IoMonitor::new(
+            io_board,
+            shared.clone(),
+            vec![network_out.clone(), serial_out.clone()],
+        ),
+    );
+    let hosts = ClientSet::new(
+        SourceId::TCP,
+        MAX_HOSTS,
+        false,
+        robot.clone(),
+        shared.clone(),
+        routes.clone(),
+        network_out.clone(),
+    );
+    let guis = ClientSet::new(
+        SourceId::GUI,
+        MAX_GUIS,
+        false,
+        robot.clone(),
+        shared.clone(),
+        routes.clone(),
+        network_out,
+    );
+    runtime.add(spec("ethernet"), Ethernet::new(tcp, unix, hosts, guis));
+    let pendant = ClientSet::new(
+        SourceId::PENDANT,
+        1,
+        true,
+        robot.clone(),
+        shared.clone(),
+        routes,
+        serial_out,
+    );
+    runtime.add(spec("rs232c"), Rs232c::new(serial, pendant));
+
+    let running = runtime.start()?;
+    let _ = stats.set(running.stats_cells());
+    let quit = Arc::new(AtomicBool::new(false));
+    let path = UrgentPath {
+        wake,
+        shared: shared.clone(),
+        quit: quit.clone(),
+    };
+    let ci_priority = spec("command_interpreter").priority;
+    let realtime = options.realtime;
+    let urgent_thread = std::thread::Builder::new()
+        .name("wrc-urgent".into())
+        .spawn(move || {
+            if realtime != RealtimeMode::Off {
+                // Same priority as the Command Interpreter: it is that task's urgent half.
+                let _ = wrc_rt::sched_policy::set_current_thread_fifo(wrc_rt::fifo_priority(
+                    ci_priority,
+                ));
+            }
+            path.run()
+        })
+        .ok();
+    Ok(Running {
+        runtime: Some(running),
+        urgent: urgent_thread,
+        quit,
+        shared,
+        tcp: tcp_addr,
+        socket: options.socket.clone(),
+        sim_addr: options.sim_addr,
+    })
+}
+
+fn bind_unix(path: &Path) -> Result<UnixListener, StartError> {
+    let err = |reason| StartError::Bind {
+        what: "Unix socket",
+        at: path.display().to_string(),
+        reason,
+    };
+    // A socket file left by a controller that was killed: remove it if nobody answers.
+    if path.exists() && std::os::unix::net::UnixStream::connect(path).is_err() {
+        let _ = std::fs::remove_file(path);
+    }
+    let l = UnixListener::bind(path).map_err(err)?;
+    l.set_nonblocking(true).map_err(err)?;
+    Ok(l)
+}

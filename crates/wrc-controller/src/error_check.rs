@@ -1,0 +1,171 @@
+//! Error Check task (Table 1: priority 10, 100 ms — the most urgent): watches the board and
+//! the controller for faults — servo alarm (over-speed), following error, soft limits, the
+//! board's host watchdog, the E-stop input, task overruns beyond a threshold and loss of the
+//! controlling client — and hands the first one to the Command Interpreter's urgent path,
+//! which stops the robot in a controlled way and enters ERROR (or ESTOP) until RESET.
+//!
+//! Real-time promise: the cycle reads the mapped DPRAM and atomics only; it does not
+//! allocate, block or print.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use wrc_board::layout::{alarm, board_status};
+use wrc_board::{Feedback, MotionBoard};
+use wrc_protocol::Code;
+use wrc_robot::{Robot, MAX_AXES};
+use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::{CycleContext, StatsCell, Task, TaskStats};
+
+use crate::shared::{RobotState, Shared, Urgent};
+
+/// Limits Error Check enforces.
+#[derive(Debug, Clone, Copy)]
+pub struct Limits {
+    /// Largest |commanded − encoder| per axis [pulse].
+    pub following_error: [i64; MAX_AXES],
+    /// Soft limits per axis [pulse] (min, max).
+    pub soft: [(i64, i64); MAX_AXES],
+    /// Overruns of any task within one Error Check period that count as a fault.
+    pub overruns_per_check: u64,
+}
+
+impl Limits {
+    /// Limits for `robot`: following error up to 50 ms of full speed, soft limits from the
+    /// axis configuration, 3 overruns per check.
+    pub fn for_robot(robot: &Robot) -> Limits {
+        let mut l = Limits {
+            following_error: [i64::MAX; MAX_AXES],
+            soft: [(i64::MIN, i64::MAX); MAX_AXES],
+            overruns_per_check: 3,
+        };
+        for (i, a) in robot.axes().iter().enumerate() {
+            l.following_error[i] =
+                (a.limits.max_velocity * a.pulses_per_unit * 0.05).ceil() as i64 + 10;
+            l.soft[i] = (a.units_to_pulses(a.min) - 1, a.units_to_pulses(a.max) + 1);
+        }
+        l
+    }
+}
+
+/// Error Check.
+pub struct ErrorCheck<B: MotionBoard> {
+    board: B,
+    shared: Arc<Shared>,
+    urgent: Arc<MessageQueue<Urgent>>,
+    wake: Arc<Semaphore>,
+    limits: Limits,
+    axis_count: usize,
+    /// Set by the Ethernet/RS232C task when the controlling client disconnects mid-motion.
+    pub owner_lost: Arc<AtomicBool>,
+    /// The runtime's statistics, once it runs.
+    stats: Arc<OnceLock<Vec<Arc<StatsCell>>>>,
+    overruns_seen: [u64; 16],
+    scratch: TaskStats,
+    feedback: Feedback,
+    reported: bool,
+}
+
+impl<B: MotionBoard> ErrorCheck<B> {
+    /// Error Check on `board` for `axis_count` axes.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        board: B,
+        axis_count: usize,
+        shared: Arc<Shared>,
+        urgent: Arc<MessageQueue<Urgent>>,
+        wake: Arc<Semaphore>,
+        limits: Limits,
+        owner_lost: Arc<AtomicBool>,
+        stats: Arc<OnceLock<Vec<Arc<StatsCell>>>>,
+    ) -> Self {
+        ErrorCheck {
+            board,
+            shared,
+            urgent,
+            wake,
+            limits,
+            axis_count,
+            owner_lost,
+            stats,
+            overruns_seen: [0; 16],
+            scratch: TaskStats::default(),
+            feedback: Feedback::default(),
+            reported: false,
+        }
+    }
+
+    /// The first fault found this period, if any.
+    fn find_fault(&mut self) -> Option<Code> {
+        if self.board.read_feedback(&mut self.feedback).is_err() {
+            return None; // torn read: try again next period
+        }
+        let fb = &self.feedback;
+        for b in &fb.boards[..fb.board_count] {
+            if b.status & board_status::ESTOP != 0 {
+                return Some(Code::EstopInput);
+            }
+            if b.status & board_status::WATCHDOG_TRIPPED != 0 {
+                return Some(Code::BoardWatchdog);
+            }
+        }
+        for (i, a) in fb.axes[..self.axis_count].iter().enumerate() {
+            if a.alarm & alarm::FOLLOWING_ERROR != 0
+                || a.following_error.abs() > self.limits.following_error[i]
+            {
+                return Some(Code::FollowingError);
+            }
+            if a.alarm & (alarm::LIMIT_POS | alarm::LIMIT_NEG) != 0 {
+                return Some(Code::SoftLimit);
+            }
+            if a.alarm != 0 {
+                return Some(Code::ServoAlarm);
+            }
+            let (lo, hi) = self.limits.soft[i];
+            if a.commanded < lo || a.commanded > hi || a.encoder < lo || a.encoder > hi {
+                return Some(Code::SoftLimit);
+            }
+        }
+        if self.owner_lost.swap(false, Ordering::AcqRel) {
+            return Some(Code::ClientLost);
+        }
+        if let Some(cells) = self.stats.get() {
+            let mut fault = None;
+            for (seen, cell) in self.overruns_seen.iter_mut().zip(cells) {
+                cell.snapshot_into(&mut self.scratch);
+                let now = self.scratch.overruns;
+                if now.saturating_sub(*seen) >= self.limits.overruns_per_check {
+                    fault = Some(Code::TaskOverrun);
+                }
+                *seen = now;
+            }
+            if fault.is_some() {
+                return fault;
+            }
+        }
+        None
+    }
+
+    /// One period (public for tests that step the task by hand).
+    pub fn step(&mut self) {
+        let fault = self.find_fault();
+        let state = self.shared.state();
+        if matches!(state, RobotState::Idle | RobotState::Moving) {
+            self.reported = false;
+        }
+        if let Some(code) = fault {
+            if !self.reported && !matches!(state, RobotState::Error | RobotState::Estop) {
+                self.reported = true;
+                if self.urgent.try_send(Urgent::Fault(code.number())).is_ok() {
+                    self.wake.post();
+                }
+            }
+        }
+    }
+}
+
+impl<B: MotionBoard + 'static> Task for ErrorCheck<B> {
+    fn cycle(&mut self, _ctx: &CycleContext) {
+        self.step();
+    }
+}

@@ -1,0 +1,78 @@
+//! I/O Monitor task (Table 1: priority 45, 100 ms): reads every board's digital inputs,
+//! publishes each changed bit as `EVT INPUT <n> <0|1>` to every client, and applies the
+//! outputs the Command Interpreter requested (OUT).
+//!
+//! Real-time promise: DPRAM reads and writes and lock-free queue sends only; no allocation,
+//! no blocking, no printing.
+
+use std::io::Write;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_board::MotionBoard;
+use wrc_rt::ipc::MessageQueue;
+use wrc_rt::{CycleContext, Task};
+
+use crate::shared::{OutLine, Shared, SourceId};
+
+/// The I/O Monitor.
+pub struct IoMonitor<B: MotionBoard> {
+    board: B,
+    shared: Arc<Shared>,
+    events: Vec<Arc<MessageQueue<OutLine>>>,
+    previous: [u32; 4],
+    first: bool,
+}
+
+impl<B: MotionBoard> IoMonitor<B> {
+    /// An I/O Monitor that sends events to every queue in `events` (one per I/O task).
+    pub fn new(board: B, shared: Arc<Shared>, events: Vec<Arc<MessageQueue<OutLine>>>) -> Self {
+        IoMonitor {
+            board,
+            shared,
+            events,
+            previous: [0; 4],
+            first: true,
+        }
+    }
+
+    fn broadcast(&self, text: &[u8]) {
+        for q in &self.events {
+            let _ = q.try_send(OutLine::new(SourceId::NONE, text));
+        }
+    }
+
+    /// One period (public for tests that step the task by hand).
+    pub fn step(&mut self) {
+        for b in 0..self.board.board_count().min(4) {
+            let wanted = self.shared.outputs[b].load(Ordering::Acquire);
+            if self.board.outputs(b) != wanted {
+                self.board.write_outputs(b, wanted);
+            }
+            let inputs = self.board.read_inputs(b);
+            self.shared.inputs[b].store(inputs, Ordering::Release);
+            let changed = inputs ^ self.previous[b];
+            if !self.first && changed != 0 {
+                for bit in 0..32u32 {
+                    if changed & (1 << bit) != 0 {
+                        let mut buf = [0u8; 48];
+                        let mut w: &mut [u8] = &mut buf;
+                        let n = 32 * b as u32 + bit;
+                        let on = u8::from(inputs & (1 << bit) != 0);
+                        let _ = writeln!(w, "EVT INPUT {n} {on}");
+                        let len = 48 - w.len();
+                        self.broadcast(&buf[..len]);
+                    }
+                }
+            }
+            self.previous[b] = inputs;
+        }
+        self.first = false;
+    }
+}
+
+impl<B: MotionBoard + 'static> Task for IoMonitor<B> {
+    fn cycle(&mut self, _ctx: &CycleContext) {
+        self.step();
+    }
+}

@@ -1,0 +1,21 @@
+//! The wrc controller: the paper's eight real-time tasks wired together (Fig. 1, Table 1).
+//!
+//! Data flows one way: command sources ([`ethernet`], [`rs232c`]) → [`command_interpreter`]
+//! → [`velocity_generator`] (plans ahead, fills a per-period pulse ring) →
+//! [`pulse_generator`] (one batch per period into the board FIFO) and
+//! [`simulator_manager`] (UDP state datagrams). [`error_check`] and [`io_monitor`] watch the
+//! board. Every task's cycle is allocation-free and never blocks; tasks talk through
+//! `wrc_rt::ipc` queues and the atomics of [`shared::Shared`]. [`controller`] starts it all.
+#![deny(missing_docs)]
+
+pub mod clients;
+pub mod command_interpreter;
+pub mod controller;
+pub mod error_check;
+pub mod ethernet;
+pub mod io_monitor;
+pub mod pulse_generator;
+pub mod rs232c;
+pub mod shared;
+pub mod simulator_manager;
+pub mod velocity_generator;

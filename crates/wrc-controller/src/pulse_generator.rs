@@ -1,0 +1,216 @@
+//! Pulse Generator task (Table 1: priority 20, 10 ms): every period, moves the Velocity
+//! Generator's pulse batches from the SPSC ring into the board FIFO, keeping it a fixed
+//! number of periods ahead, and streams zero batches at rest (a motion card expects one
+//! entry per period; a missing one is an underrun). A stop request takes effect here, from
+//! the period actually reached: the queued plan is discarded and the generator state of the
+//! last pushed period is decelerated within the limits.
+//!
+//! Real-time promise: the cycle does not allocate, block or print; the board calls are
+//! atomic memory operations on the mapped DPRAM.
+
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_board::{Feedback, MotionBoard};
+use wrc_motion::{MotionState, Period, Status, VelocityGenerator};
+use wrc_robot::MAX_AXES;
+use wrc_rt::ipc::mailbox::MailboxWriter;
+use wrc_rt::ipc::queue::MessageQueue;
+use wrc_rt::ipc::spsc::SpscReceiver;
+use wrc_rt::{CycleContext, Task};
+
+use crate::shared::{Batch, MoveDone, MoveOutcome, Shared};
+
+/// Periods kept queued in the board FIFO ahead of the board: a late wake-up of up to this
+/// many periods does not starve an axis, and a stop reaches the motors at most this many
+/// periods after the Pulse Generator starts it.
+pub const FIFO_LEAD: usize = 2;
+
+/// The Pulse Generator.
+pub struct PulseGenerator<B: MotionBoard> {
+    board: B,
+    ring: SpscReceiver<Batch>,
+    shared: Arc<Shared>,
+    done: Arc<MessageQueue<MoveDone>>,
+    resume: MailboxWriter<MotionState>,
+    stopper: VelocityGenerator,
+    last: MotionState,
+    ticket: u32,
+    epoch_seen: u32,
+    stopping: bool,
+    pending: Option<Batch>,
+    fifo_depth: usize,
+    /// A completed move reported once the board has executed its last period: (ticket,
+    /// periods to wait).
+    completing: Option<(u32, usize)>,
+    feedback: Feedback,
+}
+
+impl<B: MotionBoard> PulseGenerator<B> {
+    /// A Pulse Generator on `board`, whose state starts as `generator`'s (idle at the
+    /// board's position).
+    pub fn new(
+        board: B,
+        ring: SpscReceiver<Batch>,
+        shared: Arc<Shared>,
+        done: Arc<MessageQueue<MoveDone>>,
+        resume: MailboxWriter<MotionState>,
+        generator: VelocityGenerator,
+    ) -> Self {
+        let fifo_depth = board.fifo_free();
+        let last = generator.state();
+        let epoch_seen = shared.stop_epoch.load(Ordering::Acquire);
+        PulseGenerator {
+            board,
+            ring,
+            shared,
+            done,
+            resume,
+            stopper: generator,
+            last,
+            ticket: 0,
+            epoch_seen,
+            stopping: false,
+            pending: None,
+            fifo_depth,
+            completing: None,
+            feedback: Feedback::default(),
+        }
+    }
+
+    fn queued(&self) -> usize {
+        self.fifo_depth.saturating_sub(self.board.fifo_free())
+    }
+
+    fn emit(&mut self, pulses: &[i64; MAX_AXES]) -> bool {
+        if self.board.push(pulses).is_err() {
+            return false;
+        }
+        for (c, p) in self.shared.commanded.iter().zip(pulses) {
+            if *p != 0 {
+                c.fetch_add(*p, Ordering::AcqRel);
+            }
+        }
+        true
+    }
+
+    fn report(&self, ticket: u32, outcome: MoveOutcome) {
+        if ticket != 0 {
+            // The queue is sized for every ticket in flight; a full queue only loses a reply.
+            let _ = self.done.try_send(MoveDone { ticket, outcome });
+        }
+    }
+
+    /// One period (public for tests that step the task by hand).
+    pub fn step(&mut self) {
+        self.board.refresh_watchdog();
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        if epoch != self.epoch_seen {
+            self.epoch_seen = epoch;
+            self.pending = None;
+            while self.ring.try_recv().is_some() {}
+            if self.last.is_moving() {
+                self.stopper.restore(&self.last);
+                self.stopper.stop();
+                self.stopping = true;
+                self.shared
+                    .decel_ns
+                    .store(Shared::now_ns(), Ordering::Release);
+            } else {
+                // At rest: take the board's own position (after a RESET the board may have
+                // stopped by itself, e.g. on a watchdog trip or E-stop).
+                let resync = self.shared.resync_from_board.swap(false, Ordering::AcqRel);
+                if resync && self.board.read_feedback(&mut self.feedback).is_ok() {
+                    let mut position = [0i64; MAX_AXES];
+                    for (i, p) in position
+                        .iter_mut()
+                        .enumerate()
+                        .take(self.feedback.axis_count)
+                    {
+                        *p = self.feedback.axes[i].commanded;
+                    }
+                    self.stopper.restore(&self.last);
+                    if self.stopper.set_position_pulses(&position).is_ok() {
+                        self.last = self.stopper.state();
+                        for (c, p) in self.shared.commanded.iter().zip(position) {
+                            c.store(p, Ordering::Release);
+                        }
+                    }
+                }
+                self.resume.write(self.last);
+                self.shared.stopped_epoch.store(epoch, Ordering::Release);
+            }
+        }
+        let mut period = Period::default();
+        while self.queued() < FIFO_LEAD {
+            if self.stopping {
+                let status = self.stopper.next_period(&mut period);
+                if !self.emit(&period.pulses) {
+                    break;
+                }
+                self.last = self.stopper.state();
+                if !matches!(status, Status::Working) {
+                    self.stopping = false;
+                    self.report(self.ticket, MoveOutcome::Stopped);
+                    self.ticket = 0;
+                    self.resume.write(self.last);
+                    self.shared
+                        .stopped_epoch
+                        .store(self.epoch_seen, Ordering::Release);
+                }
+                continue;
+            }
+            let batch = match self.pending.take().or_else(|| self.ring.try_recv()) {
+                Some(b) if b.epoch == self.epoch_seen => b,
+                Some(_) => continue,
+                None => {
+                    // At rest (or the plan is late): stream a zero period.
+                    if !self.emit(&[0; MAX_AXES]) {
+                        break;
+                    }
+                    continue;
+                }
+            };
+            if !self.emit(&batch.pulses) {
+                self.pending = Some(batch);
+                break;
+            }
+            self.last = batch.after;
+            if batch.ticket != self.ticket {
+                self.shared
+                    .first_pulse_ns
+                    .store(Shared::now_ns(), Ordering::Release);
+            }
+            self.ticket = batch.ticket;
+            if batch.last {
+                if let Some((ticket, _)) = self.completing.take() {
+                    self.report(ticket, MoveOutcome::Completed);
+                }
+                // The board executes it FIFO_LEAD periods from now.
+                self.completing = Some((batch.ticket, FIFO_LEAD + 1));
+                self.ticket = 0;
+            }
+        }
+        if let Some((ticket, left)) = self.completing {
+            if left <= 1 {
+                self.completing = None;
+                self.report(ticket, MoveOutcome::Completed);
+            } else {
+                self.completing = Some((ticket, left - 1));
+            }
+        }
+        let moving = self.stopping
+            || self.last.is_moving()
+            || !self.ring.is_empty()
+            || self.completing.is_some();
+        self.shared
+            .in_flight
+            .store(u32::from(moving), Ordering::Release);
+    }
+}
+
+impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
+    fn cycle(&mut self, _ctx: &CycleContext) {
+        self.step();
+    }
+}

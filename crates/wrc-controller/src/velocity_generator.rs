@@ -1,0 +1,164 @@
+//! Velocity Generator task (Table 1: priority 30, 50 ms): takes move orders from the Command
+//! Interpreter, plans them with `wrc-motion` (PTP, straight line, jog; accel/decel, IK for
+//! lines) and fills the per-period pulse ring for the Pulse Generator, a little more than one
+//! of its own periods ahead. After a stop it drops its plan and resumes from the state the
+//! Pulse Generator brought to rest.
+//!
+//! Real-time promise: planning and producing periods do not allocate (`wrc-motion`
+//! guarantees it); the cycle does not block or print.
+
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_motion::{MotionState, Period, PlanError, Status, VelocityGenerator as Generator};
+use wrc_robot::KinematicsError;
+use wrc_rt::ipc::mailbox::MailboxReader;
+use wrc_rt::ipc::queue::MessageQueue;
+use wrc_rt::ipc::spsc::SpscSender;
+use wrc_rt::{CycleContext, Task};
+
+use crate::shared::{Batch, MoveDone, MoveKind, MoveOrder, MoveOutcome, Shared};
+
+/// Protocol code numbers for moves refused at planning time (see docs/protocol.md).
+pub mod refusal {
+    /// Target out of reach.
+    pub const OUT_OF_REACH: u16 = 111;
+    /// A joint would leave its limits.
+    pub const JOINT_LIMIT: u16 = 112;
+    /// The straight path leaves the workspace or needs a posture change.
+    pub const PATH: u16 = 113;
+    /// Any other planning failure.
+    pub const OTHER: u16 = 199;
+}
+
+/// Map a planning error to a protocol code number.
+pub fn refusal_code(err: &PlanError) -> u16 {
+    match err {
+        PlanError::Kinematics(KinematicsError::JointLimit { .. })
+        | PlanError::JogBeyondLimit { .. } => refusal::JOINT_LIMIT,
+        PlanError::Kinematics(_) => refusal::OUT_OF_REACH,
+        PlanError::PathLeavesWorkspace { .. } | PlanError::PostureChange => refusal::PATH,
+        _ => refusal::OTHER,
+    }
+}
+
+/// The Velocity Generator.
+pub struct VelocityGenerator {
+    generator: Generator,
+    orders: Arc<MessageQueue<MoveOrder>>,
+    ring: SpscSender<Batch>,
+    shared: Arc<Shared>,
+    done: Arc<MessageQueue<MoveDone>>,
+    resume: MailboxReader<MotionState>,
+    epoch: u32,
+    resyncing: bool,
+    ticket: u32,
+    held: Option<MoveOrder>,
+}
+
+impl VelocityGenerator {
+    /// A Velocity Generator starting from `generator`'s state.
+    pub fn new(
+        generator: Generator,
+        orders: Arc<MessageQueue<MoveOrder>>,
+        ring: SpscSender<Batch>,
+        shared: Arc<Shared>,
+        done: Arc<MessageQueue<MoveDone>>,
+        resume: MailboxReader<MotionState>,
+    ) -> Self {
+        let epoch = shared.stop_epoch.load(Ordering::Acquire);
+        VelocityGenerator {
+            generator,
+            orders,
+            ring,
+            shared,
+            done,
+            resume,
+            epoch,
+            resyncing: false,
+            ticket: 0,
+            held: None,
+        }
+    }
+
+    fn report(&self, ticket: u32, outcome: MoveOutcome) {
+        let _ = self.done.try_send(MoveDone { ticket, outcome });
+    }
+
+    /// Start the next order, if any; false when there is none.
+    fn start_next(&mut self) -> bool {
+        loop {
+            let Some(order) = self.held.take().or_else(|| self.orders.try_recv().ok()) else {
+                return false;
+            };
+            let age = self.epoch.wrapping_sub(order.epoch) as i32;
+            if age > 0 {
+                continue; // ordered before a stop that cancelled it
+            }
+            if age < 0 {
+                // Ordered after a stop this task has not seen yet: keep it for the cycle
+                // that has resynchronised with the Pulse Generator.
+                self.held = Some(order);
+                return false;
+            }
+            let g = &mut self.generator;
+            let planned = g
+                .set_speed_pct(order.speed_pct)
+                .and_then(|()| match order.kind {
+                    MoveKind::Joints(j) => g.plan_ptp(&j),
+                    MoveKind::Pose(p, posture) => g.plan_ptp_pose(&p, posture),
+                    MoveKind::Line(p) => g.plan_line(&p),
+                    MoveKind::Jog { axis, pulses } => g.plan_jog(axis, pulses),
+                });
+            match planned {
+                Ok(info) if info.periods == 0 => self.report(order.ticket, MoveOutcome::Completed),
+                Ok(_) => {
+                    self.ticket = order.ticket;
+                    return true;
+                }
+                Err(e) => self.report(order.ticket, MoveOutcome::Refused(refusal_code(&e))),
+            }
+        }
+    }
+
+    /// One cycle (public for tests that step the task by hand).
+    pub fn step(&mut self) {
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        if epoch != self.epoch {
+            // A stop: the Pulse Generator decelerates from where it is; wait for it.
+            self.epoch = epoch;
+            self.resyncing = true;
+            self.ticket = 0;
+        }
+        if self.resyncing {
+            if self.shared.stopped_epoch.load(Ordering::Acquire) != self.epoch {
+                return;
+            }
+            let state = *self.resume.read();
+            self.generator.restore(&state);
+            self.resyncing = false;
+        }
+        let mut period = Period::default();
+        while self.ring.free_slots() > 0 {
+            if !self.generator.is_moving() && !self.start_next() {
+                break;
+            }
+            let status = self.generator.next_period(&mut period);
+            let batch = Batch {
+                pulses: period.pulses,
+                epoch: self.epoch,
+                ticket: self.ticket,
+                last: matches!(status, Status::Finished(_)),
+                after: self.generator.state(),
+            };
+            // free_slots() > 0 was checked, and this task is the ring's only producer.
+            let _ = self.ring.try_send(batch);
+        }
+    }
+}
+
+impl Task for VelocityGenerator {
+    fn cycle(&mut self, _ctx: &CycleContext) {
+        self.step();
+    }
+}

@@ -1,0 +1,3 @@
+//! Controller integration tests, one module per topic.
+
+mod pipeline;

@@ -1,0 +1,240 @@
+//! Velocity Generator → pulse ring → Pulse Generator → board FIFO → simulated board, stepped
+//! by hand on one thread (10 ms Pulse Generator periods, Velocity Generator every 5th).
+
+use std::sync::Arc;
+
+use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
+use wrc_config::Config;
+use wrc_controller::pulse_generator::PulseGenerator;
+use wrc_controller::shared::{MoveDone, MoveKind, MoveOrder, MoveOutcome, Shared};
+use wrc_controller::velocity_generator::VelocityGenerator;
+use wrc_motion::VelocityGenerator as Generator;
+use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
+
+struct Rig {
+    sim: SimBoard,
+    host: DpramBoard,
+    pg: PulseGenerator<DpramBoard>,
+    vg: VelocityGenerator,
+    orders: Arc<MessageQueue<MoveOrder>>,
+    done: Arc<MessageQueue<MoveDone>>,
+    shared: Arc<Shared>,
+    k: u64,
+    increments: Vec<[i64; 16]>,
+}
+
+impl Rig {
+    fn new() -> Rig {
+        let config = Config::embedded_default();
+        let settings = SimSettings::from_config(&config, &config.boards[0]);
+        let mapping = Mapping::anonymous().unwrap();
+        let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+        sim.step();
+        let pg_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+        let host = DpramBoard::attach(mapping, Expect::default()).unwrap();
+        let mut fb = Feedback::default();
+        host.read_feedback(&mut fb).unwrap();
+        let mut generator = Generator::new(config.robot.clone(), config.motion).unwrap();
+        let mut start = [0i64; 16];
+        for (i, s) in start.iter_mut().enumerate().take(4) {
+            *s = fb.axes[i].commanded;
+        }
+        generator.set_position_pulses(&start).unwrap();
+        let shared = Arc::new(Shared::default());
+        for (c, s) in shared.commanded.iter().zip(start) {
+            c.store(s, std::sync::atomic::Ordering::Release);
+        }
+        let (tx, rx) = spsc::channel(12);
+        let (resume_tx, resume_rx) = mailbox(generator.state());
+        let orders = Arc::new(MessageQueue::new(16));
+        let done = Arc::new(MessageQueue::new(64));
+        let pg = PulseGenerator::new(
+            pg_board,
+            rx,
+            shared.clone(),
+            done.clone(),
+            resume_tx,
+            generator.clone(),
+        );
+        let vg = VelocityGenerator::new(
+            generator,
+            orders.clone(),
+            tx,
+            shared.clone(),
+            done.clone(),
+            resume_rx,
+        );
+        Rig {
+            sim,
+            host,
+            pg,
+            vg,
+            orders,
+            done,
+            shared,
+            k: 0,
+            increments: Vec::new(),
+        }
+    }
+
+    /// One 10 ms period: the Velocity Generator every 5th, then the Pulse Generator, then
+    /// the board.
+    fn period(&mut self) {
+        if self.k % 5 == 0 {
+            self.vg.step();
+        }
+        self.pg.step();
+        let before = self.feedback();
+        self.sim.step();
+        let after = self.feedback();
+        let mut inc = [0i64; 16];
+        for (i, v) in inc.iter_mut().enumerate().take(4) {
+            *v = after.axes[i].commanded - before.axes[i].commanded;
+        }
+        self.increments.push(inc);
+        self.k += 1;
+    }
+
+    fn feedback(&self) -> Feedback {
+        let mut fb = Feedback::default();
+        self.host.read_feedback(&mut fb).unwrap();
+        fb
+    }
+
+    fn order(&self, ticket: u32, kind: MoveKind) {
+        let epoch = self
+            .shared
+            .stop_epoch
+            .load(std::sync::atomic::Ordering::Acquire);
+        self.orders
+            .try_send(MoveOrder {
+                ticket,
+                epoch,
+                speed_pct: 100.0,
+                kind,
+            })
+            .unwrap();
+    }
+
+    fn run_until_done(&mut self, limit: u64) -> MoveDone {
+        for _ in 0..limit {
+            self.period();
+            if let Ok(d) = self.done.try_recv() {
+                return d;
+            }
+        }
+        panic!("no move ended within {limit} periods");
+    }
+}
+
+#[test]
+fn a_ptp_move_reaches_the_board_exactly() {
+    let mut rig = Rig::new();
+    let home = rig.feedback().axes[0].commanded;
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 30.0;
+    target[3] = 50.0;
+    rig.order(7, MoveKind::Joints(target));
+    let done = rig.run_until_done(1000);
+    assert_eq!(
+        done,
+        MoveDone {
+            ticket: 7,
+            outcome: MoveOutcome::Completed
+        }
+    );
+    for _ in 0..5 {
+        rig.period();
+    }
+    let fb = rig.feedback();
+    assert_eq!(fb.axes[0].commanded, 30_000);
+    assert_eq!(fb.axes[3].commanded, 50_000);
+    assert_eq!(rig.shared.commanded_pulses()[0], 30_000);
+    assert_eq!(
+        fb.underruns(),
+        0,
+        "the Pulse Generator streams every period"
+    );
+    assert!(home != 30_000);
+    assert_eq!(fb.axes[0].alarm, 0);
+}
+
+#[test]
+fn a_stop_decelerates_within_two_periods_and_keeps_the_books() {
+    let mut rig = Rig::new();
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 170.0; // long cruise on J1
+    rig.order(1, MoveKind::Joints(target));
+    for _ in 0..60 {
+        rig.period();
+    }
+    let cruise = rig.increments.last().unwrap()[0];
+    assert!(cruise > 1000, "cruising at {cruise} pulse/period");
+    // The stop arrives between two periods (as from the Command Interpreter's urgent path).
+    let stop_at = rig.increments.len();
+    rig.shared.request_stop();
+    let done = rig.run_until_done(500);
+    assert_eq!(
+        done,
+        MoveDone {
+            ticket: 1,
+            outcome: MoveOutcome::Stopped
+        }
+    );
+    for _ in 0..10 {
+        rig.period();
+    }
+    let inc: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
+    // The board executes what was queued before the stop (FIFO lead), then decelerates.
+    let lead = wrc_controller::pulse_generator::FIFO_LEAD;
+    assert!(
+        inc[stop_at + lead] < cruise,
+        "no deceleration {} periods after the stop: {:?}",
+        lead + 1,
+        &inc[stop_at - 2..stop_at + 6]
+    );
+    assert!(inc[inc.len() - 1] == 0);
+    // Books: the board's commanded position equals everything the Pulse Generator pushed.
+    let fb = rig.feedback();
+    assert_eq!(fb.axes[0].commanded, rig.shared.commanded_pulses()[0]);
+    assert!(fb.axes[0].commanded < 170_000);
+    assert_eq!(fb.underruns(), 0);
+    // A new move after the stop starts from where the robot came to rest.
+    let mut back = Config::embedded_default().robot.home();
+    back[0] = 0.0;
+    let epoch = rig
+        .shared
+        .stop_epoch
+        .load(std::sync::atomic::Ordering::Acquire);
+    rig.orders
+        .try_send(MoveOrder {
+            ticket: 2,
+            epoch,
+            speed_pct: 100.0,
+            kind: MoveKind::Joints(back),
+        })
+        .unwrap();
+    assert_eq!(rig.run_until_done(1000).outcome, MoveOutcome::Completed);
+    for _ in 0..5 {
+        rig.period();
+    }
+    assert_eq!(rig.feedback().axes[0].commanded, 0);
+}
+
+#[test]
+fn an_unreachable_line_is_refused_without_moving() {
+    let mut rig = Rig::new();
+    let before = rig.feedback().axes[0].commanded;
+    let far = wrc_robot::Pose {
+        x: 500.0,
+        y: 0.0,
+        z: 0.0,
+        yaw: 0.0,
+    };
+    rig.order(3, MoveKind::Line(far));
+    let done = rig.run_until_done(20);
+    assert_eq!(done.ticket, 3);
+    assert!(matches!(done.outcome, MoveOutcome::Refused(111)));
+    assert_eq!(rig.feedback().axes[0].commanded, before);
+}

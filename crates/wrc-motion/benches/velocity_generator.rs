@@ -1,0 +1,147 @@
+//! Velocity Generator cost: one 50 ms cycle of a straight line for 4 axes, IK included
+//! (5 periods at 10 ms, 50 at 1 ms). The paper needed 5,185-9,181 µs per cycle; the target
+//! here is 20 µs. Also the cost of planning a line (checked point by point) and a PTP cycle.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use wrc_motion::{MotionSettings, Period, Profile, VelocityGenerator};
+use wrc_robot::{Pose, Posture, Robot};
+
+/// A generator in the middle of a 250 mm straight line (so every period does real work).
+fn mid_line(period_s: f64, profile: Profile) -> VelocityGenerator {
+    let settings = MotionSettings {
+        period_s,
+        profile,
+        ..MotionSettings::default()
+    };
+    let mut vg = VelocityGenerator::new(Robot::paper_default(), settings).unwrap();
+    let start = vg
+        .robot()
+        .inverse(
+            &Pose {
+                x: 300.0,
+                y: -100.0,
+                z: 0.0,
+                yaw: 0.0,
+            },
+            Posture::Right,
+            None,
+        )
+        .unwrap();
+    vg.set_position_pulses(&vg.robot().joints_to_pulses(&start))
+        .unwrap();
+    let info = vg
+        .plan_line(&Pose {
+            x: 300.0,
+            y: 150.0,
+            z: 50.0,
+            yaw: 30.0,
+        })
+        .unwrap();
+    let mut p = Period::default();
+    for _ in 0..info.periods / 3 {
+        vg.next_period(&mut p);
+    }
+    vg
+}
+
+fn cycle(c: &mut Criterion) {
+    for (name, period_s, periods, profile) in [
+        (
+            "vg_cycle_line_50ms/10ms_period_5_periods",
+            0.010,
+            5,
+            Profile::Fir,
+        ),
+        (
+            "vg_cycle_line_50ms/1ms_period_50_periods",
+            0.001,
+            50,
+            Profile::Fir,
+        ),
+        (
+            "vg_cycle_line_50ms/1ms_period_50_periods_paper",
+            0.001,
+            50,
+            Profile::Paper { mask_len: 100 },
+        ),
+    ] {
+        let base = mid_line(period_s, profile);
+        c.bench_function(name, |b| {
+            b.iter_batched_ref(
+                || base.clone(),
+                |vg| {
+                    let mut p = Period::default();
+                    for _ in 0..periods {
+                        black_box(vg.next_period(&mut p));
+                    }
+                    black_box(p.pulses[0])
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+
+    let settings = MotionSettings {
+        period_s: 0.001,
+        ..MotionSettings::default()
+    };
+    let mut ptp = VelocityGenerator::new(Robot::paper_default(), settings).unwrap();
+    let mut target = ptp.joints();
+    target[0] = 100.0;
+    target[1] = 20.0;
+    target[3] = 200.0;
+    ptp.plan_ptp(&target).unwrap();
+    c.bench_function("vg_cycle_ptp_50ms/1ms_period_50_periods", |b| {
+        b.iter_batched_ref(
+            || ptp.clone(),
+            |vg| {
+                let mut p = Period::default();
+                for _ in 0..50 {
+                    black_box(vg.next_period(&mut p));
+                }
+            },
+            BatchSize::SmallInput,
+        )
+    });
+
+    let idle = mid_line(0.010, Profile::Fir);
+    let mut fresh = VelocityGenerator::new(Robot::paper_default(), *idle.settings()).unwrap();
+    let start = fresh
+        .robot()
+        .inverse(
+            &Pose {
+                x: 300.0,
+                y: -100.0,
+                z: 0.0,
+                yaw: 0.0,
+            },
+            Posture::Right,
+            None,
+        )
+        .unwrap();
+    fresh
+        .set_position_pulses(&fresh.robot().joints_to_pulses(&start))
+        .unwrap();
+    c.bench_function("plan_line_250mm", |b| {
+        b.iter_batched_ref(
+            || fresh.clone(),
+            |vg| {
+                black_box(
+                    vg.plan_line(&Pose {
+                        x: 300.0,
+                        y: 150.0,
+                        z: 50.0,
+                        yaw: 30.0,
+                    })
+                    .unwrap(),
+                )
+            },
+            BatchSize::SmallInput,
+        )
+    });
+}
+
+criterion_group!(benches, cycle);
+criterion_main!(benches);

@@ -1,0 +1,657 @@
+//! The incremental velocity generator: plans a move (PTP, straight line, jog) from the
+//! current commanded position and then yields, period by period, the integer pulse
+//! increment of every axis, with a speed override and a controlled stop.
+//!
+//! Planning may take some tens of microseconds (a straight line is checked point by point)
+//! but, like every period, it does not allocate: the generator owns fixed-size arrays only,
+//! so all of it can run in the real-time Velocity Generator task. The commanded position is
+//! by definition the sum of the pulses emitted; no pulse is ever lost or invented.
+
+use wrc_robot::{IkCheck, Joints, Pose, Posture, Robot, MAX_AXES};
+
+use crate::double_s::DoubleS;
+use crate::error::{PlanError, SettingsError};
+use crate::paper::PaperChannel;
+use crate::path::LinePath;
+use crate::settings::{check_speed_pct, MotionSettings, Profile};
+
+/// Path-parameter resolution of a straight line under the paper profile [counts per line].
+const LINE_COUNTS: i64 = 1 << 40;
+
+/// What [`VelocityGenerator::next_period`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// No move: the period's pulses are all zero.
+    Idle,
+    /// A move is under way and continues after this period.
+    Working,
+    /// This period was the last of a move; the generator is idle afterwards.
+    Finished(MoveEnd),
+}
+
+/// How a move ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MoveEnd {
+    /// It reached its target.
+    Completed,
+    /// A controlled stop ended it before the target.
+    Stopped,
+}
+
+/// How the axes of a PTP move are synchronised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sync {
+    /// All axes follow one shape: a straight line in joint space.
+    Phase,
+    /// Each axis has its own shape with the same duration (used when one shape would be
+    /// slower than the slowest axis's own optimum, as Ruckig does).
+    Time,
+    /// One channel only (a straight line or a jog).
+    Single,
+}
+
+/// A planned move, as seen before its first period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MoveInfo {
+    /// Duration of the motion [s] (the continuous profile's; 0 for a move of no length).
+    pub duration_s: f64,
+    /// Number of periods that carry its pulses.
+    pub periods: u64,
+    /// Synchronisation of the axes.
+    pub sync: Sync,
+}
+
+/// The output of one period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Period {
+    /// Pulses to emit on each axis in this period [pulse]; entries past the axis count are 0.
+    pub pulses: [i64; MAX_AXES],
+    /// Commanded joints at the end of the period before rounding to pulses [deg or mm]
+    /// (for plots and tests; the pulses are what moves).
+    pub exact: Joints,
+}
+
+impl Default for Period {
+    fn default() -> Self {
+        Period {
+            pulses: [0; MAX_AXES],
+            exact: [0.0; MAX_AXES],
+        }
+    }
+}
+
+/// Timing law of every channel. Both variants are fixed-size arrays on purpose: boxing the
+/// larger one would allocate when a move is planned in the real-time task.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Law {
+    Fir([DoubleS; MAX_AXES]),
+    Paper([PaperChannel; MAX_AXES]),
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Active {
+    Idle,
+    Joint {
+        start: [i64; MAX_AXES],
+        distance: [i64; MAX_AXES],
+        law: Law,
+    },
+    Line {
+        path: LinePath,
+        law: Law,
+        target: [i64; MAX_AXES],
+        last: Joints,
+    },
+}
+
+/// The dynamic state of a [`VelocityGenerator`]: position, the move under way and its
+/// progress. `Copy` and heap-free, so a real-time task can keep one per queued period and
+/// restart from any of them (e.g. to stop from the period the Pulse Generator has reached).
+#[derive(Debug, Clone, Copy)]
+pub struct MotionState {
+    position: [i64; MAX_AXES],
+    active: Active,
+    k: u64,
+    stopped: bool,
+    speed_pct: f64,
+}
+
+impl MotionState {
+    /// Commanded position [pulse] in this state.
+    pub fn position_pulses(&self) -> &[i64; MAX_AXES] {
+        &self.position
+    }
+
+    /// Whether a move is under way in this state.
+    pub fn is_moving(&self) -> bool {
+        !matches!(self.active, Active::Idle)
+    }
+}
+
+/// The velocity generator of one robot.
+#[derive(Debug, Clone)]
+pub struct VelocityGenerator {
+    robot: Robot,
+    settings: MotionSettings,
+    position: [i64; MAX_AXES],
+    active: Active,
+    /// Periods done in the active move.
+    k: u64,
+    stopped: bool,
+}
+
+impl VelocityGenerator {
+    /// A generator for `robot`, idle at the home position.
+    pub fn new(robot: Robot, settings: MotionSettings) -> Result<VelocityGenerator, SettingsError> {
+        settings.validate()?;
+        let position = robot.joints_to_pulses(&robot.home());
+        Ok(VelocityGenerator {
+            robot,
+            settings,
+            position,
+            active: Active::Idle,
+            k: 0,
+            stopped: false,
+        })
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &MotionSettings {
+        &self.settings
+    }
+
+    /// Commanded position: the sum of every pulse emitted [pulse].
+    pub fn position_pulses(&self) -> &[i64; MAX_AXES] {
+        &self.position
+    }
+
+    /// Commanded position in axis units.
+    pub fn joints(&self) -> Joints {
+        self.robot.pulses_to_joints(&self.position)
+    }
+
+    /// Commanded TCP pose.
+    pub fn pose(&self) -> Pose {
+        self.robot.forward(&self.joints())
+    }
+
+    /// The dynamic state, to restore later with [`VelocityGenerator::restore`].
+    pub fn state(&self) -> MotionState {
+        MotionState {
+            position: self.position,
+            active: self.active,
+            k: self.k,
+            stopped: self.stopped,
+            speed_pct: self.settings.speed_pct,
+        }
+    }
+
+    /// Continue from a state taken from this generator (or one with the same robot and
+    /// settings) by [`VelocityGenerator::state`]. Never allocates.
+    pub fn restore(&mut self, state: &MotionState) {
+        self.position = state.position;
+        self.active = state.active;
+        self.k = state.k;
+        self.stopped = state.stopped;
+        self.settings.speed_pct = state.speed_pct;
+    }
+
+    /// Whether a move is under way.
+    pub fn is_moving(&self) -> bool {
+        !matches!(self.active, Active::Idle)
+    }
+
+    /// Set the commanded position (after homing, or to start from a known place). Refused
+    /// while moving.
+    pub fn set_position_pulses(&mut self, pulses: &[i64; MAX_AXES]) -> Result<(), PlanError> {
+        if self.is_moving() {
+            return Err(PlanError::Busy);
+        }
+        let mut p = *pulses;
+        for v in p.iter_mut().skip(self.robot.axis_count()) {
+            *v = 0;
+        }
+        self.position = p;
+        Ok(())
+    }
+
+    /// Speed override in force for the next move [%].
+    pub fn speed_pct(&self) -> f64 {
+        self.settings.speed_pct
+    }
+
+    /// Set the speed override for the next moves, 1 to 100 %.
+    pub fn set_speed_pct(&mut self, pct: f64) -> Result<(), PlanError> {
+        check_speed_pct(pct).map_err(|_| PlanError::SpeedOverride(pct))?;
+        self.settings.speed_pct = pct;
+        Ok(())
+    }
+
+    fn ensure_idle(&self) -> Result<(), PlanError> {
+        if self.is_moving() {
+            Err(PlanError::Busy)
+        } else {
+            Ok(())
+        }
+    }
+
+    fn scale(&self) -> f64 {
+        self.settings.speed_pct / 100.0
+    }
+
+    /// Plan a PTP move in joint space to `target` [deg or mm per axis]: all axes start and
+    /// finish together, each within its own limits.
+    pub fn plan_ptp(&mut self, target: &Joints) -> Result<MoveInfo, PlanError> {
+        self.ensure_idle()?;
+        self.robot.check_joints(target)?;
+        let goal = self.robot.joints_to_pulses(target);
+        let mut distance = [0i64; MAX_AXES];
+        for (i, d) in distance
+            .iter_mut()
+            .enumerate()
+            .take(self.robot.axis_count())
+        {
+            *d = goal[i] - self.position[i];
+        }
+        Ok(self.start_joint_move(distance))
+    }
+
+    /// Plan a PTP move to a Cartesian pose with the given elbow posture, or the current one
+    /// when `None` (right-handed if the arm is exactly straight).
+    pub fn plan_ptp_pose(
+        &mut self,
+        target: &Pose,
+        posture: Option<Posture>,
+    ) -> Result<MoveInfo, PlanError> {
+        self.ensure_idle()?;
+        let current = self.joints();
+        let posture = posture
+            .or_else(|| Posture::of(&self.robot, &current))
+            .unwrap_or(Posture::Right);
+        let joints = self.robot.inverse(target, posture, Some(&current))?;
+        self.plan_ptp(&joints)
+    }
+
+    /// Plan a jog: `pulses` on axis `axis`, with the same acceleration and deceleration.
+    pub fn plan_jog(&mut self, axis: usize, pulses: i64) -> Result<MoveInfo, PlanError> {
+        self.ensure_idle()?;
+        let count = self.robot.axis_count();
+        if axis >= count {
+            return Err(PlanError::NoSuchAxis { index: axis, count });
+        }
+        let a = &self.robot.axes()[axis];
+        let end = self.position[axis]
+            .checked_add(pulses)
+            .ok_or(PlanError::TooLong("pulse count overflows"))?;
+        let target = a.pulses_to_units(end);
+        if !a.within_limits(target) {
+            return Err(PlanError::JogBeyondLimit {
+                axis: a.name,
+                target,
+                min: a.min,
+                max: a.max,
+            });
+        }
+        let mut distance = [0i64; MAX_AXES];
+        distance[axis] = pulses;
+        Ok(self.start_joint_move(distance))
+    }
+
+    /// Plan a straight line of the TCP from the current pose to `target`, keeping the current
+    /// elbow posture. Refused before any pulse when any point of the line is out of reach,
+    /// too close to a singularity, or needs a joint beyond its limits.
+    pub fn plan_line(&mut self, target: &Pose) -> Result<MoveInfo, PlanError> {
+        self.ensure_idle()?;
+        let current = self.joints();
+        let posture = Posture::of(&self.robot, &current).ok_or(PlanError::PathLeavesWorkspace {
+            fraction_pct: 0.0,
+            x: self.pose().x,
+            y: self.pose().y,
+            reason: crate::error::PathProblem::Stretched,
+        })?;
+        // The target itself, with a clear message if only the other posture reaches it.
+        if let Err(err) = self.robot.inverse(target, posture, Some(&current)) {
+            let other = match posture {
+                Posture::Right => Posture::Left,
+                Posture::Left => Posture::Right,
+            };
+            return Err(match self.robot.inverse(target, other, Some(&current)) {
+                Ok(_) => PlanError::PostureChange,
+                Err(_) => PlanError::Kinematics(err),
+            });
+        }
+        let start = self.robot.forward(&current);
+        let path = LinePath::new(&self.robot, start, *target, posture);
+        let (limits, end_joints) =
+            path.plan(&self.robot, &current, &self.settings.line, self.scale())?;
+        let target_pulses = self.robot.joints_to_pulses(&end_joints);
+        if limits.v <= 0.0
+            || target_pulses[..self.robot.axis_count()] == self.position[..self.robot.axis_count()]
+        {
+            return Ok(self.nothing_to_do());
+        }
+        let mut rest = [DoubleS::REST; MAX_AXES];
+        let (law, info) = match self.settings.profile {
+            Profile::Fir => {
+                rest[0] = DoubleS::time_optimal(1.0, limits.v, limits.a, limits.j);
+                (Law::Fir(rest), self.fir_info(&rest, Sync::Single))
+            }
+            Profile::Paper { mask_len } => {
+                let half = (mask_len / 2) as u64;
+                let ts = self.settings.period_s;
+                let rate = paper_rate(limits.v, limits.a, limits.j, half, ts) * ts; // u per period
+                let periods = ((1.0 / rate).ceil() as u64).max(2 * half);
+                let mut ch = [PaperChannel::new(0, 1, half); MAX_AXES];
+                ch[0] = PaperChannel::new(LINE_COUNTS, periods, half);
+                let info = MoveInfo {
+                    duration_s: ch[0].total_periods() as f64 * ts,
+                    periods: ch[0].total_periods(),
+                    sync: Sync::Single,
+                };
+                (Law::Paper(ch), info)
+            }
+        };
+        self.active = Active::Line {
+            path,
+            law,
+            target: target_pulses,
+            last: current,
+        };
+        self.k = 0;
+        self.stopped = false;
+        Ok(info)
+    }
+
+    fn nothing_to_do(&mut self) -> MoveInfo {
+        self.active = Active::Idle;
+        MoveInfo {
+            duration_s: 0.0,
+            periods: 0,
+            sync: Sync::Single,
+        }
+    }
+
+    fn fir_info(&self, profiles: &[DoubleS; MAX_AXES], sync: Sync) -> MoveInfo {
+        let end = profiles.iter().map(|p| p.end_time()).fold(0.0, f64::max);
+        MoveInfo {
+            duration_s: end,
+            periods: periods_for(end, self.settings.period_s),
+            sync,
+        }
+    }
+
+    /// Start a joint-space move of `distance` pulses per axis.
+    fn start_joint_move(&mut self, distance: [i64; MAX_AXES]) -> MoveInfo {
+        let n = self.robot.axis_count();
+        if distance[..n].iter().all(|&d| d == 0) {
+            return self.nothing_to_do();
+        }
+        let s = self.scale();
+        let axes = self.robot.axes();
+        let moving = || (0..n).filter(|&i| distance[i] != 0);
+        let units = |i: usize| distance[i].unsigned_abs() as f64 / axes[i].pulses_per_unit;
+        let limits = |i: usize| {
+            let l = &axes[i].limits;
+            (
+                l.max_velocity * s,
+                l.max_acceleration * s * s,
+                l.max_jerk * s * s * s,
+            )
+        };
+        let (law, info) = match self.settings.profile {
+            Profile::Fir => {
+                // Each axis's own optimum; the slowest sets the duration.
+                let mut own = [DoubleS::REST; MAX_AXES];
+                let mut t_sync = 0.0f64;
+                let (mut vn, mut an, mut jn) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+                for i in moving() {
+                    let (v, a, j) = limits(i);
+                    let d = units(i);
+                    own[i] = DoubleS::time_optimal(d, v, a, j);
+                    t_sync = t_sync.max(own[i].duration());
+                    vn = vn.min(v / d);
+                    an = an.min(a / d);
+                    jn = jn.min(j / d);
+                }
+                // Phase synchronisation (one shape for all) when it is as fast as the slowest
+                // axis; otherwise each axis stretched to the common duration.
+                let common = DoubleS::time_optimal(1.0, vn, an, jn);
+                let mut profiles = [DoubleS::REST; MAX_AXES];
+                let sync = if moving().count() == 1 {
+                    for i in moving() {
+                        profiles[i] = own[i];
+                    }
+                    Sync::Single
+                } else if common.duration() <= t_sync * (1.0 + 1e-9) {
+                    for i in moving() {
+                        profiles[i] = common;
+                    }
+                    Sync::Phase
+                } else {
+                    for i in moving() {
+                        profiles[i] = own[i].stretched_to(t_sync);
+                    }
+                    Sync::Time
+                };
+                (Law::Fir(profiles), self.fir_info(&profiles, sync))
+            }
+            Profile::Paper { mask_len } => {
+                let half = (mask_len / 2) as u64;
+                let ts = self.settings.period_s;
+                let mut input_periods = 2 * half;
+                for i in moving() {
+                    let (v, a, j) = limits(i);
+                    let rate = paper_rate(v, a, j, half, ts) * ts; // units per period
+                    let need = (units(i) / rate).ceil();
+                    input_periods = input_periods.max(if need.is_finite() {
+                        need as u64
+                    } else {
+                        u64::MAX / 4
+                    });
+                }
+                let mut ch = [PaperChannel::new(0, 1, half); MAX_AXES];
+                for i in moving() {
+                    ch[i] = PaperChannel::new(distance[i], input_periods, half);
+                }
+                let periods = ch[0].total_periods().max(input_periods + 2 * half - 2);
+                let info = MoveInfo {
+                    duration_s: periods as f64 * ts,
+                    periods,
+                    sync: if moving().count() == 1 {
+                        Sync::Single
+                    } else {
+                        Sync::Phase
+                    },
+                };
+                (Law::Paper(ch), info)
+            }
+        };
+        self.active = Active::Joint {
+            start: self.position,
+            distance,
+            law,
+        };
+        self.k = 0;
+        self.stopped = false;
+        info
+    }
+
+    /// Controlled stop from any state: decelerate within every limit as soon as they allow,
+    /// keeping a straight line on its line. The move then ends with
+    /// [`MoveEnd::Stopped`] unless it was already decelerating to its target.
+    pub fn stop(&mut self) {
+        let now = self.k as f64 * self.settings.period_s;
+        let law = match &mut self.active {
+            Active::Idle => return,
+            Active::Joint { law, .. } | Active::Line { law, .. } => law,
+        };
+        let mut cut_short = false;
+        match law {
+            Law::Fir(profiles) => {
+                for p in profiles.iter_mut().filter(|p| p.t0 > 0.0) {
+                    p.stop_at(now);
+                    cut_short |= p.cut < p.t0;
+                }
+            }
+            Law::Paper(channels) => {
+                for ch in channels.iter_mut() {
+                    ch.stop();
+                    cut_short |= ch.final_pulses() != ch.distance();
+                }
+            }
+        }
+        self.stopped |= cut_short;
+    }
+
+    /// Produce the next period: the pulses of every axis, added to the commanded position.
+    /// Never allocates, never blocks.
+    pub fn next_period(&mut self, out: &mut Period) -> Status {
+        out.pulses = [0; MAX_AXES];
+        let n = self.robot.axis_count();
+        let before = self.position;
+        let finished = match &mut self.active {
+            Active::Idle => {
+                out.exact = self.robot.pulses_to_joints(&self.position);
+                return Status::Idle;
+            }
+            Active::Joint {
+                start,
+                distance,
+                law,
+            } => {
+                self.k += 1;
+                let t = self.k as f64 * self.settings.period_s;
+                let mut exact = self.robot.pulses_to_joints(start);
+                let done = match law {
+                    Law::Fir(profiles) => {
+                        let end = profiles[..n]
+                            .iter()
+                            .map(|p| p.end_time())
+                            .fold(0.0, f64::max);
+                        let last = t >= end;
+                        for i in 0..n {
+                            let f = if last {
+                                profiles[i].final_fraction()
+                            } else {
+                                profiles[i].fraction(t)
+                            };
+                            let ppu = self.robot.axes()[i].pulses_per_unit;
+                            let travelled = distance[i] as f64 * f;
+                            exact[i] += travelled / ppu;
+                            let target = start[i]
+                                + if f == 1.0 {
+                                    distance[i]
+                                } else {
+                                    travelled.round() as i64
+                                };
+                            self.position[i] = target;
+                        }
+                        last
+                    }
+                    Law::Paper(channels) => {
+                        let mut done = true;
+                        for i in 0..n {
+                            let ch = &mut channels[i];
+                            self.position[i] += ch.next_pulses();
+                            exact[i] += ch.exact_output() / self.robot.axes()[i].pulses_per_unit;
+                            done &= ch.done();
+                        }
+                        done
+                    }
+                };
+                out.exact = exact;
+                done
+            }
+            Active::Line {
+                path,
+                law,
+                target,
+                last,
+            } => {
+                self.k += 1;
+                let t = self.k as f64 * self.settings.period_s;
+                let (u, done, complete) = match law {
+                    Law::Fir(p) => {
+                        let done = t >= p[0].end_time();
+                        let f = if done {
+                            p[0].final_fraction()
+                        } else {
+                            p[0].fraction(t)
+                        };
+                        (f, done, done && f == 1.0)
+                    }
+                    Law::Paper(ch) => {
+                        ch[0].next_pulses();
+                        let done = ch[0].done();
+                        (
+                            ch[0].emitted() as f64 / LINE_COUNTS as f64,
+                            done,
+                            done && ch[0].emitted() == LINE_COUNTS,
+                        )
+                    }
+                };
+                // Points between planning samples were checked within half the singularity
+                // margin; follow the path without re-applying margin and soft limits.
+                if let Ok(q) = self.robot.inverse_checked(
+                    &path.pose_at(u),
+                    path.posture,
+                    Some(last),
+                    IkCheck::CONTINUE,
+                ) {
+                    *last = q;
+                }
+                out.exact = *last;
+                if complete {
+                    self.position = *target;
+                } else {
+                    let p = self.robot.joints_to_pulses(last);
+                    self.position[..n].copy_from_slice(&p[..n]);
+                }
+                done
+            }
+        };
+        for ((out, now), was) in out
+            .pulses
+            .iter_mut()
+            .zip(&self.position)
+            .zip(&before)
+            .take(n)
+        {
+            *out = now - was;
+        }
+        if finished {
+            self.active = Active::Idle;
+            let end = if self.stopped {
+                MoveEnd::Stopped
+            } else {
+                MoveEnd::Completed
+            };
+            self.stopped = false;
+            Status::Finished(end)
+        } else {
+            Status::Working
+        }
+    }
+}
+
+/// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
+/// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
+fn paper_rate(v: f64, a: f64, j: f64, half: u64, ts: f64) -> f64 {
+    let m_ts = half as f64 * ts;
+    v.min(a * m_ts).min(j * m_ts * m_ts)
+}
+
+/// Periods needed to cover `duration` [s] at period `ts` [s].
+fn periods_for(duration: f64, ts: f64) -> u64 {
+    if duration <= 0.0 {
+        0
+    } else {
+        ((duration / ts) - 1e-9).ceil().max(1.0) as u64
+    }
+}

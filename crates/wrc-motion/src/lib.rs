@@ -1,0 +1,48 @@
+//! Velocity generation for wrc: the paper's Velocity Generator mathematics.
+//!
+//! A [`VelocityGenerator`] plans a move — PTP in joint space, PTP to a Cartesian pose, a
+//! straight line of the tool centre point (the paper's Table 2), or a jog of one axis — and
+//! then yields each period's integer pulse increments per axis. Two profiles:
+//! - [`Profile::Fir`] (default): the constant-velocity stream through two moving averages of
+//!   lengths V/A and A/J, the time-optimal jerk-limited rest-to-rest motion ([`DoubleS`]);
+//! - [`Profile::Paper`]: the paper's triangular mask (eq. 1) convolved with the input pulses
+//!   (eq. 2), normalised so that no pulse is lost ([`PaperChannel`]).
+//!
+//! Guarantees: the pulses emitted for a completed move sum exactly to the target; velocity,
+//! acceleration and jerk stay within every axis's limits (scaled by the speed override);
+//! straight lines keep the TCP on the segment; planning and every period run without heap
+//! allocation, without I/O and without blocking, so they can run in a real-time task.
+//!
+//! ```
+//! use wrc_motion::{MotionSettings, Period, Status, VelocityGenerator};
+//! use wrc_robot::Robot;
+//!
+//! let robot = Robot::paper_default();
+//! let mut vg = VelocityGenerator::new(robot, MotionSettings::default()).unwrap();
+//! let start = vg.position_pulses()[0];
+//! let info = vg.plan_jog(0, 10_000).unwrap(); // 10 deg on J1
+//! let mut period = Period::default();
+//! let mut total = 0;
+//! while let Status::Working | Status::Finished(_) = vg.next_period(&mut period) {
+//!     total += period.pulses[0];
+//!     if !vg.is_moving() { break; }
+//! }
+//! assert_eq!(total, 10_000);
+//! assert_eq!(vg.position_pulses()[0], start + 10_000);
+//! assert!(info.periods > 0);
+//! ```
+#![deny(missing_docs)]
+
+mod double_s;
+mod error;
+mod generator;
+mod paper;
+mod path;
+mod settings;
+
+pub use double_s::DoubleS;
+pub use error::{PathProblem, PlanError, SettingsError};
+pub use generator::{MotionState, MoveEnd, MoveInfo, Period, Status, Sync, VelocityGenerator};
+pub use paper::PaperChannel;
+pub use path::{LinePath, PathLimits};
+pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};

@@ -1,0 +1,200 @@
+//! The verb table: every verb's name, usage, one-line summary and how the controller treats
+//! it. Adding a verb starts here (a variant, its [`Verb::spec`] arm, its place in
+//! [`Verb::ALL`]), then its [`Command`](crate::Command) variant and parse arm.
+
+use core::fmt;
+
+/// A request verb (the word after the optional id), matched case-insensitively.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Verb {
+    /// `STATUS`: state, homed, speed, owner and last error.
+    Status,
+    /// `WHERE`: joint positions and the tool pose.
+    Where,
+    /// `HOME`: home every axis.
+    Home,
+    /// `MOVJ`: joint point-to-point move.
+    MovJ,
+    /// `MOVP`: point-to-point move to a Cartesian pose.
+    MovP,
+    /// `MOVL`: straight-line move to a Cartesian pose.
+    MovL,
+    /// `JOG`: move one axis by a number of pulses.
+    Jog,
+    /// `SPEED`: set the speed override [%].
+    Speed,
+    /// `STOP`: controlled stop.
+    Stop,
+    /// `ESTOP`: emergency stop.
+    Estop,
+    /// `RESET`: clear ERROR or ESTOP.
+    Reset,
+    /// `IO`: input and output words.
+    Io,
+    /// `OUT`: set one output.
+    Out,
+    /// `WAIT`: reply INF when the robot stands still.
+    Wait,
+    /// `CONTROL`: take control for this connection.
+    Control,
+    /// `RELEASE`: give control back.
+    Release,
+    /// `HELP`: list the verbs.
+    Help,
+    /// `SUBSCRIBE`: receive the status stream on this connection.
+    Subscribe,
+    /// `UNSUBSCRIBE`: stop the status stream on this connection.
+    Unsubscribe,
+}
+
+/// What the controller needs to know about a verb, and what `HELP` and the docs say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VerbSpec {
+    /// The verb as written on the wire, upper case.
+    pub name: &'static str,
+    /// Arguments, as in the docs (`<x> <y> <z> <yaw> [L|R]`); empty when there are none.
+    pub args: &'static str,
+    /// One-line description.
+    pub summary: &'static str,
+    /// The request runs in three phases: `ACK` when accepted, then `INF` when it finished
+    /// normally or `ABS` when it ended abnormally.
+    pub completes_later: bool,
+    /// The request is refused (code 120) while another source holds control. `STOP`,
+    /// `ESTOP` and queries are accepted from every source.
+    pub needs_control: bool,
+}
+
+impl Verb {
+    /// Every verb, in the order `HELP` lists them.
+    pub const ALL: &'static [Verb] = &[
+        Verb::Status,
+        Verb::Where,
+        Verb::Home,
+        Verb::MovJ,
+        Verb::MovP,
+        Verb::MovL,
+        Verb::Jog,
+        Verb::Speed,
+        Verb::Stop,
+        Verb::Estop,
+        Verb::Reset,
+        Verb::Io,
+        Verb::Out,
+        Verb::Wait,
+        Verb::Control,
+        Verb::Release,
+        Verb::Help,
+        Verb::Subscribe,
+        Verb::Unsubscribe,
+    ];
+
+    /// The verb's table entry.
+    pub fn spec(self) -> VerbSpec {
+        const fn v(
+            name: &'static str,
+            args: &'static str,
+            summary: &'static str,
+            completes_later: bool,
+            needs_control: bool,
+        ) -> VerbSpec {
+            VerbSpec {
+                name,
+                args,
+                summary,
+                completes_later,
+                needs_control,
+            }
+        }
+        match self {
+            Verb::Status => v(
+                "STATUS",
+                "",
+                "state, homed, speed, owner, last error",
+                false,
+                false,
+            ),
+            Verb::Where => v("WHERE", "", "joint positions and tool pose", false, false),
+            Verb::Home => v("HOME", "", "home every axis", true, true),
+            Verb::MovJ => v(
+                "MOVJ",
+                "<j1> ... <jn>",
+                "joint PTP move [deg|mm]",
+                true,
+                true,
+            ),
+            Verb::MovP => v(
+                "MOVP",
+                "<x> <y> <z> <yaw> [L|R]",
+                "PTP move to a pose [mm, deg]",
+                true,
+                true,
+            ),
+            Verb::MovL => v(
+                "MOVL",
+                "<x> <y> <z> <yaw>",
+                "straight-line move to a pose [mm, deg]",
+                true,
+                true,
+            ),
+            Verb::Jog => v(
+                "JOG",
+                "<axis> <pulses>",
+                "move one axis [pulse]",
+                true,
+                true,
+            ),
+            Verb::Speed => v("SPEED", "<1-100>", "speed override [%]", false, true),
+            Verb::Stop => v("STOP", "", "controlled stop", false, false),
+            Verb::Estop => v("ESTOP", "", "emergency stop", false, false),
+            Verb::Reset => v("RESET", "", "clear ERROR or ESTOP", false, true),
+            Verb::Io => v("IO", "", "input and output words", false, false),
+            Verb::Out => v("OUT", "<n> 0|1", "set output n", false, true),
+            Verb::Wait => v("WAIT", "", "INF when the robot stands still", true, false),
+            Verb::Control => v("CONTROL", "", "take control", false, false),
+            Verb::Release => v("RELEASE", "", "give control back", false, false),
+            Verb::Help => v("HELP", "", "list the verbs", false, false),
+            Verb::Subscribe => v("SUBSCRIBE", "", "start the status stream", false, false),
+            Verb::Unsubscribe => v("UNSUBSCRIBE", "", "stop the status stream", false, false),
+        }
+    }
+
+    /// The verb as written on the wire, upper case.
+    pub fn name(self) -> &'static str {
+        self.spec().name
+    }
+
+    /// The verb named `word`, compared ignoring ASCII case.
+    pub fn from_name(word: &[u8]) -> Option<Verb> {
+        Verb::ALL
+            .iter()
+            .copied()
+            .find(|v| v.name().as_bytes().eq_ignore_ascii_case(word))
+    }
+}
+
+impl fmt::Display for Verb {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_upper_case_and_found_in_any_case() {
+        for (i, &a) in Verb::ALL.iter().enumerate() {
+            assert_eq!(a.name(), a.name().to_ascii_uppercase());
+            assert_eq!(Verb::from_name(a.name().as_bytes()), Some(a));
+            let lower = a.name().to_ascii_lowercase();
+            assert_eq!(Verb::from_name(lower.as_bytes()), Some(a));
+            for &b in &Verb::ALL[i + 1..] {
+                assert_ne!(a.name(), b.name());
+            }
+        }
+        assert_eq!(Verb::from_name(b"MOVE"), None);
+        assert_eq!(Verb::from_name(b""), None);
+    }
+}

@@ -1,0 +1,116 @@
+//! The load for `wrc bench rt --load`: stress-ng when it is installed, otherwise a built-in
+//! stressor (one arithmetic spinner per CPU and one thread that keeps allocating, touching
+//! and freeing 64 MiB). Both run on normal scheduling, as other work on the controller would.
+
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+/// A running load; dropped or [`Load::stop`]ped, it ends.
+#[derive(Debug)]
+pub enum Load {
+    /// stress-ng as a child process.
+    StressNg {
+        /// The process.
+        child: Child,
+        /// Its command line.
+        command: String,
+    },
+    /// The built-in stressor's threads.
+    BuiltIn {
+        /// Set to end the threads.
+        stop: Arc<AtomicBool>,
+        /// The threads.
+        threads: Vec<JoinHandle<()>>,
+    },
+}
+
+impl Load {
+    /// Start stress-ng (CPU and memory stressors on every CPU for `seconds` + 5 s) if it is
+    /// installed, else the built-in stressor.
+    pub fn start(seconds: u64) -> Load {
+        let cpus = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1);
+        let args = [
+            "--cpu".to_string(),
+            cpus.to_string(),
+            "--vm".into(),
+            "1".into(),
+            "--vm-bytes".into(),
+            "128M".into(),
+            "--timeout".into(),
+            format!("{}s", seconds + 5),
+            "--quiet".into(),
+        ];
+        let command = format!("stress-ng {}", args.join(" "));
+        match Command::new("stress-ng")
+            .args(&args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+        {
+            Ok(child) => Load::StressNg { child, command },
+            Err(_) => Load::built_in(cpus),
+        }
+    }
+
+    /// The built-in stressor on `cpus` spinners plus one memory thread.
+    pub fn built_in(cpus: usize) -> Load {
+        let stop = Arc::new(AtomicBool::new(false));
+        let mut threads = Vec::new();
+        for _ in 0..cpus {
+            let stop = stop.clone();
+            threads.push(std::thread::spawn(move || {
+                let mut x = 1.0f64;
+                while !stop.load(Ordering::Relaxed) {
+                    for _ in 0..10_000 {
+                        x = (x * 1.000_001 + 0.25).sqrt();
+                    }
+                    std::hint::black_box(x);
+                }
+            }));
+        }
+        let stop_mem = stop.clone();
+        threads.push(std::thread::spawn(move || {
+            while !stop_mem.load(Ordering::Relaxed) {
+                let mut block = vec![0u8; 64 << 20];
+                for i in (0..block.len()).step_by(4096) {
+                    block[i] = i as u8;
+                }
+                std::hint::black_box(&block);
+            }
+        }));
+        Load::BuiltIn { stop, threads }
+    }
+
+    /// What is running, for the report.
+    pub fn describe(&self) -> String {
+        match self {
+            Load::StressNg { command, .. } => command.clone(),
+            Load::BuiltIn { threads, .. } => {
+                format!("built-in stressor ({} CPU spinners, 1 thread allocating 64 MiB; stress-ng not installed)", threads.len() - 1)
+            }
+        }
+    }
+
+    /// End the load.
+    pub fn stop(self) {
+        match self {
+            Load::StressNg { mut child, .. } => {
+                // SIGTERM lets stress-ng end its own workers.
+                // SAFETY: kill() with a pid we spawned and still own (not yet reaped).
+                unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+                let _ = child.wait();
+            }
+            Load::BuiltIn { stop, threads } => {
+                stop.store(true, Ordering::Relaxed);
+                threads.into_iter().for_each(|t| {
+                    let _ = t.join();
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,39 @@
+//! The task trait: a setup step that may allocate, and a cycle step that must not.
+
+/// Why a task's setup failed (any error; setup runs before real-time starts).
+pub type SetupError = Box<dyn std::error::Error + Send + Sync>;
+
+/// What a cycle knows about its timing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CycleContext {
+    /// Cycles run before this one.
+    pub cycle: u64,
+    /// The grid point this cycle was scheduled for [ns, on the runtime's clock].
+    pub scheduled_ns: u64,
+    /// When the thread actually woke [ns].
+    pub woke_ns: u64,
+    /// The task's period [ns].
+    pub period_ns: u64,
+}
+
+/// One periodic real-time task. The runtime owns timing: it wakes the task on its grid,
+/// calls [`Task::cycle`], measures it and puts the thread back to sleep.
+///
+/// `cycle` runs on a SCHED_FIFO thread: it must not allocate, print, lock a contended mutex,
+/// block or make an avoidable system call, and it should return well within its period.
+pub trait Task: Send + 'static {
+    /// Prepare (allocate buffers, open devices). Runs on the task's own thread, after its
+    /// scheduling is set and before the first cycle.
+    fn setup(&mut self) -> Result<(), SetupError> {
+        Ok(())
+    }
+
+    /// Do one period's work.
+    fn cycle(&mut self, ctx: &CycleContext);
+}
+
+impl<F: FnMut(&CycleContext) + Send + 'static> Task for F {
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self(ctx)
+    }
+}

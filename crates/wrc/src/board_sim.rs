@@ -1,0 +1,264 @@
+//! `wrc board-sim`: run a simulated motion board on a DPRAM file (the DSP side of
+//! `docs/dpram.md`), inject faults into a running one, or print its state.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use clap::{Args, Subcommand};
+use wrc_board::layout::{alarm, axis_status, board_status};
+use wrc_board::sim::runner::{self, SystemClock};
+use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
+use wrc_config::{BoardConfig, Config};
+
+/// Arguments of `wrc board-sim`.
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct BoardSimArgs {
+    #[command(subcommand)]
+    action: Option<Action>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+#[derive(Debug, Subcommand)]
+enum Action {
+    /// Inject a fault into a running simulated board:
+    /// alarm AXIS | encoder-stuck AXIS on|off | sensor-flip INPUT on|off | estop on|off | clear
+    Inject(InjectArgs),
+    /// Print a board's header, status, axes and I/O once.
+    Status(TargetArgs),
+}
+
+#[derive(Debug, Args)]
+struct TargetArgs {
+    /// The board's DPRAM [default: the configured board's `dpram`].
+    #[arg(long, value_name = "PATH")]
+    dpram: Option<PathBuf>,
+    /// Configuration file [default: the embedded default].
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Which `[[board]]` of the configuration.
+    #[arg(long, value_name = "ID", default_value_t = 0)]
+    board_id: u32,
+}
+
+#[derive(Debug, Args)]
+struct InjectArgs {
+    #[command(flatten)]
+    target: TargetArgs,
+    /// The fault, e.g. `alarm 1` or `estop on`.
+    #[arg(required = true, num_args = 1..)]
+    fault: Vec<String>,
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    #[command(flatten)]
+    target: TargetArgs,
+    /// Command FIFO depth [periods] (1-64) [default: from the configuration].
+    #[arg(long, value_name = "PERIODS")]
+    fifo_depth: Option<u32>,
+    /// Stop all axes when the host watchdog is stale this long [periods] [default: from
+    /// the configuration].
+    #[arg(long, value_name = "PERIODS")]
+    watchdog_periods: Option<u32>,
+    /// Fault present from the start (repeatable), e.g. `--fault "encoder-stuck 0 on"`.
+    #[arg(long, value_name = "FAULT")]
+    fault: Vec<String>,
+    /// Exit after this many board periods [default: run until killed].
+    #[arg(long, value_name = "N")]
+    periods: Option<u64>,
+}
+
+/// Run `wrc board-sim`.
+pub fn run(args: BoardSimArgs) -> anyhow::Result<ExitCode> {
+    match args.action {
+        None => run_board(args.run),
+        Some(Action::Inject(a)) => inject(a),
+        Some(Action::Status(t)) => status(t),
+    }
+}
+
+/// The configuration and the selected board (with the `--dpram` override applied).
+fn target(t: &TargetArgs) -> anyhow::Result<(Config, BoardConfig)> {
+    let config = Config::load(t.config.as_deref())?;
+    let Some(mut board) = config.boards.iter().find(|b| b.id == t.board_id).cloned() else {
+        let ids: Vec<String> = config.boards.iter().map(|b| b.id.to_string()).collect();
+        bail!(
+            "config {} has no [[board]] with id {} (it has: {})",
+            config.source,
+            t.board_id,
+            ids.join(", ")
+        );
+    };
+    if let Some(path) = &t.dpram {
+        board.dpram = path.clone();
+    }
+    Ok((config, board))
+}
+
+fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let (config, mut board) = target(&args.target)?;
+    if let Some(depth) = args.fifo_depth {
+        if !(1..=64).contains(&depth) {
+            bail!("--fifo-depth {depth}: expected 1 to 64 periods");
+        }
+        board.fifo_depth = depth;
+    }
+    if let Some(periods) = args.watchdog_periods {
+        if periods == 0 {
+            bail!("--watchdog-periods 0: expected at least 1 period");
+        }
+        board.watchdog_periods = periods;
+    }
+    let faults = args
+        .fault
+        .iter()
+        .map(|f| f.parse::<Fault>().with_context(|| "--fault"))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let settings = SimSettings::from_config(&config, &board);
+    let mut sim = SimBoard::create(&board.dpram, &settings)?;
+    for fault in faults {
+        sim.apply_fault(fault);
+    }
+    let h = *sim.dpram().header();
+    eprintln!(
+        "wrc board-sim: board {} with {} axes, period {} µs, FIFO depth {}, watchdog {} periods, DPRAM {} (epoch {})",
+        h.board_id,
+        h.axis_count,
+        h.period_us,
+        h.fifo_depth,
+        board.watchdog_periods,
+        board.dpram.display(),
+        h.epoch
+    );
+    let stop = AtomicBool::new(false);
+    runner::run(&mut sim, &SystemClock::default(), &stop, args.periods);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn open(t: &TargetArgs) -> anyhow::Result<DpramBoard> {
+    let (_, board) = target(t)?;
+    Ok(DpramBoard::open(&board.dpram, Expect::default())?)
+}
+
+fn inject(args: InjectArgs) -> anyhow::Result<ExitCode> {
+    let fault: Fault = args.fault.join(" ").parse()?;
+    let board = open(&args.target)?;
+    let path = board.dpram().mapping().path().to_path_buf();
+    wait(&path, "take the previous fault", || {
+        board.dpram().load(wrc_board::layout::fault::ACK)
+            == board.dpram().load(wrc_board::layout::fault::SEQ)
+    })?;
+    if !fault.inject(board.dpram()) {
+        bail!(
+            "DPRAM {}: another fault is being injected; try again",
+            path.display()
+        );
+    }
+    wait(&path, "take the fault", || {
+        board.dpram().load(wrc_board::layout::fault::ACK)
+            == board.dpram().load(wrc_board::layout::fault::SEQ)
+    })?;
+    eprintln!(
+        "wrc board-sim: injected \"{fault}\" into {}",
+        path.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn wait(path: &Path, what: &str, done: impl Fn() -> bool) -> anyhow::Result<()> {
+    let start = Instant::now();
+    while !done() {
+        if start.elapsed() > Duration::from_secs(2) {
+            bail!(
+                "DPRAM {}: the board did not {what} within 2 s; is `wrc board-sim` running on it?",
+                path.display()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    Ok(())
+}
+
+fn bits(value: u32, names: &[(u32, &str)]) -> String {
+    let list: Vec<&str> = names
+        .iter()
+        .filter(|(b, _)| value & b != 0)
+        .map(|(_, n)| *n)
+        .collect();
+    if list.is_empty() {
+        "-".into()
+    } else {
+        list.join(",")
+    }
+}
+
+fn status(t: TargetArgs) -> anyhow::Result<ExitCode> {
+    let board = open(&t)?;
+    let mut f = Feedback::default();
+    board.read_feedback(&mut f)?;
+    let h = board.header();
+    let b = &f.boards[0];
+    println!(
+        "board {} epoch {} period_us {} fifo_depth {} periods {} board_watchdog {} watchdog_trips {} late_periods {}",
+        h.board_id, h.epoch, h.period_us, h.fifo_depth, b.period_count, b.board_watchdog, b.watchdog_trips, b.late_periods
+    );
+    println!(
+        "status {} inputs {:#010x} outputs {:#010x}",
+        bits(
+            b.status,
+            &[
+                (board_status::RUNNING, "running"),
+                (board_status::WATCHDOG_ARMED, "watchdog-armed"),
+                (board_status::WATCHDOG_TRIPPED, "watchdog-tripped"),
+                (board_status::ESTOP, "estop"),
+                (board_status::STOPPING, "stopping"),
+                (board_status::ALARM, "alarm"),
+            ]
+        ),
+        b.inputs,
+        b.outputs
+    );
+    println!("axis commanded_pulse encoder_pulse following_error_pulse fifo underruns alarms status alarm");
+    for (i, a) in f.axes[..f.axis_count].iter().enumerate() {
+        println!(
+            "{i} {} {} {} {} {} {} {} {}",
+            a.commanded,
+            a.encoder,
+            a.following_error,
+            a.fifo_level,
+            a.underruns,
+            a.alarms,
+            bits(
+                a.status,
+                &[
+                    (axis_status::SERVO_ON, "servo-on"),
+                    (axis_status::ALARM, "alarm"),
+                    (axis_status::LIMIT_POS, "limit+"),
+                    (axis_status::LIMIT_NEG, "limit-"),
+                    (axis_status::MOVING, "moving"),
+                    (axis_status::STOPPING, "stopping"),
+                    (axis_status::UNDERRUN, "underrun"),
+                    (axis_status::STREAMING, "streaming"),
+                ]
+            ),
+            bits(
+                a.alarm,
+                &[
+                    (alarm::OVERSPEED, "overspeed"),
+                    (alarm::FOLLOWING_ERROR, "following-error"),
+                    (alarm::LIMIT_POS, "limit+"),
+                    (alarm::LIMIT_NEG, "limit-"),
+                    (alarm::FIFO_SEQUENCE, "fifo-sequence"),
+                    (alarm::AMPLIFIER, "amplifier"),
+                ]
+            )
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

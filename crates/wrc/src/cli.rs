@@ -1,0 +1,47 @@
+//! The command line: one subcommand per job, each in its own module.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::bench;
+use crate::board_sim;
+use crate::plan;
+use crate::send;
+use crate::up;
+
+/// wrc — real-time controller for wafer-handling robots.
+#[derive(Debug, Parser)]
+#[command(name = "wrc", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Start the controller: the eight real-time tasks, simulated boards, host protocol on
+    /// TCP, the local GUI socket and the simulator stream.
+    Up(up::UpArgs),
+    /// Send one command line to a running controller and print the replies.
+    Send(send::SendArgs),
+    /// Plan a move offline and print its per-period pulses as CSV (no controller needed).
+    Plan(plan::PlanArgs),
+    /// Run a simulated motion board on a DPRAM file (the DSP side), inject faults into it
+    /// or print its state.
+    BoardSim(board_sim::BoardSimArgs),
+    /// Measure: `wrc bench rt` runs the real-time task set and prints the paper's Tables 3-5.
+    Bench(bench::BenchArgs),
+}
+
+/// Parse the command line and run the subcommand; the exit code is the subcommand's.
+pub fn run() -> anyhow::Result<ExitCode> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Up(args) => up::run(args),
+        Command::Send(args) => send::run(args),
+        Command::Plan(args) => plan::run(args),
+        Command::BoardSim(args) => board_sim::run(args),
+        Command::Bench(args) => bench::run(args),
+    }
+}

@@ -1,0 +1,30 @@
+//! `wrc`: argument parsing and wiring of the wrc crates; no logic of its own.
+
+mod bench;
+mod bench_controller;
+mod board_sim;
+mod cli;
+mod plan;
+mod plot;
+mod send;
+mod up;
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    // A bug must still reach the user as one sentence, not a backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("wrc: internal error (a bug in wrc, please report it): {info}");
+    }));
+    match cli::run() {
+        Ok(code) => code,
+        Err(err) => {
+            // One clear sentence (and its causes), never a panic or a backtrace.
+            eprintln!("wrc: error: {err}");
+            for cause in err.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::from(2)
+        }
+    }
+}

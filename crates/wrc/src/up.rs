@@ -1,0 +1,266 @@
+//! `wrc up`: the controller with its simulated boards, endpoints printed, stopped cleanly by
+//! SIGINT or SIGTERM (controlled stop of any motion, state saved, tasks stopped, exit 0).
+
+use std::net::SocketAddr;
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitCode, Stdio};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use clap::Args;
+use wrc_config::Config;
+use wrc_controller::controller::{self, Options};
+use wrc_controller::rs232c::Parity;
+use wrc_rt::RealtimeMode;
+
+/// Arguments of `wrc up`.
+#[derive(Debug, Args)]
+pub struct UpArgs {
+    /// Robot configuration (TOML); default: the embedded paper robot.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Use this DPRAM (a real board's PCI BAR or UIO device, or a board-sim file) instead of
+    /// starting simulated boards; once per board, in configuration order.
+    #[arg(long, value_name = "PATH")]
+    board: Vec<PathBuf>,
+    /// Host protocol TCP address.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7100")]
+    port: SocketAddr,
+    /// Simulator datagrams go to this UDP address.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7200")]
+    sim_addr: SocketAddr,
+    /// Local GUI socket [default: STATE_DIR/wrc.sock].
+    #[arg(long, value_name = "PATH")]
+    socket: Option<PathBuf>,
+    /// Saved state, simulated boards' DPRAM files and the socket live here.
+    #[arg(long, value_name = "DIR", default_value = "/tmp/wrc")]
+    state_dir: PathBuf,
+    /// Teaching pendant serial device (e.g. /dev/ttyUSB0).
+    #[arg(long, value_name = "DEV")]
+    serial: Option<PathBuf>,
+    /// Serial speed [baud].
+    #[arg(long, value_name = "BAUD", default_value_t = 9600)]
+    baud: u32,
+    /// Serial parity: none, even or odd.
+    #[arg(long, value_name = "PARITY", default_value = "none")]
+    parity: String,
+    /// Do not start the GUI (the GUI is not part of wrc yet, so this is the default).
+    #[arg(long)]
+    no_ui: bool,
+    /// Run without SCHED_FIFO even where it is allowed.
+    #[arg(long)]
+    no_rt: bool,
+}
+
+/// Signals that end `wrc up`, blocked in every thread and taken by `sigwait`.
+fn termination_signals() -> libc::sigset_t {
+    // SAFETY: sigemptyset/sigaddset only write the set we own.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        libc::sigaddset(&mut set, libc::SIGINT);
+        libc::sigaddset(&mut set, libc::SIGTERM);
+        set
+    }
+}
+
+pub(crate) fn spawn_board(
+    config: Option<&Path>,
+    id: u32,
+    dpram: &Path,
+    log: &Path,
+) -> anyhow::Result<Child> {
+    let exe =
+        std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
+    let mut cmd = Command::new(exe);
+    cmd.arg("board-sim")
+        .arg("--dpram")
+        .arg(dpram)
+        .arg("--board-id")
+        .arg(id.to_string());
+    if let Some(c) = config {
+        cmd.arg("--config").arg(c);
+    }
+    let log =
+        std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
+    cmd.stdin(Stdio::null())
+        .stdout(log.try_clone()?)
+        .stderr(log);
+    // SAFETY: runs in the child between fork and exec and only calls async-signal-safe
+    // functions (sigprocmask, prctl).
+    unsafe {
+        cmd.pre_exec(|| {
+            let mut empty: libc::sigset_t = std::mem::zeroed();
+            libc::sigemptyset(&mut empty);
+            libc::sigprocmask(libc::SIG_SETMASK, &empty, std::ptr::null_mut());
+            // The simulated board dies with the controller, even on kill -9.
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+            Ok(())
+        });
+    }
+    cmd.spawn()
+        .context("cannot start the simulated board (wrc board-sim)")
+}
+
+pub(crate) fn stop_children(children: &mut [Child]) {
+    for c in children.iter_mut() {
+        // SAFETY: kill with a pid we spawned and have not reaped.
+        unsafe {
+            libc::kill(c.id() as libc::pid_t, libc::SIGTERM);
+        }
+    }
+    let deadline = Instant::now() + Duration::from_secs(2);
+    for c in children.iter_mut() {
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = c.try_wait() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        if let Ok(None) = c.try_wait() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Run `wrc up`.
+pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
+    let config = Config::load(args.config.as_deref())?;
+    let parity = match args.parity.to_ascii_lowercase().as_str() {
+        "none" | "n" => Parity::None,
+        "even" | "e" => Parity::Even,
+        "odd" | "o" => Parity::Odd,
+        other => bail!("--parity {other:?}: use none, even or odd"),
+    };
+    std::fs::create_dir_all(&args.state_dir).with_context(|| {
+        format!(
+            "cannot create the state directory {}",
+            args.state_dir.display()
+        )
+    })?;
+    // Block SIGINT/SIGTERM before any thread exists, so that only sigwait below sees them.
+    let signals = termination_signals();
+    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
+    unsafe {
+        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
+    }
+
+    let mut children = Vec::new();
+    let boards: Vec<PathBuf> = if args.board.is_empty() {
+        let mut paths = Vec::new();
+        for b in &config.boards {
+            let dpram = args.state_dir.join(format!("board{}.dpram", b.id));
+            let log = args.state_dir.join(format!("board{}.log", b.id));
+            let _ = std::fs::remove_file(&dpram);
+            children.push(spawn_board(args.config.as_deref(), b.id, &dpram, &log)?);
+            paths.push(dpram);
+        }
+        paths
+    } else {
+        if args.board.len() != config.boards.len() {
+            bail!(
+                "--board was given {} times but the configuration has {} boards",
+                args.board.len(),
+                config.boards.len()
+            );
+        }
+        args.board.clone()
+    };
+    let options = Options {
+        tcp: Some(args.port),
+        socket: Some(
+            args.socket
+                .clone()
+                .unwrap_or_else(|| args.state_dir.join("wrc.sock")),
+        ),
+        sim_addr: args.sim_addr,
+        serial: args.serial.clone().map(|p| (p, args.baud, parity)),
+        realtime: if args.no_rt {
+            RealtimeMode::Off
+        } else {
+            RealtimeMode::Auto
+        },
+        boards: boards.clone(),
+        board_wait: Duration::from_secs(10),
+    };
+    let running = match controller::start(&config, &options) {
+        Ok(r) => r,
+        Err(e) => {
+            stop_children(&mut children);
+            return Err(e).context("the controller could not start");
+        }
+    };
+    if let Some(s) = running.scheduling() {
+        println!("wrc: {s}");
+    }
+    if let Some(tcp) = running.tcp {
+        println!("wrc: host protocol on tcp {tcp}");
+    }
+    if let Some(path) = &running.socket {
+        println!("wrc: local GUI socket {}", path.display());
+    }
+    println!("wrc: simulator datagrams to udp {}", running.sim_addr);
+    if let Some(serial) = &args.serial {
+        println!(
+            "wrc: teaching pendant on {} ({} baud, parity {})",
+            serial.display(),
+            args.baud,
+            args.parity
+        );
+    }
+    for (b, path) in boards.iter().enumerate() {
+        let how = if children.is_empty() {
+            "board"
+        } else {
+            "simulated board (wrc board-sim)"
+        };
+        println!("wrc: board {b}: {how} at {}", path.display());
+    }
+    println!("wrc: GUI not started (--no-ui; the web GUI is not part of wrc yet)");
+    println!("wrc: ready; Ctrl-C or SIGTERM stops the robot and the controller");
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+
+    let mut sig: libc::c_int = 0;
+    // SAFETY: waits for one of the blocked signals in `signals`.
+    unsafe {
+        libc::sigwait(&signals, &mut sig);
+    }
+    println!("wrc: signal {sig}: stopping any motion, saving state, stopping tasks");
+    let shared = running.shared().clone();
+    let report = running.shutdown(Duration::from_secs(3));
+    save_state(&args.state_dir, &shared);
+    stop_children(&mut children);
+    match report {
+        Some(r) if !r.is_clean() => {
+            println!("wrc: {r}");
+            Ok(ExitCode::from(1))
+        }
+        _ => {
+            println!("wrc: stopped");
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+/// Write the last commanded position and settings, atomically (temp file + rename).
+fn save_state(dir: &Path, shared: &wrc_controller::shared::Shared) {
+    let pulses = shared.commanded_pulses();
+    let text = format!(
+        "# wrc controller state at shutdown\nhomed = {}\nspeed_pct = {}\noutputs = {}\ncommanded_pulses = {:?}\n",
+        shared.homed.load(Ordering::Acquire),
+        shared.speed_pct.load(Ordering::Acquire),
+        shared.outputs[0].load(Ordering::Acquire),
+        pulses
+    );
+    let tmp = dir.join("state.toml.tmp");
+    let ok = std::fs::write(&tmp, text).is_ok()
+        && std::fs::File::open(&tmp).and_then(|f| f.sync_all()).is_ok()
+        && std::fs::rename(&tmp, dir.join("state.toml")).is_ok();
+    if !ok {
+        eprintln!("wrc: could not save the state in {}", dir.display());
+    }
+}

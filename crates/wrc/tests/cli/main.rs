@@ -1,0 +1,23 @@
+//! The `wrc` binary driven as a user would, one module per subcommand.
+
+mod plan;
+mod up;
+
+use std::process::{Command, Output};
+
+/// Run `wrc` with `args`.
+pub fn wrc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("the wrc binary runs")
+}
+
+/// Standard output and error as text.
+pub fn text(out: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}

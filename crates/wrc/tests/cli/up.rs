@@ -1,0 +1,555 @@
+//! `wrc up` and `wrc send` as an equipment engineer uses them: real processes (controller and
+//! simulated board) on free ports in a temporary directory, driven over TCP, the serial line
+//! (a pty) and UDP.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream, UdpSocket};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Controller {
+    child: Child,
+    port: u16,
+    sim_port: u16,
+    dir: tempfile::TempDir,
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+impl Controller {
+    fn start(extra: &[&str]) -> Controller {
+        let dir = tempfile::tempdir().unwrap();
+        let port = free_port();
+        let sim_port = free_udp_port();
+        let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+            .arg("up")
+            .arg("--no-rt")
+            .args(["--port", &format!("127.0.0.1:{port}")])
+            .args(["--sim-addr", &format!("127.0.0.1:{sim_port}")])
+            .arg("--state-dir")
+            .arg(dir.path())
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let c = Controller {
+            child,
+            port,
+            sim_port,
+            dir,
+        };
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while TcpStream::connect(("127.0.0.1", port)).is_err() {
+            assert!(Instant::now() < deadline, "wrc up did not open its port");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        c
+    }
+
+    fn client(&self) -> Client {
+        Client::connect(self.port)
+    }
+
+    fn dpram(&self) -> PathBuf {
+        self.dir.path().join("board0.dpram")
+    }
+
+    fn terminate(&mut self) -> std::process::ExitStatus {
+        // SAFETY: signals our own child.
+        unsafe {
+            libc::kill(self.child.id() as libc::pid_t, libc::SIGTERM);
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            assert!(Instant::now() < deadline, "wrc up did not stop on SIGTERM");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Controller {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Client {
+    reader: BufReader<TcpStream>,
+    writer: TcpStream,
+    /// Every line received, events included.
+    seen: Vec<String>,
+}
+
+impl Client {
+    fn connect(port: u16) -> Client {
+        let s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+        Client {
+            reader: BufReader::new(s.try_clone().unwrap()),
+            writer: s,
+            seen: Vec::new(),
+        }
+    }
+
+    fn line(&mut self) -> String {
+        let mut l = String::new();
+        if let Err(e) = self.reader.read_line(&mut l) {
+            panic!(
+                "no reply before the timeout ({e}); seen so far: {:?}",
+                self.seen
+            );
+        }
+        let l = l.trim_end().to_string();
+        self.seen.push(l.clone());
+        l
+    }
+
+    fn send_raw(&mut self, bytes: &[u8]) {
+        self.writer.write_all(bytes).unwrap();
+    }
+
+    /// Send `line` and return the first reply that is not an event.
+    fn ask(&mut self, line: &str) -> String {
+        self.send_raw(format!("{line}\n").as_bytes());
+        self.reply()
+    }
+
+    fn reply(&mut self) -> String {
+        loop {
+            let l = self.line();
+            if !l.starts_with("EVT") {
+                return l;
+            }
+        }
+    }
+
+    /// Send a motion with `id`: expect ACK, then return the final INF/ABS.
+    fn motion(&mut self, id: u32, line: &str) -> String {
+        let ack = self.ask(&format!("{id} {line}"));
+        assert_eq!(ack, format!("ACK {id}"), "{line}");
+        self.reply()
+    }
+
+    fn where_(&mut self) -> (Vec<f64>, f64, f64) {
+        let r = self.ask("WHERE");
+        let field = |k: &str| -> String {
+            r.split_whitespace()
+                .find_map(|w| w.strip_prefix(&format!("{k}=")).map(str::to_string))
+                .unwrap_or_else(|| panic!("no {k} in {r}"))
+        };
+        let joints = field("j").split(',').map(|v| v.parse().unwrap()).collect();
+        (
+            joints,
+            field("x").parse().unwrap(),
+            field("y").parse().unwrap(),
+        )
+    }
+
+    fn status(&mut self) -> String {
+        self.ask("STATUS")
+    }
+}
+
+#[test]
+fn home_then_ptp_and_straight_moves_reach_their_targets() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.status().starts_with("ACK state=IDLE homed=0"));
+    assert!(
+        host.ask("MOVJ 0 90 0 10").starts_with("NAK 110"),
+        "motion before HOME is refused"
+    );
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    assert!(host.status().contains("homed=1"));
+    assert_eq!(host.motion(2, "MOVP 250 100 20 30"), "INF 2");
+    let (j, x, y) = host.where_();
+    assert!(
+        (x - 250.0).abs() < 0.05 && (y - 100.0).abs() < 0.05,
+        "{x} {y}"
+    );
+    assert!((j[3] - 20.0).abs() < 0.01);
+    assert_eq!(host.motion(3, "MOVL 250 -100 20 30"), "INF 3");
+    let (_, x, y) = host.where_();
+    assert!(
+        (x - 250.0).abs() < 0.05 && (y + 100.0).abs() < 0.05,
+        "{x} {y}"
+    );
+    assert_eq!(host.motion(4, "JOG z 5000"), "INF 4");
+    assert!((host.where_().0[3] - 25.0).abs() < 0.01);
+    // A queued pair: both accepted, both finish in order.
+    host.send_raw(b"5 MOVJ 10 80 0 0\n6 MOVJ 20 70 0 0\n");
+    assert_eq!(host.reply(), "ACK 5");
+    assert_eq!(host.reply(), "ACK 6");
+    assert_eq!(host.reply(), "INF 5");
+    assert_eq!(host.reply(), "INF 6");
+    assert_eq!(host.ask("7 WAIT"), "ACK 7");
+    assert_eq!(host.reply(), "INF 7");
+    assert!(host.seen.iter().any(|l| l == "EVT STATE MOVING"));
+}
+
+#[test]
+fn bad_input_gets_nak_and_nothing_moves() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    let before = host.where_().0;
+    for (line, code) in [
+        ("FOO", "NAK 100"),
+        ("MOVJ 1 2", "NAK 101"),
+        ("MOVJ a b c d", "NAK 102"),
+        ("MOVJ 0 170 0 0", "NAK 112"),
+        ("MOVP 500 0 0 0", "NAK 111"),
+        ("MOVL -250 0 0 0", "NAK 113"),
+        ("JOG q 10", "NAK 114"),
+        ("SPEED 0", "NAK 115"),
+        ("MOVJ nan 0 0 0", "NAK 102"),
+        ("9 MOVJ 1 2 3", "NAK 9 101"),
+    ] {
+        let r = host.ask(line);
+        assert!(r.starts_with(code), "{line}: {r}");
+    }
+    let long = "X".repeat(300);
+    assert!(host.ask(&long).starts_with("NAK 103"));
+    // Garbage does not desynchronise the reader.
+    host.send_raw(b"\x00\xff\xfe garbage \x01\n");
+    assert!(host.reply().starts_with("NAK"));
+    assert!(host.status().starts_with("ACK state=IDLE"));
+    assert_eq!(host.where_().0, before);
+}
+
+#[test]
+fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    let mut other = c.client();
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    std::thread::sleep(Duration::from_millis(400));
+    assert_eq!(other.ask("3 STOP"), "ACK 3");
+    assert_eq!(host.reply(), "ABS 2 200 stopped by STOP");
+    std::thread::sleep(Duration::from_millis(500));
+    let a = host.where_().0;
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(host.where_().0, a, "no pulses after the stop");
+    assert!(a[0] < 170.0 && a[0] > -75.0);
+    assert!(host.status().starts_with("ACK state=IDLE"));
+
+    assert_eq!(host.ask("4 MOVJ -100 30 0 0"), "ACK 4");
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(other.ask("5 ESTOP"), "ACK 5");
+    assert_eq!(host.reply(), "ABS 4 201 emergency stop");
+    std::thread::sleep(Duration::from_millis(600));
+    assert!(host.status().starts_with("ACK state=ESTOP"));
+    assert!(host.ask("MOVJ 0 90 0 0").starts_with("NAK 123"));
+    assert_eq!(host.ask("RESET"), "ACK");
+    assert!(host.status().starts_with("ACK state=IDLE"));
+    assert_eq!(host.motion(6, "MOVJ 0 90 0 0"), "INF 6");
+}
+
+#[test]
+fn a_board_alarm_aborts_the_move_and_reset_recovers() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    std::thread::sleep(Duration::from_millis(300));
+    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["board-sim", "inject", "--dpram"])
+        .arg(c.dpram())
+        .args(["alarm", "1"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r = host.reply();
+    assert!(r.starts_with("ABS 2 205"), "{r}");
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        host.status().starts_with("ACK state=ERROR"),
+        "{:?}",
+        host.seen
+    );
+    assert!(
+        host.seen.iter().any(|l| l.starts_with("EVT ERROR 205")),
+        "{:?}",
+        host.seen
+    );
+    assert!(host.ask("MOVJ 0 90 0 0").starts_with("NAK 122"));
+    assert_eq!(host.ask("RESET"), "ACK");
+    assert!(host.status().contains("state=IDLE") && host.status().contains("err=0"));
+    assert_eq!(host.motion(3, "MOVJ 0 90 0 0"), "INF 3");
+}
+
+#[test]
+fn two_clients_share_the_control_lock() {
+    let c = Controller::start(&[]);
+    let mut a = c.client();
+    let mut b = c.client();
+    let r = a.ask("CONTROL");
+    assert!(r.starts_with("ACK owner=tcp"), "{r}");
+    let owner = r.trim_start_matches("ACK owner=").to_string();
+    assert!(
+        b.ask("HOME").starts_with("NAK 120"),
+        "another source holds control"
+    );
+    assert!(b.status().contains(&format!("owner={owner}")));
+    assert!(b.ask("CONTROL").starts_with("NAK 120"));
+    assert_eq!(a.motion(1, "HOME"), "INF 1");
+    assert_eq!(a.ask("RELEASE"), "ACK owner=none");
+    assert_eq!(b.motion(2, "MOVJ 0 90 0 0"), "INF 2");
+    assert!(
+        b.seen.iter().any(|l| l == &format!("EVT CONTROL {owner}")),
+        "{:?}",
+        b.seen
+    );
+}
+
+#[test]
+fn simulator_datagrams_arrive_and_decode() {
+    let c = Controller::start(&[]);
+    let socket = UdpSocket::bind(("127.0.0.1", c.sim_port)).unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
+    let mut buf = [0u8; 1024];
+    let mut last = None;
+    for _ in 0..10 {
+        let n = socket.recv(&mut buf).unwrap();
+        let frame = wrc_protocol::sim_stream::decode(&buf[..n]).unwrap();
+        assert_eq!(frame.axis_count, 4);
+        assert!((frame.positions[1] - 150.0).abs() < 0.01, "home J2");
+        if let Some(prev) = last {
+            assert!(frame.sequence > prev);
+        }
+        last = Some(frame.sequence);
+    }
+}
+
+fn processes_mentioning(dir: &Path) -> Vec<String> {
+    let needle = dir.to_string_lossy().to_string();
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        if let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) {
+            let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
+            if cmd.contains(&needle) && cmd.contains("wrc") {
+                found.push(cmd);
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn sigterm_stops_cleanly_and_leaves_no_process() {
+    let mut c = Controller::start(&[]);
+    let mut host = c.client();
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    std::thread::sleep(Duration::from_millis(200));
+    let status = c.terminate();
+    assert!(status.success(), "{status:?}");
+    let mut out = String::new();
+    c.child
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut out)
+        .unwrap();
+    assert!(
+        out.contains("host protocol on tcp") && out.contains("stopped"),
+        "{out}"
+    );
+    assert!(c.dir.path().join("state.toml").exists());
+    std::thread::sleep(Duration::from_millis(300));
+    let left = processes_mentioning(c.dir.path());
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn the_pendant_speaks_the_protocol_on_a_serial_line_with_checksums() {
+    // A pty pair stands in for the RS232C cable.
+    let (mut master, slave) = open_pty();
+    let c = Controller::start(&["--serial", slave.to_str().unwrap(), "--baud", "9600"]);
+    let read_line = |m: &mut std::fs::File| -> String {
+        let mut line = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut byte = [0u8; 1];
+        while Instant::now() < deadline {
+            match m.read(&mut byte) {
+                Ok(1) if byte[0] == b'\n' => break,
+                Ok(1) => line.push(byte[0]),
+                _ => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        String::from_utf8_lossy(&line)
+            .trim_end_matches('\r')
+            .to_string()
+    };
+    master.write_all(b"STATUS\n").unwrap();
+    let r = read_line(&mut master);
+    assert!(r.starts_with("ACK state=IDLE"), "{r}");
+    let body = "4 STATUS";
+    let sum = body.bytes().fold(0u8, |a, b| a ^ b);
+    master
+        .write_all(format!("{body}*{sum:02X}\n").as_bytes())
+        .unwrap();
+    let r = read_line(&mut master);
+    let (text, check) = r.rsplit_once('*').expect("a reply with a checksum");
+    assert!(text.starts_with("ACK 4 state=IDLE"), "{r}");
+    assert_eq!(
+        u8::from_str_radix(check, 16).unwrap(),
+        text.bytes().fold(0u8, |a, b| a ^ b)
+    );
+    master.write_all(b"5 STATUS*00\n").unwrap();
+    let r = read_line(&mut master);
+    assert!(r.starts_with("NAK 5 104"), "{r}");
+    drop(c);
+}
+
+fn open_pty() -> (std::fs::File, PathBuf) {
+    use std::os::unix::io::FromRawFd;
+    let (mut master, mut slave) = (0, 0);
+    let mut name = [0 as libc::c_char; 128];
+    // SAFETY: openpty writes two descriptors and the slave's name into our buffers.
+    let rc = unsafe {
+        libc::openpty(
+            &mut master,
+            &mut slave,
+            name.as_mut_ptr(),
+            std::ptr::null(),
+            std::ptr::null(),
+        )
+    };
+    assert_eq!(rc, 0, "openpty failed");
+    // SAFETY: the name is NUL-terminated by openpty.
+    let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) }
+        .to_string_lossy()
+        .to_string();
+    // SAFETY: we own the master descriptor; keep the slave open so the line stays up.
+    let master = unsafe { std::fs::File::from_raw_fd(master) };
+    let fd = std::os::unix::io::AsRawFd::as_raw_fd(&master);
+    // SAFETY: fcntl on a descriptor we own: make the master non-blocking for the polling
+    // reader above. The slave descriptor stays open (never closed) so the line stays up.
+    unsafe {
+        let flags = libc::fcntl(fd, libc::F_GETFL);
+        libc::fcntl(fd, libc::F_SETFL, flags | libc::O_NONBLOCK);
+    }
+    let _ = slave;
+    (master, PathBuf::from(path))
+}
+
+#[test]
+fn wrc_send_prints_replies_and_sets_its_exit_code() {
+    let c = Controller::start(&[]);
+    let addr = format!("127.0.0.1:{}", c.port);
+    let send = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_wrc"))
+            .args(["send", "--addr", &addr])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = send(&["STATUS"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("ACK state=IDLE"));
+    let out = send(&["7", "HOME"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(text.starts_with("ACK 7") && text.trim_end().ends_with("INF 7"), "{text}");
+    let out = send(&["MOVP", "900", "0", "0", "0"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("NAK 111"));
+    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["send", "--addr", "127.0.0.1:1", "STATUS"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot connect"));
+}
+
+#[test]
+fn the_local_gui_socket_speaks_the_protocol_and_streams_status() {
+    use std::os::unix::net::UnixStream;
+    let c = Controller::start(&[]);
+    let path = c.dir.path().join("wrc.sock");
+    let s = UnixStream::connect(&path).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut w = s.try_clone().unwrap();
+    let mut r = BufReader::new(s);
+    w.write_all(b"1 STATUS\n2 SUBSCRIBE\n").unwrap();
+    // Replies to different requests may come in either order (SUBSCRIBE is answered by
+    // the Ethernet task itself); the ids tell them apart.
+    let mut line = String::new();
+    let mut acks = Vec::new();
+    while acks.len() < 2 {
+        line.clear();
+        r.read_line(&mut line).unwrap();
+        if line.starts_with("ACK") {
+            acks.push(line.trim_end().to_string());
+        }
+    }
+    acks.sort();
+    assert!(acks[0].starts_with("ACK 1 state=IDLE"), "{acks:?}");
+    assert_eq!(acks[1], "ACK 2");
+    let mut samples = 0;
+    while samples < 3 {
+        line.clear();
+        r.read_line(&mut line).unwrap();
+        if line.starts_with("EVT STATUS") {
+            assert!(line.contains("state=IDLE") && line.contains(" j="), "{line}");
+            samples += 1;
+        }
+    }
+}
+
+#[test]
+fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
+    let c = Controller::start(&[]);
+    let mut watcher = c.client();
+    {
+        let mut owner = c.client();
+        assert!(owner.ask("CONTROL").starts_with("ACK owner="));
+        assert_eq!(owner.motion(1, "HOME"), "INF 1");
+        assert_eq!(owner.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+        std::thread::sleep(Duration::from_millis(300));
+    } // the owner's connection drops here
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let s = watcher.status();
+        if s.contains("state=ERROR") {
+            assert!(s.contains("err=208") && s.contains("owner=none"), "{s}");
+            break;
+        }
+        assert!(Instant::now() < deadline, "no ERROR after losing the owner: {s}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(watcher.seen.iter().any(|l| l.starts_with("EVT ERROR 208")), "{:?}", watcher.seen);
+    std::thread::sleep(Duration::from_millis(800));
+    let a = watcher.where_().0;
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(watcher.where_().0, a, "stopped");
+    assert_eq!(watcher.ask("RESET"), "ACK");
+}

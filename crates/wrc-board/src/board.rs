@@ -152,6 +152,10 @@ pub trait MotionBoard: Send {
     /// Clear watchdog trip, E-stop latch and all alarms, so the board accepts motion again.
     /// Idempotent.
     fn reset(&mut self) -> Result<(), Busy>;
+
+    /// Whether a command posted with [`MotionBoard::clear_alarms`] or [`MotionBoard::reset`]
+    /// has not yet been carried out (the board has not acknowledged it).
+    fn command_pending(&self) -> bool;
 }
 
 impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
@@ -190,5 +194,8 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     }
     fn reset(&mut self) -> Result<(), Busy> {
         (**self).reset()
+    }
+    fn command_pending(&self) -> bool {
+        (**self).command_pending()
     }
 }

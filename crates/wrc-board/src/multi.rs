@@ -204,4 +204,8 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         }
         result
     }
+
+    fn command_pending(&self) -> bool {
+        self.boards.iter().any(|b| b.command_pending())
+    }
 }

@@ -93,7 +93,6 @@ pub struct ClientSet {
     slots: Vec<Slot>,
     parser: Parser,
     routes: Routes,
-    replies: Arc<MessageQueue<OutLine>>,
     shared: Arc<Shared>,
     robot: Robot,
     buf: ReplyBuf,
@@ -112,7 +111,6 @@ impl ClientSet {
         robot: Robot,
         shared: Arc<Shared>,
         routes: Routes,
-        replies: Arc<MessageQueue<OutLine>>,
     ) -> ClientSet {
         let slots = (0..capacity)
             .map(|_| Slot {
@@ -131,7 +129,6 @@ impl ClientSet {
             slots,
             parser: Parser::new(robot.axis_count()).with_checksum(checksum),
             routes,
-            replies,
             shared,
             robot,
             buf: ReplyBuf::new(),
@@ -242,23 +239,23 @@ impl ClientSet {
         }
     }
 
-    /// Take the Command Interpreter's and monitors' lines and queue them for their clients.
-    pub fn route_replies(&mut self) {
-        while let Ok(line) = self.replies.try_recv() {
-            if line.to == SourceId::NONE {
-                for slot in self.slots.iter_mut().filter(|s| s.stream.is_some()) {
-                    let _ = Self::push_out(slot, line.bytes());
-                }
-            } else if line.to.kind() == self.kind {
-                let i = line.to.slot();
-                if let Some(slot) = self.slots.get_mut(i) {
-                    if slot.stream.is_some()
-                        && slot.source == line.to
-                        && !Self::push_out(slot, line.bytes())
-                    {
-                        self.dropped_slow += 1;
-                        self.close(i);
-                    }
+    /// Queue one of the Command Interpreter's or monitors' lines for its client (every
+    /// client for [`SourceId::NONE`]); lines for other kinds of client are ignored, so the
+    /// task that drains a shared queue hands each line to every set once.
+    pub fn deliver(&mut self, line: &OutLine) {
+        if line.to == SourceId::NONE {
+            for slot in self.slots.iter_mut().filter(|s| s.stream.is_some()) {
+                let _ = Self::push_out(slot, line.bytes());
+            }
+        } else if line.to.kind() == self.kind {
+            let i = line.to.slot();
+            if let Some(slot) = self.slots.get_mut(i) {
+                if slot.stream.is_some()
+                    && slot.source == line.to
+                    && !Self::push_out(slot, line.bytes())
+                {
+                    self.dropped_slow += 1;
+                    self.close(i);
                 }
             }
         }

@@ -17,6 +17,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
+use wrc_board::layout::board_status;
 use wrc_board::MotionBoard;
 use wrc_motion::{MotionState, VelocityGenerator as Generator};
 use wrc_protocol::{
@@ -36,6 +37,9 @@ use crate::velocity_generator::refusal_code;
 pub const MAX_TICKETS: usize = 32;
 /// Clients waiting on WAIT, at most.
 pub const MAX_WAITERS: usize = 64;
+/// Cycles a RESET may wait for the board to clear its faults before it is refused (1 s at
+/// the default 50 ms period).
+pub const RESET_CYCLES: u32 = 20;
 
 #[derive(Debug, Clone, Copy)]
 struct Ticket {
@@ -83,7 +87,11 @@ impl Outputs {
         if to == SourceId::NONE {
             return;
         }
-        let to = if to == SourceId::BROADCAST { SourceId::NONE } else { to };
+        let to = if to == SourceId::BROADCAST {
+            SourceId::NONE
+        } else {
+            to
+        };
         let line = OutLine::new(to, bytes);
         if to == SourceId::NONE {
             let _ = self.network.try_send(line);
@@ -117,7 +125,9 @@ pub struct CommandInterpreter<B: MotionBoard> {
     scratch_idle: MotionState,
     buf: ReplyBuf,
     feedback: wrc_board::Feedback,
-    reset_pending: bool,
+    /// A RESET the board has not yet carried out: who asked, and cycles left before it is
+    /// refused.
+    reset_pending: Option<(SourceId, ReplyTo, u32)>,
     /// Input bit of the E-stop circuit (board 0), if the cell has one.
     pub estop_input: Option<u8>,
 }
@@ -160,7 +170,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             scratch_idle,
             buf: ReplyBuf::new(),
             feedback: wrc_board::Feedback::default(),
-            reset_pending: false,
+            reset_pending: None,
             estop_input: None,
         }
     }
@@ -499,6 +509,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         "the robot is still moving; STOP and WAIT first",
                     );
                 }
+                if self.reset_pending.is_some() {
+                    return self.nak(from, to, Code::Busy, "a RESET is already in progress");
+                }
                 if self.board.reset().is_err() {
                     return self.nak(
                         from,
@@ -507,15 +520,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         "the board is busy with a previous command; repeat RESET",
                     );
                 }
-                self.reset_pending = true;
-                self.shared.resync_from_board.store(true, Ordering::Release);
-                // Re-read the board's position (it may have stopped by itself) through a
-                // stop request, which resynchronises the Pulse and Velocity Generators.
-                self.shared.request_stop();
-                self.shared.error_code.store(0, Ordering::Release);
-                let line = self.buf.ack(to, "");
-                self.out.send(from, line);
-                self.set_state(RobotState::Idle);
+                // Answered once the board has carried it out and reports no fault (see
+                // `finish_reset`), so Error Check never sees the fault of before the RESET.
+                self.reset_pending = Some((from, to, RESET_CYCLES));
             }
             Command::Io => {
                 let body = IoBody {
@@ -671,6 +678,63 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
+    /// The fault the board still reports, if any (a torn read counts as not yet clear).
+    fn board_fault(&mut self) -> Option<&'static str> {
+        if self.board.read_feedback(&mut self.feedback).is_err() {
+            return Some("the board's feedback could not be read");
+        }
+        let fb = &self.feedback;
+        for b in &fb.boards[..fb.board_count] {
+            if b.status & board_status::ESTOP != 0 {
+                return Some("the board still latches its E-stop");
+            }
+            if b.status & board_status::WATCHDOG_TRIPPED != 0 {
+                return Some("the board's watchdog is still tripped");
+            }
+        }
+        let n = self.robot.axis_count();
+        if fb.axes[..n].iter().any(|a| a.alarm != 0) {
+            return Some("an axis still reports an alarm");
+        }
+        None
+    }
+
+    /// Complete a pending RESET once the board has acted on it: ACK and IDLE when it reports
+    /// no fault, NAK when it still does after [`RESET_CYCLES`] cycles.
+    fn finish_reset(&mut self) {
+        let Some((from, to, left)) = self.reset_pending else {
+            return;
+        };
+        let fault = if self.board.command_pending() {
+            Some("the board did not carry out the RESET")
+        } else {
+            self.board_fault()
+        };
+        match fault {
+            None => {
+                self.reset_pending = None;
+                self.shared.resync_from_board.store(true, Ordering::Release);
+                // Re-read the board's position (it may have stopped by itself) through a
+                // stop request, which resynchronises the Pulse and Velocity Generators.
+                self.shared.request_stop();
+                self.shared.error_code.store(0, Ordering::Release);
+                let line = self.buf.ack(to, "");
+                self.out.send(from, line);
+                self.set_state(RobotState::Idle);
+            }
+            Some(reason) if left == 0 => {
+                self.reset_pending = None;
+                let code = if self.shared.state() == RobotState::Estop {
+                    Code::InEstop
+                } else {
+                    Code::InError
+                };
+                self.nak(from, to, code, reason);
+            }
+            Some(_) => self.reset_pending = Some((from, to, left - 1)),
+        }
+    }
+
     /// One cycle (public for tests that step the task by hand).
     pub fn step(&mut self) {
         while let Ok(u) = self.urgent.try_recv() {
@@ -685,6 +749,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 Incoming::Disconnected(source) => self.disconnected(source),
             }
         }
+        self.finish_reset();
         // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
         let at_rest = !self.outstanding()
             && self.orders.is_empty()
@@ -697,9 +762,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 RobotState::Moving | RobotState::Stopping
             ) {
                 self.set_state(RobotState::Idle);
-            }
-            if self.reset_pending {
-                self.reset_pending = false;
             }
             self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
             for i in 0..MAX_WAITERS {

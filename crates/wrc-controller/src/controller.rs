@@ -349,7 +349,6 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         robot.clone(),
         shared.clone(),
         routes.clone(),
-        network_out.clone(),
     );
     let guis = ClientSet::new(
         SourceId::GUI,
@@ -358,9 +357,11 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         robot.clone(),
         shared.clone(),
         routes.clone(),
-        network_out,
     );
-    runtime.add(spec("ethernet"), Ethernet::new(tcp, unix, hosts, guis));
+    runtime.add(
+        spec("ethernet"),
+        Ethernet::new(tcp, unix, hosts, guis, network_out),
+    );
     let pendant = ClientSet::new(
         SourceId::PENDANT,
         1,
@@ -368,9 +369,8 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         robot.clone(),
         shared.clone(),
         routes,
-        serial_out,
     );
-    runtime.add(spec("rs232c"), Rs232c::new(serial, pendant));
+    runtime.add(spec("rs232c"), Rs232c::new(serial, pendant, serial_out));
 
     let running = runtime.start()?;
     let _ = stats.set(running.stats_cells());

@@ -9,10 +9,14 @@
 use std::io;
 use std::net::TcpListener;
 use std::os::unix::net::UnixListener;
+use std::sync::Arc;
 
 use wrc_rt::{CycleContext, Task};
 
+use wrc_rt::ipc::MessageQueue;
+
 use crate::clients::{ClientSet, Stream};
+use crate::shared::OutLine;
 
 /// The Ethernet task.
 pub struct Ethernet {
@@ -20,23 +24,27 @@ pub struct Ethernet {
     unix: Option<UnixListener>,
     hosts: ClientSet,
     guis: ClientSet,
+    replies: Arc<MessageQueue<OutLine>>,
     /// Connections refused because every slot was taken.
     pub refused: u64,
 }
 
 impl Ethernet {
-    /// The task on bound, non-blocking listeners.
+    /// The task on bound, non-blocking listeners; `replies` carries the lines for hosts and
+    /// GUIs (drained here only, once per cycle, and handed to the set each line is for).
     pub fn new(
         tcp: Option<TcpListener>,
         unix: Option<UnixListener>,
         hosts: ClientSet,
         guis: ClientSet,
+        replies: Arc<MessageQueue<OutLine>>,
     ) -> Ethernet {
         Ethernet {
             tcp,
             unix,
             hosts,
             guis,
+            replies,
             refused: 0,
         }
     }
@@ -76,9 +84,13 @@ impl Ethernet {
     /// One cycle (public for tests that step the task by hand).
     pub fn step(&mut self) {
         self.accept();
+        self.hosts.poll_reads();
+        self.guis.poll_reads();
+        while let Ok(line) = self.replies.try_recv() {
+            self.hosts.deliver(&line);
+            self.guis.deliver(&line);
+        }
         for set in [&mut self.hosts, &mut self.guis] {
-            set.poll_reads();
-            set.route_replies();
             set.status_stream();
             set.flush();
         }

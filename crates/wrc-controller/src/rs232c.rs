@@ -8,10 +8,13 @@ use std::fs::{File, OpenOptions};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::io::AsRawFd;
 use std::path::Path;
+use std::sync::Arc;
 
+use wrc_rt::ipc::MessageQueue;
 use wrc_rt::{CycleContext, Task};
 
 use crate::clients::{ClientSet, Stream};
+use crate::shared::OutLine;
 
 /// Parity of the serial line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,21 +110,28 @@ pub fn open_serial(path: &Path, baud: u32, parity: Parity) -> Result<File, Seria
 /// The RS232C task.
 pub struct Rs232c {
     pendant: ClientSet,
+    replies: Arc<MessageQueue<OutLine>>,
 }
 
 impl Rs232c {
-    /// The task on an opened serial line (or none).
-    pub fn new(port: Option<File>, mut pendant: ClientSet) -> Rs232c {
+    /// The task on an opened serial line (or none); `replies` carries the pendant's lines.
+    pub fn new(
+        port: Option<File>,
+        mut pendant: ClientSet,
+        replies: Arc<MessageQueue<OutLine>>,
+    ) -> Rs232c {
         if let Some(port) = port {
             pendant.add(Stream::Serial(port));
         }
-        Rs232c { pendant }
+        Rs232c { pendant, replies }
     }
 
     /// One cycle (public for tests that step the task by hand).
     pub fn step(&mut self) {
         self.pendant.poll_reads();
-        self.pendant.route_replies();
+        while let Ok(line) = self.replies.try_recv() {
+            self.pendant.deliver(&line);
+        }
         self.pendant.flush();
     }
 }

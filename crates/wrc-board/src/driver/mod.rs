@@ -286,4 +286,8 @@ impl MotionBoard for DpramBoard {
     fn reset(&mut self) -> Result<(), Busy> {
         self.command(command::RESET, 0)
     }
+
+    fn command_pending(&self) -> bool {
+        self.dpram.load(control::COMMAND_ACK) != self.dpram.load(control::COMMAND_SEQ)
+    }
 }

@@ -1,3 +1,4 @@
 //! Controller integration tests, one module per topic.
 
+mod ethernet;
 mod pipeline;

@@ -478,7 +478,10 @@ fn wrc_send_prints_replies_and_sets_its_exit_code() {
     let out = send(&["7", "HOME"]);
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(text.starts_with("ACK 7") && text.trim_end().ends_with("INF 7"), "{text}");
+    assert!(
+        text.starts_with("ACK 7") && text.trim_end().ends_with("INF 7"),
+        "{text}"
+    );
     let out = send(&["MOVP", "900", "0", "0", "0"]);
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("NAK 111"));
@@ -519,7 +522,10 @@ fn the_local_gui_socket_speaks_the_protocol_and_streams_status() {
         line.clear();
         r.read_line(&mut line).unwrap();
         if line.starts_with("EVT STATUS") {
-            assert!(line.contains("state=IDLE") && line.contains(" j="), "{line}");
+            assert!(
+                line.contains("state=IDLE") && line.contains(" j="),
+                "{line}"
+            );
             samples += 1;
         }
     }
@@ -543,10 +549,17 @@ fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
             assert!(s.contains("err=208") && s.contains("owner=none"), "{s}");
             break;
         }
-        assert!(Instant::now() < deadline, "no ERROR after losing the owner: {s}");
+        assert!(
+            Instant::now() < deadline,
+            "no ERROR after losing the owner: {s}"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
-    assert!(watcher.seen.iter().any(|l| l.starts_with("EVT ERROR 208")), "{:?}", watcher.seen);
+    assert!(
+        watcher.seen.iter().any(|l| l.starts_with("EVT ERROR 208")),
+        "{:?}",
+        watcher.seen
+    );
     std::thread::sleep(Duration::from_millis(800));
     let a = watcher.where_().0;
     std::thread::sleep(Duration::from_millis(300));

@@ -9,7 +9,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz run test build check-toolchain lint test-rust bench bench-rt demo clean
+.PHONY: test-fuzz run test build check-toolchain lint test-rust bench bench-rt bench-controller demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -53,6 +53,12 @@ bench-rt: build
 	@mkdir -p $(OUT)
 	$(WRC) bench rt --seconds $(RT_SECONDS) --json $(OUT)/bench-rt.json
 	$(WRC) bench rt --seconds $(RT_SECONDS) --load --json $(OUT)/bench-rt-load.json
+
+# Controller benchmark: command-to-first-pulse and ESTOP-to-deceleration latencies, and the
+# Pulse Generator's jitter idle and while 200 TCP clients poll STATUS.
+bench-controller: build
+	@mkdir -p $(OUT)
+	$(WRC) bench controller --json $(OUT)/bench-controller.json
 
 clean:
 	$(CARGO) clean

@@ -193,9 +193,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             return Err(e).context("the controller could not start");
         }
     };
-    if let Some(s) = running.scheduling() {
-        println!("wrc: {s}");
-    }
+    // The runtime has said once, on stderr, what scheduling the tasks got.
     if let Some(tcp) = running.tcp {
         println!("wrc: host protocol on tcp {tcp}");
     }

@@ -43,6 +43,7 @@ test: lint test-rust test-fuzz
 # Benchmarks (figures go into the README's performance section).
 bench: check-toolchain
 	$(CARGO) bench -p wrc-motion --bench velocity_generator
+	$(CARGO) bench -p wrc-lang --bench compile
 
 # Real-time runtime benchmark (docs/realtime.md): the paper's Tables 3-5 with cyclictest in
 # the same run, idle and under load. Installs cyclictest (rt-tests) and stress-ng when root.
@@ -64,17 +65,22 @@ clean:
 	$(CARGO) clean
 	rm -rf $(OUT)
 
-# Fuzz the DPRAM layout reader (wrc-board) for a bounded time. cargo-fuzz builds with
-# sanitizers, which need nightly features: the nightly toolchain when installed, otherwise the
-# stable one with RUSTC_BOOTSTRAP=1 (stable ships the sanitizer runtimes on x86_64 Linux).
-# cargo-fuzz is installed from crates.io when missing.
+# Fuzz for a bounded time each: the DPRAM layout reader (wrc-board) and the robot-language
+# compiler and VM (wrc-lang). cargo-fuzz builds with sanitizers, which need nightly features:
+# the nightly toolchain when installed, otherwise the stable one with RUSTC_BOOTSTRAP=1 (stable
+# ships the sanitizer runtimes on x86_64 Linux). cargo-fuzz is installed from crates.io when
+# missing.
 FUZZ_SECONDS ?= 20
+FUZZ_TARGETS := crates/wrc-board/fuzz:layout_reader crates/wrc-lang/fuzz:compile
 test-fuzz: check-toolchain
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
-	@if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then \
-	  echo "wrc: fuzzing with the nightly toolchain"; \
-	  cd crates/wrc-board/fuzz && $(CARGO) +nightly fuzz run layout_reader -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192; \
-	else \
-	  echo "wrc: no nightly toolchain; fuzzing with stable and RUSTC_BOOTSTRAP=1"; \
-	  cd crates/wrc-board/fuzz && RUSTC_BOOTSTRAP=1 $(CARGO) fuzz run layout_reader -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192; \
-	fi
+	@set -e; for t in $(FUZZ_TARGETS); do \
+	  dir=$${t%%:*}; target=$${t##*:}; \
+	  if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then \
+	    echo "wrc: fuzzing $$target with the nightly toolchain"; \
+	    (cd $$dir && $(CARGO) +nightly fuzz run $$target -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192); \
+	  else \
+	    echo "wrc: fuzzing $$target with stable and RUSTC_BOOTSTRAP=1 (no nightly toolchain)"; \
+	    (cd $$dir && RUSTC_BOOTSTRAP=1 $(CARGO) fuzz run $$target -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192); \
+	  fi; \
+	done

@@ -17,6 +17,7 @@ use wrc_protocol::{
 use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 
+use crate::program_store::StoreRequest;
 use crate::shared::{OutLine, Shared, SourceId, Urgent};
 
 /// Bytes of output kept per client before it counts as not reading.
@@ -74,6 +75,8 @@ pub struct Routes {
     pub urgent: Arc<MessageQueue<Urgent>>,
     /// Wakes the urgent path at once.
     pub wake: Arc<Semaphore>,
+    /// Program upload, listing, deletion and RUN, for the program store (non-real-time).
+    pub store: Arc<MessageQueue<StoreRequest>>,
 }
 
 struct Slot {
@@ -84,6 +87,8 @@ struct Slot {
     out_len: usize,
     subscribed: bool,
     checksum: bool,
+    /// Inside `UPLOAD`: lines are program text until a line `.`.
+    uploading: bool,
     generation: u32,
 }
 
@@ -121,6 +126,7 @@ impl ClientSet {
                 out_len: 0,
                 subscribed: false,
                 checksum: false,
+                uploading: false,
                 generation: 0,
             })
             .collect();
@@ -155,6 +161,7 @@ impl ClientSet {
         slot.out_len = 0;
         slot.subscribed = false;
         slot.checksum = false;
+        slot.uploading = false;
         true
     }
 
@@ -180,8 +187,15 @@ impl ClientSet {
                 .incoming
                 .try_send(Incoming::Disconnected(slot.source));
         }
+        if slot.uploading {
+            let _ = self
+                .routes
+                .store
+                .try_send(StoreRequest::Cancel { from: slot.source });
+        }
         slot.out_len = 0;
         slot.subscribed = false;
+        slot.uploading = false;
     }
 
     /// Read every client, parse complete lines and route them.
@@ -218,6 +232,13 @@ impl ClientSet {
         } = self;
         let slot = &mut slots[i];
         while let Some(line) = slot.reader.read(&mut input) {
+            if slot.uploading {
+                let source = slot.source;
+                if let Some(bytes) = upload_line(source, &mut slot.uploading, line, routes, buf) {
+                    let _ = Self::push_out(slot, bytes);
+                }
+                continue;
+            }
             let reply: Option<&[u8]> = match line {
                 Err(e) => Some(buf.line_error(&e)),
                 Ok(line) => match parser.parse(line) {
@@ -372,6 +393,32 @@ fn route<'b>(
             slot.subscribed = false;
             Some(buf.ack(to, ""))
         }
+        Command::Upload(name) => {
+            let from = slot.source;
+            if routes
+                .store
+                .try_send(StoreRequest::Begin { from, to, name })
+                .is_ok()
+            {
+                // No reply now: the program's lines follow, the reply comes after `.`.
+                slot.uploading = true;
+                None
+            } else {
+                Some(buf.nak(to, Code::Busy, "the program store is busy; repeat UPLOAD"))
+            }
+        }
+        Command::Programs | Command::Run(_) | Command::Delete(_) => {
+            let from = slot.source;
+            let request = match request.command {
+                Command::Run(name) => StoreRequest::Run { from, to, name },
+                Command::Delete(name) => StoreRequest::Delete { from, to, name },
+                _ => StoreRequest::List { from, to },
+            };
+            match routes.store.try_send(request) {
+                Ok(()) => None,
+                Err(_) => Some(buf.nak(to, Code::Busy, "the program store is busy; repeat it")),
+            }
+        }
         _ => match routes
             .incoming
             .try_send(Incoming::Request(slot.source, request))
@@ -380,6 +427,43 @@ fn route<'b>(
             Err(_) => Some(buf.nak(to, Code::Busy, "the controller is busy; repeat the request")),
         },
     }
+}
+
+/// One line inside `UPLOAD`: program text for the store, or `.` to end it. A refused line
+/// (too long, or the store's queue full) cancels the upload with a NAK; nothing is stored.
+fn upload_line<'b>(
+    from: SourceId,
+    uploading: &mut bool,
+    line: Result<&[u8], wrc_protocol::LineError>,
+    routes: &Routes,
+    buf: &'b mut ReplyBuf,
+) -> Option<&'b [u8]> {
+    let request = match line {
+        Ok(b".") => StoreRequest::End { from },
+        Ok(text) => StoreRequest::line(from, text),
+        Err(e) => {
+            *uploading = false;
+            let _ = routes.store.try_send(StoreRequest::Cancel { from });
+            return Some(buf.nak(
+                wrc_protocol::ReplyTo::default(),
+                e.code(),
+                format_args!("{e}; the upload is cancelled, nothing stored"),
+            ));
+        }
+    };
+    if matches!(request, StoreRequest::End { .. }) {
+        *uploading = false;
+    }
+    if routes.store.try_send(request).is_err() {
+        *uploading = false;
+        let _ = routes.store.try_send(StoreRequest::Cancel { from });
+        return Some(buf.nak(
+            wrc_protocol::ReplyTo::default(),
+            Code::Busy,
+            "the program store is busy; the upload is cancelled, nothing stored",
+        ));
+    }
+    None
 }
 
 /// Write a source's name (`tcp3`, `gui0`, `pendant`) into `buf`; `None` for nobody.

@@ -19,15 +19,18 @@ use std::time::Duration;
 
 use wrc_board::layout::board_status;
 use wrc_board::MotionBoard;
+use wrc_lang::{Motion, Program, Resume, RuntimeErrorKind, Step, Vm, VmIo, VmLimits};
 use wrc_motion::{MotionState, VelocityGenerator as Generator};
 use wrc_protocol::{
-    Code, Command, Event, HelpBody, IoBody, ReplyBuf, ReplyTo, Request, StatusBody, Verb, WhereBody,
+    AxisArg, Code, Command, Event, HelpBody, IoBody, ProgramName, ReplyBuf, ReplyTo, Request,
+    StatusBody, Verb, WhereBody,
 };
-use wrc_robot::{Joints, Posture, Robot, MAX_AXES};
+use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::{CycleContext, Task};
 
 use crate::clients::{source_name, Incoming};
+use crate::program_store::{ProgramStart, StoreLinks};
 use crate::shared::{
     MoveDone, MoveKind, MoveOrder, MoveOutcome, OutLine, RobotState, Shared, SourceId, Urgent,
 };
@@ -37,6 +40,11 @@ use crate::velocity_generator::refusal_code;
 pub const MAX_TICKETS: usize = 32;
 /// Clients waiting on WAIT, at most.
 pub const MAX_WAITERS: usize = 64;
+/// Robot-language instructions a running program may execute per cycle between two of its
+/// requests.
+pub const PROGRAM_BUDGET: u32 = 2_000;
+/// Requests carried out at once (PRINT, OUT, SPEED) a program may make per cycle.
+pub const PROGRAM_REQUESTS: u32 = 16;
 /// Cycles a RESET may wait for the board to clear its faults before it is refused (1 s at
 /// the default 50 ms period).
 pub const RESET_CYCLES: u32 = 20;
@@ -71,6 +79,74 @@ impl UrgentPath {
     }
 }
 
+/// A reply the Command Interpreter wrote for the running program (its motion requests go
+/// through the same checks as a connection's), kept instead of sent.
+struct Captured {
+    line: [u8; 512],
+    len: usize,
+}
+
+impl Captured {
+    fn text(&self) -> &str {
+        std::str::from_utf8(&self.line[..self.len])
+            .unwrap_or("")
+            .trim_end()
+    }
+}
+
+/// Send `line` to `to`, or keep it when it is for the running program.
+fn deliver(out: &Outputs, captured: &mut Captured, to: SourceId, line: &[u8]) {
+    if to == SourceId::PROGRAM {
+        let n = line.len().min(captured.line.len());
+        captured.line[..n].copy_from_slice(&line[..n]);
+        captured.len = n;
+    } else {
+        out.send(to, line);
+    }
+}
+
+/// What a running program waits for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ProgramWait {
+    /// Nothing: run it.
+    Nothing,
+    /// Its motion with this ticket to finish.
+    Motion(u32),
+    /// `DELAY`: until this time [ns].
+    Until(u64),
+    /// `WAIT IN(n) = value`, until the deadline [ns] if there is one.
+    Input {
+        n: u8,
+        value: bool,
+        deadline: Option<u64>,
+    },
+}
+
+/// The program the Command Interpreter is running.
+struct RunningProgram {
+    from: SourceId,
+    to: ReplyTo,
+    name: ProgramName,
+    program: Box<Program>,
+    wait: ProgramWait,
+    paused: bool,
+}
+
+/// What a program reads synchronously: inputs and the pose where its last motion ended.
+struct ProgramIo {
+    inputs: u32,
+    here: Pose,
+}
+
+impl VmIo for ProgramIo {
+    fn input(&self, n: u8) -> bool {
+        n < 32 && self.inputs & (1u32 << n) != 0
+    }
+    fn here(&self) -> Pose {
+        self.here
+    }
+}
+
 /// Where replies go: the Ethernet task's queue and the RS232C task's.
 #[derive(Clone)]
 pub struct Outputs {
@@ -83,7 +159,7 @@ pub struct Outputs {
 impl Outputs {
     /// Send a reply to `to`; [`SourceId::BROADCAST`] reaches every client, and a reply for
     /// a client that has gone ([`SourceId::NONE`]) is dropped.
-    fn send(&self, to: SourceId, bytes: &[u8]) {
+    pub fn send(&self, to: SourceId, bytes: &[u8]) {
         if to == SourceId::NONE {
             return;
         }
@@ -130,6 +206,13 @@ pub struct CommandInterpreter<B: MotionBoard> {
     reset_pending: Option<(SourceId, ReplyTo, u32)>,
     /// Input bit of the E-stop circuit (board 0), if the cell has one.
     pub estop_input: Option<u8>,
+    links: StoreLinks,
+    vm: Vm,
+    program: Option<RunningProgram>,
+    /// A finished program the store's queue had no room for yet (freed there, not here).
+    retire: Option<Box<Program>>,
+    captured: Captured,
+    now_ns: u64,
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
@@ -148,6 +231,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         done: Arc<MessageQueue<MoveDone>>,
         out: Outputs,
         owner_lost: Arc<AtomicBool>,
+        links: StoreLinks,
     ) -> Self {
         let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
         let scratch_idle = generator.state();
@@ -172,6 +256,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             feedback: wrc_board::Feedback::default(),
             reset_pending: None,
             estop_input: None,
+            links,
+            vm: Vm::new(VmLimits::default()),
+            program: None,
+            retire: None,
+            captured: Captured {
+                line: [0; 512],
+                len: 0,
+            },
+            now_ns: 0,
         }
     }
 
@@ -193,7 +286,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     fn nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
         let line = self.buf.nak(to, code, text);
-        self.out.send(from, line);
+        deliver(&self.out, &mut self.captured, from, line);
     }
 
     fn outstanding(&self) -> bool {
@@ -205,14 +298,17 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         for i in 0..MAX_TICKETS {
             if let Some(t) = self.tickets[i].take() {
                 let line = self.buf.abs(t.to, code, text);
-                self.out.send(t.from, line);
+                deliver(&self.out, &mut self.captured, t.from, line);
             }
         }
         for i in 0..MAX_WAITERS {
             if let Some((from, to)) = self.waiters[i].take() {
                 let line = self.buf.abs(to, code, text);
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
+        }
+        if self.program.is_some() {
+            self.end_program(Some((code, text)));
         }
     }
 
@@ -225,7 +321,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match urgent {
             Urgent::Stop(from, to) => {
                 let line = self.buf.ack(to, "");
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
                 if self.shared.state() == RobotState::Moving {
                     self.set_state(RobotState::Stopping);
                 }
@@ -233,7 +329,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Urgent::Estop(from, to) => {
                 let line = self.buf.ack(to, "");
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
                 self.abort_all(Code::EmergencyStop, "emergency stop");
                 self.shared
                     .error_code
@@ -301,7 +397,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         self.planned_end = end;
         let line = self.buf.ack(to, "");
-        self.out.send(from, line);
+        deliver(&self.out, &mut self.captured, from, line);
         self.set_state(RobotState::Moving);
     }
 
@@ -309,7 +405,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let to = request.reply_to();
         let verb = request.command.verb();
         let owner = self.owner();
-        if verb.spec().needs_control && owner != SourceId::NONE && owner != from {
+        // A program's requests act for the source that started it.
+        let acting = match (&self.program, from) {
+            (Some(p), SourceId::PROGRAM) => p.from,
+            _ => from,
+        };
+        if verb.spec().needs_control && owner != SourceId::NONE && owner != acting {
             let mut name = [0u8; 24];
             let mut text = [0u8; 96];
             let mut w: &mut [u8] = &mut text[..];
@@ -334,6 +435,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 | Command::Jog { .. }
         );
         if is_motion {
+            if self.program.is_some() && from != SourceId::PROGRAM {
+                return self.nak(
+                    from,
+                    to,
+                    Code::ProgramRunning,
+                    "a program is running; ABORT it first",
+                );
+            }
             if state == RobotState::Error {
                 return self.nak(
                     from,
@@ -380,7 +489,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     err: Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16),
                 };
                 let line = self.buf.ack(to, body);
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             Command::Where => {
                 let mut joints = [0.0; MAX_AXES];
@@ -400,7 +509,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     tcp,
                 };
                 let line = self.buf.ack(to, body);
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             Command::Home => {
                 let home = self.robot.home();
@@ -486,7 +595,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self
                     .buf
                     .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             Command::Stop => self.handle_urgent(Urgent::Stop(from, to)),
             Command::Estop => self.handle_urgent(Urgent::Estop(from, to)),
@@ -530,7 +639,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     outputs: self.shared.outputs[0].load(Ordering::Acquire),
                 };
                 let line = self.buf.ack(to, body);
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             Command::Out { n, on } => {
                 let bit = 1u32 << n;
@@ -540,16 +649,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
                 }
                 let line = self.buf.ack(to, "");
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             Command::Wait => {
                 let line = self.buf.ack(to, "");
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
                 match self.waiters.iter().position(Option::is_none) {
                     Some(i) => self.waiters[i] = Some((from, to)),
                     None => {
                         let line = self.buf.abs(to, Code::Busy, "too many clients waiting");
-                        self.out.send(from, line);
+                        deliver(&self.out, &mut self.captured, from, line);
                     }
                 }
             }
@@ -579,9 +688,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     );
                 }
             }
+            Command::Pause | Command::Continue | Command::Abort => {
+                self.program_control(from, to, request.command)
+            }
             Command::Help => {
                 let line = self.buf.ack(to, HelpBody);
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
             }
             _ => {
                 let _ = Verb::ALL;
@@ -604,7 +716,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let len = 40 - w.len();
         let body = std::str::from_utf8(&body[..len]).unwrap_or("");
         let line = self.buf.ack(to, body);
-        self.out.send(from, line);
+        deliver(&self.out, &mut self.captured, from, line);
         let line = self.buf.event(false, &Event::Control { owner: owner_name });
         self.out.send(SourceId::BROADCAST, line);
     }
@@ -618,7 +730,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let text = std::str::from_utf8(&text[..len]).unwrap_or("the target cannot be reached");
         // `text` borrows a local buffer; format into the reply buffer.
         let line = self.buf.nak(to, code, text);
-        self.out.send(from, line);
+        deliver(&self.out, &mut self.captured, from, line);
     }
 
     fn handle_done(&mut self, done: MoveDone) {
@@ -632,22 +744,28 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some(t) = self.tickets[i].take() else {
             return;
         };
+        if t.from == SourceId::PROGRAM {
+            if t.home && done.outcome == MoveOutcome::Completed {
+                self.shared.homed.store(true, Ordering::Release);
+            }
+            return self.program_motion_done(t.ticket, done.outcome);
+        }
         match done.outcome {
             MoveOutcome::Completed => {
                 if t.home {
                     self.shared.homed.store(true, Ordering::Release);
                 }
                 let line = self.buf.inf(t.to, "");
-                self.out.send(t.from, line);
+                deliver(&self.out, &mut self.captured, t.from, line);
             }
             MoveOutcome::Stopped => {
                 let line = self.buf.abs(t.to, Code::Stopped, "stopped");
-                self.out.send(t.from, line);
+                deliver(&self.out, &mut self.captured, t.from, line);
             }
             MoveOutcome::Refused(number) => {
                 let code = Code::from_number(number).unwrap_or(Code::MotionFault);
                 let line = self.buf.abs(t.to, code, code.text());
-                self.out.send(t.from, line);
+                deliver(&self.out, &mut self.captured, t.from, line);
             }
         }
     }
@@ -674,6 +792,363 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             if matches!(self.shared.state(), RobotState::Moving) {
                 // Error Check turns this into a controlled stop and ERROR.
                 self.owner_lost.store(true, Ordering::Release);
+            }
+        }
+    }
+
+    fn program_event(&mut self, name: ProgramName, state: &str) {
+        let line = self.buf.event(
+            false,
+            &Event::Program {
+                name: name.as_str(),
+                state,
+            },
+        );
+        self.out.send(SourceId::BROADCAST, line);
+    }
+
+    /// `RUN`: the store compiled the program; start it unless something forbids it.
+    fn start_program(&mut self, start: ProgramStart) {
+        let ProgramStart {
+            from,
+            to,
+            name,
+            program,
+        } = start;
+        let owner = self.owner();
+        let refusal = if self.program.is_some() {
+            Some((Code::ProgramRunning, "a program is running; ABORT it first"))
+        } else if owner != SourceId::NONE && owner != from {
+            Some((Code::ControlHeld, "control is held by another source"))
+        } else if self.shared.state() == RobotState::Error {
+            Some((Code::InError, "the robot is in ERROR; RESET first"))
+        } else if self.shared.state() == RobotState::Estop {
+            Some((Code::InEstop, "the robot is in ESTOP; RESET first"))
+        } else if self.outstanding() || self.shared.state() == RobotState::Stopping {
+            Some((Code::Busy, "the robot is moving; WAIT first"))
+        } else {
+            None
+        };
+        if let Some((code, text)) = refusal {
+            self.nak(from, to, code, text);
+            self.retire_program(program);
+            return;
+        }
+        if let Err(e) = self.vm.load(&program) {
+            let mut text = [0u8; 160];
+            let mut w: &mut [u8] = &mut text[..];
+            let _ = write!(w, "{name}: {e}");
+            let len = 160 - w.len();
+            let text = std::str::from_utf8(&text[..len]).unwrap_or("the program is too large");
+            self.nak(from, to, Code::ProgramInvalid, text);
+            self.retire_program(program);
+            return;
+        }
+        let line = self.buf.ack(to, "");
+        deliver(&self.out, &mut self.captured, from, line);
+        self.program = Some(RunningProgram {
+            from,
+            to,
+            name,
+            program,
+            wait: ProgramWait::Nothing,
+            paused: false,
+        });
+        self.program_event(name, "RUNNING");
+    }
+
+    fn retire_program(&mut self, program: Box<Program>) {
+        if let Err(e) = self.links.retired.try_send(program) {
+            // Freed on a later cycle's retry, by the store: never here.
+            if self.retire.is_none() {
+                self.retire = Some(e.into_inner());
+            } else {
+                std::mem::forget(e.into_inner());
+            }
+        }
+    }
+
+    /// End the running program: `INF` to its starter, or `ABS` with `code`, the program's
+    /// name, its source line and `text`; stop its motion if one is under way.
+    fn end_program(&mut self, failure: Option<(Code, &str)>) {
+        self.end_program_at(failure, None);
+    }
+
+    /// [`Self::end_program`] naming source line `line` (default: where the program is).
+    fn end_program_at(&mut self, failure: Option<(Code, &str)>, line: Option<u32>) {
+        let Some(p) = self.program.take() else {
+            return;
+        };
+        let line_no = line
+            .or_else(|| self.vm.position(&p.program).map(|pos| pos.line))
+            .unwrap_or(0);
+        self.vm.abort();
+        match failure {
+            None => {
+                let line = self.buf.inf(p.to, "");
+                deliver(&self.out, &mut self.captured, p.from, line);
+            }
+            Some((code, text)) => {
+                if let ProgramWait::Motion(ticket) = p.wait {
+                    if self
+                        .tickets
+                        .iter()
+                        .any(|t| t.is_some_and(|t| t.ticket == ticket))
+                    {
+                        self.shared.request_stop();
+                        if self.shared.state() == RobotState::Moving {
+                            self.set_state(RobotState::Stopping);
+                        }
+                        for t in self.tickets.iter_mut() {
+                            if t.is_some_and(|t| t.from == SourceId::PROGRAM) {
+                                *t = None;
+                            }
+                        }
+                    }
+                }
+                let mut body = [0u8; 400];
+                let mut w: &mut [u8] = &mut body[..];
+                let _ = write!(w, "{} line {line_no}: {text}", p.name);
+                let len = 400 - w.len();
+                let body = std::str::from_utf8(&body[..len]).unwrap_or(text);
+                let line = self.buf.abs(p.to, code, body);
+                deliver(&self.out, &mut self.captured, p.from, line);
+            }
+        }
+        self.program_event(p.name, "ENDED");
+        self.retire_program(p.program);
+    }
+
+    /// `PAUSE`, `CONTINUE`, `ABORT`.
+    fn program_control(&mut self, from: SourceId, to: ReplyTo, command: Command) {
+        let Some(p) = self.program.as_mut() else {
+            return self.nak(from, to, Code::NoProgram, "no program is running");
+        };
+        let name = p.name;
+        match command {
+            Command::Pause => {
+                let changed = !p.paused;
+                p.paused = true;
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, &mut self.captured, from, line);
+                if changed {
+                    self.program_event(name, "PAUSED");
+                }
+            }
+            Command::Continue => {
+                let changed = p.paused;
+                p.paused = false;
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, &mut self.captured, from, line);
+                if changed {
+                    self.program_event(name, "RUNNING");
+                }
+            }
+            _ => {
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, &mut self.captured, from, line);
+                self.end_program(Some((Code::Stopped, "aborted by ABORT")));
+            }
+        }
+    }
+
+    /// A motion of the running program finished.
+    fn program_motion_done(&mut self, ticket: u32, outcome: MoveOutcome) {
+        let Some(p) = self.program.as_mut() else {
+            return;
+        };
+        if p.wait != ProgramWait::Motion(ticket) {
+            return;
+        }
+        match outcome {
+            MoveOutcome::Completed => {
+                p.wait = ProgramWait::Nothing;
+                self.vm.resume(Resume::Ok);
+            }
+            MoveOutcome::Stopped => self.end_program(Some((Code::Stopped, "stopped"))),
+            MoveOutcome::Refused(number) => {
+                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+                self.end_program(Some((code, code.text())));
+            }
+        }
+    }
+
+    /// Hand one of the program's requests to the checks every connection's request goes
+    /// through; `Err` with the NAK's code and text when they refuse it.
+    fn program_request(&mut self, command: Command) -> Result<Option<u32>, (Code, usize)> {
+        self.captured.len = 0;
+        let next = self.next_ticket;
+        self.handle_request(
+            SourceId::PROGRAM,
+            Request {
+                id: None,
+                command,
+                checksum: false,
+            },
+        );
+        let text = self.captured.text();
+        if text.starts_with("ACK") {
+            let queued = self
+                .tickets
+                .iter()
+                .flatten()
+                .find(|t| t.from == SourceId::PROGRAM && t.ticket >= next)
+                .map(|t| t.ticket);
+            return Ok(queued);
+        }
+        // "NAK <code> <text>"
+        let mut words = text.splitn(3, ' ');
+        let _ = words.next();
+        let code = words
+            .next()
+            .and_then(|c| c.parse::<u16>().ok())
+            .and_then(Code::from_number)
+            .unwrap_or(Code::ProgramError);
+        let offset = text.len() - words.next().map_or(0, str::len);
+        Err((code, offset))
+    }
+
+    /// Run the program for this cycle's budget, or check what it waits for.
+    fn run_program(&mut self) {
+        let Some(p) = self.program.as_mut() else {
+            return;
+        };
+        match p.wait {
+            ProgramWait::Nothing => {}
+            ProgramWait::Motion(_) => return,
+            ProgramWait::Until(t) => {
+                if self.now_ns < t {
+                    return;
+                }
+                p.wait = ProgramWait::Nothing;
+                self.vm.resume(Resume::Ok);
+            }
+            ProgramWait::Input { n, value, deadline } => {
+                let on = self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << n) != 0;
+                if on == value {
+                    p.wait = ProgramWait::Nothing;
+                    self.vm.resume(Resume::Ok);
+                } else if deadline.is_some_and(|d| self.now_ns >= d) {
+                    p.wait = ProgramWait::Nothing;
+                    self.vm
+                        .resume(Resume::Failed(RuntimeErrorKind::WaitTimeout));
+                } else {
+                    return;
+                }
+            }
+        }
+        if p.paused {
+            return;
+        }
+        // At most PROGRAM_BUDGET instructions between two requests, and at most
+        // PROGRAM_REQUESTS requests carried out at once (PRINT, OUT, SPEED) per cycle.
+        for _ in 0..PROGRAM_REQUESTS {
+            let Some(p) = self.program.as_ref() else {
+                return;
+            };
+            let mut io = ProgramIo {
+                inputs: self.shared.inputs[0].load(Ordering::Acquire),
+                here: self.robot.forward(&self.planned_end),
+            };
+            match self.vm.run(&p.program, PROGRAM_BUDGET, &mut io) {
+                Step::Budget => return,
+                Step::Done => return self.end_program(None),
+                Step::Fault(e) => {
+                    let code = match e.kind {
+                        RuntimeErrorKind::WaitTimeout => Code::WaitTimeout,
+                        _ => Code::ProgramError,
+                    };
+                    let mut text = [0u8; 200];
+                    let mut w: &mut [u8] = &mut text[..];
+                    let _ = write!(w, "{}", e.kind);
+                    let len = 200 - w.len();
+                    let text = std::str::from_utf8(&text[..len]).unwrap_or("program error");
+                    return self.end_program_at(Some((code, text)), Some(e.line));
+                }
+                Step::Yield(request) => {
+                    if !self.program_yield(request) {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Carry out one request of the program; `true` when it may go on at once.
+    fn program_yield(&mut self, request: wrc_lang::Request) -> bool {
+        use wrc_lang::Request as R;
+        let command = match request {
+            R::Move(motion) => match motion {
+                Motion::Home => Command::Home,
+                Motion::Joints(joints) => Command::MovJ {
+                    joints,
+                    count: self.robot.axis_count(),
+                },
+                Motion::Pose(pose, posture) => Command::MovP { pose, posture },
+                Motion::Line(pose) => Command::MovL { pose },
+                Motion::Jog { axis, pulses } => Command::Jog {
+                    axis: AxisArg::Number(u8::try_from(axis + 1).unwrap_or(u8::MAX)),
+                    pulses,
+                },
+            },
+            R::Delay { seconds } => {
+                let ns = (seconds.max(0.0) * 1e9) as u64;
+                if let Some(p) = self.program.as_mut() {
+                    p.wait = ProgramWait::Until(self.now_ns.saturating_add(ns));
+                }
+                return false;
+            }
+            R::WaitInput {
+                n,
+                value,
+                timeout_s,
+            } => {
+                if let Some(p) = self.program.as_mut() {
+                    p.wait = ProgramWait::Input {
+                        n: n.min(31),
+                        value,
+                        deadline: timeout_s
+                            .map(|s| self.now_ns.saturating_add((s.max(0.0) * 1e9) as u64)),
+                    };
+                }
+                return false;
+            }
+            R::Print => {
+                let line = self.buf.event(false, &Event::Print(self.vm.print_text()));
+                self.out.send(SourceId::BROADCAST, line);
+                self.vm.resume(Resume::Ok);
+                return true;
+            }
+            R::Out { n, on } => Command::Out { n, on },
+            R::Speed { pct } => Command::Speed(pct),
+            _ => {
+                self.vm.resume(Resume::Failed(RuntimeErrorKind::BadArgument(
+                    "this controller cannot carry out that request",
+                )));
+                return true;
+            }
+        };
+        let is_motion = matches!(request, R::Move(_));
+        match self.program_request(command) {
+            Ok(Some(ticket)) if is_motion => {
+                if let Some(p) = self.program.as_mut() {
+                    p.wait = ProgramWait::Motion(ticket);
+                }
+                false
+            }
+            Ok(_) => {
+                self.vm.resume(Resume::Ok);
+                true
+            }
+            Err((code, offset)) => {
+                let mut text = [0u8; 400];
+                let t = self.captured.text().as_bytes();
+                let t = &t[offset.min(t.len())..];
+                let n = t.len().min(400);
+                text[..n].copy_from_slice(&t[..n]);
+                let text = std::str::from_utf8(&text[..n]).unwrap_or("refused");
+                self.end_program(Some((code, text)));
+                false
             }
         }
     }
@@ -719,7 +1194,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.shared.request_stop();
                 self.shared.error_code.store(0, Ordering::Release);
                 let line = self.buf.ack(to, "");
-                self.out.send(from, line);
+                deliver(&self.out, &mut self.captured, from, line);
                 self.set_state(RobotState::Idle);
             }
             Some(reason) if left == 0 => {
@@ -735,8 +1210,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// One cycle (public for tests that step the task by hand).
-    pub fn step(&mut self) {
+    /// One cycle at `now_ns` (the cycle's wake-up time; public for tests that step the task
+    /// by hand with their own clock).
+    pub fn step(&mut self, now_ns: u64) {
+        self.now_ns = now_ns;
         while let Ok(u) = self.urgent.try_recv() {
             self.handle_urgent(u);
         }
@@ -750,6 +1227,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
         }
         self.finish_reset();
+        while let Ok(start) = self.links.starts.try_recv() {
+            self.start_program(start);
+        }
+        self.run_program();
+        if let Some(program) = self.retire.take() {
+            if let Err(e) = self.links.retired.try_send(program) {
+                self.retire = Some(e.into_inner());
+            }
+        }
         // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
         let at_rest = !self.outstanding()
             && self.orders.is_empty()
@@ -776,7 +1262,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         }
                         _ => self.buf.inf(to, ""),
                     };
-                    self.out.send(from, line);
+                    deliver(&self.out, &mut self.captured, from, line);
                 }
             }
         }
@@ -784,7 +1270,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 }
 
 impl<B: MotionBoard + 'static> Task for CommandInterpreter<B> {
-    fn cycle(&mut self, _ctx: &CycleContext) {
-        self.step();
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self.step(ctx.woke_ns);
     }
 }

@@ -22,6 +22,7 @@ use crate::command_interpreter::{CommandInterpreter, Outputs, UrgentPath};
 use crate::error_check::{ErrorCheck, Limits};
 use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
+use crate::program_store::{ProgramStore, StoreLinks};
 use crate::pulse_generator::PulseGenerator;
 use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
 use crate::shared::{Shared, SourceId};
@@ -50,6 +51,8 @@ pub struct Options {
     pub boards: Vec<PathBuf>,
     /// How long to wait for a board to appear (a simulated board starting up).
     pub board_wait: Duration,
+    /// Where robot-language programs are stored (created if missing).
+    pub programs: PathBuf,
 }
 
 /// Why the controller could not start.
@@ -81,12 +84,21 @@ pub enum StartError {
     /// The runtime could not start a task.
     #[error("{0}")]
     Runtime(#[from] wrc_rt::RuntimeError),
+    /// The program directory could not be used.
+    #[error("cannot use the program directory {path}: {reason}")]
+    Programs {
+        /// The directory.
+        path: String,
+        /// Why.
+        reason: std::io::Error,
+    },
 }
 
 /// A running controller.
 pub struct Running {
     runtime: Option<RunningRuntime>,
     urgent: Option<JoinHandle<()>>,
+    store: Option<JoinHandle<()>>,
     quit: Arc<AtomicBool>,
     shared: Arc<Shared>,
     /// Where it listens: TCP address actually bound (with the real port when 0 was asked).
@@ -160,6 +172,9 @@ impl Running {
         self.quit.store(true, Ordering::Release);
         let report = self.runtime.take().map(|r| r.stop(timeout));
         if let Some(h) = self.urgent.take() {
+            let _ = h.join();
+        }
+        if let Some(h) = self.store.take() {
             let _ = h.join();
         }
         if let Some(path) = &self.socket {
@@ -252,10 +267,26 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let serial_out = Arc::new(MessageQueue::new(256));
     let owner_lost = Arc::new(AtomicBool::new(false));
     let stats = Arc::new(OnceLock::new());
+    let links = StoreLinks::new();
+    let outputs = Outputs {
+        network: network_out.clone(),
+        serial: serial_out.clone(),
+    };
+    let store = ProgramStore::new(
+        &options.programs,
+        robot.clone(),
+        links.clone(),
+        outputs.clone(),
+    )
+    .map_err(|reason| StartError::Programs {
+        path: options.programs.display().to_string(),
+        reason,
+    })?;
     let routes = Routes {
         incoming: incoming.clone(),
         urgent: urgent.clone(),
         wake: wake.clone(),
+        store: links.requests.clone(),
     };
 
     let tasks = &config.tasks;
@@ -326,11 +357,9 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         wake.clone(),
         orders,
         done,
-        Outputs {
-            network: network_out.clone(),
-            serial: serial_out.clone(),
-        },
+        outputs,
         owner_lost,
+        links,
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     runtime.add(spec("command_interpreter"), interpreter);
@@ -394,9 +423,15 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             path.run()
         })
         .ok();
+    let store_quit = quit.clone();
+    let store_thread = std::thread::Builder::new()
+        .name("wrc-programs".into())
+        .spawn(move || store.run(store_quit))
+        .ok();
     Ok(Running {
         runtime: Some(running),
         urgent: urgent_thread,
+        store: store_thread,
         quit,
         shared,
         tcp: tcp_addr,

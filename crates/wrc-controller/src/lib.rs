@@ -14,6 +14,7 @@ pub mod controller;
 pub mod error_check;
 pub mod ethernet;
 pub mod io_monitor;
+pub mod program_store;
 pub mod pulse_generator;
 pub mod rs232c;
 pub mod shared;

@@ -173,6 +173,8 @@ impl SourceId {
     pub const CONTROLLER: SourceId = SourceId(1);
     /// Every client (events), as an address for the Command Interpreter's replies.
     pub const BROADCAST: SourceId = SourceId(2);
+    /// The robot-language program the Command Interpreter runs.
+    pub const PROGRAM: SourceId = SourceId(3);
     /// Kind tag of a TCP host connection.
     pub const TCP: u32 = 1;
     /// Kind tag of a local GUI connection (Unix socket).
@@ -201,6 +203,7 @@ impl std::fmt::Display for SourceId {
         match self.kind() {
             _ if *self == SourceId::NONE => f.write_str("none"),
             _ if *self == SourceId::CONTROLLER => f.write_str("controller"),
+            _ if *self == SourceId::PROGRAM => f.write_str("program"),
             SourceId::TCP => write!(f, "tcp{}", self.slot()),
             SourceId::GUI => write!(f, "gui{}", self.slot()),
             SourceId::PENDANT => f.write_str("pendant"),

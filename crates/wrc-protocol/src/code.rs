@@ -81,6 +81,14 @@ pub enum Code {
     InEstop = 123,
     /// 124: the verb is not available on this connection.
     NotAvailable = 124,
+    /// 125: no stored program has that name.
+    ProgramUnknown = 125,
+    /// 126: the program does not compile (diagnostics precede the NAK as `DIAG` lines).
+    ProgramInvalid = 126,
+    /// 127: a program is running (or paused); ABORT it first.
+    ProgramRunning = 127,
+    /// 128: no program is running.
+    NoProgram = 128,
 
     // 2xx alarm: an action ended abnormally (ABS) or the controller stopped (EVT ERROR).
     /// 200: the motion was stopped by `STOP`.
@@ -103,6 +111,10 @@ pub enum Code {
     ClientLost = 208,
     /// 209: the motion could not be carried out (planning or execution fault).
     MotionFault = 209,
+    /// 210: the program ended on a runtime error (the text names the source line).
+    ProgramError = 210,
+    /// 211: a program's `WAIT IN(n) = v TIMEOUT s` timed out.
+    WaitTimeout = 211,
 
     // 3xx fatal: the controller cannot go on.
     /// 300: the motion board stopped answering.
@@ -133,6 +145,10 @@ impl Code {
         Code::InError,
         Code::InEstop,
         Code::NotAvailable,
+        Code::ProgramUnknown,
+        Code::ProgramInvalid,
+        Code::ProgramRunning,
+        Code::NoProgram,
         Code::Stopped,
         Code::EmergencyStop,
         Code::EstopInput,
@@ -143,6 +159,8 @@ impl Code {
         Code::TaskOverrun,
         Code::ClientLost,
         Code::MotionFault,
+        Code::ProgramError,
+        Code::WaitTimeout,
         Code::BoardLost,
         Code::Internal,
     ];
@@ -188,6 +206,10 @@ impl Code {
             Code::InError => "in ERROR state; send RESET first",
             Code::InEstop => "emergency stop active; release it and send RESET",
             Code::NotAvailable => "not available on this connection",
+            Code::ProgramUnknown => "no such program; PROGRAMS lists them",
+            Code::ProgramInvalid => "the program does not compile",
+            Code::ProgramRunning => "a program is running; ABORT it first",
+            Code::NoProgram => "no program is running",
             Code::Stopped => "stopped by STOP",
             Code::EmergencyStop => "emergency stop",
             Code::EstopInput => "emergency-stop input opened",
@@ -198,6 +220,8 @@ impl Code {
             Code::TaskOverrun => "real-time task overran its period",
             Code::ClientLost => "controlling client lost",
             Code::MotionFault => "motion fault",
+            Code::ProgramError => "program error",
+            Code::WaitTimeout => "WAIT timed out",
             Code::BoardLost => "motion board lost",
             Code::Internal => "internal error",
         }
@@ -252,6 +276,10 @@ mod tests {
             (Code::InError, 122),
             (Code::InEstop, 123),
             (Code::NotAvailable, 124),
+            (Code::ProgramUnknown, 125),
+            (Code::ProgramInvalid, 126),
+            (Code::ProgramRunning, 127),
+            (Code::NoProgram, 128),
             (Code::Stopped, 200),
             (Code::EmergencyStop, 201),
             (Code::EstopInput, 202),
@@ -262,6 +290,8 @@ mod tests {
             (Code::TaskOverrun, 207),
             (Code::ClientLost, 208),
             (Code::MotionFault, 209),
+            (Code::ProgramError, 210),
+            (Code::WaitTimeout, 211),
             (Code::BoardLost, 300),
             (Code::Internal, 301),
         ];

@@ -70,8 +70,8 @@ pub use reply::{
     REPLY_CAPACITY,
 };
 pub use request::{
-    checksum, ArgumentCount, Arity, AxisArg, Command, ParseError, Parser, Rejected, Request, Token,
-    MAX_ID_DIGITS, OUTPUT_COUNT,
+    checksum, ArgumentCount, Arity, AxisArg, Command, ParseError, Parser, ProgramName, Rejected,
+    Request, Token, MAX_ID_DIGITS, OUTPUT_COUNT,
 };
 pub use sim_stream::{DecodeError, EncodeError, SimFrame};
 pub use state::State;

@@ -407,6 +407,19 @@ pub enum Event<'a> {
         /// As in the `WHERE` ACK.
         position: WhereBody<'a>,
     },
+    /// `EVT PROGRAM <name> RUNNING|PAUSED|ENDED`: a program started, paused, continued or
+    /// ended.
+    Program {
+        /// The program's name.
+        name: &'a str,
+        /// `RUNNING`, `PAUSED` or `ENDED`.
+        state: &'a str,
+    },
+    /// `EVT PRINT <text>`: a running program's `PRINT` output (line breaks become spaces).
+    Print(&'a str),
+    /// `EVT DIAG <diagnostic>`: one compiler warning or error, as
+    /// `<file>:<line>:<col>: <severity>: <message>` (to the requesting connection only).
+    Diag(&'a str),
 }
 
 impl Event<'_> {
@@ -418,6 +431,9 @@ impl Event<'_> {
             Event::Input { .. } => "INPUT",
             Event::Control { .. } => "CONTROL",
             Event::Status { .. } => "STATUS",
+            Event::Program { .. } => "PROGRAM",
+            Event::Print(_) => "PRINT",
+            Event::Diag(_) => "DIAG",
         }
     }
 }
@@ -430,6 +446,14 @@ impl Display for Event<'_> {
             Event::Input { n, on } => write!(f, "{n} {}", u8::from(*on)),
             Event::Control { owner } => f.write_str(owner.unwrap_or("none")),
             Event::Status { status, position } => write!(f, "{status} {position}"),
+            Event::Program { name, state } => write!(f, "{name} {state}"),
+            Event::Print(text) | Event::Diag(text) => {
+                for c in text.chars() {
+                    let c = if c == '\n' || c == '\r' { ' ' } else { c };
+                    fmt::Write::write_char(f, c)?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -564,7 +588,8 @@ mod tests {
         assert_eq!(text(out.ack(ID7, io)), "ACK 7 in=0000000F out=80000001\n");
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
-        assert!(text(&help).ends_with(",SUBSCRIBE,UNSUBSCRIBE\n"));
+        assert!(text(&help)
+            .ends_with(",SUBSCRIBE,UNSUBSCRIBE,UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE\n"));
     }
 
     #[test]

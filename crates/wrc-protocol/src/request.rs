@@ -108,6 +108,20 @@ pub enum Command {
     Subscribe,
     /// `UNSUBSCRIBE`.
     Unsubscribe,
+    /// `UPLOAD <name>`: the program's lines follow, up to a line `.`.
+    Upload(ProgramName),
+    /// `PROGRAMS`.
+    Programs,
+    /// `RUN <name>`.
+    Run(ProgramName),
+    /// `PAUSE`.
+    Pause,
+    /// `CONTINUE`.
+    Continue,
+    /// `ABORT`.
+    Abort,
+    /// `DELETE <name>`.
+    Delete(ProgramName),
 }
 
 impl Command {
@@ -133,7 +147,63 @@ impl Command {
             Command::Help => Verb::Help,
             Command::Subscribe => Verb::Subscribe,
             Command::Unsubscribe => Verb::Unsubscribe,
+            Command::Upload(_) => Verb::Upload,
+            Command::Programs => Verb::Programs,
+            Command::Run(_) => Verb::Run,
+            Command::Pause => Verb::Pause,
+            Command::Continue => Verb::Continue,
+            Command::Abort => Verb::Abort,
+            Command::Delete(_) => Verb::Delete,
         }
+    }
+}
+
+/// A stored program's name: 1 to [`ProgramName::MAX_LEN`] ASCII letters, digits, `_` or `-`
+/// (so it is also a safe file name), kept inline so requests never allocate.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ProgramName {
+    bytes: [u8; ProgramName::MAX_LEN],
+    len: u8,
+}
+
+impl ProgramName {
+    /// Longest accepted name [bytes].
+    pub const MAX_LEN: usize = 32;
+
+    /// The name `text`, or `None` when it is empty, too long or has other characters.
+    pub fn new(text: &str) -> Option<ProgramName> {
+        let ok = !text.is_empty()
+            && text.len() <= Self::MAX_LEN
+            && text
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+        if !ok {
+            return None;
+        }
+        let mut bytes = [0u8; Self::MAX_LEN];
+        bytes[..text.len()].copy_from_slice(text.as_bytes());
+        Some(ProgramName {
+            bytes,
+            len: text.len() as u8,
+        })
+    }
+
+    /// The name as a string slice.
+    pub fn as_str(&self) -> &str {
+        // The constructor only accepts ASCII, so this never fails.
+        core::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("?")
+    }
+}
+
+impl fmt::Debug for ProgramName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ProgramName({:?})", self.as_str())
+    }
+}
+
+impl fmt::Display for ProgramName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
     }
 }
 
@@ -314,6 +384,9 @@ pub enum ParseError {
     /// An axis argument that is neither a number nor a valid name.
     #[error("axis \"{0}\" is neither an axis number nor a name (1-15 letters, digits, _ or -)")]
     BadAxisName(Token),
+    /// A program name with characters other than letters, digits, `_` and `-`, or too long.
+    #[error("program name \"{0}\" must be 1-32 letters, digits, _ or -")]
+    BadProgramName(Token),
     /// A posture word other than `L` or `R`.
     #[error("posture \"{0}\" must be L or R")]
     BadPosture(Token),
@@ -354,9 +427,10 @@ impl ParseError {
             | ParseError::TooLarge(_) => Code::BadNumber,
             ParseError::SpeedOutOfRange(_) => Code::SpeedOutOfRange,
             ParseError::AxisUnknown { .. } => Code::AxisUnknown,
-            ParseError::BadAxisName(_) | ParseError::BadPosture(_) | ParseError::BadSwitch(_) => {
-                Code::BadArgument
-            }
+            ParseError::BadAxisName(_)
+            | ParseError::BadPosture(_)
+            | ParseError::BadSwitch(_)
+            | ParseError::BadProgramName(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
                 Code::BadChecksum
@@ -609,6 +683,13 @@ impl Parser {
             Verb::Help => simple(Command::Help),
             Verb::Subscribe => simple(Command::Subscribe),
             Verb::Unsubscribe => simple(Command::Unsubscribe),
+            Verb::Upload => program_name(args).map(Command::Upload),
+            Verb::Programs => simple(Command::Programs),
+            Verb::Run => program_name(args).map(Command::Run),
+            Verb::Pause => simple(Command::Pause),
+            Verb::Continue => simple(Command::Continue),
+            Verb::Abort => simple(Command::Abort),
+            Verb::Delete => program_name(args).map(Command::Delete),
         }
     }
 
@@ -627,6 +708,13 @@ impl Parser {
             .map(AxisArg::Name)
             .ok_or_else(|| ParseError::BadAxisName(Token::new(word)))
     }
+}
+
+/// The one argument of `UPLOAD`, `RUN` and `DELETE`.
+fn program_name(args: &Args<'_>) -> Result<ProgramName, ParseError> {
+    args.exactly(1)?;
+    ProgramName::new(as_str(args.words[0]))
+        .ok_or_else(|| ParseError::BadProgramName(Token::new(args.words[0])))
 }
 
 /// The arguments after the verb.

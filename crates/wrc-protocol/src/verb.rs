@@ -46,6 +46,20 @@ pub enum Verb {
     Subscribe,
     /// `UNSUBSCRIBE`: stop the status stream on this connection.
     Unsubscribe,
+    /// `UPLOAD`: store a robot-language program (its lines follow, up to a line `.`).
+    Upload,
+    /// `PROGRAMS`: list the stored programs.
+    Programs,
+    /// `RUN`: compile and run a stored program.
+    Run,
+    /// `PAUSE`: pause the running program after its current motion.
+    Pause,
+    /// `CONTINUE`: continue a paused program.
+    Continue,
+    /// `ABORT`: end the running program and stop its motion.
+    Abort,
+    /// `DELETE`: remove a stored program.
+    Delete,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -87,6 +101,13 @@ impl Verb {
         Verb::Help,
         Verb::Subscribe,
         Verb::Unsubscribe,
+        Verb::Upload,
+        Verb::Programs,
+        Verb::Run,
+        Verb::Pause,
+        Verb::Continue,
+        Verb::Abort,
+        Verb::Delete,
     ];
 
     /// The verb's table entry.
@@ -156,6 +177,19 @@ impl Verb {
             Verb::Help => v("HELP", "", "list the verbs", false, false),
             Verb::Subscribe => v("SUBSCRIBE", "", "start the status stream", false, false),
             Verb::Unsubscribe => v("UNSUBSCRIBE", "", "stop the status stream", false, false),
+            Verb::Upload => v(
+                "UPLOAD",
+                "<name>",
+                "store a program: its lines follow, then a line \".\"",
+                false,
+                false,
+            ),
+            Verb::Programs => v("PROGRAMS", "", "list the stored programs", false, false),
+            Verb::Run => v("RUN", "<name>", "run a stored program", true, true),
+            Verb::Pause => v("PAUSE", "", "pause the running program", false, true),
+            Verb::Continue => v("CONTINUE", "", "continue a paused program", false, true),
+            Verb::Abort => v("ABORT", "", "end the running program", false, false),
+            Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, true),
         }
     }
 

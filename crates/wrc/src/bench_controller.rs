@@ -88,6 +88,7 @@ fn start_controller(
         realtime,
         boards: vec![dpram.to_path_buf()],
         board_wait: Duration::from_secs(10),
+        programs: dpram.with_file_name("programs"),
     };
     controller::start(config, &options).context("the controller could not start")
 }

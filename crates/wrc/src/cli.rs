@@ -6,7 +6,9 @@ use clap::{Parser, Subcommand};
 
 use crate::bench;
 use crate::board_sim;
+use crate::compile;
 use crate::plan;
+use crate::run as run_program;
 use crate::send;
 use crate::up;
 
@@ -25,8 +27,13 @@ enum Command {
     Up(up::UpArgs),
     /// Send one command line to a running controller and print the replies.
     Send(send::SendArgs),
+    /// Compile a robot-language program, upload it to a running controller, run it and
+    /// print what it prints until it ends.
+    Run(run_program::RunArgs),
     /// Plan a move offline and print its per-period pulses as CSV (no controller needed).
     Plan(plan::PlanArgs),
+    /// Compile a robot program (.wrl): diagnostics, or its bytecode listing or JSON.
+    Compile(compile::CompileArgs),
     /// Run a simulated motion board on a DPRAM file (the DSP side), inject faults into it
     /// or print its state.
     BoardSim(board_sim::BoardSimArgs),
@@ -40,7 +47,9 @@ pub fn run() -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Up(args) => up::run(args),
         Command::Send(args) => send::run(args),
+        Command::Run(args) => run_program::run(args),
         Command::Plan(args) => plan::run(args),
+        Command::Compile(args) => compile::run(args),
         Command::BoardSim(args) => board_sim::run(args),
         Command::Bench(args) => bench::run(args),
     }

@@ -4,8 +4,11 @@ mod bench;
 mod bench_controller;
 mod board_sim;
 mod cli;
+mod compile;
+mod connection;
 mod plan;
 mod plot;
+mod run;
 mod send;
 mod up;
 

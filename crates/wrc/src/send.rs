@@ -2,9 +2,7 @@
 //! command's final one (NAK, INF or ABS; ACK for commands that finish at once). Exit code 0,
 //! or 1 on NAK/ABS, 2 when the controller cannot be reached.
 
-use std::io::{BufRead, BufReader, Write};
-use std::net::TcpStream;
-use std::os::unix::net::UnixStream;
+use std::io::{BufRead, Write};
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -47,21 +45,7 @@ pub fn run(args: SendArgs) -> anyhow::Result<ExitCode> {
         Verb::from_name(verb_word.as_bytes()).is_some_and(|v| v.spec().completes_later);
 
     let timeout = Duration::from_secs_f64(args.timeout);
-    let (reader, mut writer): (Box<dyn BufRead>, Box<dyn Write>) = if args.addr.contains('/') {
-        let s = UnixStream::connect(&args.addr)
-            .with_context(|| format!("cannot connect to {}", args.addr))?;
-        s.set_read_timeout(Some(timeout))?;
-        (Box::new(BufReader::new(s.try_clone()?)), Box::new(s))
-    } else {
-        let s = TcpStream::connect(&args.addr).with_context(|| {
-            format!(
-                "cannot connect to the controller at {} (is `wrc up` running?)",
-                args.addr
-            )
-        })?;
-        s.set_read_timeout(Some(timeout))?;
-        (Box::new(BufReader::new(s.try_clone()?)), Box::new(s))
-    };
+    let (reader, mut writer) = crate::connection::connect(&args.addr, timeout)?;
     writer.write_all(format!("{line}\n").as_bytes())?;
     writer.flush()?;
     for reply in reader.lines() {

@@ -185,6 +185,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         },
         boards: boards.clone(),
         board_wait: Duration::from_secs(10),
+        programs: args.state_dir.join("programs"),
     };
     let running = match controller::start(&config, &options) {
         Ok(r) => r,
@@ -201,6 +202,10 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         println!("wrc: local GUI socket {}", path.display());
     }
     println!("wrc: simulator datagrams to udp {}", running.sim_addr);
+    println!(
+        "wrc: robot programs stored in {}",
+        args.state_dir.join("programs").display()
+    );
     if let Some(serial) = &args.serial {
         println!(
             "wrc: teaching pendant on {} ({} baud, parity {})",

@@ -31,6 +31,7 @@ impl Rig {
             incoming: incoming.clone(),
             urgent: Arc::new(MessageQueue::new(8)),
             wake: Arc::new(Semaphore::new(0)),
+            store: Arc::new(MessageQueue::new(8)),
         };
         let set = |kind| {
             ClientSet::new(

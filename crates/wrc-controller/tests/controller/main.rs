@@ -1,4 +1,5 @@
 //! Controller integration tests, one module per topic.
 
+mod alloc;
 mod ethernet;
 mod pipeline;

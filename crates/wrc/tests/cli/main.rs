@@ -1,6 +1,8 @@
 //! The `wrc` binary driven as a user would, one module per subcommand.
 
+mod compile;
 mod plan;
+mod program;
 mod up;
 
 use std::process::{Command, Output};

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-struct Controller {
+pub(crate) struct Controller {
     child: Child,
-    port: u16,
+    pub(crate) port: u16,
     sim_port: u16,
     dir: tempfile::TempDir,
 }
@@ -32,8 +32,18 @@ fn free_udp_port() -> u16 {
 }
 
 impl Controller {
-    fn start(extra: &[&str]) -> Controller {
-        let dir = tempfile::tempdir().unwrap();
+    pub(crate) fn start(extra: &[&str]) -> Controller {
+        Controller::start_in(tempfile::tempdir().unwrap(), extra)
+    }
+
+    /// Stop this controller (SIGTERM) and start a new one on the same state directory.
+    pub(crate) fn restart(mut self) -> Controller {
+        assert!(self.terminate().success());
+        let dir = std::mem::replace(&mut self.dir, tempfile::tempdir().unwrap());
+        Controller::start_in(dir, &[])
+    }
+
+    fn start_in(dir: tempfile::TempDir, extra: &[&str]) -> Controller {
         let port = free_port();
         let sim_port = free_udp_port();
         let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
@@ -62,11 +72,15 @@ impl Controller {
         c
     }
 
-    fn client(&self) -> Client {
+    pub(crate) fn client(&self) -> Client {
         Client::connect(self.port)
     }
 
-    fn dpram(&self) -> PathBuf {
+    pub(crate) fn dir_path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    pub(crate) fn dpram(&self) -> PathBuf {
         self.dir.path().join("board0.dpram")
     }
 
@@ -93,11 +107,11 @@ impl Drop for Controller {
     }
 }
 
-struct Client {
+pub(crate) struct Client {
     reader: BufReader<TcpStream>,
     writer: TcpStream,
     /// Every line received, events included.
-    seen: Vec<String>,
+    pub(crate) seen: Vec<String>,
 }
 
 impl Client {
@@ -111,7 +125,7 @@ impl Client {
         }
     }
 
-    fn line(&mut self) -> String {
+    pub(crate) fn line(&mut self) -> String {
         let mut l = String::new();
         if let Err(e) = self.reader.read_line(&mut l) {
             panic!(
@@ -124,17 +138,17 @@ impl Client {
         l
     }
 
-    fn send_raw(&mut self, bytes: &[u8]) {
+    pub(crate) fn send_raw(&mut self, bytes: &[u8]) {
         self.writer.write_all(bytes).unwrap();
     }
 
     /// Send `line` and return the first reply that is not an event.
-    fn ask(&mut self, line: &str) -> String {
+    pub(crate) fn ask(&mut self, line: &str) -> String {
         self.send_raw(format!("{line}\n").as_bytes());
         self.reply()
     }
 
-    fn reply(&mut self) -> String {
+    pub(crate) fn reply(&mut self) -> String {
         loop {
             let l = self.line();
             if !l.starts_with("EVT") {
@@ -144,13 +158,13 @@ impl Client {
     }
 
     /// Send a motion with `id`: expect ACK, then return the final INF/ABS.
-    fn motion(&mut self, id: u32, line: &str) -> String {
+    pub(crate) fn motion(&mut self, id: u32, line: &str) -> String {
         let ack = self.ask(&format!("{id} {line}"));
         assert_eq!(ack, format!("ACK {id}"), "{line}");
         self.reply()
     }
 
-    fn where_(&mut self) -> (Vec<f64>, f64, f64) {
+    pub(crate) fn where_(&mut self) -> (Vec<f64>, f64, f64) {
         let r = self.ask("WHERE");
         let field = |k: &str| -> String {
             r.split_whitespace()
@@ -165,7 +179,7 @@ impl Client {
         )
     }
 
-    fn status(&mut self) -> String {
+    pub(crate) fn status(&mut self) -> String {
         self.ask("STATUS")
     }
 }

@@ -1,0 +1,414 @@
+//! The program store: a non-real-time thread that receives uploaded robot-language programs
+//! line by line, compiles them with the controller's robot (`wrc-lang`), keeps them on disk
+//! (`STATE_DIR/programs/<name>.wrl`, written atomically), lists and deletes them, and for
+//! `RUN` compiles the stored text and hands the program to the Command Interpreter.
+//!
+//! Compiling allocates, so it happens here and never in a real-time task: the Ethernet and
+//! RS232C tasks pass fixed-size messages in, the Command Interpreter receives a boxed
+//! program (moving a box does not allocate) and sends it back here when it is done with it,
+//! so the memory is also freed here.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use wrc_lang::{Program, Severity};
+use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo, MAX_LINE};
+use wrc_robot::Robot;
+use wrc_rt::ipc::MessageQueue;
+
+use crate::command_interpreter::Outputs;
+use crate::shared::SourceId;
+
+/// Most lines in an uploaded program.
+pub const MAX_PROGRAM_LINES: usize = 10_000;
+
+/// A request for the program store, fixed-size so real-time tasks send it without
+/// allocating.
+// The line variant is large on purpose: boxing it would allocate in the real-time sender.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy)]
+pub enum StoreRequest {
+    /// `UPLOAD <name>`: the lines that follow from `from` are program text.
+    Begin {
+        /// The uploading connection.
+        from: SourceId,
+        /// Where the final reply goes.
+        to: ReplyTo,
+        /// The program's name.
+        name: ProgramName,
+    },
+    /// One line of program text (without its line end).
+    Line {
+        /// The uploading connection.
+        from: SourceId,
+        /// Bytes used in `text`.
+        len: u16,
+        /// The line.
+        text: [u8; MAX_LINE],
+    },
+    /// The line `.`: compile and store.
+    End {
+        /// The uploading connection.
+        from: SourceId,
+    },
+    /// The upload from `from` ended without `.` (the connection went away, or a line was
+    /// refused): forget it.
+    Cancel {
+        /// The uploading connection.
+        from: SourceId,
+    },
+    /// `PROGRAMS`.
+    List {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+    },
+    /// `DELETE <name>`.
+    Delete {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+        /// The program.
+        name: ProgramName,
+    },
+    /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
+    Run {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
+        /// The program.
+        name: ProgramName,
+    },
+}
+
+impl StoreRequest {
+    /// A [`StoreRequest::Line`] with `text` (cut at [`MAX_LINE`] bytes).
+    pub fn line(from: SourceId, text: &[u8]) -> StoreRequest {
+        let mut line = [0u8; MAX_LINE];
+        let n = text.len().min(MAX_LINE);
+        line[..n].copy_from_slice(&text[..n]);
+        StoreRequest::Line {
+            from,
+            len: n as u16,
+            text: line,
+        }
+    }
+}
+
+/// A compiled program on its way to the Command Interpreter.
+pub struct ProgramStart {
+    /// The requesting connection (gets the ACK and the final INF/ABS).
+    pub from: SourceId,
+    /// Where the replies go.
+    pub to: ReplyTo,
+    /// The program's name.
+    pub name: ProgramName,
+    /// The compiled program.
+    pub program: Box<Program>,
+}
+
+/// The queues between the store and the real-time tasks.
+#[derive(Clone)]
+pub struct StoreLinks {
+    /// Requests from the Ethernet and RS232C tasks.
+    pub requests: Arc<MessageQueue<StoreRequest>>,
+    /// Compiled programs for the Command Interpreter.
+    pub starts: Arc<MessageQueue<ProgramStart>>,
+    /// Programs the Command Interpreter is done with (freed by the store).
+    pub retired: Arc<MessageQueue<Box<Program>>>,
+}
+
+impl StoreLinks {
+    /// Queues of sensible sizes.
+    pub fn new() -> StoreLinks {
+        StoreLinks {
+            requests: Arc::new(MessageQueue::new(4096)),
+            starts: Arc::new(MessageQueue::new(4)),
+            retired: Arc::new(MessageQueue::new(16)),
+        }
+    }
+}
+
+impl Default for StoreLinks {
+    fn default() -> Self {
+        StoreLinks::new()
+    }
+}
+
+struct Upload {
+    from: SourceId,
+    to: ReplyTo,
+    name: ProgramName,
+    text: String,
+    lines: usize,
+    too_long: bool,
+}
+
+/// The program store (runs on its own non-real-time thread, see [`ProgramStore::run`]).
+pub struct ProgramStore {
+    dir: PathBuf,
+    robot: Robot,
+    links: StoreLinks,
+    out: Outputs,
+    uploads: Vec<Upload>,
+    buf: ReplyBuf,
+}
+
+impl ProgramStore {
+    /// A store keeping programs in `dir` (created if missing).
+    pub fn new(
+        dir: &Path,
+        robot: Robot,
+        links: StoreLinks,
+        out: Outputs,
+    ) -> std::io::Result<ProgramStore> {
+        fs::create_dir_all(dir)?;
+        Ok(ProgramStore {
+            dir: dir.to_path_buf(),
+            robot,
+            links,
+            out,
+            uploads: Vec::new(),
+            buf: ReplyBuf::new(),
+        })
+    }
+
+    /// Serve requests until `quit`.
+    pub fn run(mut self, quit: Arc<AtomicBool>) {
+        while !quit.load(Ordering::Acquire) {
+            if let Ok(request) = self.links.requests.recv_timeout(Duration::from_millis(50)) {
+                self.handle(request);
+            }
+            self.step();
+        }
+    }
+
+    /// Serve every queued request and free retired programs (public for tests).
+    pub fn step(&mut self) {
+        while let Ok(request) = self.links.requests.try_recv() {
+            self.handle(request);
+        }
+        while self.links.retired.try_recv().is_ok() {}
+    }
+
+    fn path(&self, name: &ProgramName) -> PathBuf {
+        self.dir.join(format!("{name}.wrl"))
+    }
+
+    fn reply_nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
+        let line = self.buf.nak(to, code, text);
+        self.out.send(from, line);
+    }
+
+    fn handle(&mut self, request: StoreRequest) {
+        match request {
+            StoreRequest::Begin { from, to, name } => {
+                self.uploads.retain(|u| u.from != from);
+                self.uploads.push(Upload {
+                    from,
+                    to,
+                    name,
+                    text: String::new(),
+                    lines: 0,
+                    too_long: false,
+                });
+            }
+            StoreRequest::Line { from, len, text } => {
+                if let Some(u) = self.uploads.iter_mut().find(|u| u.from == from) {
+                    u.lines += 1;
+                    if u.lines > MAX_PROGRAM_LINES {
+                        u.too_long = true;
+                    } else {
+                        u.text
+                            .push_str(&String::from_utf8_lossy(&text[..usize::from(len)]));
+                        u.text.push('\n');
+                    }
+                }
+            }
+            StoreRequest::Cancel { from } => self.uploads.retain(|u| u.from != from),
+            StoreRequest::End { from } => {
+                let Some(i) = self.uploads.iter().position(|u| u.from == from) else {
+                    return;
+                };
+                let upload = self.uploads.swap_remove(i);
+                self.finish_upload(upload);
+            }
+            StoreRequest::List { from, to } => {
+                let names = self.list();
+                let line = self
+                    .buf
+                    .ack(to, format_args!("programs={}", names.join(",")));
+                self.out.send(from, line);
+            }
+            StoreRequest::Delete { from, to, name } => match fs::remove_file(self.path(&name)) {
+                Ok(()) => {
+                    let line = self.buf.ack(to, "");
+                    self.out.send(from, line);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                    let text = format!("no program named {name}; PROGRAMS lists them");
+                    self.reply_nak(from, to, Code::ProgramUnknown, &text);
+                }
+                Err(e) => {
+                    let text = format!("cannot delete {name}: {e}");
+                    self.reply_nak(from, to, Code::Internal, &text);
+                }
+            },
+            StoreRequest::Run { from, to, name } => self.run_program(from, to, name),
+        }
+    }
+
+    /// The stored programs' names, sorted.
+    pub fn list(&self) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(&self.dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|e| {
+                let name = e.file_name().into_string().ok()?;
+                let stem = name.strip_suffix(".wrl")?;
+                ProgramName::new(stem).map(|_| stem.to_string())
+            })
+            .collect();
+        names.sort();
+        names
+    }
+
+    /// Compile `source`; send every diagnostic to `from` as `EVT DIAG`. On errors, NAK 126
+    /// and `None`.
+    fn compile(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        name: &ProgramName,
+        source: &str,
+    ) -> Option<(Program, usize)> {
+        let file = format!("{name}.wrl");
+        let compiled = wrc_lang::compile(source, &file, &self.robot);
+        let mut errors = 0;
+        let mut warnings = 0;
+        let mut first_error = String::new();
+        for d in &compiled.diagnostics {
+            let severity = match d.severity {
+                Severity::Error => {
+                    errors += 1;
+                    "error"
+                }
+                _ => {
+                    warnings += 1;
+                    "warning"
+                }
+            };
+            let mut text = String::new();
+            let _ = write!(
+                text,
+                "{file}:{}:{}: {severity}: {}",
+                d.line, d.col, d.message
+            );
+            if severity == "error" && first_error.is_empty() {
+                first_error = format!("{}:{} {}", d.line, d.col, d.message);
+            }
+            let line = self.buf.event(to.checksum, &Event::Diag(&text));
+            self.out.send(from, line);
+        }
+        match compiled.program {
+            Some(program) if errors == 0 => Some((program, warnings)),
+            _ => {
+                let text = format!(
+                    "{name}: {errors} error{}; first: {first_error}",
+                    if errors == 1 { "" } else { "s" }
+                );
+                self.reply_nak(from, to, Code::ProgramInvalid, &text);
+                None
+            }
+        }
+    }
+
+    fn finish_upload(&mut self, upload: Upload) {
+        let Upload {
+            from,
+            to,
+            name,
+            text,
+            lines,
+            too_long,
+        } = upload;
+        if too_long {
+            let text = format!(
+                "{name}: {lines} lines; a program may have at most {MAX_PROGRAM_LINES}; nothing stored"
+            );
+            return self.reply_nak(from, to, Code::ProgramInvalid, &text);
+        }
+        let Some((_, warnings)) = self.compile(from, to, &name, &text) else {
+            return;
+        };
+        match write_atomically(&self.path(&name), text.as_bytes()) {
+            Ok(()) => {
+                let line = self.buf.ack(
+                    to,
+                    format_args!("name={name} lines={lines} warnings={warnings}"),
+                );
+                self.out.send(from, line);
+            }
+            Err(e) => {
+                let text = format!("cannot store {name}: {e}; nothing stored");
+                self.reply_nak(from, to, Code::Internal, &text);
+            }
+        }
+    }
+
+    fn run_program(&mut self, from: SourceId, to: ReplyTo, name: ProgramName) {
+        let source = match fs::read_to_string(self.path(&name)) {
+            Ok(s) => s,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                let text = format!("no program named {name}; PROGRAMS lists them");
+                return self.reply_nak(from, to, Code::ProgramUnknown, &text);
+            }
+            Err(e) => {
+                let text = format!("cannot read {name}: {e}");
+                return self.reply_nak(from, to, Code::Internal, &text);
+            }
+        };
+        let Some((program, _)) = self.compile(from, to, &name, &source) else {
+            return;
+        };
+        let start = ProgramStart {
+            from,
+            to,
+            name,
+            program: Box::new(program),
+        };
+        if self.links.starts.try_send(start).is_err() {
+            self.reply_nak(
+                from,
+                to,
+                Code::Busy,
+                "the controller is busy starting another program; repeat RUN",
+            );
+        }
+    }
+}
+
+/// Write `bytes` to `path` so that a crash leaves either the old file or the new one:
+/// a temporary file in the same directory, fsync, rename, fsync of the directory.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+    }
+    fs::rename(&tmp, path)?;
+    fs::File::open(dir)?.sync_all()
+}

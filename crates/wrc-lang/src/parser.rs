@@ -1,0 +1,1144 @@
+//! The parser: tokens to a syntax tree, one statement per line. A statement it cannot read
+//! is reported and skipped to the end of its line, and blocks that do not close are closed
+//! where the mismatch is found, so one pass reports every error it can.
+
+use std::collections::HashSet;
+
+use wrc_robot::Posture;
+
+use crate::ast::{Arg, AxisRef, BinOp, Expr, ExprKind, Name, Stmt, StmtKind, UnOp};
+use crate::diagnostic::{Diagnostic, Span};
+use crate::lexer::{Tok, Token};
+use crate::statements::{self, ArgSpec, StatementDef};
+
+/// Deepest expression tree accepted (operators and parentheses nested).
+pub(crate) const MAX_EXPR_DEPTH: u32 = 100;
+/// Deepest block nesting accepted (IF, WHILE, FOR inside each other).
+pub(crate) const MAX_BLOCK_DEPTH: usize = 64;
+
+/// Parse a token list (from [`crate::lexer::lex`]) into top-level statements.
+pub(crate) fn parse(source: &str, tokens: &[Token], diags: &mut Vec<Diagnostic>) -> Vec<Stmt> {
+    let mut p = Parser {
+        src: source,
+        toks: tokens,
+        pos: 0,
+        error_lines: diags
+            .iter()
+            .filter(|d| d.is_error())
+            .map(|d| d.line)
+            .collect(),
+        diags,
+        nest: 0,
+    };
+    let mut open = Vec::new();
+    let mut stmts = Vec::new();
+    loop {
+        let (mut block, end) = p.block(&mut open);
+        stmts.append(&mut block);
+        match end {
+            // At the top level nothing is open, so `block` reports stray closers itself and
+            // only stops at the end of the file.
+            End::Eof => break,
+            End::Word { .. } | End::Outer => p.skip_line(),
+        }
+    }
+    stmts
+}
+
+/// A block that is open while its body is parsed.
+struct Open {
+    /// `IF`, `WHILE`, `FOR` or `SUB`.
+    word: &'static str,
+    span: Span,
+    /// Words that end (or continue) this block.
+    closers: &'static [&'static str],
+}
+
+/// Why a block's statement list ended.
+enum End {
+    /// A closer of the innermost block, not consumed: its word, span and token count.
+    Word {
+        key: &'static str,
+        span: Span,
+        tokens: usize,
+    },
+    /// A closer of an outer block (already reported): the inner block ends here.
+    Outer,
+    /// The end of the file.
+    Eof,
+}
+
+const CLOSERS: &[&str] = &["ENDIF", "ELSEIF", "ELSE", "ENDWHILE", "NEXT", "ENDSUB"];
+
+fn opener_of(closer: &str) -> &'static str {
+    match closer {
+        "ENDIF" | "ELSEIF" | "ELSE" => "IF",
+        "ENDWHILE" => "WHILE",
+        "NEXT" => "FOR",
+        _ => "SUB",
+    }
+}
+
+fn closer_of(opener: &str) -> &'static str {
+    match opener {
+        "IF" => "ENDIF",
+        "WHILE" => "ENDWHILE",
+        "FOR" => "NEXT",
+        _ => "ENDSUB",
+    }
+}
+
+type PResult<T> = Result<T, ()>;
+
+struct Parser<'a, 'd> {
+    src: &'a str,
+    toks: &'a [Token],
+    pos: usize,
+    diags: &'d mut Vec<Diagnostic>,
+    /// Parentheses, calls and prefix operators open right now (bounds the recursion).
+    nest: u32,
+    /// Lines that already have an error.
+    error_lines: HashSet<u32>,
+}
+
+impl Parser<'_, '_> {
+    fn peek(&self) -> &Token {
+        // The lexer always ends with Eof, and `bump` never passes it.
+        &self.toks[self.pos.min(self.toks.len() - 1)]
+    }
+
+    fn peek_at(&self, ahead: usize) -> &Token {
+        &self.toks[(self.pos + ahead).min(self.toks.len() - 1)]
+    }
+
+    fn bump(&mut self) -> Token {
+        let t = self.peek().clone();
+        if t.tok != Tok::Eof {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn text(&self, t: &Token) -> &str {
+        self.src.get(t.start..t.end).unwrap_or("")
+    }
+
+    /// The upper-case text of an identifier token, or "" for any other token.
+    fn key(&self, t: &Token) -> String {
+        if t.tok == Tok::Ident {
+            self.text(t).to_ascii_uppercase()
+        } else {
+            String::new()
+        }
+    }
+
+    fn is_word(&self, t: &Token, word: &str) -> bool {
+        t.tok == Tok::Ident && self.text(t).eq_ignore_ascii_case(word)
+    }
+
+    fn at_line_end(&self) -> bool {
+        matches!(self.peek().tok, Tok::Newline | Tok::Eof)
+    }
+
+    /// A syntax error in a statement: only the first error of a line is reported (the rest
+    /// of a broken line rarely says anything new).
+    fn error(&mut self, span: Span, message: impl Into<String>) {
+        if self.error_lines.insert(span.line) {
+            self.diags.push(Diagnostic::error(span, message));
+        }
+    }
+
+    /// An error in the block structure: always reported.
+    fn block_error(&mut self, span: Span, message: impl Into<String>) {
+        self.error_lines.insert(span.line);
+        self.diags.push(Diagnostic::error(span, message));
+    }
+
+    /// How a token reads in a message.
+    fn describe(&self, t: &Token) -> String {
+        match &t.tok {
+            Tok::Newline => "the end of the line".into(),
+            Tok::Eof => "the end of the file".into(),
+            Tok::Str(_) => "a string".into(),
+            Tok::Number(_) => format!("number {}", self.text(t)),
+            Tok::Ident => format!("'{}'", self.text(t)),
+            _ => format!("'{}'", self.text(t)),
+        }
+    }
+
+    /// Skip to the start of the next line.
+    fn skip_line(&mut self) {
+        while !self.at_line_end() {
+            self.bump();
+        }
+        self.bump();
+    }
+
+    /// Expect the end of the statement's line and consume it; otherwise report and skip.
+    fn end_line(&mut self, what: &str) {
+        if self.at_line_end() {
+            self.bump();
+            return;
+        }
+        let t = self.peek().clone();
+        let msg = format!(
+            "expected the end of the line after {what}, found {}",
+            self.describe(&t)
+        );
+        self.error(t.span, msg);
+        self.skip_line();
+    }
+
+    fn name(&self, t: &Token) -> Name {
+        let text = self.text(t).to_string();
+        Name {
+            key: text.to_ascii_uppercase(),
+            text,
+            span: t.span,
+        }
+    }
+
+    /// A closer word at the start of the line: its key and how many tokens it takes
+    /// (`END IF` is reported and read as `ENDIF`).
+    fn closer_here(&mut self) -> Option<(&'static str, Span, usize)> {
+        let t = self.peek().clone();
+        if t.tok != Tok::Ident {
+            return None;
+        }
+        let key = self.key(&t);
+        if let Some(&c) = CLOSERS.iter().find(|&&c| c == key) {
+            return Some((c, t.span, 1));
+        }
+        if key == "END" {
+            let next = self.peek_at(1).clone();
+            let joined = match self.key(&next).as_str() {
+                "IF" => "ENDIF",
+                "WHILE" => "ENDWHILE",
+                "SUB" => "ENDSUB",
+                _ => return None,
+            };
+            let span = t.span.to(next.span);
+            self.block_error(span, format!("write {joined} as one word"));
+            return Some((joined, span, 2));
+        }
+        None
+    }
+
+    /// Statements until a closer or the end of the file.
+    fn block(&mut self, open: &mut Vec<Open>) -> (Vec<Stmt>, End) {
+        let mut stmts = Vec::new();
+        loop {
+            while self.peek().tok == Tok::Newline {
+                self.bump();
+            }
+            if self.peek().tok == Tok::Eof {
+                return (stmts, End::Eof);
+            }
+            if let Some((key, span, tokens)) = self.closer_here() {
+                if let Some(inner) = open.last() {
+                    if inner.closers.contains(&key) {
+                        return (stmts, End::Word { key, span, tokens });
+                    }
+                    if open.iter().any(|o| o.closers.contains(&key)) {
+                        let msg = format!(
+                            "expected {} to close {} at {}, found {key}",
+                            closer_of(inner.word),
+                            inner.word,
+                            inner.span.at()
+                        );
+                        self.block_error(span, msg);
+                        return (stmts, End::Outer);
+                    }
+                }
+                let msg = format!("{key} without {}", opener_of(key));
+                self.block_error(span, msg);
+                self.skip_line();
+                continue;
+            }
+            if let Ok(stmt) = self.statement(open) {
+                stmts.push(stmt);
+            }
+        }
+    }
+
+    /// One statement, including a whole block statement.
+    fn statement(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let t = self.peek().clone();
+        if t.tok != Tok::Ident {
+            let msg = format!("expected a statement, found {}", self.describe(&t));
+            self.error(t.span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        let key = self.key(&t);
+        match key.as_str() {
+            "IF" | "WHILE" | "FOR" | "SUB" => {
+                if open.len() >= MAX_BLOCK_DEPTH {
+                    self.error(
+                        t.span,
+                        format!("blocks nested deeper than {MAX_BLOCK_DEPTH}; move the inner part into a SUB"),
+                    );
+                    self.skip_line();
+                    return Err(());
+                }
+                match key.as_str() {
+                    "IF" => self.if_block(open),
+                    "WHILE" => self.while_block(open),
+                    "FOR" => self.for_block(open),
+                    _ => self.sub_block(open),
+                }
+            }
+            _ => {
+                if let Some(def) = statements::find(&key) {
+                    return self.command(def);
+                }
+                self.assignment()
+            }
+        }
+    }
+
+    /// `name = expr`.
+    fn assignment(&mut self) -> PResult<Stmt> {
+        let t = self.bump();
+        let target = self.name(&t);
+        let next = self.peek().clone();
+        if next.tok != Tok::Eq {
+            let msg = if next.tok == Tok::Dot {
+                format!(
+                    "a field of {} cannot be assigned; assign a whole new value (e.g. {} = POSE(x, y, z, yaw))",
+                    target.text, target.text
+                )
+            } else if statements::is_reserved(&target.key) {
+                format!("{} cannot start a statement", target.text)
+            } else {
+                format!(
+                    "{} is not a statement; statements are {} and IF, WHILE, FOR, SUB; to assign a variable write {} = value",
+                    target.text,
+                    statement_list(),
+                    target.text
+                )
+            };
+            let span = if next.tok == Tok::Dot {
+                target.span.to(self.peek_at(1).span)
+            } else {
+                target.span
+            };
+            self.error(span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        self.bump();
+        if statements::is_reserved(&target.key) {
+            let msg = format!("{} is a keyword and cannot name a variable", target.text);
+            self.error(target.span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        let value = match self.expr() {
+            Ok(e) => {
+                self.end_line("the value");
+                e
+            }
+            Err(()) => {
+                // Keep the assignment so that later uses of the name are not reported too.
+                self.skip_line();
+                Expr {
+                    kind: ExprKind::Error,
+                    span: target.span,
+                    depth: 1,
+                }
+            }
+        };
+        Ok(Stmt {
+            span: target.span,
+            kind: StmtKind::Assign { target, value },
+        })
+    }
+
+    /// A statement from the table: its arguments by the table's grammar.
+    fn command(&mut self, def: &'static StatementDef) -> PResult<Stmt> {
+        let kw = self.bump();
+        let result = self.command_args(def);
+        match result {
+            Ok(args) => {
+                if self.peek().tok == Tok::Comma {
+                    let t = self.peek().clone();
+                    let msg = format!("too many arguments; the syntax is {}", def.syntax);
+                    self.error(t.span, msg);
+                    self.skip_line();
+                    return Err(());
+                }
+                self.end_line(def.keyword);
+                Ok(Stmt {
+                    span: kw.span,
+                    kind: StmtKind::Command { def, args },
+                })
+            }
+            Err(()) => {
+                self.skip_line();
+                Err(())
+            }
+        }
+    }
+
+    fn command_args(&mut self, def: &'static StatementDef) -> PResult<Vec<Arg>> {
+        let mut args = Vec::with_capacity(def.args.len());
+        for (i, spec) in def.args.iter().enumerate() {
+            let needs_comma = i > 0 && matches!(spec, ArgSpec::Value { .. } | ArgSpec::Axis);
+            if needs_comma {
+                self.expect_comma(def)?;
+            } else if i == 0 && self.at_line_end() && !matches!(spec, ArgSpec::Keyword { .. }) {
+                let t = self.peek().clone();
+                let msg = format!(
+                    "{} needs arguments; the syntax is {}",
+                    def.keyword, def.syntax
+                );
+                self.error(t.span, msg);
+                return Err(());
+            }
+            let arg = match spec {
+                ArgSpec::Value { .. } => Arg::Value(self.expr()?),
+                ArgSpec::Posture => Arg::Posture(self.posture(def)?),
+                ArgSpec::Axis => Arg::Axis(self.axis()?),
+                ArgSpec::Items => {
+                    let mut items = vec![self.expr()?];
+                    while self.peek().tok == Tok::Comma {
+                        self.bump();
+                        items.push(self.expr()?);
+                    }
+                    Arg::Items(items)
+                }
+                ArgSpec::Sub => {
+                    let t = self.peek().clone();
+                    if t.tok != Tok::Ident {
+                        let msg = format!("expected a SUB name, found {}", self.describe(&t));
+                        self.error(t.span, msg);
+                        return Err(());
+                    }
+                    self.bump();
+                    Arg::Sub(self.name(&t))
+                }
+                ArgSpec::Input => self.input_condition(def)?,
+                ArgSpec::Keyword { word, .. } => {
+                    if self.is_word(&self.peek().clone(), word) {
+                        self.bump();
+                        Arg::Keyword(Some(self.expr()?))
+                    } else {
+                        Arg::Keyword(None)
+                    }
+                }
+            };
+            args.push(arg);
+        }
+        Ok(args)
+    }
+
+    fn expect_comma(&mut self, def: &StatementDef) -> PResult<()> {
+        let t = self.peek().clone();
+        if t.tok == Tok::Comma {
+            self.bump();
+            return Ok(());
+        }
+        let msg = format!(
+            "expected ',' and the next argument, found {}; the syntax is {}",
+            self.describe(&t),
+            def.syntax
+        );
+        self.error(t.span, msg);
+        Err(())
+    }
+
+    /// `, L|R` or nothing.
+    fn posture(&mut self, def: &StatementDef) -> PResult<Option<Posture>> {
+        if self.peek().tok != Tok::Comma {
+            return Ok(None);
+        }
+        self.bump();
+        let t = self.peek().clone();
+        let posture = match self.key(&t).as_str() {
+            "L" | "LEFT" => Some(Posture::Left),
+            "R" | "RIGHT" => Some(Posture::Right),
+            _ => None,
+        };
+        match posture {
+            Some(p) => {
+                self.bump();
+                Ok(Some(p))
+            }
+            None => {
+                let msg = format!(
+                    "the posture must be L or R (elbow left or right), found {}; the syntax is {}",
+                    self.describe(&t),
+                    def.syntax
+                );
+                self.error(t.span, msg);
+                Err(())
+            }
+        }
+    }
+
+    /// An axis name or number.
+    fn axis(&mut self) -> PResult<AxisRef> {
+        let t = self.peek().clone();
+        match t.tok {
+            Tok::Ident => {
+                self.bump();
+                Ok(AxisRef::Name(self.name(&t)))
+            }
+            Tok::Number(n) => {
+                self.bump();
+                Ok(AxisRef::Number(n, t.span))
+            }
+            _ => {
+                let msg = format!(
+                    "expected an axis name (like J1) or number (1, 2, …), found {}",
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                Err(())
+            }
+        }
+    }
+
+    /// `IN(n) = value`.
+    fn input_condition(&mut self, def: &StatementDef) -> PResult<Arg> {
+        let t = self.peek().clone();
+        if !self.is_word(&t, "IN") {
+            let msg = format!(
+                "expected IN(n) = 0|1, found {}; the syntax is {}",
+                self.describe(&t),
+                def.syntax
+            );
+            self.error(t.span, msg);
+            return Err(());
+        }
+        self.bump();
+        self.expect(Tok::LParen, "'(' after IN")?;
+        let n = self.expr()?;
+        self.expect(Tok::RParen, "')' to close IN(")?;
+        self.expect(Tok::Eq, "'=' and the level to wait for (0 or 1)")?;
+        let value = self.expr()?;
+        Ok(Arg::Input { n, value })
+    }
+
+    fn expect(&mut self, tok: Tok, what: &str) -> PResult<Token> {
+        let t = self.peek().clone();
+        if t.tok == tok {
+            self.bump();
+            return Ok(t);
+        }
+        let msg = format!("expected {what}, found {}", self.describe(&t));
+        self.error(t.span, msg);
+        Err(())
+    }
+
+    /// `THEN` (optional) and the end of the line after a condition.
+    fn then_line(&mut self, word: &str) {
+        let t = self.peek().clone();
+        if self.is_word(&t, "THEN") {
+            self.bump();
+            if !self.at_line_end() {
+                let t = self.peek().clone();
+                self.error(
+                    t.span,
+                    format!("the statements of {word} … THEN go on the lines below it, and ENDIF closes the block"),
+                );
+                self.skip_line();
+                return;
+            }
+        }
+        self.end_line("the condition");
+    }
+
+    fn open(&mut self, open: &mut Vec<Open>, word: &'static str, span: Span) {
+        let closers: &'static [&'static str] = match word {
+            "IF" => &["ENDIF", "ELSEIF", "ELSE"],
+            "WHILE" => &["ENDWHILE"],
+            "FOR" => &["NEXT"],
+            _ => &["ENDSUB"],
+        };
+        open.push(Open {
+            word,
+            span,
+            closers,
+        });
+    }
+
+    fn unclosed_at_eof(&mut self, word: &str, span: Span) {
+        let eof = self.peek().span;
+        let msg = format!(
+            "expected {} to close {word} at {}, found the end of the file",
+            closer_of(word),
+            span.at()
+        );
+        self.block_error(eof, msg);
+    }
+
+    /// A condition; on error the line is skipped and an error expression stands in.
+    fn condition(&mut self, word: &str) -> Expr {
+        let start = self.peek().span;
+        if self.at_line_end() {
+            let msg = match word {
+                "WHILE" => "WHILE needs a condition: WHILE condition".to_string(),
+                _ => format!("{word} needs a condition: {word} condition THEN"),
+            };
+            self.error(start, msg);
+            self.skip_line();
+            return Expr {
+                kind: ExprKind::Error,
+                span: start,
+                depth: 1,
+            };
+        }
+        match self.expr() {
+            Ok(e) => {
+                self.then_line(word);
+                e
+            }
+            Err(()) => {
+                self.skip_line();
+                Expr {
+                    kind: ExprKind::Error,
+                    span: start,
+                    depth: 1,
+                }
+            }
+        }
+    }
+
+    fn if_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        let cond = self.condition("IF");
+        self.open(open, "IF", kw.span);
+        let mut arms = Vec::new();
+        let mut else_block = Vec::new();
+        let mut current = cond;
+        let mut in_else = false;
+        let mut else_span: Option<Span> = None;
+        loop {
+            let (body, end) = self.block(open);
+            if in_else {
+                else_block = body;
+            } else {
+                arms.push((current.clone(), body));
+            }
+            match end {
+                End::Word { key, span, tokens } => {
+                    for _ in 0..tokens {
+                        self.bump();
+                    }
+                    match key {
+                        "ELSEIF" => {
+                            if let Some(e) = else_span {
+                                self.block_error(
+                                    span,
+                                    format!(
+                                        "ELSEIF after ELSE (at {}); ELSE must be the last branch",
+                                        e.at()
+                                    ),
+                                );
+                            }
+                            current = self.condition("ELSEIF");
+                        }
+                        "ELSE" => {
+                            if let Some(e) = else_span {
+                                self.block_error(
+                                    span,
+                                    format!(
+                                        "a second ELSE in this IF (the first is at {})",
+                                        e.at()
+                                    ),
+                                );
+                            }
+                            else_span = Some(span);
+                            in_else = true;
+                            self.end_line("ELSE");
+                            continue;
+                        }
+                        _ => {
+                            self.end_line("ENDIF");
+                            break;
+                        }
+                    }
+                    if in_else {
+                        // An ELSEIF after ELSE was reported; keep reading its block as
+                        // part of the ELSE.
+                        continue;
+                    }
+                }
+                End::Outer => break,
+                End::Eof => {
+                    self.unclosed_at_eof("IF", kw.span);
+                    break;
+                }
+            }
+        }
+        open.pop();
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::If { arms, else_block },
+        })
+    }
+
+    fn while_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        let cond = self.condition("WHILE");
+        self.open(open, "WHILE", kw.span);
+        let (body, end) = self.block(open);
+        open.pop();
+        self.close(end, "WHILE", kw.span);
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::While { cond, body },
+        })
+    }
+
+    /// Consume a simple block's closer, or report the end of the file.
+    fn close(&mut self, end: End, word: &str, span: Span) -> Option<Span> {
+        match end {
+            End::Word { tokens, span, key } => {
+                for _ in 0..tokens {
+                    self.bump();
+                }
+                if key != "NEXT" {
+                    self.end_line(key);
+                }
+                Some(span)
+            }
+            End::Outer => None,
+            End::Eof => {
+                self.unclosed_at_eof(word, span);
+                None
+            }
+        }
+    }
+
+    fn for_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        let header = self.for_header();
+        if header.is_err() {
+            self.skip_line();
+        }
+        self.open(open, "FOR", kw.span);
+        let (body, end) = self.block(open);
+        open.pop();
+        let next_span = self.close(end, "FOR", kw.span);
+        let mut next = next_span.unwrap_or(kw.span);
+        if next_span.is_some() {
+            // NEXT [name]
+            let t = self.peek().clone();
+            if t.tok == Tok::Ident {
+                self.bump();
+                let name = self.name(&t);
+                if let Ok((var, ..)) = &header {
+                    if name.key != var.key {
+                        self.block_error(
+                            name.span,
+                            format!(
+                                "NEXT {} does not match FOR {} at {}",
+                                name.text,
+                                var.text,
+                                kw.span.at()
+                            ),
+                        );
+                    }
+                }
+                next = next.to(name.span);
+            }
+            self.end_line("NEXT");
+        }
+        let (var, from, to, step) = header?;
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::For {
+                var,
+                from,
+                to,
+                step,
+                body,
+                next,
+            },
+        })
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn for_header(&mut self) -> PResult<(Name, Expr, Expr, Option<Expr>)> {
+        let t = self.peek().clone();
+        if t.tok != Tok::Ident || statements::is_reserved(&self.key(&t)) {
+            let msg = format!(
+                "expected the loop variable, found {}; the syntax is FOR i = first TO last [STEP step]",
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            return Err(());
+        }
+        self.bump();
+        let var = self.name(&t);
+        self.expect(Tok::Eq, "'=' after the loop variable")?;
+        let from = self.expr()?;
+        let t = self.peek().clone();
+        if !self.is_word(&t, "TO") {
+            let msg = format!(
+                "expected TO and the last value, found {}",
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            return Err(());
+        }
+        self.bump();
+        let to = self.expr()?;
+        let step = if self.is_word(&self.peek().clone(), "STEP") {
+            self.bump();
+            Some(self.expr()?)
+        } else {
+            None
+        };
+        self.end_line("the FOR header");
+        Ok((var, from, to, step))
+    }
+
+    fn sub_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        if let Some(outer) = open.last() {
+            let msg = format!(
+                "SUB must be at the top level, not inside {} at {}",
+                outer.word,
+                outer.span.at()
+            );
+            self.block_error(kw.span, msg);
+        }
+        let t = self.peek().clone();
+        let name = if t.tok == Tok::Ident {
+            self.bump();
+            let name = self.name(&t);
+            if statements::is_reserved(&name.key) {
+                let msg = format!("{} is a keyword and cannot name a SUB", name.text);
+                self.error(name.span, msg);
+            }
+            if self.peek().tok == Tok::LParen {
+                let t = self.peek().clone();
+                self.error(
+                    t.span,
+                    "SUBs take no parameters; share values through variables",
+                );
+                self.skip_line();
+            } else {
+                self.end_line("the SUB name");
+            }
+            Some(name)
+        } else {
+            let msg = format!("expected the SUB's name, found {}", self.describe(&t));
+            self.error(t.span, msg);
+            self.skip_line();
+            None
+        };
+        self.open(open, "SUB", kw.span);
+        let (body, end) = self.block(open);
+        open.pop();
+        self.close(end, "SUB", kw.span);
+        let name = name.ok_or(())?;
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Sub { name, body },
+        })
+    }
+
+    // ----- expressions -----
+
+    pub(crate) fn expr(&mut self) -> PResult<Expr> {
+        self.or_expr()
+    }
+
+    /// Enter a nested expression (parenthesis, call, prefix operator): an error beyond
+    /// [`MAX_EXPR_DEPTH`], so that deep input cannot overflow the stack.
+    fn enter(&mut self, span: Span) -> PResult<()> {
+        if self.nest >= MAX_EXPR_DEPTH {
+            self.error(
+                span,
+                format!("expression nested deeper than {MAX_EXPR_DEPTH}; split it with variables"),
+            );
+            return Err(());
+        }
+        self.nest += 1;
+        Ok(())
+    }
+
+    /// A nested part: `f` between [`Parser::enter`] and leaving.
+    fn nested<T>(&mut self, span: Span, f: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
+        self.enter(span)?;
+        let r = f(self);
+        self.nest -= 1;
+        r
+    }
+
+    fn node(&mut self, kind: ExprKind, span: Span, depth: u32) -> PResult<Expr> {
+        if depth > MAX_EXPR_DEPTH {
+            self.error(
+                span,
+                format!("expression nested deeper than {MAX_EXPR_DEPTH}; split it with variables"),
+            );
+            return Err(());
+        }
+        Ok(Expr { kind, span, depth })
+    }
+
+    fn binary(&mut self, op: BinOp, op_span: Span, l: Expr, r: Expr) -> PResult<Expr> {
+        let span = l.span.to(r.span);
+        let depth = l.depth.max(r.depth) + 1;
+        self.node(
+            ExprKind::Binary(op, op_span, Box::new(l), Box::new(r)),
+            span,
+            depth,
+        )
+    }
+
+    fn or_expr(&mut self) -> PResult<Expr> {
+        let mut l = self.and_expr()?;
+        while self.is_word(&self.peek().clone(), "OR") {
+            let op = self.bump();
+            let r = self.and_expr()?;
+            l = self.binary(BinOp::Or, op.span, l, r)?;
+        }
+        Ok(l)
+    }
+
+    fn and_expr(&mut self) -> PResult<Expr> {
+        let mut l = self.not_expr()?;
+        while self.is_word(&self.peek().clone(), "AND") {
+            let op = self.bump();
+            let r = self.not_expr()?;
+            l = self.binary(BinOp::And, op.span, l, r)?;
+        }
+        Ok(l)
+    }
+
+    fn not_expr(&mut self) -> PResult<Expr> {
+        let t = self.peek().clone();
+        if self.is_word(&t, "NOT") {
+            self.bump();
+            let e = self.nested(t.span, |p| p.not_expr())?;
+            let span = t.span.to(e.span);
+            let depth = e.depth + 1;
+            return self.node(ExprKind::Unary(UnOp::Not, Box::new(e)), span, depth);
+        }
+        self.cmp_expr()
+    }
+
+    fn cmp_expr(&mut self) -> PResult<Expr> {
+        let mut l = self.add_expr()?;
+        loop {
+            let op = match self.peek().tok {
+                Tok::Eq => BinOp::Eq,
+                Tok::Ne => BinOp::Ne,
+                Tok::Lt => BinOp::Lt,
+                Tok::Le => BinOp::Le,
+                Tok::Gt => BinOp::Gt,
+                Tok::Ge => BinOp::Ge,
+                _ => return Ok(l),
+            };
+            let t = self.bump();
+            let r = self.add_expr()?;
+            l = self.binary(op, t.span, l, r)?;
+        }
+    }
+
+    fn add_expr(&mut self) -> PResult<Expr> {
+        let mut l = self.mul_expr()?;
+        loop {
+            let op = match self.peek().tok {
+                Tok::Plus => BinOp::Add,
+                Tok::Minus => BinOp::Sub,
+                _ => return Ok(l),
+            };
+            let t = self.bump();
+            let r = self.mul_expr()?;
+            l = self.binary(op, t.span, l, r)?;
+        }
+    }
+
+    fn mul_expr(&mut self) -> PResult<Expr> {
+        let mut l = self.unary()?;
+        loop {
+            let op = match self.peek().tok {
+                Tok::Star => BinOp::Mul,
+                Tok::Slash => BinOp::Div,
+                _ => return Ok(l),
+            };
+            let t = self.bump();
+            let r = self.unary()?;
+            l = self.binary(op, t.span, l, r)?;
+        }
+    }
+
+    fn unary(&mut self) -> PResult<Expr> {
+        let t = self.peek().clone();
+        match t.tok {
+            Tok::Minus | Tok::Plus => {
+                self.bump();
+                let e = self.nested(t.span, |p| p.unary())?;
+                if t.tok == Tok::Plus {
+                    return Ok(e);
+                }
+                let span = t.span.to(e.span);
+                let depth = e.depth + 1;
+                self.node(ExprKind::Unary(UnOp::Neg, Box::new(e)), span, depth)
+            }
+            _ => self.postfix(),
+        }
+    }
+
+    fn postfix(&mut self) -> PResult<Expr> {
+        let mut e = self.primary()?;
+        while self.peek().tok == Tok::Dot {
+            self.bump();
+            let t = self.peek().clone();
+            if t.tok != Tok::Ident {
+                let msg = format!(
+                    "expected a field name after '.' (X, Y, Z, YAW or J1, J2, …), found {}",
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                return Err(());
+            }
+            self.bump();
+            let field = self.name(&t);
+            let span = e.span.to(field.span);
+            let depth = e.depth + 1;
+            e = self.node(ExprKind::Field(Box::new(e), field), span, depth)?;
+        }
+        Ok(e)
+    }
+
+    fn primary(&mut self) -> PResult<Expr> {
+        let t = self.peek().clone();
+        match &t.tok {
+            Tok::Number(v) => {
+                self.bump();
+                self.node(ExprKind::Num(*v), t.span, 1)
+            }
+            Tok::Str(s) => {
+                self.bump();
+                self.node(ExprKind::Str(s.clone()), t.span, 1)
+            }
+            Tok::LParen => {
+                self.bump();
+                let inner = self.nested(t.span, |p| p.expr())?;
+                let close = self.expect(Tok::RParen, "')' to close '('")?;
+                let depth = inner.depth + 1;
+                // Keep the inner expression; widen its span to the parentheses.
+                let span = t.span.to(close.span);
+                self.node(inner.kind, span, depth)
+            }
+            Tok::Ident => {
+                self.bump();
+                let name = self.name(&t);
+                match name.key.as_str() {
+                    "TRUE" => return self.node(ExprKind::Bool(true), t.span, 1),
+                    "FALSE" => return self.node(ExprKind::Bool(false), t.span, 1),
+                    _ => {}
+                }
+                if self.peek().tok == Tok::LParen {
+                    self.bump();
+                    let mut args = Vec::new();
+                    let mut depth = 1;
+                    if self.peek().tok != Tok::RParen {
+                        loop {
+                            let a = self.nested(t.span, |p| p.expr())?;
+                            depth = depth.max(a.depth + 1);
+                            args.push(a);
+                            if self.peek().tok == Tok::Comma {
+                                self.bump();
+                                continue;
+                            }
+                            break;
+                        }
+                    }
+                    let close =
+                        self.expect(Tok::RParen, &format!("',' or ')' to close {}(", name.text))?;
+                    let span = name.span.to(close.span);
+                    return self.node(ExprKind::Call(name, args), span, depth);
+                }
+                if statements::is_reserved(&name.key) {
+                    let msg = match name.key.as_str() {
+                        "HERE" => "HERE needs parentheses: HERE()".to_string(),
+                        "JOINTS" | "POSE" | "IN" | "SIN" | "COS" | "ATAN2" | "SQRT" | "ABS"
+                        | "MIN" | "MAX" => {
+                            format!("{} needs its arguments in parentheses", name.text)
+                        }
+                        _ => format!("expected a value, found keyword {}", name.text),
+                    };
+                    self.error(name.span, msg);
+                    return Err(());
+                }
+                self.node(ExprKind::Var(name), t.span, 1)
+            }
+            _ => {
+                let msg = format!("expected a value, found {}", self.describe(&t));
+                self.error(t.span, msg);
+                Err(())
+            }
+        }
+    }
+}
+
+/// `HOME, MOVEJ, …` for messages.
+fn statement_list() -> String {
+    statements::STATEMENTS
+        .iter()
+        .map(|d| d.keyword)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lexer::lex;
+
+    fn parse_src(src: &str) -> (Vec<Stmt>, Vec<Diagnostic>) {
+        let mut d = Vec::new();
+        let toks = lex(src, &mut d);
+        let s = parse(src, &toks, &mut d);
+        (s, d)
+    }
+
+    #[test]
+    fn precedence_binds_mul_before_add_before_compare_before_and() {
+        let (s, d) = parse_src("B = 1 + 2 * 3 = 7 AND NOT FALSE\n");
+        assert!(d.is_empty(), "{d:?}");
+        let StmtKind::Assign { value, .. } = &s[0].kind else {
+            panic!()
+        };
+        let ExprKind::Binary(BinOp::And, _, l, _) = &value.kind else {
+            panic!("{value:?}")
+        };
+        let ExprKind::Binary(BinOp::Eq, _, l, _) = &l.kind else {
+            panic!()
+        };
+        assert!(matches!(l.kind, ExprKind::Binary(BinOp::Add, ..)));
+    }
+
+    #[test]
+    fn a_mismatched_closer_names_the_open_block() {
+        let (_, d) = parse_src("WHILE TRUE\n  IF X THEN\n  ENDWHILE\n");
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert_eq!(
+            d[0].message,
+            "expected ENDIF to close IF at 2:3, found ENDWHILE"
+        );
+        assert_eq!((d[0].line, d[0].col), (3, 3));
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_crash() {
+        let src = format!("X = {}1{}\n", "(".repeat(5000), ")".repeat(5000));
+        let (_, d) = parse_src(&src);
+        assert!(!d.is_empty());
+        let src = format!("X = 1{}\n", " + 1".repeat(5000));
+        let (_, d) = parse_src(&src);
+        assert!(!d.is_empty());
+        let src = "IF TRUE THEN\n".repeat(5000);
+        let (_, d) = parse_src(&src);
+        assert!(!d.is_empty());
+    }
+}

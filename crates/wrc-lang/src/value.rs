@@ -1,0 +1,346 @@
+//! Types and values of the language, and the arithmetic both the compiler (folding constant
+//! expressions) and the VM use, so both agree on every result. No allocation.
+
+use core::fmt;
+
+use wrc_robot::{Joints, Pose, MAX_AXES};
+
+use crate::bytecode::Builtin;
+use crate::error::RuntimeErrorKind;
+
+/// The type of a value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Ty {
+    /// A number (f64).
+    Number,
+    /// TRUE or FALSE.
+    Bool,
+    /// A string (only literals; for PRINT).
+    Str,
+    /// A Cartesian pose: x, y, z [mm], yaw [deg].
+    Pose,
+    /// Joint positions, one per robot axis [deg or mm].
+    Joints,
+}
+
+impl Ty {
+    /// The type's name in messages and listings: `number`, `boolean`, `string`, `pose`,
+    /// `joints`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Ty::Number => "number",
+            Ty::Bool => "boolean",
+            Ty::Str => "string",
+            Ty::Pose => "pose",
+            Ty::Joints => "joints",
+        }
+    }
+
+    pub(crate) fn with_article(self) -> &'static str {
+        match self {
+            Ty::Number => "a number",
+            Ty::Bool => "TRUE or FALSE (a comparison)",
+            Ty::Str => "a string",
+            Ty::Pose => "a pose (POSE(x, y, z, yaw))",
+            Ty::Joints => "joints (JOINTS(...))",
+        }
+    }
+
+    pub(crate) fn code(self) -> u8 {
+        match self {
+            Ty::Number => 0,
+            Ty::Bool => 1,
+            Ty::Str => 2,
+            Ty::Pose => 3,
+            Ty::Joints => 4,
+        }
+    }
+
+    pub(crate) fn from_code(code: u8) -> Option<Ty> {
+        Some(match code {
+            0 => Ty::Number,
+            1 => Ty::Bool,
+            2 => Ty::Str,
+            3 => Ty::Pose,
+            4 => Ty::Joints,
+            _ => return None,
+        })
+    }
+}
+
+impl fmt::Display for Ty {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A value on the VM's stack or in a variable. `Copy`, no heap: strings are indices into the
+/// program's string table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Value {
+    Num(f64),
+    Bool(bool),
+    Str(u32),
+    Pose(Pose),
+    Joints(Joints),
+}
+
+impl Value {
+    /// The value a variable of type `ty` holds before its first assignment.
+    pub fn zero(ty: Ty) -> Value {
+        match ty {
+            Ty::Number => Value::Num(0.0),
+            Ty::Bool => Value::Bool(false),
+            Ty::Str => Value::Str(u32::MAX),
+            Ty::Pose => Value::Pose(Pose::default()),
+            Ty::Joints => Value::Joints([0.0; MAX_AXES]),
+        }
+    }
+}
+
+type R = Result<Value, RuntimeErrorKind>;
+
+fn num(x: f64) -> R {
+    if x.is_finite() {
+        Ok(Value::Num(x))
+    } else {
+        Err(RuntimeErrorKind::NotFinite)
+    }
+}
+
+fn pose(p: Pose) -> R {
+    if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() && p.yaw.is_finite() {
+        Ok(Value::Pose(p))
+    } else {
+        Err(RuntimeErrorKind::NotFinite)
+    }
+}
+
+fn joints(j: Joints) -> R {
+    if j.iter().all(|v| v.is_finite()) {
+        Ok(Value::Joints(j))
+    } else {
+        Err(RuntimeErrorKind::NotFinite)
+    }
+}
+
+const MISMATCH: RuntimeErrorKind = RuntimeErrorKind::InvalidProgram("operand types");
+
+/// `-v`, `NOT v`.
+pub(crate) fn negate(v: Value) -> R {
+    match v {
+        Value::Num(a) => num(-a),
+        Value::Pose(p) => pose(Pose {
+            x: -p.x,
+            y: -p.y,
+            z: -p.z,
+            yaw: -p.yaw,
+        }),
+        Value::Joints(j) => joints(j.map(|v| -v)),
+        _ => Err(MISMATCH),
+    }
+}
+
+pub(crate) fn not(v: Value) -> R {
+    match v {
+        Value::Bool(b) => Ok(Value::Bool(!b)),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// Arithmetic: numbers with numbers; poses and joints add and subtract field by field.
+pub(crate) fn arith(op: Arith, a: Value, b: Value) -> R {
+    match (a, b) {
+        (Value::Num(a), Value::Num(b)) => match op {
+            Arith::Add => num(a + b),
+            Arith::Sub => num(a - b),
+            Arith::Mul => num(a * b),
+            Arith::Div if b == 0.0 => Err(RuntimeErrorKind::DivisionByZero),
+            Arith::Div => num(a / b),
+        },
+        (Value::Pose(p), Value::Pose(q)) => {
+            let s = match op {
+                Arith::Add => 1.0,
+                Arith::Sub => -1.0,
+                _ => return Err(MISMATCH),
+            };
+            pose(Pose {
+                x: p.x + s * q.x,
+                y: p.y + s * q.y,
+                z: p.z + s * q.z,
+                yaw: p.yaw + s * q.yaw,
+            })
+        }
+        (Value::Joints(p), Value::Joints(q)) => {
+            let s = match op {
+                Arith::Add => 1.0,
+                Arith::Sub => -1.0,
+                _ => return Err(MISMATCH),
+            };
+            let mut out = [0.0; MAX_AXES];
+            for ((o, a), b) in out.iter_mut().zip(p).zip(q) {
+                *o = a + s * b;
+            }
+            joints(out)
+        }
+        _ => Err(MISMATCH),
+    }
+}
+
+/// The four arithmetic operators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Arith {
+    Add,
+    Sub,
+    Mul,
+    Div,
+}
+
+/// The comparison operators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Cmp {
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+}
+
+/// Comparison: numbers with every operator; booleans and strings with `=` and `<>`.
+pub(crate) fn compare(op: Cmp, a: Value, b: Value) -> R {
+    let r = match (a, b) {
+        (Value::Num(a), Value::Num(b)) => match op {
+            Cmp::Eq => a == b,
+            Cmp::Ne => a != b,
+            Cmp::Lt => a < b,
+            Cmp::Le => a <= b,
+            Cmp::Gt => a > b,
+            Cmp::Ge => a >= b,
+        },
+        (Value::Bool(a), Value::Bool(b)) => match op {
+            Cmp::Eq => a == b,
+            Cmp::Ne => a != b,
+            _ => return Err(MISMATCH),
+        },
+        // Strings are deduplicated in the string table: equal text, equal index.
+        (Value::Str(a), Value::Str(b)) => match op {
+            Cmp::Eq => a == b,
+            Cmp::Ne => a != b,
+            _ => return Err(MISMATCH),
+        },
+        _ => return Err(MISMATCH),
+    };
+    Ok(Value::Bool(r))
+}
+
+/// `AND`, `OR`.
+pub(crate) fn logic(and: bool, a: Value, b: Value) -> R {
+    match (a, b) {
+        (Value::Bool(a), Value::Bool(b)) => Ok(Value::Bool(if and { a && b } else { a || b })),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// A built-in function of numbers. Angles are in degrees.
+pub(crate) fn builtin(f: Builtin, a: f64, b: f64) -> R {
+    match f {
+        Builtin::Sin => num(a.to_radians().sin()),
+        Builtin::Cos => num(a.to_radians().cos()),
+        Builtin::Atan2 => num(a.atan2(b).to_degrees()),
+        Builtin::Sqrt if a < 0.0 => Err(RuntimeErrorKind::BadArgument("SQRT of a negative number")),
+        Builtin::Sqrt => num(a.sqrt()),
+        Builtin::Abs => num(a.abs()),
+        Builtin::Min => num(a.min(b)),
+        Builtin::Max => num(a.max(b)),
+    }
+}
+
+/// Field `index` of a pose: 0 x, 1 y, 2 z, 3 yaw.
+pub(crate) fn pose_field(v: Value, index: u8) -> R {
+    match v {
+        Value::Pose(p) => Ok(Value::Num(match index {
+            0 => p.x,
+            1 => p.y,
+            2 => p.z,
+            3 => p.yaw,
+            _ => return Err(RuntimeErrorKind::InvalidProgram("pose field")),
+        })),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// Joint `index` [0-based] of a joint vector.
+pub(crate) fn joint_field(v: Value, index: u8) -> R {
+    match v {
+        Value::Joints(j) => j
+            .get(usize::from(index))
+            .map(|&x| Value::Num(x))
+            .ok_or(RuntimeErrorKind::InvalidProgram("joint index")),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// A signal level: 0 / 1 or FALSE / TRUE.
+pub(crate) fn level(v: Value) -> Result<bool, RuntimeErrorKind> {
+    match v {
+        Value::Bool(b) => Ok(b),
+        Value::Num(x) => {
+            if x == 0.0 {
+                Ok(false)
+            } else if x == 1.0 {
+                Ok(true)
+            } else {
+                Err(RuntimeErrorKind::BadArgument("a level must be 0 or 1"))
+            }
+        }
+        _ => Err(MISMATCH),
+    }
+}
+
+/// An I/O bit number: a whole number 0 to 31.
+pub(crate) fn bit(v: Value) -> Result<u8, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (0.0..=31.0).contains(&x) && x.fract() == 0.0 => Ok(x as u8),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "an I/O bit must be a whole number from 0 to 31",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// Most pulses one JOG may ask for (pulse counts must stay exact in f64).
+pub(crate) const MAX_JOG_PULSES: f64 = 1e15;
+
+/// JOG pulses: a whole number, at most [`MAX_JOG_PULSES`] in size.
+pub(crate) fn pulses(v: Value) -> Result<i64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if x.fract() == 0.0 && x.abs() <= MAX_JOG_PULSES => Ok(x as i64),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "JOG pulses must be a whole number of at most 1e15",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// SPEED: 1 to 100 [%].
+pub(crate) fn speed(v: Value) -> Result<f64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (1.0..=100.0).contains(&x) => Ok(x),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "SPEED must be from 1 to 100 [%]",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// A duration: 0 or more seconds.
+pub(crate) fn seconds(v: Value) -> Result<f64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if x >= 0.0 => Ok(x),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "a time must be 0 or more seconds",
+        )),
+        _ => Err(MISMATCH),
+    }
+}

@@ -1,0 +1,238 @@
+//! Robot-language programs on a running controller: upload, diagnostics, run, print, pause,
+//! runtime errors with their source line, STOP, the examples, and programs kept on disk.
+
+use std::path::Path;
+use std::time::Duration;
+
+use super::up::{Client, Controller};
+use super::{text, wrc};
+
+/// Upload `source` as `name`; returns every line up to and including the final ACK/NAK.
+fn upload(c: &mut Client, id: u32, name: &str, source: &str) -> Vec<String> {
+    let mut bytes = format!("{id} UPLOAD {name}\n");
+    for l in source.lines() {
+        bytes.push_str(l);
+        bytes.push('\n');
+    }
+    bytes.push_str(".\n");
+    c.send_raw(bytes.as_bytes());
+    let mut lines = Vec::new();
+    loop {
+        let l = c.line();
+        let done = l.starts_with("ACK") || l.starts_with("NAK");
+        lines.push(l);
+        if done {
+            return lines;
+        }
+    }
+}
+
+/// Lines until the final reply to `id` (INF or ABS), events included.
+fn until_final(c: &mut Client, id: u32) -> Vec<String> {
+    let mut lines = Vec::new();
+    loop {
+        let l = c.line();
+        let done = l.starts_with(&format!("INF {id}")) || l.starts_with(&format!("ABS {id}"));
+        lines.push(l);
+        if done {
+            return lines;
+        }
+    }
+}
+
+#[test]
+fn an_uploaded_program_runs_prints_and_ends_with_inf() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    let source = "' a loop with a SUB and a pose offset\n\
+                  HOME\n\
+                  P = POSE(300, 0, 0, 0)\n\
+                  FOR I = 1 TO 2\n\
+                  \x20 MOVEP P + POSE(0, 20 * I, 0, 0)\n\
+                  \x20 CALL SHOW\n\
+                  NEXT I\n\
+                  END\n\
+                  SUB SHOW\n\
+                  \x20 PRINT \"at\", HERE().Y\n\
+                  ENDSUB\n";
+    let up = upload(&mut host, 1, "loop", source);
+    assert!(up.last().unwrap().starts_with("ACK 1 name=loop"), "{up:?}");
+    assert_eq!(host.ask("PROGRAMS"), "ACK programs=loop");
+    assert_eq!(host.ask("2 RUN loop"), "ACK 2");
+    let lines = until_final(&mut host, 2);
+    assert_eq!(lines.last().unwrap(), "INF 2", "{lines:?}");
+    let prints: Vec<&String> = lines
+        .iter()
+        .filter(|l| l.starts_with("EVT PRINT"))
+        .collect();
+    assert_eq!(prints.len(), 2, "{lines:?}");
+    assert!(prints[0].starts_with("EVT PRINT at 20"), "{prints:?}");
+    assert!(prints[1].starts_with("EVT PRINT at 40"), "{prints:?}");
+    assert!(lines.iter().any(|l| l == "EVT PROGRAM loop RUNNING"));
+    let (_, x, y) = host.where_();
+    assert!(
+        (x - 300.0).abs() < 0.05 && (y - 40.0).abs() < 0.05,
+        "{x} {y}"
+    );
+}
+
+#[test]
+fn a_program_that_does_not_compile_is_refused_with_diagnostics_and_nothing_is_stored() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(upload(&mut host, 1, "p", "HOME\n")
+        .last()
+        .unwrap()
+        .starts_with("ACK 1"));
+    let up = upload(&mut host, 2, "p", "HOME\nIF 1 THEN\nMOVEJ JOINTS(1, 2)\n");
+    let last = up.last().unwrap();
+    assert!(last.starts_with("NAK 2 126 p: "), "{up:?}");
+    assert!(
+        up.iter().any(|l| l.starts_with("EVT DIAG p.wrl:3:")),
+        "a diagnostic names line 3: {up:?}"
+    );
+    // The older program of that name is kept, and runs.
+    assert_eq!(host.ask("3 RUN p"), "ACK 3");
+    assert_eq!(until_final(&mut host, 3).last().unwrap(), "INF 3");
+    assert!(host.ask("RUN nothere").starts_with("NAK 125"));
+    assert!(host.ask("RUN ../etc").starts_with("NAK 106"));
+    // Garbage after the upload is a normal request again.
+    assert!(host.ask("FOO").starts_with("NAK 100"));
+}
+
+#[test]
+fn a_runtime_error_ends_the_program_with_abs_and_its_line() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    let up = upload(
+        &mut host,
+        1,
+        "div",
+        "HOME\nA = HERE().Z\nPRINT \"ok\"\nB = 1 / A\n",
+    );
+    assert!(up.last().unwrap().starts_with("ACK 1"), "{up:?}");
+    assert_eq!(host.ask("2 RUN div"), "ACK 2");
+    let lines = until_final(&mut host, 2);
+    let last = lines.last().unwrap();
+    assert!(last.starts_with("ABS 2 210 div line 4:"), "{lines:?}");
+    assert!(last.contains("division by zero"), "{last}");
+    assert!(
+        host.status().starts_with("ACK state=IDLE"),
+        "no RESET needed"
+    );
+
+    // A computed pose out of reach: the motion's refusal code and the line.
+    let up = upload(
+        &mut host,
+        3,
+        "far",
+        "HOME\nR = 500 + HERE().Z\nMOVEP POSE(R, 0, 0, 0)\n",
+    );
+    assert!(up.last().unwrap().starts_with("ACK 3"), "{up:?}");
+    assert_eq!(host.ask("4 RUN far"), "ACK 4");
+    let lines = until_final(&mut host, 4);
+    assert!(
+        lines.last().unwrap().starts_with("ABS 4 111 far line 3:"),
+        "{lines:?}"
+    );
+}
+
+#[test]
+fn stop_aborts_a_running_program_and_other_sources_cannot_move_meanwhile() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    let mut other = c.client();
+    let source =
+        "HOME\nWHILE TRUE\nMOVEJ JOINTS(170, 30, 0, 250)\nMOVEJ JOINTS(-100, 30, 0, 0)\nENDWHILE\n";
+    assert!(upload(&mut host, 1, "forever", source)
+        .last()
+        .unwrap()
+        .starts_with("ACK 1"));
+    assert_eq!(host.ask("2 RUN forever"), "ACK 2");
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(other.ask("MOVJ 0 90 0 0").starts_with("NAK 127"));
+    assert!(other.ask("RUN forever").starts_with("NAK 127"));
+    assert_eq!(other.ask("PAUSE"), "ACK");
+    assert_eq!(other.ask("CONTINUE"), "ACK");
+    assert_eq!(other.ask("3 STOP"), "ACK 3");
+    let lines = until_final(&mut host, 2);
+    let last = lines.last().unwrap();
+    assert!(last.starts_with("ABS 2 200 forever line "), "{lines:?}");
+    std::thread::sleep(Duration::from_millis(600));
+    let a = host.where_().0;
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(host.where_().0, a, "nothing moves after the stop");
+    assert!(host.ask("ABORT").starts_with("NAK 128"));
+    assert!(host.ask("PAUSE").starts_with("NAK 128"));
+}
+
+#[test]
+fn programs_are_kept_on_disk_across_restarts_and_can_be_deleted() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(upload(&mut host, 1, "keep", "HOME\n")
+        .last()
+        .unwrap()
+        .starts_with("ACK 1"));
+    drop(host);
+    let c = c.restart();
+    assert_eq!(
+        std::fs::read_to_string(c.dir_path().join("programs/keep.wrl")).unwrap(),
+        "HOME\n"
+    );
+    let mut host = c.client();
+    assert_eq!(host.ask("PROGRAMS"), "ACK programs=keep");
+    assert_eq!(host.ask("5 RUN keep"), "ACK 5");
+    assert_eq!(until_final(&mut host, 5).last().unwrap(), "INF 5");
+    assert_eq!(host.ask("DELETE keep"), "ACK");
+
+    assert!(upload(&mut host, 1, "a", "HOME\n")
+        .last()
+        .unwrap()
+        .starts_with("ACK 1"));
+    assert!(upload(&mut host, 2, "b", "HOME\n")
+        .last()
+        .unwrap()
+        .starts_with("ACK 2"));
+    assert_eq!(host.ask("PROGRAMS"), "ACK programs=a,b");
+    assert_eq!(host.ask("DELETE a"), "ACK");
+    assert_eq!(host.ask("PROGRAMS"), "ACK programs=b");
+    assert!(host.ask("DELETE a").starts_with("NAK 125"));
+    assert!(!c.dir_path().join("programs/a.wrl").exists());
+}
+
+#[test]
+fn the_examples_compile_and_run_on_the_simulated_robot() {
+    let c = Controller::start(&[]);
+    let addr = format!("127.0.0.1:{}", c.port);
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut ran = 0;
+    let mut files: Vec<_> = std::fs::read_dir(&examples)
+        .expect("examples/ exists")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "wrl"))
+        .collect();
+    files.sort();
+    for path in files {
+        let out = wrc(&["run", path.to_str().unwrap(), "--addr", &addr]);
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{}: {stdout}{stderr}", path.display());
+        assert!(stdout.trim_end().ends_with("INF 2"), "{stdout}");
+        ran += 1;
+    }
+    assert!(ran >= 3, "fig7, fig8 and pick-and-place at least");
+}
+
+#[test]
+fn wrc_run_refuses_a_program_that_does_not_compile_before_sending_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.wrl");
+    std::fs::write(&bad, "MOVEJ JOINTS(1, 2\n").unwrap();
+    // No controller at this address: it must not even try to connect.
+    let out = wrc(&["run", bad.to_str().unwrap(), "--addr", "127.0.0.1:9"]);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.wrl:1:"), "{stderr}");
+    assert!(stderr.contains("does not compile"), "{stderr}");
+}

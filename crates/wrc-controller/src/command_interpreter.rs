@@ -859,7 +859,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     fn retire_program(&mut self, program: Box<Program>) {
         if let Err(e) = self.links.retired.try_send(program) {
-            // Freed on a later cycle's retry, by the store: never here.
+            // Sent again next cycle and freed by the store, never here. Should even the retry
+            // slot be taken (the store drains its queue every 50 ms, so it is not expected),
+            // the program is leaked rather than freed in this real-time task.
             if self.retire.is_none() {
                 self.retire = Some(e.into_inner());
             } else {

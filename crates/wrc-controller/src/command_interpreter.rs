@@ -79,28 +79,36 @@ impl UrgentPath {
     }
 }
 
-/// A reply the Command Interpreter wrote for the running program (its motion requests go
-/// through the same checks as a connection's), kept instead of sent.
-struct Captured {
-    line: [u8; 512],
+/// The refusal of the running program's last request (its requests go through the same
+/// checks as a connection's; a refusal is kept here instead of sent as a NAK).
+struct Refusal {
+    code: Option<Code>,
+    text: [u8; 400],
     len: usize,
 }
 
-impl Captured {
-    fn text(&self) -> &str {
-        std::str::from_utf8(&self.line[..self.len])
-            .unwrap_or("")
-            .trim_end()
+impl Refusal {
+    fn record(&mut self, code: Code, text: &str) {
+        let n = floor_char_boundary(text, self.text.len());
+        self.text[..n].copy_from_slice(&text.as_bytes()[..n]);
+        self.len = n;
+        self.code = Some(code);
     }
 }
 
-/// Send `line` to `to`, or keep it when it is for the running program.
-fn deliver(out: &Outputs, captured: &mut Captured, to: SourceId, line: &[u8]) {
-    if to == SourceId::PROGRAM {
-        let n = line.len().min(captured.line.len());
-        captured.line[..n].copy_from_slice(&line[..n]);
-        captured.len = n;
-    } else {
+/// The largest index ≤ `max` that is a character boundary of `text`.
+fn floor_char_boundary(text: &str, max: usize) -> usize {
+    let mut n = text.len().min(max);
+    while !text.is_char_boundary(n) {
+        n -= 1;
+    }
+    n
+}
+
+/// Send `line` to `to`; replies to the running program need not be sent (its refusals are
+/// recorded by [`CommandInterpreter::nak`]).
+fn deliver(out: &Outputs, to: SourceId, line: &[u8]) {
+    if to != SourceId::PROGRAM {
         out.send(to, line);
     }
 }
@@ -211,7 +219,7 @@ pub struct CommandInterpreter<B: MotionBoard> {
     program: Option<RunningProgram>,
     /// A finished program the store's queue had no room for yet (freed there, not here).
     retire: Option<Box<Program>>,
-    captured: Captured,
+    refusal: Refusal,
     now_ns: u64,
 }
 
@@ -260,8 +268,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             vm: Vm::new(VmLimits::default()),
             program: None,
             retire: None,
-            captured: Captured {
-                line: [0; 512],
+            refusal: Refusal {
+                code: None,
+                text: [0; 400],
                 len: 0,
             },
             now_ns: 0,
@@ -285,8 +294,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     fn nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
-        let line = self.buf.nak(to, code, text);
-        deliver(&self.out, &mut self.captured, from, line);
+        if from == SourceId::PROGRAM {
+            self.refusal.record(code, text);
+        } else {
+            let line = self.buf.nak(to, code, text);
+            self.out.send(from, line);
+        }
     }
 
     fn outstanding(&self) -> bool {
@@ -298,13 +311,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         for i in 0..MAX_TICKETS {
             if let Some(t) = self.tickets[i].take() {
                 let line = self.buf.abs(t.to, code, text);
-                deliver(&self.out, &mut self.captured, t.from, line);
+                deliver(&self.out, t.from, line);
             }
         }
         for i in 0..MAX_WAITERS {
             if let Some((from, to)) = self.waiters[i].take() {
                 let line = self.buf.abs(to, code, text);
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
         }
         if self.program.is_some() {
@@ -321,7 +334,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match urgent {
             Urgent::Stop(from, to) => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 if self.shared.state() == RobotState::Moving {
                     self.set_state(RobotState::Stopping);
                 }
@@ -329,7 +342,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Urgent::Estop(from, to) => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 self.abort_all(Code::EmergencyStop, "emergency stop");
                 self.shared
                     .error_code
@@ -397,7 +410,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         self.planned_end = end;
         let line = self.buf.ack(to, "");
-        deliver(&self.out, &mut self.captured, from, line);
+        deliver(&self.out, from, line);
         self.set_state(RobotState::Moving);
     }
 
@@ -489,7 +502,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     err: Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16),
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             Command::Where => {
                 let mut joints = [0.0; MAX_AXES];
@@ -509,7 +522,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     tcp,
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             Command::Home => {
                 let home = self.robot.home();
@@ -595,7 +608,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self
                     .buf
                     .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             Command::Stop => self.handle_urgent(Urgent::Stop(from, to)),
             Command::Estop => self.handle_urgent(Urgent::Estop(from, to)),
@@ -639,7 +652,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     outputs: self.shared.outputs[0].load(Ordering::Acquire),
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             Command::Out { n, on } => {
                 let bit = 1u32 << n;
@@ -649,16 +662,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
                 }
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             Command::Wait => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 match self.waiters.iter().position(Option::is_none) {
                     Some(i) => self.waiters[i] = Some((from, to)),
                     None => {
                         let line = self.buf.abs(to, Code::Busy, "too many clients waiting");
-                        deliver(&self.out, &mut self.captured, from, line);
+                        deliver(&self.out, from, line);
                     }
                 }
             }
@@ -693,7 +706,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Command::Help => {
                 let line = self.buf.ack(to, HelpBody);
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
             }
             _ => {
                 let _ = Verb::ALL;
@@ -716,7 +729,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let len = 40 - w.len();
         let body = std::str::from_utf8(&body[..len]).unwrap_or("");
         let line = self.buf.ack(to, body);
-        deliver(&self.out, &mut self.captured, from, line);
+        deliver(&self.out, from, line);
         let line = self.buf.event(false, &Event::Control { owner: owner_name });
         self.out.send(SourceId::BROADCAST, line);
     }
@@ -728,9 +741,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let _ = write!(w, "{err}");
         let len = 400 - w.len();
         let text = std::str::from_utf8(&text[..len]).unwrap_or("the target cannot be reached");
-        // `text` borrows a local buffer; format into the reply buffer.
-        let line = self.buf.nak(to, code, text);
-        deliver(&self.out, &mut self.captured, from, line);
+        self.nak(from, to, code, text);
     }
 
     fn handle_done(&mut self, done: MoveDone) {
@@ -756,16 +767,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.shared.homed.store(true, Ordering::Release);
                 }
                 let line = self.buf.inf(t.to, "");
-                deliver(&self.out, &mut self.captured, t.from, line);
+                deliver(&self.out, t.from, line);
             }
             MoveOutcome::Stopped => {
                 let line = self.buf.abs(t.to, Code::Stopped, "stopped");
-                deliver(&self.out, &mut self.captured, t.from, line);
+                deliver(&self.out, t.from, line);
             }
             MoveOutcome::Refused(number) => {
                 let code = Code::from_number(number).unwrap_or(Code::MotionFault);
                 let line = self.buf.abs(t.to, code, code.text());
-                deliver(&self.out, &mut self.captured, t.from, line);
+                deliver(&self.out, t.from, line);
             }
         }
     }
@@ -845,7 +856,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             return;
         }
         let line = self.buf.ack(to, "");
-        deliver(&self.out, &mut self.captured, from, line);
+        deliver(&self.out, from, line);
         self.program = Some(RunningProgram {
             from,
             to,
@@ -888,7 +899,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match failure {
             None => {
                 let line = self.buf.inf(p.to, "");
-                deliver(&self.out, &mut self.captured, p.from, line);
+                deliver(&self.out, p.from, line);
             }
             Some((code, text)) => {
                 if let ProgramWait::Motion(ticket) = p.wait {
@@ -914,7 +925,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let len = 400 - w.len();
                 let body = std::str::from_utf8(&body[..len]).unwrap_or(text);
                 let line = self.buf.abs(p.to, code, body);
-                deliver(&self.out, &mut self.captured, p.from, line);
+                deliver(&self.out, p.from, line);
             }
         }
         self.program_event(p.name, "ENDED");
@@ -932,7 +943,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let changed = !p.paused;
                 p.paused = true;
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 if changed {
                     self.program_event(name, "PAUSED");
                 }
@@ -941,14 +952,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let changed = p.paused;
                 p.paused = false;
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 if changed {
                     self.program_event(name, "RUNNING");
                 }
             }
             _ => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 self.end_program(Some((Code::Stopped, "aborted by ABORT")));
             }
         }
@@ -976,9 +987,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// Hand one of the program's requests to the checks every connection's request goes
-    /// through; `Err` with the NAK's code and text when they refuse it.
-    fn program_request(&mut self, command: Command) -> Result<Option<u32>, (Code, usize)> {
-        self.captured.len = 0;
+    /// through: `Ok` with the ticket of a queued motion, `Err` with the refusal's code (its
+    /// text is in `self.refusal`).
+    fn program_request(&mut self, command: Command) -> Result<Option<u32>, Code> {
+        self.refusal.code = None;
         let next = self.next_ticket;
         self.handle_request(
             SourceId::PROGRAM,
@@ -988,26 +1000,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 checksum: false,
             },
         );
-        let text = self.captured.text();
-        if text.starts_with("ACK") {
-            let queued = self
-                .tickets
-                .iter()
-                .flatten()
-                .find(|t| t.from == SourceId::PROGRAM && t.ticket >= next)
-                .map(|t| t.ticket);
-            return Ok(queued);
+        if let Some(code) = self.refusal.code {
+            return Err(code);
         }
-        // "NAK <code> <text>"
-        let mut words = text.splitn(3, ' ');
-        let _ = words.next();
-        let code = words
-            .next()
-            .and_then(|c| c.parse::<u16>().ok())
-            .and_then(Code::from_number)
-            .unwrap_or(Code::ProgramError);
-        let offset = text.len() - words.next().map_or(0, str::len);
-        Err((code, offset))
+        Ok(self
+            .tickets
+            .iter()
+            .flatten()
+            .find(|t| t.from == SourceId::PROGRAM && t.ticket >= next)
+            .map(|t| t.ticket))
     }
 
     /// Run the program for this cycle's budget, or check what it waits for.
@@ -1142,12 +1143,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.vm.resume(Resume::Ok);
                 true
             }
-            Err((code, offset)) => {
+            Err(code) => {
+                // The text is copied out: ending the program writes replies.
                 let mut text = [0u8; 400];
-                let t = self.captured.text().as_bytes();
-                let t = &t[offset.min(t.len())..];
-                let n = t.len().min(400);
-                text[..n].copy_from_slice(&t[..n]);
+                let n = self.refusal.len;
+                text[..n].copy_from_slice(&self.refusal.text[..n]);
                 let text = std::str::from_utf8(&text[..n]).unwrap_or("refused");
                 self.end_program(Some((code, text)));
                 false
@@ -1196,7 +1196,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.shared.request_stop();
                 self.shared.error_code.store(0, Ordering::Release);
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, &mut self.captured, from, line);
+                deliver(&self.out, from, line);
                 self.set_state(RobotState::Idle);
             }
             Some(reason) if left == 0 => {
@@ -1264,7 +1264,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         }
                         _ => self.buf.inf(to, ""),
                     };
-                    deliver(&self.out, &mut self.captured, from, line);
+                    deliver(&self.out, from, line);
                 }
             }
         }

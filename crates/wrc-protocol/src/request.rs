@@ -158,54 +158,9 @@ impl Command {
     }
 }
 
-/// A stored program's name: 1 to [`ProgramName::MAX_LEN`] ASCII letters, digits, `_` or `-`
-/// (so it is also a safe file name), kept inline so requests never allocate.
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
-pub struct ProgramName {
-    bytes: [u8; ProgramName::MAX_LEN],
-    len: u8,
-}
-
-impl ProgramName {
-    /// Longest accepted name [bytes].
-    pub const MAX_LEN: usize = 32;
-
-    /// The name `text`, or `None` when it is empty, too long or has other characters.
-    pub fn new(text: &str) -> Option<ProgramName> {
-        let ok = !text.is_empty()
-            && text.len() <= Self::MAX_LEN
-            && text
-                .bytes()
-                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
-        if !ok {
-            return None;
-        }
-        let mut bytes = [0u8; Self::MAX_LEN];
-        bytes[..text.len()].copy_from_slice(text.as_bytes());
-        Some(ProgramName {
-            bytes,
-            len: text.len() as u8,
-        })
-    }
-
-    /// The name as a string slice.
-    pub fn as_str(&self) -> &str {
-        // The constructor only accepts ASCII, so this never fails.
-        core::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("?")
-    }
-}
-
-impl fmt::Debug for ProgramName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "ProgramName({:?})", self.as_str())
-    }
-}
-
-impl fmt::Display for ProgramName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
+/// A stored program's name: 1 to 32 ASCII letters, digits, `_` or `-` (so also a safe file
+/// name), kept inline so requests never allocate.
+pub type ProgramName = wrc_robot::InlineName<32>;
 
 /// The axis argument of `JOG`: a 1-based axis number or an axis name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -49,32 +49,36 @@ impl AxisRole {
     }
 }
 
-/// An axis name of at most [`AxisName::MAX_LEN`] ASCII characters, stored inline so that
-/// errors and reports that carry it never allocate.
+/// A name of 1 to `N` ASCII letters, digits, `_` or `-` (so also a safe file name), stored
+/// inline so that errors, requests and reports that carry it never allocate.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
-pub struct AxisName {
-    bytes: [u8; AxisName::MAX_LEN],
+pub struct InlineName<const N: usize> {
+    bytes: [u8; N],
     len: u8,
 }
 
-impl AxisName {
-    /// Longest accepted name, in bytes.
-    pub const MAX_LEN: usize = 15;
+/// An axis name of at most [`AxisName::MAX_LEN`] (15) characters.
+pub type AxisName = InlineName<15>;
 
-    /// Make a name from `text`: 1 to 15 characters of ASCII letters, digits, `_` or `-`.
+impl<const N: usize> InlineName<N> {
+    /// Longest accepted name, in bytes.
+    pub const MAX_LEN: usize = N;
+
+    /// Make a name from `text`: 1 to `N` characters of ASCII letters, digits, `_` or `-`.
     /// Returns `None` for anything else.
-    pub fn new(text: &str) -> Option<AxisName> {
+    pub fn new(text: &str) -> Option<Self> {
         let ok = !text.is_empty()
-            && text.len() <= Self::MAX_LEN
+            && text.len() <= N
+            && text.len() <= usize::from(u8::MAX)
             && text
                 .bytes()
                 .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
         if !ok {
             return None;
         }
-        let mut bytes = [0u8; Self::MAX_LEN];
+        let mut bytes = [0u8; N];
         bytes[..text.len()].copy_from_slice(text.as_bytes());
-        Some(AxisName {
+        Some(InlineName {
             bytes,
             len: text.len() as u8,
         })
@@ -87,13 +91,13 @@ impl AxisName {
     }
 }
 
-impl fmt::Display for AxisName {
+impl<const N: usize> fmt::Display for InlineName<N> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.as_str())
     }
 }
 
-impl fmt::Debug for AxisName {
+impl<const N: usize> fmt::Debug for InlineName<N> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{:?}", self.as_str())
     }

@@ -21,7 +21,7 @@ mod error;
 mod kinematics;
 mod robot;
 
-pub use axis::{Axis, AxisName, AxisRole, Limits, Unit};
+pub use axis::{Axis, AxisName, AxisRole, InlineName, Limits, Unit};
 pub use error::{KinematicsError, ModelError};
 pub use kinematics::{IkCheck, Pose, Posture};
 pub use robot::{Arm, Joints, Robot, MAX_AXES};

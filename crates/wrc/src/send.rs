@@ -41,8 +41,11 @@ pub fn run(args: SendArgs) -> anyhow::Result<ExitCode> {
     } else {
         first
     };
-    let completes_later =
-        Verb::from_name(verb_word.as_bytes()).is_some_and(|v| v.spec().completes_later);
+    let verb = Verb::from_name(verb_word.as_bytes());
+    if verb == Some(Verb::Upload) {
+        bail!("UPLOAD is followed by the program's lines, which `wrc send` cannot send; use `wrc run FILE` (it uploads and runs a program)");
+    }
+    let completes_later = verb.is_some_and(|v| v.spec().completes_later);
 
     let timeout = Duration::from_secs_f64(args.timeout);
     let (reader, mut writer) = crate::connection::connect(&args.addr, timeout)?;

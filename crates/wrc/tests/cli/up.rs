@@ -505,6 +505,10 @@ fn wrc_send_prints_replies_and_sets_its_exit_code() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot connect"));
+    // UPLOAD needs the program's lines after it: refused at once, never a hang.
+    let out = send(&["UPLOAD", "p"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("wrc run FILE"));
 }
 
 #[test]

@@ -407,11 +407,17 @@ fn route<'b>(
                 Some(buf.nak(to, Code::Busy, "the program store is busy; repeat UPLOAD"))
             }
         }
-        Command::Programs | Command::Run(_) | Command::Delete(_) => {
+        Command::Programs
+        | Command::Run(_)
+        | Command::Delete(_)
+        | Command::Robot
+        | Command::Tasks => {
             let from = slot.source;
             let request = match request.command {
                 Command::Run(name) => StoreRequest::Run { from, to, name },
                 Command::Delete(name) => StoreRequest::Delete { from, to, name },
+                Command::Robot => StoreRequest::Robot { from, to },
+                Command::Tasks => StoreRequest::Tasks { from, to },
                 _ => StoreRequest::List { from, to },
             };
             match routes.store.try_send(request) {

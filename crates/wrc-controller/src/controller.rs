@@ -267,6 +267,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let serial_out = Arc::new(MessageQueue::new(256));
     let owner_lost = Arc::new(AtomicBool::new(false));
     let stats = Arc::new(OnceLock::new());
+    let task_cells: crate::queries::TaskCells = Arc::new(OnceLock::new());
     let links = StoreLinks::new();
     let outputs = Outputs {
         network: network_out.clone(),
@@ -281,7 +282,8 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     .map_err(|reason| StartError::Programs {
         path: options.programs.display().to_string(),
         reason,
-    })?;
+    })?
+    .with_queries(config.motion.period_s * 1000.0, task_cells.clone());
     let routes = Routes {
         incoming: incoming.clone(),
         urgent: urgent.clone(),
@@ -403,6 +405,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
 
     let running = runtime.start()?;
     let _ = stats.set(running.stats_cells());
+    let _ = task_cells.set(running.task_cells());
     let quit = Arc::new(AtomicBool::new(false));
     let path = UrgentPath {
         wake,

@@ -16,6 +16,7 @@ pub mod ethernet;
 pub mod io_monitor;
 pub mod program_store;
 pub mod pulse_generator;
+pub mod queries;
 pub mod rs232c;
 pub mod shared;
 pub mod simulator_manager;

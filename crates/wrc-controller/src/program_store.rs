@@ -22,6 +22,7 @@ use wrc_robot::Robot;
 use wrc_rt::ipc::MessageQueue;
 
 use crate::command_interpreter::Outputs;
+use crate::queries::TaskCells;
 use crate::shared::SourceId;
 
 /// Most lines in an uploaded program.
@@ -77,6 +78,20 @@ pub enum StoreRequest {
         to: ReplyTo,
         /// The program.
         name: ProgramName,
+    },
+    /// `ROBOT`: the robot's geometry and axes.
+    Robot {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
+    },
+    /// `TASKS`: every real-time task's measured timing.
+    Tasks {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
     },
     /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
     Run {
@@ -160,6 +175,8 @@ pub struct ProgramStore {
     out: Outputs,
     uploads: Vec<Upload>,
     buf: ReplyBuf,
+    period_ms: f64,
+    tasks: TaskCells,
 }
 
 impl ProgramStore {
@@ -178,7 +195,17 @@ impl ProgramStore {
             out,
             uploads: Vec::new(),
             buf: ReplyBuf::new(),
+            period_ms: 0.0,
+            tasks: TaskCells::default(),
         })
+    }
+
+    /// Also answer `ROBOT` (with the Pulse Generator's period [ms]) and `TASKS` (from the
+    /// runtime's statistics cells, once they are set).
+    pub fn with_queries(mut self, period_ms: f64, tasks: TaskCells) -> ProgramStore {
+        self.period_ms = period_ms;
+        self.tasks = tasks;
+        self
     }
 
     /// Serve requests until `quit`.
@@ -263,6 +290,25 @@ impl ProgramStore {
                 }
             },
             StoreRequest::Run { from, to, name } => self.run_program(from, to, name),
+            StoreRequest::Robot { from, to } => {
+                let (axes, ack) = crate::queries::robot_reply(&self.robot, self.period_ms);
+                for axis in &axes {
+                    let line = self.buf.event(to.checksum, &Event::Axis(axis));
+                    self.out.send(from, line);
+                }
+                let line = self.buf.ack(to, ack);
+                self.out.send(from, line);
+            }
+            StoreRequest::Tasks { from, to } => {
+                let tasks = self.tasks.get().map(Vec::as_slice).unwrap_or_default();
+                for (spec, cell) in tasks {
+                    let text = crate::queries::task_line(spec, &cell.snapshot());
+                    let line = self.buf.event(to.checksum, &Event::Task(&text));
+                    self.out.send(from, line);
+                }
+                let line = self.buf.ack(to, format_args!("tasks={}", tasks.len()));
+                self.out.send(from, line);
+            }
         }
     }
 

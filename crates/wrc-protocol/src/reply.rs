@@ -420,6 +420,12 @@ pub enum Event<'a> {
     /// `EVT DIAG <diagnostic>`: one compiler warning or error, as
     /// `<file>:<line>:<col>: <severity>: <message>` (to the requesting connection only).
     Diag(&'a str),
+    /// `EVT AXIS <n> name=… role=… unit=… ppu=… min=… max=… home=…`: one axis in the reply
+    /// to `ROBOT` (to the requesting connection only); the body after `AXIS`.
+    Axis(&'a str),
+    /// `EVT TASK <name> prio=… …`: one real-time task's timing in the reply to `TASKS` (to
+    /// the requesting connection only); the body after `TASK`.
+    Task(&'a str),
 }
 
 impl Event<'_> {
@@ -434,6 +440,8 @@ impl Event<'_> {
             Event::Program { .. } => "PROGRAM",
             Event::Print(_) => "PRINT",
             Event::Diag(_) => "DIAG",
+            Event::Axis(_) => "AXIS",
+            Event::Task(_) => "TASK",
         }
     }
 }
@@ -447,7 +455,7 @@ impl Display for Event<'_> {
             Event::Control { owner } => f.write_str(owner.unwrap_or("none")),
             Event::Status { status, position } => write!(f, "{status} {position}"),
             Event::Program { name, state } => write!(f, "{name} {state}"),
-            Event::Print(text) | Event::Diag(text) => {
+            Event::Print(text) | Event::Diag(text) | Event::Axis(text) | Event::Task(text) => {
                 for c in text.chars() {
                     let c = if c == '\n' || c == '\r' { ' ' } else { c };
                     fmt::Write::write_char(f, c)?;

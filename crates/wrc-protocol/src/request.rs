@@ -112,6 +112,10 @@ pub enum Command {
     Upload(ProgramName),
     /// `PROGRAMS`.
     Programs,
+    /// `ROBOT`.
+    Robot,
+    /// `TASKS`.
+    Tasks,
     /// `RUN <name>`.
     Run(ProgramName),
     /// `PAUSE`.
@@ -149,6 +153,8 @@ impl Command {
             Command::Unsubscribe => Verb::Unsubscribe,
             Command::Upload(_) => Verb::Upload,
             Command::Programs => Verb::Programs,
+            Command::Robot => Verb::Robot,
+            Command::Tasks => Verb::Tasks,
             Command::Run(_) => Verb::Run,
             Command::Pause => Verb::Pause,
             Command::Continue => Verb::Continue,
@@ -640,6 +646,8 @@ impl Parser {
             Verb::Unsubscribe => simple(Command::Unsubscribe),
             Verb::Upload => program_name(args).map(Command::Upload),
             Verb::Programs => simple(Command::Programs),
+            Verb::Robot => simple(Command::Robot),
+            Verb::Tasks => simple(Command::Tasks),
             Verb::Run => program_name(args).map(Command::Run),
             Verb::Pause => simple(Command::Pause),
             Verb::Continue => simple(Command::Continue),

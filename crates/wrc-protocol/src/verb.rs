@@ -60,6 +60,10 @@ pub enum Verb {
     Abort,
     /// `DELETE`: remove a stored program.
     Delete,
+    /// `ROBOT`: the robot's geometry and axes, for a GUI.
+    Robot,
+    /// `TASKS`: the real-time tasks' measured timing.
+    Tasks,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -108,6 +112,8 @@ impl Verb {
         Verb::Continue,
         Verb::Abort,
         Verb::Delete,
+        Verb::Robot,
+        Verb::Tasks,
     ];
 
     /// The verb's table entry.
@@ -190,6 +196,8 @@ impl Verb {
             Verb::Continue => v("CONTINUE", "", "continue a paused program", false, true),
             Verb::Abort => v("ABORT", "", "end the running program", false, false),
             Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, true),
+            Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, false),
+            Verb::Tasks => v("TASKS", "", "the real-time tasks' timing", false, false),
         }
     }
 

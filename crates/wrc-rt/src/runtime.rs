@@ -463,6 +463,11 @@ impl RunningRuntime {
         self.tasks.iter().map(|(_, cell)| cell.clone()).collect()
     }
 
+    /// Every task as configured with its statistics cell, in task order.
+    pub fn task_cells(&self) -> Vec<(TaskSpec, Arc<StatsCell>)> {
+        self.tasks.clone()
+    }
+
     /// A consistent snapshot of every task's statistics (never blocks the tasks).
     pub fn snapshot(&self) -> Vec<TaskSnapshot> {
         self.tasks

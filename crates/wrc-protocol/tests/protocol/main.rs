@@ -4,3 +4,4 @@
 
 mod alloc;
 mod session;
+mod vectors;

@@ -1,0 +1,152 @@
+//! Answers to `ROBOT` and `TASKS`: the robot's geometry and every real-time task's measured
+//! timing, formatted as protocol lines by the program store's non-real-time thread (they
+//! allocate; no real-time task ever runs this code).
+
+use std::fmt::Write as _;
+use std::sync::{Arc, OnceLock};
+
+use wrc_protocol::Num;
+use wrc_robot::Robot;
+use wrc_rt::histogram::bucket_range;
+use wrc_rt::{StatsCell, Summary, TaskSpec, TaskStats};
+
+/// Every task as configured with its statistics cell, set once the runtime has started.
+pub type TaskCells = Arc<OnceLock<Vec<(TaskSpec, Arc<StatsCell>)>>>;
+
+/// Digital inputs and outputs of the controller (the input and output words).
+pub const SIGNALS: usize = 32;
+
+/// The `EVT AXIS` bodies (one per axis) and the `ACK` body of `ROBOT`.
+pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
+    let axes = robot
+        .axes()
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            format!(
+                "{} name={} role={} unit={} ppu={} min={} max={} home={}",
+                i + 1,
+                a.name.as_str(),
+                a.role.as_str(),
+                a.unit.as_str(),
+                Num(a.pulses_per_unit),
+                Num(a.min),
+                Num(a.max),
+                Num(a.home),
+            )
+        })
+        .collect();
+    let arm = robot.arm();
+    let name: String = robot
+        .name
+        .chars()
+        .map(|c| if c.is_ascii_graphic() { c } else { '_' })
+        .collect();
+    let ack = format!(
+        "name={name} link1={} link2={} hand={} axes={} period_ms={} inputs={SIGNALS} outputs={SIGNALS}",
+        Num(arm.link1_mm),
+        Num(arm.link2_mm),
+        Num(arm.hand_mm),
+        robot.axis_count(),
+        Num(period_ms),
+    );
+    (axes, ack)
+}
+
+/// The `EVT TASK` body of one task (the paper's Tables 3 and 4 plus a latency histogram).
+pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
+    let period = Summary::of(&stats.period);
+    let exec = Summary::of(&stats.exec);
+    let latency = Summary::of(&stats.latency);
+    let mut line = format!(
+        "{} prio={} period_ms={} cycles={} overruns={} missed={} per_avg_us={} per_min_us={} \
+         per_max_us={} exec_avg_us={} exec_max_us={} lat_avg_us={} lat_p99_us={} lat_max_us={} \
+         lat_hist=",
+        spec.name,
+        spec.priority,
+        Num(spec.period_us as f64 / 1000.0),
+        stats.cycles,
+        stats.overruns,
+        stats.missed_periods,
+        Num(period.avg_us),
+        Num(period.min_us),
+        Num(period.max_us),
+        Num(exec.avg_us),
+        Num(exec.max_us),
+        Num(latency.avg_us),
+        Num(latency.p99_us),
+        Num(latency.max_us),
+    );
+    let mut first = true;
+    for (upper_us, count) in power_of_two_bins(&stats.latency) {
+        let _ = write!(line, "{}{upper_us}:{count}", if first { "" } else { "," });
+        first = false;
+    }
+    line
+}
+
+/// The histogram regrouped into power-of-two bins of microseconds: `(u, n)` says that `n`
+/// samples lie in `[u/2, u)` µs (`u = 1`: under 1 µs). Empty bins are left out. A fine
+/// bucket is counted in the bin of its middle (the fine buckets are 6.25 % wide).
+pub fn power_of_two_bins(h: &wrc_rt::Histogram) -> Vec<(u64, u64)> {
+    let mut bins: Vec<(u64, u64)> = Vec::new();
+    for (bucket, &count) in h.bucket_counts().iter().enumerate() {
+        if count == 0 {
+            continue;
+        }
+        let (low_ns, high_ns) = bucket_range(bucket);
+        let mid_us = (low_ns + (high_ns - low_ns) / 2) / 1000;
+        let upper = if mid_us == 0 {
+            1
+        } else {
+            (mid_us + 1).next_power_of_two()
+        };
+        match bins.last_mut() {
+            Some((u, n)) if *u == upper => *n += count,
+            _ => bins.push((upper, count)),
+        }
+    }
+    bins
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_hold_their_samples() {
+        let mut h = wrc_rt::Histogram::new();
+        for ns in [200, 700, 1_300, 1_500, 2_500, 3_500, 40_000, 40_000, 70_000] {
+            h.record(ns);
+        }
+        let bins = power_of_two_bins(&h);
+        assert_eq!(bins, vec![(1, 2), (2, 2), (4, 2), (64, 2), (128, 1)]);
+        assert_eq!(bins.iter().map(|b| b.1).sum::<u64>(), h.count());
+    }
+
+    #[test]
+    fn robot_reply_lists_every_axis() {
+        let robot = Robot::paper_default();
+        let (axes, ack) = robot_reply(&robot, 10.0);
+        assert_eq!(axes.len(), robot.axis_count());
+        assert_eq!(
+            axes[0],
+            "1 name=j1 role=shoulder unit=deg ppu=1000 min=-180 max=180 home=-75"
+        );
+        assert!(
+            ack.contains("link1=200 link2=200 hand=0 axes=4 period_ms=10"),
+            "{ack}"
+        );
+    }
+
+    #[test]
+    fn task_line_of_an_idle_task_is_all_zero() {
+        let spec = TaskSpec::new("pulse_generator", 20, 10_000);
+        let line = task_line(&spec, &TaskStats::default());
+        assert!(
+            line.starts_with("pulse_generator prio=20 period_ms=10 cycles=0"),
+            "{line}"
+        );
+        assert!(line.ends_with("lat_hist="), "{line}");
+    }
+}

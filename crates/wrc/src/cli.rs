@@ -10,6 +10,7 @@ use crate::compile;
 use crate::plan;
 use crate::run as run_program;
 use crate::send;
+use crate::ui;
 use crate::up;
 
 /// wrc — real-time controller for wafer-handling robots.
@@ -25,6 +26,9 @@ enum Command {
     /// Start the controller: the eight real-time tasks, simulated boards, host protocol on
     /// TCP, the local GUI socket and the simulator stream.
     Up(up::UpArgs),
+    /// Serve the web GUI (started by `wrc up`; alone with `--controller HOST:PORT` on
+    /// another PC).
+    Ui(ui::UiArgs),
     /// Send one command line to a running controller and print the replies.
     Send(send::SendArgs),
     /// Compile a robot-language program, upload it to a running controller, run it and
@@ -46,6 +50,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Command::Up(args) => up::run(args),
+        Command::Ui(args) => ui::run(args),
         Command::Send(args) => send::run(args),
         Command::Run(args) => run_program::run(args),
         Command::Plan(args) => plan::run(args),

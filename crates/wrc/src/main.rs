@@ -10,6 +10,7 @@ mod plan;
 mod plot;
 mod run;
 mod send;
+mod ui;
 mod up;
 
 use std::process::ExitCode;

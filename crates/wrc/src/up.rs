@@ -46,16 +46,19 @@ pub struct UpArgs {
     /// Serial parity: none, even or odd.
     #[arg(long, value_name = "PARITY", default_value = "none")]
     parity: String,
-    /// Do not start the GUI (the GUI is not part of wrc yet, so this is the default).
+    /// Do not start the web GUI (`wrc ui`).
     #[arg(long)]
     no_ui: bool,
+    /// Port of the web GUI (http://127.0.0.1:PORT).
+    #[arg(long, value_name = "PORT", default_value_t = 8080)]
+    ui_port: u16,
     /// Run without SCHED_FIFO even where it is allowed.
     #[arg(long)]
     no_rt: bool,
 }
 
 /// Signals that end `wrc up`, blocked in every thread and taken by `sigwait`.
-fn termination_signals() -> libc::sigset_t {
+pub(crate) fn termination_signals() -> libc::sigset_t {
     // SAFETY: sigemptyset/sigaddset only write the set we own.
     unsafe {
         let mut set: libc::sigset_t = std::mem::zeroed();
@@ -102,6 +105,94 @@ pub(crate) fn spawn_board(
     }
     cmd.spawn()
         .context("cannot start the simulated board (wrc board-sim)")
+}
+
+/// Start `wrc ui` on the controller's Unix socket and wait until it serves; returns the
+/// child and the GUI's address. Its output after the start goes to `STATE_DIR/ui.log`.
+fn spawn_ui(
+    socket: &Path,
+    sim_addr: SocketAddr,
+    port: u16,
+    state_dir: &Path,
+) -> anyhow::Result<(Child, String)> {
+    use std::io::BufRead;
+    let exe = std::env::current_exe().context("cannot find the wrc executable to start wrc ui")?;
+    let log_path = state_dir.join("ui.log");
+    let mut cmd = Command::new(exe);
+    cmd.arg("ui")
+        .arg("--controller")
+        .arg(socket)
+        .arg("--sim-addr")
+        .arg(sim_addr.to_string())
+        .arg("--ui-port")
+        .arg(port.to_string())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    // SAFETY: runs in the child between fork and exec and only calls async-signal-safe
+    // functions (sigprocmask, prctl, setpriority).
+    unsafe {
+        cmd.pre_exec(|| {
+            let mut empty: libc::sigset_t = std::mem::zeroed();
+            libc::sigemptyset(&mut empty);
+            libc::sigprocmask(libc::SIG_SETMASK, &empty, std::ptr::null_mut());
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+            // The GUI is the least urgent thing on the machine.
+            libc::setpriority(libc::PRIO_PROCESS, 0, 5);
+            Ok(())
+        });
+    }
+    let mut child = cmd.spawn().context("cannot start wrc ui")?;
+    let stdout = child.stdout.take().context("wrc ui has no stdout")?;
+    let stderr = child.stderr.take().context("wrc ui has no stderr")?;
+    let log = std::fs::File::create(&log_path)
+        .with_context(|| format!("cannot create {}", log_path.display()))?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let err_log = log.try_clone()?;
+    std::thread::spawn(move || {
+        let mut log = log;
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            use std::io::Write;
+            let _ = writeln!(log, "{line}");
+            if let Some(url) = line.strip_prefix("wrc ui: GUI on ") {
+                let _ = tx.send(url.to_string());
+            }
+        }
+    });
+    let (etx, erx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut log = err_log;
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            use std::io::Write;
+            let _ = writeln!(log, "{line}");
+            let _ = etx.send(line);
+        }
+    });
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        if let Ok(url) = rx.recv_timeout(Duration::from_millis(50)) {
+            return Ok((child, url));
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            std::thread::sleep(Duration::from_millis(50));
+            let why: Vec<String> = erx.try_iter().collect();
+            bail!("wrc ui exited ({status}): {}", why.join(" "));
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!(
+                "wrc ui did not start within 10 s (see {})",
+                log_path.display()
+            );
+        }
+    }
 }
 
 pub(crate) fn stop_children(children: &mut [Child]) {
@@ -222,7 +313,18 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         };
         println!("wrc: board {b}: {how} at {}", path.display());
     }
-    println!("wrc: GUI not started (--no-ui; the web GUI is not part of wrc yet)");
+    let mut ui = None;
+    if args.no_ui {
+        println!("wrc: GUI not started (--no-ui)");
+    } else if let Some(socket) = &running.socket {
+        match spawn_ui(socket, running.sim_addr, args.ui_port, &args.state_dir) {
+            Ok((child, url)) => {
+                println!("wrc: GUI on {url}");
+                ui = Some(child);
+            }
+            Err(e) => println!("wrc: GUI not started: {e:#}; the controller runs without it"),
+        }
+    }
     println!("wrc: ready; Ctrl-C or SIGTERM stops the robot and the controller");
     use std::io::Write;
     let _ = std::io::stdout().flush();
@@ -236,6 +338,9 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     let shared = running.shared().clone();
     let report = running.shutdown(Duration::from_secs(3));
     save_state(&args.state_dir, &shared);
+    if let Some(ui) = ui {
+        children.push(ui);
+    }
     stop_children(&mut children);
     match report {
         Some(r) if !r.is_clean() => {

@@ -3,6 +3,7 @@
 mod compile;
 mod plan;
 mod program;
+mod ui;
 mod up;
 
 use std::process::{Command, Output};

@@ -15,7 +15,7 @@ pub(crate) struct Controller {
     dir: tempfile::TempDir,
 }
 
-fn free_port() -> u16 {
+pub(crate) fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
@@ -46,9 +46,16 @@ impl Controller {
     fn start_in(dir: tempfile::TempDir, extra: &[&str]) -> Controller {
         let port = free_port();
         let sim_port = free_udp_port();
+        // Tests run in parallel: only a test that asks for the GUI (with --ui-port) gets one.
+        let no_ui: &[&str] = if extra.contains(&"--ui-port") {
+            &[]
+        } else {
+            &["--no-ui"]
+        };
         let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
             .arg("up")
             .arg("--no-rt")
+            .args(no_ui)
             .args(["--port", &format!("127.0.0.1:{port}")])
             .args(["--sim-addr", &format!("127.0.0.1:{sim_port}")])
             .arg("--state-dir")
@@ -78,6 +85,11 @@ impl Controller {
 
     pub(crate) fn dir_path(&self) -> &Path {
         self.dir.path()
+    }
+
+    /// The process id of `wrc up`.
+    pub(crate) fn pid(&self) -> u32 {
+        self.child.id()
     }
 
     pub(crate) fn dpram(&self) -> PathBuf {

@@ -1,0 +1,88 @@
+//! `wrc ui`: the web GUI's server and bridge (crate `wrc-ui`), started by `wrc up` or alone
+//! on another PC with `--controller HOST:PORT`; stopped by SIGINT or SIGTERM.
+
+use std::net::{IpAddr, SocketAddr};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+use wrc_ui::{Endpoint, Options, Ui};
+
+/// Arguments of `wrc ui`.
+#[derive(Debug, Args)]
+pub struct UiArgs {
+    /// The controller: its Unix socket path, or HOST:PORT of its host protocol (TCP).
+    #[arg(long, value_name = "ADDR", default_value = "/tmp/wrc/wrc.sock")]
+    controller: String,
+    /// Address to serve the GUI on; anything but loopback needs --token.
+    #[arg(long, value_name = "IP", default_value = "127.0.0.1")]
+    listen: IpAddr,
+    /// Port to serve the GUI on.
+    #[arg(long, value_name = "PORT", default_value_t = 8080)]
+    ui_port: u16,
+    /// Receive the controller's simulator datagrams on this UDP address.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7200")]
+    sim_addr: SocketAddr,
+    /// Do not receive simulator datagrams (the 3D view and plots stay still).
+    #[arg(long)]
+    no_sim: bool,
+    /// Secret every browser must present (open http://HOST:PORT/?token=SECRET); required
+    /// when --listen is not a loopback address. Also read from WRC_UI_TOKEN.
+    #[arg(
+        long,
+        value_name = "SECRET",
+        env = "WRC_UI_TOKEN",
+        hide_env_values = true
+    )]
+    token: Option<String>,
+    /// Serve the app from this folder (a `web/dist` build) instead of the embedded one.
+    #[arg(long, value_name = "DIR")]
+    web_dir: Option<PathBuf>,
+}
+
+/// Run `wrc ui` until SIGINT or SIGTERM.
+pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
+    let signals = crate::up::termination_signals();
+    // SAFETY: changes this thread's signal mask before any thread exists; threads inherit it.
+    unsafe {
+        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
+    }
+    let listen = SocketAddr::new(args.listen, args.ui_port);
+    let ui = Ui::start(Options {
+        listen,
+        controller: Endpoint::parse(&args.controller),
+        sim_addr: (!args.no_sim).then_some(args.sim_addr),
+        token: args.token.clone(),
+        web_dir: args.web_dir.clone(),
+    })
+    .context("the GUI could not start")?;
+    let addr = ui.local_addr();
+    let host = if addr.ip().is_unspecified() {
+        "HOST".to_string()
+    } else {
+        addr.ip().to_string()
+    };
+    let query = if args.token.is_some() {
+        "/?token=…"
+    } else {
+        ""
+    };
+    println!("wrc ui: GUI on http://{host}:{}{query}", addr.port());
+    println!("wrc ui: app {}", ui.assets().describe());
+    println!("wrc ui: controller {}", Endpoint::parse(&args.controller));
+    match ui.sim_addr() {
+        Some(a) => println!("wrc ui: simulator datagrams from udp {a}"),
+        None => println!("wrc ui: no simulator stream (--no-sim)"),
+    }
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    let mut sig: libc::c_int = 0;
+    // SAFETY: waits for one of the blocked signals in `signals`.
+    unsafe {
+        libc::sigwait(&signals, &mut sig);
+    }
+    ui.stop();
+    println!("wrc ui: stopped");
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,6 +1,7 @@
 # wrc — two commands on a fresh machine:
-#   make run    the main job: the controller with a simulated board (wrc up)
-#   make test   every test, lint and format check
+#   make run    the main job: the controller with a simulated board and the web GUI (wrc up)
+#   make test   every test (Rust, fuzz, web unit tests, the browser end-to-end test), lint and
+#               format check
 # Toolchains present on the machine (cargo) are assumed; anything else is installed when
 # missing (as root) or named with the command to install it.
 
@@ -9,18 +10,37 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz run test build check-toolchain lint test-rust bench bench-rt bench-controller demo clean
+.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
 
-build: check-toolchain
+# The web app (web/, TypeScript + Vite): npm packages pinned by web/package-lock.json,
+# installed when the lock file is newer than the install; built when a source is newer than
+# the build. The wrc binary embeds web/dist when it exists at compile time.
+check-node:
+	@scripts/need.sh node nodejs
+	@scripts/need.sh npm npm
+
+web/node_modules/.package-lock.json: web/package-lock.json web/package.json | check-node
+	cd web && npm ci --no-audit --no-fund
+	@touch $@
+
+WEB_SOURCES := $(shell find web/src web/index.html web/vite.config.ts web/tsconfig.json -type f 2>/dev/null)
+web/dist/index.html: web/node_modules/.package-lock.json $(WEB_SOURCES)
+	cd web && npm run build
+	@touch $@
+
+web: web/dist/index.html
+
+build: check-toolchain web
 	$(CARGO) build --release --bin wrc
 
 # The main job: the controller (the paper's eight real-time tasks) with a simulated motion
-# board on the embedded default configuration. Host protocol on tcp 127.0.0.1:7100 (try
-# `target/release/wrc send HOME` in another terminal), simulator datagrams to udp
-# 127.0.0.1:7200. Ctrl-C stops the robot and the controller.
+# board on the embedded default configuration, and the web GUI on http://127.0.0.1:8080.
+# Host protocol on tcp 127.0.0.1:7100 (try `target/release/wrc send HOME` in another
+# terminal), simulator datagrams to udp 127.0.0.1:7200. Ctrl-C stops the robot and the
+# controller.
 run: build
 	$(WRC) up
 
@@ -38,7 +58,20 @@ lint: check-toolchain
 test-rust: check-toolchain
 	$(CARGO) test --workspace
 
-test: lint test-rust test-fuzz
+test: lint test-rust test-web test-fuzz
+
+# The browser application: Vitest unit tests, a type-checked build, then the end-to-end test
+# in a real headless Chromium (Debian's package, driven by playwright-core; no browser
+# download) against `wrc up` on free ports. Screenshots go to $(OUT)/gui/.
+test-web: web
+	cd web && npm test
+	$(MAKE) test-e2e
+
+test-e2e: web check-toolchain
+	@scripts/need.sh chromium chromium fonts-dejavu-core
+	$(CARGO) build --bin wrc
+	@mkdir -p $(OUT)/gui
+	cd web && WRC_BIN=$(CURDIR)/target/debug/wrc WRC_TEST_OUTPUT=$(CURDIR)/$(OUT)/gui npm run e2e
 
 # Benchmarks (figures go into the README's performance section).
 bench: check-toolchain
@@ -61,9 +94,15 @@ bench-controller: build
 	@mkdir -p $(OUT)
 	$(WRC) bench controller --json $(OUT)/bench-controller.json
 
+# The GUI must not disturb control: the Pulse Generator's wake-up latency with no GUI, with
+# wrc ui and browsers-worth of WebSocket clients attached, and after kill -9 of wrc ui.
+bench-ui: build
+	@mkdir -p $(OUT)
+	$(WRC) bench ui --json $(OUT)/bench-ui.json
+
 clean:
 	$(CARGO) clean
-	rm -rf $(OUT)
+	rm -rf $(OUT) web/dist
 
 # Fuzz for a bounded time each: the DPRAM layout reader (wrc-board) and the robot-language
 # compiler and VM (wrc-lang). cargo-fuzz builds with sanitizers, which need nightly features:

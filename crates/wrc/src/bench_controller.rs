@@ -38,13 +38,13 @@ pub struct ControllerArgs {
     no_rt: bool,
 }
 
-struct Host {
+pub(crate) struct Host {
     reader: BufReader<TcpStream>,
     writer: TcpStream,
 }
 
 impl Host {
-    fn connect(addr: SocketAddr) -> anyhow::Result<Host> {
+    pub(crate) fn connect(addr: SocketAddr) -> anyhow::Result<Host> {
         let s = TcpStream::connect(addr)?;
         s.set_read_timeout(Some(Duration::from_secs(30)))?;
         s.set_nodelay(true)?;
@@ -53,12 +53,12 @@ impl Host {
             writer: s,
         })
     }
-    fn send(&mut self, line: &str) -> anyhow::Result<()> {
+    pub(crate) fn send(&mut self, line: &str) -> anyhow::Result<()> {
         self.writer.write_all(format!("{line}\n").as_bytes())?;
         Ok(())
     }
     /// Read until a non-event line starting with one of `kinds`.
-    fn expect(&mut self, kinds: &[&str]) -> anyhow::Result<String> {
+    pub(crate) fn expect(&mut self, kinds: &[&str]) -> anyhow::Result<String> {
         loop {
             let mut l = String::new();
             if self.reader.read_line(&mut l)? == 0 {

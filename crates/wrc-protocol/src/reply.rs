@@ -596,8 +596,9 @@ mod tests {
         assert_eq!(text(out.ack(ID7, io)), "ACK 7 in=0000000F out=80000001\n");
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
-        assert!(text(&help)
-            .ends_with(",SUBSCRIBE,UNSUBSCRIBE,UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE\n"));
+        assert!(
+            text(&help).ends_with(",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS\n")
+        );
     }
 
     #[test]

@@ -22,20 +22,12 @@ fn files(dir: &Path, root: &Path, out: &mut Vec<(String, PathBuf)>) {
 
 fn main() {
     let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
-    let web = manifest.join("../../web");
-    let dist = web.join("dist");
+    let dist = manifest.join("../../web/dist");
     let index = dist.join("index.html");
     // Vite rewrites index.html on every build (it names the hashed assets), so watching it
-    // catches every rebuild; without a build, watch package.json (it always exists) so that
-    // cargo does not rerun this script on every build.
-    if index.exists() {
-        println!("cargo:rerun-if-changed={}", index.display());
-    } else {
-        println!(
-            "cargo:rerun-if-changed={}",
-            web.join("package.json").display()
-        );
-    }
+    // catches every rebuild. While it is missing cargo reruns this script on every build, so
+    // a build that appears later (or reappears after Vite emptied the folder) is embedded.
+    println!("cargo:rerun-if-changed={}", index.display());
     println!("cargo:rerun-if-changed=build.rs");
     let mut list = Vec::new();
     if index.exists() {

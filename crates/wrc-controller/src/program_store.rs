@@ -353,14 +353,17 @@ impl ProgramStore {
                     "warning"
                 }
             };
+            // Replies are printable ASCII: write the compiler's ellipsis as three dots rather
+            // than let the line writer turn it into '?'.
+            let message = d.message.replace('\u{2026}', "...");
             let mut text = String::new();
             let _ = write!(
                 text,
                 "{file}:{}:{}: {severity}: {}",
-                d.line, d.col, d.message
+                d.line, d.col, message
             );
             if severity == "error" && first_error.is_empty() {
-                first_error = format!("{}:{} {}", d.line, d.col, d.message);
+                first_error = format!("{}:{} {}", d.line, d.col, message);
             }
             let line = self.buf.event(to.checksum, &Event::Diag(&text));
             self.out.send(from, line);

@@ -1,0 +1,530 @@
+#!/usr/bin/env node
+// End-to-end test of the web GUI in real headless Chromium against a real `wrc up`
+// (simulated boards, no SCHED_FIFO) that starts `wrc ui`.
+//
+//   npm run e2e                       (from web/; builds nothing: run `npm run build` and
+//                                      `cargo build -p wrc` first, the binary embeds web/dist)
+//   WRC_BIN=/path/to/wrc              the binary (default: ../target/debug/wrc from web/)
+//   WRC_TEST_OUTPUT=/dir              screenshots (default: <repo>/test-output/gui/)
+//   WRC_CHROMIUM=/usr/bin/chromium    the browser (never downloaded)
+//   WRC_E2E_HEADFUL=1                 show the browser (needs a display)
+//   WRC_E2E_WEB_DIR=dist              serve this build (`wrc up --no-ui` + `wrc ui --web-dir`)
+//                                      instead of the one embedded in the binary
+//
+// Exit code 0 when every step passed; 1 with a message naming the failed step otherwise.
+
+import { spawn } from 'node:child_process';
+import { mkdtempSync, mkdirSync, rmSync, existsSync, readFileSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import net from 'node:net';
+import dgram from 'node:dgram';
+import { chromium } from 'playwright-core';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const webDir = resolve(here, '..');
+const repo = resolve(webDir, '..');
+const wrcBin = resolve(webDir, process.env.WRC_BIN ?? '../target/debug/wrc');
+const outDir = resolve(process.env.WRC_TEST_OUTPUT ?? join(repo, 'test-output', 'gui'));
+const chromiumPath = process.env.WRC_CHROMIUM ?? '/usr/bin/chromium';
+const STEP_MS = Number(process.env.WRC_E2E_STEP_MS ?? 30_000);
+const TOTAL_MS = Number(process.env.WRC_E2E_TOTAL_MS ?? 300_000);
+
+const t0 = Date.now();
+const secs = () => ((Date.now() - t0) / 1000).toFixed(1).padStart(6);
+const log = (msg) => console.log(`[${secs()} s] ${msg}`);
+
+// ---------------------------------------------------------------------------------------------
+// helpers
+
+function freeTcpPort() {
+  return new Promise((res, rej) => {
+    const s = net.createServer();
+    s.unref();
+    s.on('error', rej);
+    s.listen(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => res(port));
+    });
+  });
+}
+
+function freeUdpPort() {
+  return new Promise((res, rej) => {
+    const s = dgram.createSocket('udp4');
+    s.on('error', rej);
+    s.bind(0, '127.0.0.1', () => {
+      const { port } = s.address();
+      s.close(() => res(port));
+    });
+  });
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+function withTimeout(promise, ms, what) {
+  let timer;
+  return Promise.race([
+    promise.finally(() => clearTimeout(timer)),
+    new Promise((_, rej) => {
+      timer = setTimeout(() => rej(new Error(`timed out after ${ms / 1000} s: ${what}`)), ms);
+    }),
+  ]);
+}
+
+let stepNo = 0;
+const results = [];
+async function step(name, fn, ms = STEP_MS) {
+  stepNo += 1;
+  const label = `${String(stepNo).padStart(2)}. ${name}`;
+  const start = Date.now();
+  try {
+    await withTimeout(Promise.resolve().then(fn), ms, name);
+  } catch (e) {
+    results.push({ label, ok: false, ms: Date.now() - start });
+    const err = new Error(`step "${name}" failed: ${e instanceof Error ? e.message : String(e)}`);
+    err.step = label;
+    throw err;
+  }
+  results.push({ label, ok: true, ms: Date.now() - start });
+  log(`ok   ${label} (${((Date.now() - start) / 1000).toFixed(1)} s)`);
+}
+
+// ---------------------------------------------------------------------------------------------
+// the controller
+
+let wrc = null;
+let wrcOut = '';
+let stateDir = null;
+
+async function startWrc() {
+  if (!existsSync(wrcBin)) throw new Error(`no wrc binary at ${wrcBin} (cargo build -p wrc, or set WRC_BIN)`);
+  const hostPort = await freeTcpPort();
+  let uiPort = await freeTcpPort();
+  while (uiPort === hostPort) uiPort = await freeTcpPort();
+  const udpPort = await freeUdpPort();
+  stateDir = mkdtempSync(join(tmpdir(), 'wrc-e2e-'));
+  const args = [
+    'up',
+    '--no-rt',
+    '--port', `127.0.0.1:${hostPort}`,
+    '--sim-addr', `127.0.0.1:${udpPort}`,
+    '--ui-port', String(uiPort),
+    '--state-dir', stateDir,
+  ];
+  // WRC_E2E_WEB_DIR: test that build (e.g. web/dist) instead of the one embedded in the binary:
+  // `wrc up --no-ui` and a `wrc ui --web-dir` of our own, both in one process group.
+  const webDirOverride = process.env.WRC_E2E_WEB_DIR ? resolve(webDir, process.env.WRC_E2E_WEB_DIR) : null;
+  let cmd = wrcBin;
+  let cmdArgs = args;
+  if (webDirOverride) {
+    const sock = join(stateDir, 'wrc.sock');
+    const ui = [
+      'ui', '--controller', sock, '--sim-addr', `127.0.0.1:${udpPort}`, '--ui-port', String(uiPort), '--web-dir', webDirOverride,
+    ];
+    cmd = '/bin/sh';
+    cmdArgs = [
+      '-c',
+      // wrc ui retries the controller every second, so starting both at once is fine; it does
+      // not print the line `wrc up` prints, so print it when the port serves.
+      `"$0" ${args.map((a) => `'${a}'`).join(' ')} --no-ui & "$0" ${ui.map((a) => `'${a}'`).join(' ')} & ` +
+        `until curl -sf -o /dev/null http://127.0.0.1:${uiPort}/; do sleep 0.2; done; echo "wrc: GUI on http://127.0.0.1:${uiPort}"; wait`,
+      wrcBin,
+    ];
+  }
+  log(`start ${cmd === wrcBin ? '' : `(with --web-dir ${webDirOverride}) `}${wrcBin} ${args.join(' ')}`);
+  wrc = spawn(cmd, cmdArgs, { stdio: ['ignore', 'pipe', 'pipe'], detached: true });
+  wrc.on('error', (e) => {
+    wrcOut += `\n[spawn error] ${e.message}\n`;
+  });
+  const want = new RegExp(`wrc: GUI on (http://127\\.0\\.0\\.1:${uiPort}\\S*)`);
+  let url = null;
+  const onData = (d) => {
+    wrcOut += d.toString();
+    const m = want.exec(wrcOut);
+    if (m && !url) url = m[1];
+  };
+  wrc.stdout.on('data', onData);
+  wrc.stderr.on('data', (d) => {
+    wrcOut += d.toString();
+  });
+  const deadline = Date.now() + 30_000;
+  while (!url) {
+    if (wrc.exitCode !== null || wrc.signalCode !== null) {
+      throw new Error(`wrc up exited (${wrc.exitCode ?? wrc.signalCode}) before serving the GUI`);
+    }
+    if (Date.now() > deadline) {
+      // The line may be missing: fall back to the HTTP port itself.
+      try {
+        const r = await fetch(`http://127.0.0.1:${uiPort}/`);
+        if (r.ok) {
+          log(`WARNING: no "wrc: GUI on http://127.0.0.1:${uiPort}" line on stdout, but the port serves`);
+          url = `http://127.0.0.1:${uiPort}/`;
+          break;
+        }
+      } catch {
+        /* not yet */
+      }
+      throw new Error(`wrc up did not print "wrc: GUI on http://127.0.0.1:${uiPort}" within 30 s`);
+    }
+    await sleep(100);
+  }
+  log(`GUI at ${url}`);
+  return url;
+}
+
+async function stopWrc() {
+  if (!wrc) return;
+  const p = wrc;
+  wrc = null;
+  if (p.exitCode !== null || p.signalCode !== null) return;
+  const exited = new Promise((r) => p.once('exit', r));
+  const kill = (sig) => {
+    try {
+      process.kill(-p.pid, sig); // its process group: wrc up and the wrc ui it started
+    } catch {
+      try {
+        p.kill(sig);
+      } catch {
+        /* gone */
+      }
+    }
+  };
+  kill('SIGTERM');
+  const done = await Promise.race([exited.then(() => true), sleep(5000).then(() => false)]);
+  if (!done) {
+    log('wrc up did not stop within 5 s of SIGTERM: SIGKILL');
+    kill('SIGKILL');
+    await Promise.race([exited, sleep(2000)]);
+  } else {
+    // wrc ui may outlive wrc up for a moment; make sure nothing of the group is left.
+    await sleep(200);
+    try {
+      process.kill(-p.pid, 0);
+      kill('SIGKILL');
+    } catch {
+      /* the group is gone */
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// page helpers
+
+const tid = (id) => `[data-testid="${id}"]`;
+
+async function num(page, id) {
+  const t = (await page.locator(tid(id)).textContent()) ?? '';
+  return Number(t.trim());
+}
+
+function angleDiff(a, b) {
+  let d = (((a - b) % 360) + 540) % 360 - 180;
+  if (d === -180) d = 180;
+  return Math.abs(d);
+}
+
+/** Wait until Current shows the pose (within 0.01) and the robot stands (IDLE). */
+async function waitPose(page, x, y, z, yaw) {
+  let last = '';
+  for (;;) {
+    const cur = {
+      x: await num(page, 'current-x'),
+      y: await num(page, 'current-y'),
+      z: await num(page, 'current-z'),
+      yaw: await num(page, 'current-yaw'),
+    };
+    const state = await page.locator(tid('state')).getAttribute('data-state');
+    last = `x=${cur.x} y=${cur.y} z=${cur.z} yaw=${cur.yaw} state=${state}`;
+    if (
+      Math.abs(cur.x - x) <= 0.01 &&
+      Math.abs(cur.y - y) <= 0.01 &&
+      Math.abs(cur.z - z) <= 0.01 &&
+      angleDiff(cur.yaw, yaw) <= 0.01 &&
+      state === 'IDLE'
+    ) {
+      return cur;
+    }
+    const nak = page.locator(tid('last-nak'));
+    if (await nak.isVisible()) throw new Error(`refused: ${await nak.textContent()} (at ${last})`);
+    await sleep(100);
+  }
+}
+
+async function setDestination(page, mode, values) {
+  await page.click(tid(`mode-${mode}`));
+  for (const [k, v] of Object.entries(values)) await page.fill(tid(`dest-${k}`), String(v));
+}
+
+async function setEditorText(page, text) {
+  const content = page.locator('#panel-editor .cm-content');
+  await content.click();
+  await page.keyboard.press('Control+A');
+  await page.keyboard.press('Delete');
+  await page.keyboard.insertText(text);
+  const got = await page.evaluate(() => {
+    const lines = [...document.querySelectorAll('#panel-editor .cm-line')].map((l) => l.textContent ?? '');
+    return lines.join('\n');
+  });
+  if (got.trim() !== text.trim()) throw new Error(`the editor holds ${JSON.stringify(got)}, not the program`);
+}
+
+async function shot(page, selector, file) {
+  const path = join(outDir, file);
+  if (selector) await page.locator(selector).screenshot({ path });
+  else await page.screenshot({ path, fullPage: true });
+  log(`     screenshot ${path}`);
+}
+
+// ---------------------------------------------------------------------------------------------
+// the test
+
+const BAD_PROGRAM = `' e2e test program: TOTAL is never assigned
+SPEED 100
+MOVEP POSE(260, 40, 10, 0)
+PRINT "e2e total", TOTAL
+`;
+const GOOD_PROGRAM = `' e2e test program
+SPEED 100
+TOTAL = 1 + 2
+MOVEP POSE(260, 40, 10, 0)
+PRINT "e2e total", TOTAL
+`;
+
+const FAULT_PROGRAM = `' e2e test program: division by zero at run time
+X = 1
+X = X - 1
+PRINT 1 / X
+`;
+
+async function run() {
+  mkdirSync(outDir, { recursive: true });
+  const url = await startWrc();
+
+  // Does the binary serve the app in web/dist? (It embeds web/dist at compile time.)
+  try {
+    const served = await (await fetch(url)).text();
+    const local = existsSync(join(webDir, 'dist', 'index.html')) ? readFileSync(join(webDir, 'dist', 'index.html'), 'utf8') : null;
+    if (!process.env.WRC_E2E_WEB_DIR && local !== null && served.trim() !== local.trim()) {
+      log('WARNING: wrc serves another build than web/dist (rebuild wrc after npm run build to test this one)');
+    }
+  } catch (e) {
+    throw new Error(`GET ${url}: ${e instanceof Error ? e.message : String(e)}`);
+  }
+
+  const browser = await chromium.launch({
+    executablePath: chromiumPath,
+    headless: !process.env.WRC_E2E_HEADFUL,
+    args: [
+      '--no-sandbox',
+      '--disable-gpu',
+      '--disable-quic',
+      '--no-first-run',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--disable-sync',
+      '--use-angle=swiftshader',
+      '--enable-unsafe-swiftshader',
+    ],
+  });
+  const pageErrors = [];
+  try {
+    const context = await browser.newContext({ viewport: { width: 1600, height: 1000 } });
+    const page = await context.newPage();
+    page.on('pageerror', (e) => pageErrors.push(e.message));
+    page.on('console', (m) => {
+      if (m.type() === 'error') log(`     browser console error: ${m.text()}`);
+    });
+    // Nothing may come from the network but wrc ui itself.
+    const origin = new URL(url).origin;
+    await page.route('**/*', (route) => {
+      const u = route.request().url();
+      if (u.startsWith(origin) || u.startsWith('data:') || u.startsWith('blob:')) return route.continue();
+      pageErrors.push(`request to another origin: ${u}`);
+      return route.abort();
+    });
+
+    await step('open the page and connect', async () => {
+      await page.goto(url);
+      await page.waitForSelector(`${tid('connection')}[data-connected="1"]`, { timeout: STEP_MS });
+      await page.waitForSelector(tid('current-axis-1'), { timeout: STEP_MS }); // ROBOT answered
+      await page.waitForSelector('#panel-control', { timeout: STEP_MS });
+      for (const id of ['panel-simulator', 'panel-editor', 'panel-plots']) {
+        if ((await page.locator(`#${id}`).count()) !== 1) throw new Error(`no #${id}`);
+      }
+      if (!(await page.locator('#panel-simulator').isVisible())) throw new Error('the Simulator tab is not shown first');
+    });
+
+    await step('take control', async () => {
+      await page.click(tid('take-control'));
+      await page.waitForSelector(`${tid('lock-owner')}[data-mine="1"]`, { timeout: STEP_MS });
+    });
+
+    await step('HOME: state IDLE and homed', async () => {
+      await page.click(tid('home'));
+      await page.waitForFunction(
+        () => document.querySelector('[data-testid="command-log"]')?.textContent?.includes('INF HOME'),
+        null,
+        { timeout: STEP_MS },
+      );
+      await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+      await page.waitForSelector(`${tid('homed')}[data-homed="1"]`, { timeout: STEP_MS });
+    });
+
+    await step('PTP from the Destination panel: MOVP 250 100 20 30', async () => {
+      await setDestination(page, 'ptp', { x: 250, y: 100, z: 20, yaw: 30 });
+      await page.click(tid('go'));
+      await waitPose(page, 250, 100, 20, 30);
+    });
+
+    await step('Straight move: MOVL 300 -50 20 0', async () => {
+      await setDestination(page, 'line', { x: 300, y: -50, z: 20, yaw: 0 });
+      await page.click(tid('go'));
+      await waitPose(page, 300, -50, 20, 0);
+    });
+
+    await step('a NAK is shown: MOVP out of reach', async () => {
+      await setDestination(page, 'ptp', { x: 1000, y: 0, z: 0, yaw: 0 });
+      await page.click(tid('go'));
+      await page.waitForSelector(`${tid('last-nak')}:has-text("111")`, { timeout: STEP_MS });
+    });
+
+    await step('toggle output 3 on', async () => {
+      await page.click(tid('output-3'));
+      await page.waitForSelector(`${tid('output-3')}[data-on="1"]`, { timeout: STEP_MS });
+    });
+
+    await step('screenshots: control and simulator', async () => {
+      await sleep(500); // let the 3D view draw the last pose
+      await shot(page, '#panel-control', 'control.png');
+      await shot(page, '#panel-simulator', 'simulator.png');
+    });
+
+    await step('Editor: compile a program with an error, see it inline and in the problems', async () => {
+      await page.click(tid('tab-editor'));
+      await page.waitForSelector('#panel-editor .cm-content', { state: 'visible', timeout: STEP_MS });
+      await page.fill(tid('editor-name'), 'e2e_demo');
+      await setEditorText(page, BAD_PROGRAM);
+      await page.click(tid('editor-compile'));
+      await page.waitForSelector(`${tid('problem')}:has-text("TOTAL")`, { timeout: STEP_MS });
+      const problem = (await page.locator(tid('problem')).first().textContent()) ?? '';
+      if (!/4:20/.test(problem)) throw new Error(`the problem is not at 4:20: ${problem}`);
+      // The inline mark is on line 4, under TOTAL.
+      const mark = page.locator('#panel-editor .cm-line').nth(3).locator('.cm-lintRange-error');
+      await mark.first().waitFor({ timeout: STEP_MS });
+      const marked = (await mark.first().textContent()) ?? '';
+      if (!marked.includes('TOTAL')) throw new Error(`the lint range covers ${JSON.stringify(marked)}, not TOTAL`);
+      const status = (await page.locator(tid('editor-status')).textContent()) ?? '';
+      if (!/1 error/.test(status)) throw new Error(`status says ${JSON.stringify(status)}`);
+      await shot(page, '#panel-editor', 'editor-error.png');
+    });
+
+    await step('Editor: fix it, compile, run to INF and see PRINT in the console', async () => {
+      await setEditorText(page, GOOD_PROGRAM);
+      await page.click(tid('editor-compile'));
+      await page.waitForSelector(`${tid('editor-status')}:has-text("compiled")`, { timeout: STEP_MS });
+      if ((await page.locator('#panel-editor .cm-lintRange-error').count()) !== 0) throw new Error('the error mark stayed');
+      await page.click(tid('editor-run'));
+      await page.waitForSelector(`${tid('console')}:has-text("e2e total 3")`, { timeout: STEP_MS });
+      await page.waitForSelector(`${tid('console')}:has-text("INF program e2e_demo ended")`, { timeout: STEP_MS });
+      await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+      await shot(page, '#panel-editor', 'editor.png');
+    });
+
+    await step('Editor: a run-time error ends with ABS and marks its line', async () => {
+      await page.fill(tid('editor-name'), 'e2e_fault');
+      await setEditorText(page, FAULT_PROGRAM);
+      await page.click(tid('editor-run')); // uploads first: the text is new
+      await page.waitForSelector(`${tid('console')}:has-text("ABS 210")`, { timeout: STEP_MS });
+      const text = (await page.locator(tid('console')).textContent()) ?? '';
+      if (!/e2e_fault line 4/.test(text)) throw new Error(`the ABS does not name line 4: ${text}`);
+      const marked = page.locator('#panel-editor .cm-line.cm-abs-line');
+      await marked.first().waitFor({ timeout: STEP_MS });
+      const lineText = (await marked.first().textContent()) ?? '';
+      if (!lineText.includes('1 / X')) throw new Error(`the marked line is ${JSON.stringify(lineText)}`);
+    });
+
+    await step('Plots tab', async () => {
+      await page.click(tid('tab-plots'));
+      await page.waitForSelector('#panel-plots', { state: 'visible', timeout: STEP_MS });
+      await sleep(1500); // a few timing updates
+      await shot(page, '#panel-plots', 'plots.png');
+    });
+
+    let stopState = '';
+    await step('E-STOP during a long move', async () => {
+      await page.click(tid('tab-simulator'));
+      // The speed slider sends SPEED when released.
+      await page.locator(tid('speed-slider')).evaluate((el) => {
+        el.value = '20';
+        el.dispatchEvent(new Event('input', { bubbles: true }));
+        el.dispatchEvent(new Event('change', { bubbles: true }));
+      });
+      await page.waitForSelector(`${tid('current-speed')}:has-text("20 %")`, { timeout: STEP_MS });
+      // A request typed in the command line.
+      await page.fill(tid('raw-command'), 'WHERE');
+      await page.press(tid('raw-command'), 'Enter');
+      await page.waitForSelector(`${tid('command-log')}:has-text("ACK WHERE j=")`, { timeout: STEP_MS });
+      const robotAxes = await page.locator('[data-testid^="dest-j"]').count();
+      const far = [150, -120, 200, 250, 0, 0, 0, 0].slice(0, robotAxes);
+      await setDestination(page, 'joint', Object.fromEntries(far.map((v, i) => [`j${i + 1}`, v])));
+      await page.click(tid('go'));
+      await page.waitForSelector(`${tid('state')}[data-state="MOVING"]`, { timeout: STEP_MS });
+      await sleep(300);
+      await page.click(tid('estop'));
+      await page.waitForFunction(
+        () => {
+          const s = document.querySelector('[data-testid="state"]')?.getAttribute('data-state');
+          return s === 'ESTOP' || s === 'ERROR';
+        },
+        null,
+        { timeout: STEP_MS },
+      );
+      stopState = (await page.locator(tid('state')).getAttribute('data-state')) ?? '';
+      await page.waitForFunction(
+        () => /ABS MOVJ: 201/.test(document.querySelector('[data-testid="command-log"]')?.textContent ?? ''),
+        null,
+        { timeout: STEP_MS },
+      );
+      await sleep(300);
+      await shot(page, null, 'full.png');
+    });
+    log(`     state after E-STOP: ${stopState}`);
+
+    await step('RESET clears the E-stop', async () => {
+      await page.click(tid('reset'));
+      await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+    });
+
+    if (pageErrors.length > 0) throw new Error(`errors in the page:\n  ${pageErrors.join('\n  ')}`);
+  } finally {
+    await browser.close().catch(() => undefined);
+  }
+}
+
+let failed = null;
+try {
+  await withTimeout(run(), TOTAL_MS, 'the whole e2e test');
+} catch (e) {
+  failed = e;
+} finally {
+  await stopWrc();
+  if (stateDir) rmSync(stateDir, { recursive: true, force: true });
+}
+
+const summary = results.map((r) => `${r.ok ? 'ok  ' : 'FAIL'} ${r.label} (${(r.ms / 1000).toFixed(1)} s)`).join('\n');
+try {
+  mkdirSync(outDir, { recursive: true });
+  writeFileSync(join(outDir, 'e2e-summary.txt'), `${summary}\n${failed ? `\nFAILED: ${failed.message}\n` : ''}`);
+} catch {
+  /* best effort */
+}
+if (failed) {
+  console.error(`\ngui e2e FAILED after ${secs().trim()} s: ${failed.message}`);
+  if (wrcOut.trim()) console.error(`--- wrc up output (last 4000 chars) ---\n${wrcOut.slice(-4000)}`);
+  process.exit(1);
+}
+const passed = results.filter((r) => r.ok).length;
+console.log(`\ngui e2e: ${passed} passed, 0 failed in ${secs().trim()} s; screenshots in ${outDir}`);
+process.exit(0);

@@ -1,0 +1,704 @@
+// The Control panel (the paper's Fig. 6) and the controller model the header shares:
+// current position, destination (PTP / Straight / Joint), jog, signals, control lock,
+// and the command log that shows each request's ACK/NAK and INF/ABS.
+
+import type { Bus, FinalReply, FirstReply, RobotInfo, RobotState, SimSample, Unsubscribe } from './bus';
+import {
+  errorText,
+  fmtNum,
+  parseErrorEvent,
+  parseInputEvent,
+  parseIo,
+  parseStatus,
+  verbOf,
+} from './protocol';
+
+// ---------------------------------------------------------------------------------------------
+// DOM helper
+
+type Attrs = Record<string, string | number | boolean | ((ev: Event) => void) | undefined>;
+
+/** `h('button', { class: 'x', 'data-testid': 'go', onclick: fn }, 'Go')`. */
+export function h<K extends keyof HTMLElementTagNameMap>(
+  tag: K,
+  attrs: Attrs = {},
+  ...children: (Node | string | null | undefined)[]
+): HTMLElementTagNameMap[K] {
+  const el = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === undefined || v === false) continue;
+    if (typeof v === 'function') el.addEventListener(k.replace(/^on/, ''), v);
+    else if (k === 'class') el.className = String(v);
+    else if (v === true) el.setAttribute(k, '');
+    else el.setAttribute(k, String(v));
+  }
+  for (const c of children) if (c !== null && c !== undefined) el.append(c);
+  return el;
+}
+
+function setText(el: Element, text: string): void {
+  if (el.textContent !== text) el.textContent = text;
+}
+
+function setAttr(el: Element, name: string, value: string): void {
+  if (el.getAttribute(name) !== value) el.setAttribute(name, value);
+}
+
+/** Calls `fn` at most once per animation frame (or 16 ms without one). */
+export function frameThrottle(fn: () => void): () => void {
+  let queued = false;
+  const raf: (cb: () => void) => void =
+    typeof requestAnimationFrame === 'function'
+      ? (cb) => requestAnimationFrame(() => cb())
+      : (cb) => setTimeout(cb, 16);
+  return () => {
+    if (queued) return;
+    queued = true;
+    raf(() => {
+      queued = false;
+      fn();
+    });
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+// The controller model: everything the header and the Control panel show
+
+export interface ControllerView {
+  connected: boolean;
+  connDetail: string;
+  robot: RobotInfo | null;
+  state: RobotState | null;
+  homed: boolean | null;
+  speed: number | null;
+  /** Source holding control (`none` when nobody does). */
+  owner: string;
+  err: number;
+  errText: string;
+  /** Our own source name (`gui0`), once a CONTROL reply told it. */
+  me: string | null;
+  inputs: number | null;
+  outputs: number | null;
+  x: number | null;
+  y: number | null;
+  z: number | null;
+  yaw: number | null;
+  positions: number[];
+  pulses: number[] | null;
+  /** `performance.now()` of the last simulator sample (0: none yet). */
+  lastSample: number;
+}
+
+export class ControllerModel {
+  readonly v: ControllerView = {
+    connected: false,
+    connDetail: 'connecting',
+    robot: null,
+    state: null,
+    homed: null,
+    speed: null,
+    owner: 'none',
+    err: 0,
+    errText: '',
+    me: null,
+    inputs: null,
+    outputs: null,
+    x: null,
+    y: null,
+    z: null,
+    yaw: null,
+    positions: [],
+    pulses: null,
+    lastSample: 0,
+  };
+  private listeners = new Set<(v: ControllerView) => void>();
+  private notify = frameThrottle(() => {
+    for (const l of [...this.listeners]) l(this.v);
+  });
+
+  constructor(readonly bus: Bus) {
+    this.v.connected = bus.connected();
+    this.v.robot = bus.robot();
+    bus.onConnection((up, detail) => {
+      this.v.connected = up;
+      this.v.connDetail = detail;
+      if (!up) {
+        this.v.me = null;
+        this.v.state = null;
+      } else {
+        this.refresh();
+      }
+      this.notify();
+    });
+    bus.onRobot((r) => {
+      this.v.robot = r;
+      this.notify();
+    });
+    bus.onSample((s) => this.sample(s));
+    bus.onEvent((name, body) => this.event(name, body));
+  }
+
+  onChange(cb: (v: ControllerView) => void): Unsubscribe {
+    this.listeners.add(cb);
+    cb(this.v);
+    return () => {
+      this.listeners.delete(cb);
+    };
+  }
+
+  /** May this page command motions? (Nobody or we hold control; the controller checks too.) */
+  mayCommand(): boolean {
+    return this.v.connected && (this.v.owner === 'none' || (this.v.me !== null && this.v.owner === this.v.me));
+  }
+
+  /** Do we hold control? */
+  holdsControl(): boolean {
+    return this.v.me !== null && this.v.owner === this.v.me;
+  }
+
+  /** Learn the reply of a request this page made (CONTROL tells our name, IO the words). */
+  noteReply(request: string, first: FirstReply): void {
+    if (first.kind !== 'ACK') return;
+    const verb = verbOf(request);
+    if (verb === 'CONTROL' && first.fields.owner) {
+      this.v.me = first.fields.owner;
+      this.v.owner = first.fields.owner;
+    } else if (verb === 'RELEASE') {
+      this.v.owner = first.fields.owner ?? 'none';
+    } else if (verb === 'IO') {
+      const io = parseIo(first.fields);
+      if (io) {
+        this.v.inputs = io.inputs;
+        this.v.outputs = io.outputs;
+      }
+    } else if (verb === 'STATUS' || verb === 'WHERE') {
+      this.status(first.fields);
+      return;
+    } else if (verb === 'SPEED' && first.fields.speed) {
+      this.v.speed = Number(first.fields.speed);
+    }
+    this.notify();
+  }
+
+  /** Ask STATUS and IO (after connecting and after OUT). */
+  refresh(): void {
+    for (const q of ['STATUS', 'IO']) {
+      this.bus
+        .request(q)
+        .then(({ first }) => this.noteReply(q, first))
+        .catch(() => undefined);
+    }
+  }
+
+  private sample(s: SimSample): void {
+    const v = this.v;
+    v.lastSample = performance.now();
+    v.state = s.state;
+    v.homed = s.homed;
+    v.inputs = s.inputs;
+    v.outputs = s.outputs;
+    v.x = s.x;
+    v.y = s.y;
+    v.z = s.z;
+    v.yaw = s.yaw;
+    v.positions = s.positions;
+    v.pulses = s.pulses;
+    this.notify();
+  }
+
+  private status(fields: string | Record<string, string>): void {
+    const st = parseStatus(fields);
+    const v = this.v;
+    const fresh = performance.now() - v.lastSample < 300; // samples are newer and faster
+    if (st.state && !fresh) v.state = st.state;
+    if (st.homed !== undefined && !fresh) v.homed = st.homed;
+    if (st.speed !== undefined) v.speed = st.speed;
+    if (st.owner !== undefined) v.owner = st.owner;
+    if (st.err !== undefined) {
+      if (st.err === 0) v.errText = '';
+      else if (st.err !== v.err || v.errText === '') v.errText = errorText(st.err);
+      v.err = st.err;
+    }
+    if (!fresh) {
+      if (st.joints) {
+        v.positions = st.joints;
+        const r = v.robot;
+        v.pulses = r ? st.joints.map((j, i) => Math.round(j * (r.axes[i]?.ppu ?? 1))) : v.pulses;
+      }
+      if (st.x !== undefined) v.x = st.x;
+      if (st.y !== undefined) v.y = st.y;
+      if (st.z !== undefined) v.z = st.z;
+      if (st.yaw !== undefined) v.yaw = st.yaw;
+    }
+    this.notify();
+  }
+
+  private event(name: string, body: string): void {
+    const v = this.v;
+    switch (name) {
+      case 'STATUS':
+        this.status(body);
+        return;
+      case 'STATE': {
+        const s = parseStatus(`state=${body.trim()}`).state;
+        if (s) v.state = s;
+        break;
+      }
+      case 'CONTROL':
+        v.owner = body.trim() || 'none';
+        break;
+      case 'ERROR': {
+        const e = parseErrorEvent(body);
+        if (e) {
+          v.err = e.code;
+          v.errText = `${e.code} ${e.text}`;
+        }
+        break;
+      }
+      case 'INPUT': {
+        const i = parseInputEvent(body);
+        if (i && v.inputs !== null) {
+          const bit = (1 << i.n) >>> 0;
+          v.inputs = i.on ? (v.inputs | bit) >>> 0 : (v.inputs & ~bit) >>> 0;
+        }
+        break;
+      }
+      default:
+        return;
+    }
+    this.notify();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Command log
+
+export interface Sent {
+  first: FirstReply;
+  final: Promise<FinalReply> | null;
+}
+
+export class CommandLog {
+  readonly el: HTMLElement;
+  private readonly list: HTMLElement;
+  readonly banner: HTMLElement;
+
+  constructor() {
+    this.banner = h('div', { class: 'nak-banner', 'data-testid': 'last-nak', hidden: true });
+    this.list = h('div', { class: 'log-list', 'data-testid': 'command-log' });
+    this.el = h('div', { class: 'command-log' }, this.banner, this.list);
+  }
+
+  add(kind: 'out' | 'ack' | 'nak' | 'inf' | 'abs' | 'info', text: string): void {
+    const now = new Date();
+    const ts = `${String(now.getHours()).padStart(2, '0')}:${String(now.getMinutes()).padStart(2, '0')}:${String(now.getSeconds()).padStart(2, '0')}`;
+    const row = h('div', { class: `log-row log-${kind}` }, h('span', { class: 'log-ts' }, ts), h('span', { class: 'log-text' }, text));
+    this.list.append(row);
+    while (this.list.childElementCount > 300) this.list.firstElementChild?.remove();
+    this.list.scrollTop = this.list.scrollHeight;
+    if (kind === 'nak' || kind === 'abs') {
+      this.banner.hidden = false;
+      this.banner.textContent = text;
+    } else if (kind === 'ack' || kind === 'inf') {
+      this.banner.hidden = true;
+    }
+  }
+}
+
+/**
+ * Sends requests, logging each with its replies; shared by the header (E-STOP, control lock,
+ * RESET) and the Control panel.
+ */
+export class Commander {
+  readonly log = new CommandLog();
+  constructor(
+    private readonly bus: Bus,
+    private readonly model: ControllerModel,
+  ) {}
+
+  /** Send one request; resolves with its first reply (null when it could not be sent). */
+  async send(line: string): Promise<Sent | null> {
+    this.log.add('out', `> ${line}`);
+    let r: Awaited<ReturnType<Bus['request']>>;
+    try {
+      r = await this.bus.request(line);
+    } catch (e) {
+      this.log.add('nak', `${line}: ${e instanceof Error ? e.message : String(e)}`);
+      return null;
+    }
+    const { first, final } = r;
+    this.model.noteReply(line, first);
+    const verb = verbOf(line);
+    if (first.kind === 'ACK') {
+      const fields = Object.entries(first.fields).map(([k, v]) => `${k}=${v}`).join(' ');
+      this.log.add('ack', `ACK ${verb}${fields ? ` ${fields}` : ''}${final ? ' (started)' : ''}`);
+    } else {
+      this.log.add('nak', `NAK ${verb}: ${first.code} ${first.text}`);
+    }
+    if (final) {
+      final
+        .then((f) => {
+          if (f.kind === 'INF') this.log.add('inf', `INF ${verb} finished`);
+          else this.log.add('abs', `ABS ${verb}: ${f.code} ${f.text}`);
+        })
+        .catch((e: unknown) => this.log.add('abs', `${verb}: ${e instanceof Error ? e.message : String(e)}`));
+    }
+    if (verb === 'OUT' && first.kind === 'ACK') this.model.refresh();
+    return { first, final };
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The Control panel
+
+type Mode = 'ptp' | 'line' | 'joint';
+
+export interface ControlPanel {
+  resize(): void;
+}
+
+function numberInput(testid: string, label: string, unit: string): { wrap: HTMLElement; input: HTMLInputElement } {
+  const input = h('input', {
+    type: 'number',
+    step: 'any',
+    class: 'num',
+    'data-testid': testid,
+    'aria-label': label,
+    value: '0',
+  });
+  const wrap = h('label', { class: 'field' }, h('span', { class: 'field-label' }, label), input, h('span', { class: 'unit' }, unit));
+  return { wrap, input };
+}
+
+function section(title: string, ...children: (Node | null)[]): HTMLElement {
+  return h('section', { class: 'card' }, h('h3', {}, title), ...children);
+}
+
+export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Commander): ControlPanel {
+  el.classList.add('control-panel');
+  el.replaceChildren();
+
+  // ---- Current ----
+  const curState = h('span', { class: 'state-badge', 'data-testid': 'current-state' }, '—');
+  const curHomed = h('span', { 'data-testid': 'current-homed' }, '—');
+  const curSpeed = h('span', { 'data-testid': 'current-speed' }, '—');
+  const curErr = h('div', { class: 'err-text', 'data-testid': 'current-error' });
+  const axisBody = h('tbody');
+  const pose: Record<'x' | 'y' | 'z' | 'yaw', HTMLElement> = {
+    x: h('td', { class: 'val', 'data-testid': 'current-x' }, '—'),
+    y: h('td', { class: 'val', 'data-testid': 'current-y' }, '—'),
+    z: h('td', { class: 'val', 'data-testid': 'current-z' }, '—'),
+    yaw: h('td', { class: 'val', 'data-testid': 'current-yaw' }, '—'),
+  };
+  const poseTable = h(
+    'table',
+    { class: 'vals pose' },
+    h('tbody', {},
+      h('tr', {}, h('th', {}, 'X'), pose.x, h('td', { class: 'unit' }, 'mm'), h('th', {}, 'Y'), pose.y, h('td', { class: 'unit' }, 'mm')),
+      h('tr', {}, h('th', {}, 'Z'), pose.z, h('td', { class: 'unit' }, 'mm'), h('th', {}, 'Yaw'), pose.yaw, h('td', { class: 'unit' }, 'deg')),
+    ),
+  );
+  const axisTable = h(
+    'table',
+    { class: 'vals axes' },
+    h('thead', {}, h('tr', {}, h('th', {}, 'Axis'), h('th', { class: 'r' }, 'Position'), h('th', {}, ''), h('th', { class: 'r' }, 'Pulses'))),
+    axisBody,
+  );
+  const current = section(
+    'Current',
+    h('div', { class: 'status-row' },
+      h('span', {}, 'State ', curState),
+      h('span', {}, 'Homed ', curHomed),
+      h('span', {}, 'Speed ', curSpeed),
+    ),
+    axisTable,
+    poseTable,
+    curErr,
+  );
+
+  // ---- Destination ----
+  let mode: Mode = 'ptp';
+  const modeBtns: Record<Mode, HTMLButtonElement> = {
+    ptp: h('button', { class: 'seg', 'data-testid': 'mode-ptp', onclick: () => setMode('ptp') }, 'PTP'),
+    line: h('button', { class: 'seg', 'data-testid': 'mode-line', onclick: () => setMode('line') }, 'Straight'),
+    joint: h('button', { class: 'seg', 'data-testid': 'mode-joint', onclick: () => setMode('joint') }, 'Joint'),
+  };
+  const dx = numberInput('dest-x', 'X', 'mm');
+  const dy = numberInput('dest-y', 'Y', 'mm');
+  const dz = numberInput('dest-z', 'Z', 'mm');
+  const dyaw = numberInput('dest-yaw', 'Yaw', 'deg');
+  const posture = h(
+    'select',
+    { 'data-testid': 'dest-posture', 'aria-label': 'Elbow posture' },
+    h('option', { value: '' }, 'keep posture'),
+    h('option', { value: 'L' }, 'L (left elbow)'),
+    h('option', { value: 'R' }, 'R (right elbow)'),
+  );
+  const postureWrap = h('label', { class: 'field' }, h('span', { class: 'field-label' }, 'Posture'), posture);
+  const poseFields = h('div', { class: 'fields' }, dx.wrap, dy.wrap, dz.wrap, dyaw.wrap, postureWrap);
+  const jointFields = h('div', { class: 'fields', hidden: true });
+  let jointInputs: HTMLInputElement[] = [];
+  const destError = h('div', { class: 'err-text', 'data-testid': 'dest-error' });
+
+  const goBtn = h('button', { class: 'btn primary', 'data-testid': 'go', onclick: () => void go() }, 'Go');
+  const homeBtn = h('button', { class: 'btn', 'data-testid': 'home', onclick: () => void cmd.send('HOME') }, 'Home');
+  const stopBtn = h('button', { class: 'btn warn', 'data-testid': 'stop', onclick: () => void cmd.send('STOP') }, 'Stop');
+  const copyBtn = h('button', { class: 'btn small', 'data-testid': 'dest-copy', onclick: () => copyCurrent(), title: 'Fill the destination from the current position' }, 'Copy current');
+
+  const speed = h('input', { type: 'range', min: '1', max: '100', step: '1', value: '100', 'data-testid': 'speed-slider', 'aria-label': 'Speed override' });
+  const speedVal = h('span', { class: 'speed-val', 'data-testid': 'speed-value' }, '100 %');
+  let draggingSpeed = false;
+  speed.addEventListener('pointerdown', () => (draggingSpeed = true));
+  speed.addEventListener('pointerup', () => (draggingSpeed = false));
+  speed.addEventListener('input', () => setText(speedVal, `${speed.value} %`));
+  speed.addEventListener('change', () => {
+    draggingSpeed = false;
+    void cmd.send(`SPEED ${speed.value}`);
+  });
+
+  const destination = section(
+    'Destination',
+    h('div', { class: 'seg-group' }, modeBtns.ptp, modeBtns.line, modeBtns.joint, copyBtn),
+    poseFields,
+    jointFields,
+    destError,
+    h('div', { class: 'btn-row' }, goBtn, homeBtn, stopBtn),
+    h('div', { class: 'speed-row' }, h('span', { class: 'field-label' }, 'Speed'), speed, speedVal),
+  );
+
+  function setMode(m: Mode): void {
+    mode = m;
+    for (const [k, b] of Object.entries(modeBtns)) b.classList.toggle('active', k === m);
+    poseFields.hidden = m === 'joint';
+    jointFields.hidden = m !== 'joint';
+    postureWrap.hidden = m !== 'ptp';
+    setAttr(destination, 'data-mode', m);
+  }
+  setMode('ptp');
+
+  function readNum(input: HTMLInputElement, what: string): string {
+    const raw = input.value.trim();
+    const n = Number(raw);
+    if (raw === '' || !Number.isFinite(n)) throw new Error(`${what} is not a number`);
+    return fmtNum(n);
+  }
+
+  async function go(): Promise<void> {
+    setText(destError, '');
+    let line: string;
+    try {
+      if (mode === 'joint') {
+        const axes = model.v.robot?.axes ?? [];
+        if (jointInputs.length === 0) throw new Error('the robot is not known yet');
+        line = `MOVJ ${jointInputs.map((inp, i) => readNum(inp, axes[i]?.name ?? `axis ${i + 1}`)).join(' ')}`;
+      } else {
+        const xyz = [readNum(dx.input, 'X'), readNum(dy.input, 'Y'), readNum(dz.input, 'Z'), readNum(dyaw.input, 'Yaw')].join(' ');
+        line = mode === 'ptp' ? `MOVP ${xyz}${posture.value ? ` ${posture.value}` : ''}` : `MOVL ${xyz}`;
+      }
+    } catch (e) {
+      setText(destError, e instanceof Error ? e.message : String(e));
+      return;
+    }
+    await cmd.send(line);
+  }
+
+  function copyCurrent(): void {
+    const v = model.v;
+    if (v.x !== null) dx.input.value = fmtNum(v.x);
+    if (v.y !== null) dy.input.value = fmtNum(v.y);
+    if (v.z !== null) dz.input.value = fmtNum(v.z);
+    if (v.yaw !== null) dyaw.input.value = fmtNum(v.yaw);
+    jointInputs.forEach((inp, i) => {
+      const p = v.positions[i];
+      if (p !== undefined) inp.value = fmtNum(p);
+    });
+  }
+
+  // ---- Jog ----
+  const jogStep = h(
+    'select',
+    { 'data-testid': 'jog-step', 'aria-label': 'Jog step [pulses]' },
+    h('option', { value: '100' }, '100 pulses'),
+    h('option', { value: '1000', selected: true }, '1000 pulses'),
+    h('option', { value: '10000' }, '10000 pulses'),
+  );
+  const jogRows = h('div', { class: 'jog-rows' });
+  const jog = section('Jog', h('div', { class: 'jog-head' }, h('span', { class: 'field-label' }, 'Step'), jogStep), jogRows);
+
+  // ---- Signals ----
+  const inputsGrid = h('div', { class: 'io-grid', 'data-testid': 'inputs' });
+  const outputsGrid = h('div', { class: 'io-grid', 'data-testid': 'outputs' });
+  let inputLamps: HTMLElement[] = [];
+  let outputSwitches: HTMLButtonElement[] = [];
+  const signals = section(
+    'Signals',
+    h('div', { class: 'io-title' }, 'Inputs'),
+    inputsGrid,
+    h('div', { class: 'io-title' }, 'Outputs'),
+    outputsGrid,
+  );
+
+  function buildIo(nIn: number, nOut: number): void {
+    inputLamps = [];
+    outputSwitches = [];
+    inputsGrid.replaceChildren();
+    outputsGrid.replaceChildren();
+    for (let i = 0; i < nIn; i++) {
+      const lamp = h('span', { class: 'lamp', 'data-testid': `input-${i}`, 'data-on': '0', title: `input ${i}` }, String(i));
+      inputLamps.push(lamp);
+      inputsGrid.append(lamp);
+    }
+    for (let i = 0; i < nOut; i++) {
+      const sw = h(
+        'button',
+        {
+          class: 'switch',
+          'data-testid': `output-${i}`,
+          'data-on': '0',
+          role: 'switch',
+          'aria-checked': 'false',
+          title: `output ${i}`,
+          onclick: () => {
+            const on = sw.getAttribute('data-on') === '1';
+            void cmd.send(`OUT ${i} ${on ? 0 : 1}`);
+          },
+        },
+        String(i),
+      );
+      outputSwitches.push(sw);
+      outputsGrid.append(sw);
+    }
+  }
+  buildIo(32, 32);
+
+  // ---- Control lock and log ----
+  const ownerEl = h('span', { class: 'owner', 'data-testid': 'control-owner' }, 'none');
+  const lockHint = h('div', { class: 'hint', 'data-testid': 'control-hint' });
+  const raw = h('input', {
+    type: 'text',
+    class: 'raw',
+    'data-testid': 'raw-command',
+    placeholder: 'request, e.g. WHERE',
+    spellcheck: 'false',
+    autocomplete: 'off',
+  });
+  raw.addEventListener('keydown', (ev) => {
+    if (ev.key !== 'Enter') return;
+    const line = raw.value.trim();
+    if (!line) return;
+    if (/^\s*UPLOAD\b/i.test(line)) {
+      cmd.log.add('nak', 'UPLOAD spans lines: use the Editor tab');
+      return;
+    }
+    raw.value = '';
+    void cmd.send(line);
+  });
+  const logCard = section(
+    'Commands',
+    h('div', { class: 'status-row' }, h('span', {}, 'Control: ', ownerEl)),
+    lockHint,
+    cmd.log.el,
+    raw,
+  );
+
+  el.append(current, destination, jog, signals, logCard);
+
+  // ---- robot-dependent parts ----
+  let axisCells: { pos: HTMLElement; pulses: HTMLElement }[] = [];
+  let builtFor: RobotInfo | null = null;
+
+  function buildRobot(r: RobotInfo): void {
+    builtFor = r;
+    axisBody.replaceChildren();
+    axisCells = [];
+    jointFields.replaceChildren();
+    jointInputs = [];
+    jogRows.replaceChildren();
+    for (const a of r.axes) {
+      const pos = h('td', { class: 'val', 'data-testid': `current-axis-${a.index}` }, '—');
+      const pulses = h('td', { class: 'val', 'data-testid': `current-pulses-${a.index}` }, '—');
+      axisBody.append(h('tr', {}, h('th', {}, a.name), pos, h('td', { class: 'unit' }, a.unit), pulses));
+      axisCells.push({ pos, pulses });
+
+      const f = numberInput(`dest-j${a.index}`, a.name, a.unit);
+      f.input.title = `${a.min} to ${a.max} ${a.unit}`;
+      jointInputs.push(f.input);
+      jointFields.append(f.wrap);
+
+      const jogBy = (sign: number) => () => void cmd.send(`JOG ${a.index} ${sign * Number(jogStep.value)}`);
+      jogRows.append(
+        h(
+          'div',
+          { class: 'jog-row' },
+          h('span', { class: 'jog-name' }, `${a.name}`),
+          h('button', { class: 'btn jog', 'data-testid': `jog-minus-${a.index}`, onclick: jogBy(-1), title: `${a.name} −` }, '−'),
+          h('button', { class: 'btn jog', 'data-testid': `jog-plus-${a.index}`, onclick: jogBy(1), title: `${a.name} +` }, '+'),
+          h('span', { class: 'unit' }, `${a.unit}, ${a.ppu} pulse/${a.unit}`),
+        ),
+      );
+    }
+    if (r.inputs !== inputLamps.length || r.outputs !== outputSwitches.length) buildIo(r.inputs, r.outputs);
+  }
+
+  const motionButtons = (): HTMLButtonElement[] => [
+    goBtn,
+    homeBtn,
+    ...Array.from(jogRows.querySelectorAll('button')),
+    ...outputSwitches,
+  ];
+
+  // The destination starts at the current position (once), until the operator types in it.
+  let destTouched = false;
+  destination.addEventListener('input', (ev) => {
+    if ((ev.target as HTMLElement).closest('.fields')) destTouched = true;
+  });
+
+  model.onChange((v) => {
+    if (v.robot && v.robot !== builtFor) buildRobot(v.robot);
+    if (!destTouched && v.robot && v.x !== null && v.positions.length > 0) {
+      destTouched = true;
+      copyCurrent();
+    }
+    const state = v.connected ? (v.state ?? '—') : 'OFFLINE';
+    setText(curState, state);
+    setAttr(curState, 'data-state', state);
+    setText(curHomed, v.homed === null ? '—' : v.homed ? 'yes' : 'no');
+    setAttr(curHomed, 'data-homed', v.homed ? '1' : '0');
+    setText(curSpeed, v.speed === null ? '—' : `${v.speed} %`);
+    setText(curErr, v.errText);
+    if (v.speed !== null && !draggingSpeed) {
+      speed.value = String(v.speed);
+      setText(speedVal, `${v.speed} %`);
+    }
+    for (const k of ['x', 'y', 'z', 'yaw'] as const) {
+      const val = v[k];
+      setText(pose[k], val === null ? '—' : val.toFixed(3));
+    }
+    axisCells.forEach((c, i) => {
+      const p = v.positions[i];
+      setText(c.pos, p === undefined ? '—' : p.toFixed(3));
+      const q = v.pulses?.[i];
+      setText(c.pulses, q === undefined ? '—' : String(q));
+    });
+    inputLamps.forEach((l, i) => setAttr(l, 'data-on', v.inputs !== null && (v.inputs >>> i) & 1 ? '1' : '0'));
+    outputSwitches.forEach((s, i) => {
+      const on = v.outputs !== null && (v.outputs >>> i) & 1 ? '1' : '0';
+      setAttr(s, 'data-on', on);
+      setAttr(s, 'aria-checked', on === '1' ? 'true' : 'false');
+    });
+    setText(ownerEl, v.owner === 'none' ? 'nobody' : v.owner + (v.me === v.owner ? ' (this page)' : ''));
+    const may = model.mayCommand();
+    for (const b of motionButtons()) b.disabled = !may;
+    stopBtn.disabled = !v.connected;
+    setText(
+      lockHint,
+      !v.connected
+        ? `not connected: ${v.connDetail}`
+        : may
+          ? ''
+          : `control is held by ${v.owner}; motions are refused until it is released`,
+    );
+  });
+
+  return { resize: () => undefined };
+}

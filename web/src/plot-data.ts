@@ -1,0 +1,148 @@
+// Data helpers of the Plots panel, free of the DOM so that they can be unit-tested:
+// the rolling window of the pulses-per-period chart, the latency histogram bins and the
+// number formats of the task table.
+
+import type { TaskTiming } from './bus';
+
+/** uPlot's aligned data: x values, then one array per series (null: a break). */
+export type Aligned = [number[], ...(number | null)[][]];
+
+/**
+ * A rolling time window of points (x in seconds) for a fixed number of series. Points older
+ * than `windowS` before the newest are dropped; a point whose x goes backwards clears the
+ * window first (the controller restarted its clock).
+ */
+export class RollingSeries {
+  private xs: number[] = [];
+  private ys: (number | null)[][];
+  private start = 0;
+
+  constructor(
+    readonly nSeries: number,
+    public windowS: number,
+  ) {
+    this.ys = Array.from({ length: nSeries }, () => []);
+  }
+
+  get length(): number {
+    return this.xs.length - this.start;
+  }
+
+  /** The newest x, or null when empty. */
+  last(): number | null {
+    return this.length > 0 ? (this.xs[this.xs.length - 1] as number) : null;
+  }
+
+  clear(): void {
+    this.xs = [];
+    this.ys = Array.from({ length: this.nSeries }, () => []);
+    this.start = 0;
+  }
+
+  push(x: number, values: readonly (number | null)[]): void {
+    const last = this.last();
+    if (last !== null && x < last) this.clear();
+    this.xs.push(x);
+    for (let i = 0; i < this.nSeries; i++) {
+      const v = values[i];
+      (this.ys[i] as (number | null)[]).push(v === undefined || v === null || !Number.isFinite(v) ? null : v);
+    }
+    this.trim();
+  }
+
+  private trim(): void {
+    const last = this.last();
+    if (last === null) return;
+    const from = last - this.windowS;
+    while (this.start < this.xs.length && (this.xs[this.start] as number) < from) this.start++;
+    if (this.start > 1024 && this.start * 2 > this.xs.length) {
+      this.xs = this.xs.slice(this.start);
+      this.ys = this.ys.map((y) => y.slice(this.start));
+      this.start = 0;
+    }
+  }
+
+  /** Change the window; older points are dropped at once when it shrinks. */
+  setWindow(windowS: number): void {
+    this.windowS = windowS;
+    this.trim();
+  }
+
+  /** A copy of the window, for uPlot's `setData`. */
+  data(): Aligned {
+    return [this.xs.slice(this.start), ...this.ys.map((y) => y.slice(this.start))];
+  }
+}
+
+/** A histogram bin for drawing: upper bound [µs] and count. */
+export interface HistBin {
+  upperUs: number;
+  count: number;
+}
+
+/** log2 of a bin's upper bound, rounded (bins are powers of two: 1, 2, 4, … µs). */
+export function binIndex(upperUs: number): number {
+  return upperUs <= 1 ? 0 : Math.round(Math.log2(upperUs));
+}
+
+/**
+ * Every power-of-two bin from 1 µs to `2^maxIndex` µs with its count (0 for bins the
+ * controller left out), so that all rows of the table share one x axis.
+ */
+export function fullBins(hist: readonly [number, number][], maxIndex: number): HistBin[] {
+  const bins: HistBin[] = [];
+  for (let k = 0; k <= maxIndex; k++) bins.push({ upperUs: 2 ** k, count: 0 });
+  for (const [u, n] of hist) {
+    const k = binIndex(u);
+    const b = bins[Math.min(k, maxIndex)];
+    if (b) b.count += n;
+  }
+  return bins;
+}
+
+/** The largest bin index over the tasks, at least `minIndex` (a common axis for the table). */
+export function maxBinIndex(tasks: readonly TaskTiming[], minIndex = 6): number {
+  let m = minIndex;
+  for (const t of tasks) for (const [u, n] of t.latHist) if (n > 0) m = Math.max(m, binIndex(u));
+  return m;
+}
+
+/** Bar height of a count on a log scale, 0..1 relative to the largest count (0 for 0). */
+export function logHeight(count: number, maxCount: number): number {
+  if (count <= 0 || maxCount <= 0) return 0;
+  return Math.log10(1 + count) / Math.log10(1 + maxCount);
+}
+
+/** A bin's label: `< 1 µs`, `1–2 µs`, `512–1024 µs`. */
+export function binLabel(upperUs: number): string {
+  return upperUs <= 1 ? '< 1 µs' : `${upperUs / 2}–${upperUs} µs`;
+}
+
+/** A µs value for the table: 1 decimal (none from 10 000 µs), thin-space thousands; `—` if not finite. */
+export function fmtUs(v: number): string {
+  if (!Number.isFinite(v)) return '—';
+  const s = Math.abs(v) >= 10000 ? v.toFixed(0) : v.toFixed(1);
+  return groupThousands(s);
+}
+
+/** An integer count with thin-space thousands; `—` if not finite. */
+export function fmtCount(v: number): string {
+  if (!Number.isFinite(v)) return '—';
+  return groupThousands(Math.round(v).toString());
+}
+
+/** A configured period [ms]: as short as exact (`10`, `0.5`). */
+export function fmtMs(v: number): string {
+  if (!Number.isFinite(v)) return '—';
+  return String(Math.round(v * 1000) / 1000);
+}
+
+function groupThousands(s: string): string {
+  const neg = s.startsWith('-');
+  const body = neg ? s.slice(1) : s;
+  const dot = body.indexOf('.');
+  const int = dot < 0 ? body : body.slice(0, dot);
+  const frac = dot < 0 ? '' : body.slice(dot);
+  const grouped = int.length > 4 ? int.replace(/\B(?=(\d{3})+(?!\d))/g, '\u2009') : int;
+  return (neg ? '-' : '') + grouped + frac;
+}

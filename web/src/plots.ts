@@ -1,0 +1,546 @@
+// Plots panel: (1) live output pulses per period of each axis (uPlot; the paper's Fig. 7 and
+// 8) from the simulator datagrams; (2) the live task timing table (the paper's Tables 3 and
+// 4) from `TASKS`, polled every second while the panel is visible and the bus connected,
+// with each task's wake-up latency histogram as a small log-scale bar chart.
+
+import uPlot from 'uplot';
+import 'uplot/dist/uPlot.min.css';
+import type { Bus, RobotInfo, SimSample, TaskTiming } from './bus';
+import { PulseRate } from './stream';
+import { parseTasks } from './tasks';
+import {
+  RollingSeries,
+  binLabel,
+  fmtCount,
+  fmtMs,
+  fmtUs,
+  fullBins,
+  logHeight,
+  maxBinIndex,
+} from './plot-data';
+
+/** Series colours (up to 16 axes; repeats beyond). */
+const COLORS = [
+  '#4fc3f7', '#ffb74d', '#81c784', '#f06292', '#ba68c8', '#fff176', '#4db6ac', '#e57373',
+  '#9575cd', '#aed581', '#64b5f6', '#ff8a65', '#dce775', '#a1887f', '#90a4ae', '#f48fb1',
+];
+
+const POLL_MS = 1000;
+const WINDOWS_S = [5, 10, 30, 60];
+
+const STYLE_ID = 'plot-style';
+const STYLE = `
+.plot-root { min-width: 0; display: flex; flex-direction: column; width: 100%; height: 100%; min-height: 0; box-sizing: border-box;
+  padding: 8px; gap: 8px; background: #14171b; color: #c8d0d8;
+  font: 12px/1.35 ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; overflow: hidden; }
+.plot-section { background: #181c21; border: 1px solid #2a3139; border-radius: 4px; display: flex;
+  flex-direction: column; min-height: 0; }
+.plot-chart-section { flex: 1 1 55%; min-height: 200px; }
+.plot-tasks-section { flex: 1 1 45%; min-height: 120px; }
+.plot-bar { display: flex; align-items: center; gap: 8px; padding: 5px 8px; border-bottom: 1px solid #2a3139;
+  flex-wrap: wrap; }
+.plot-title { font-weight: 700; color: #dfe6ee; letter-spacing: 0.03em; margin-right: auto; }
+.plot-note { color: #7d8894; }
+.plot-warn { color: #f0b23c; }
+.plot-bad { color: #ff6a5e; font-weight: 700; }
+.plot-bar button, .plot-bar select { background: #232930; color: #c8d0d8; border: 1px solid #3a434d;
+  border-radius: 3px; padding: 2px 8px; font: inherit; cursor: pointer; }
+.plot-bar button:hover { background: #2d353e; }
+.plot-bar button.plot-on { background: #4a3a12; border-color: #a07c24; color: #ffd27a; }
+.plot-chart { flex: 1 1 auto; min-height: 0; min-width: 0; position: relative; overflow: hidden; }
+.plot-chart > .uplot { position: absolute; left: 0; top: 0; }
+.plot-chart .uplot { font-family: inherit; color: #c8d0d8; }
+.plot-chart .u-legend { color: #c8d0d8; font-size: 11px; }
+.plot-chart .u-legend .u-marker { border-radius: 2px; }
+.plot-chart .u-select { background: rgba(120,160,220,0.15); }
+.plot-empty { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
+  color: #7d8894; pointer-events: none; }
+.plot-table-wrap { overflow: auto; flex: 1 1 auto; min-height: 0; }
+.plot-table { border-collapse: collapse; width: 100%; white-space: nowrap; }
+.plot-table th, .plot-table td { padding: 3px 7px; border-bottom: 1px solid #242a31; }
+.plot-table th { position: sticky; background: #1f242a; color: #9aa6b2; font-weight: 600; text-align: center; z-index: 1; }
+.plot-table thead tr:first-child th { top: 0; }
+.plot-table thead tr:nth-child(2) th { top: 22px; }
+.plot-table td { text-align: right; font-variant-numeric: tabular-nums; }
+.plot-table td.plot-name { text-align: left; color: #dfe6ee; }
+.plot-table tbody tr:hover { background: #1e242b; }
+.plot-table td.plot-hist { text-align: left; padding: 2px 7px; }
+.plot-table canvas { display: block; }
+`;
+
+function injectStyle(): void {
+  if (typeof document === 'undefined' || document.getElementById(STYLE_ID)) return;
+  const s = document.createElement('style');
+  s.id = STYLE_ID;
+  s.textContent = STYLE;
+  document.head.appendChild(s);
+}
+
+function el<K extends keyof HTMLElementTagNameMap>(
+  tag: K,
+  cls: string,
+  parent?: HTMLElement,
+  text?: string,
+): HTMLElementTagNameMap[K] {
+  const e = document.createElement(tag);
+  if (cls) e.className = cls;
+  if (text !== undefined) e.textContent = text;
+  parent?.appendChild(e);
+  return e;
+}
+
+export interface PlotsHandle {
+  /** Call when the panel is shown or its size changed. */
+  resize(): void;
+  /** Stop polling and remove the panel (not needed by the app; for tests and reuse). */
+  dispose(): void;
+}
+
+export function mountPlots(root: HTMLElement, bus: Bus): PlotsHandle {
+  injectStyle();
+  const box = el('div', 'plot-root', root);
+  const visible = (): boolean =>
+    root.isConnected && box.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
+
+  const chart = mountPulseChart(box, bus, visible);
+  const tasks = mountTaskTable(box, bus, visible);
+  return {
+    resize() {
+      chart.resize();
+      tasks.shown();
+    },
+    dispose() {
+      chart.dispose();
+      tasks.dispose();
+      box.remove();
+    },
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pulses per period chart
+
+function mountPulseChart(
+  parent: HTMLElement,
+  bus: Bus,
+  visible: () => boolean,
+): { resize(): void; dispose(): void } {
+  const section = el('div', 'plot-section plot-chart-section', parent);
+  const bar = el('div', 'plot-bar', section);
+  const title = el('span', 'plot-title', bar, 'Output pulses per period');
+  const lostNote = el('span', 'plot-note', bar);
+  el('span', 'plot-note', bar, 'window');
+  const windowSel = el('select', '', bar);
+  windowSel.title = 'Time window of the chart';
+  for (const w of WINDOWS_S) {
+    const o = el('option', '', windowSel, `${w} s`);
+    o.value = String(w);
+  }
+  windowSel.value = '10';
+  const pauseBtn = el('button', '', bar, 'Pause');
+  pauseBtn.type = 'button';
+  pauseBtn.title = 'Freeze the chart (data keeps being collected); drag to zoom while paused';
+  const clearBtn = el('button', '', bar, 'Clear');
+  clearBtn.type = 'button';
+  clearBtn.title = 'Forget the data shown';
+  const area = el('div', 'plot-chart', section);
+  const empty = el('div', 'plot-empty', area, 'Waiting for simulator datagrams…');
+
+  let windowS = 10;
+  let paused = false;
+  let names: string[] = [];
+  let series = new RollingSeries(0, windowS);
+  const rate = new PulseRate(0);
+  let t0: number | null = null;
+  let lost = 0;
+  let u: uPlot | null = null;
+  let changed = false;
+  let disposed = false;
+
+  const axisNames = (robot: RobotInfo | null, n: number): string[] => {
+    const out: string[] = [];
+    for (let i = 0; i < n; i++) {
+      const a = robot?.axes.find((x) => x.index === i + 1) ?? robot?.axes[i];
+      out.push(a ? a.name : `axis ${i + 1}`);
+    }
+    return out;
+  };
+
+  function updateTitle(): void {
+    const r = bus.robot();
+    title.textContent =
+      r && r.periodMs > 0
+        ? `Output pulses per period (${fmtMs(r.periodMs)} ms)`
+        : 'Output pulses per period';
+    lostNote.textContent = lost > 0 ? `${lost} datagram${lost === 1 ? '' : 's'} lost` : '';
+    lostNote.className = lost > 0 ? 'plot-warn' : 'plot-note';
+  }
+
+  function chartSize(): { width: number; height: number } | null {
+    const w = area.clientWidth;
+    const h = area.clientHeight;
+    if (w < 50 || h < 60) return null;
+    const legend = u?.root.querySelector('.u-legend') as HTMLElement | null;
+    const lh = legend ? legend.offsetHeight : 24 + 16 * Math.ceil(names.length / 6);
+    return { width: w, height: Math.max(60, h - lh - 4) };
+  }
+
+  function destroyChart(): void {
+    u?.destroy();
+    u = null;
+  }
+
+  function createChart(): void {
+    destroyChart();
+    const size = chartSize();
+    if (!size || names.length === 0) return;
+    const axisStyle = {
+      stroke: '#8b96a3',
+      grid: { stroke: '#262c33', width: 1 },
+      ticks: { stroke: '#30373f', width: 1 },
+      font: '11px ui-monospace, monospace',
+      labelFont: '11px ui-monospace, monospace',
+    };
+    const opts: uPlot.Options = {
+      width: size.width,
+      height: size.height,
+      scales: {
+        x: {
+          time: false,
+          range: (_u, _min, max) => (Number.isFinite(max) ? [max - windowS, max] : [0, windowS]),
+        },
+        y: {
+          range: (_u, min, max) => {
+            // Symmetric about 0 is easier to read for motions in both directions; never a
+            // zero-height range when every axis stands still.
+            const m = Math.max(Math.abs(min), Math.abs(max), 1) * 1.1;
+            return [min < 0 ? -m : Math.min(0, min), max > 0 ? m : Math.max(0, max) || m];
+          },
+        },
+      },
+      series: [
+        { label: 't [s]', value: (_u, v) => (v === null ? '—' : v.toFixed(2)) },
+        ...names.map((name, i) => ({
+          label: name,
+          stroke: COLORS[i % COLORS.length],
+          width: 1.5,
+          points: { show: false },
+          spanGaps: false,
+          value: (_u: uPlot, v: number | null) => (v === null ? '—' : v.toFixed(1)),
+        })),
+      ],
+      axes: [
+        { ...axisStyle, label: 'time [s]', labelSize: 18 },
+        { ...axisStyle, label: 'pulses / period', labelSize: 18, size: 60 },
+      ],
+      cursor: { drag: { x: true, y: false } },
+      legend: { live: true },
+    };
+    u = new uPlot(opts, series.data(), area);
+    const s2 = chartSize();
+    if (s2) u.setSize(s2);
+    changed = true;
+  }
+
+  function reset(n: number): void {
+    names = axisNames(bus.robot(), n);
+    series = new RollingSeries(n, windowS);
+    rate.reset();
+    t0 = null;
+    createChart();
+  }
+
+  function clear(): void {
+    series.clear();
+    rate.reset();
+    t0 = null;
+    lost = 0;
+    changed = true;
+    // Cleared even while paused.
+    if (paused) u?.setData(series.data(), true);
+    updateTitle();
+  }
+
+  function onSample(s: SimSample): void {
+    if (s.pulses.length !== series.nSeries) reset(s.pulses.length);
+    const p = rate.push(s);
+    if (t0 === null) t0 = s.timeNs;
+    if (!p) return;
+    if (p.lost > 0) {
+      lost += p.lost;
+      updateTitle();
+    }
+    const t = (p.timeNs - t0) / 1e9;
+    if (t < 0) {
+      // The controller's clock restarted: start the chart again.
+      clear();
+      t0 = s.timeNs;
+      return;
+    }
+    series.push(t, p.perPeriod);
+    changed = true;
+  }
+
+  pauseBtn.addEventListener('click', () => {
+    paused = !paused;
+    pauseBtn.textContent = paused ? 'Resume' : 'Pause';
+    pauseBtn.classList.toggle('plot-on', paused);
+    changed = true;
+  });
+  clearBtn.addEventListener('click', () => clear());
+  windowSel.addEventListener('change', () => {
+    windowS = Number(windowSel.value) || 10;
+    series.setWindow(windowS);
+    changed = true;
+  });
+
+  const onRobot = (r: RobotInfo): void => {
+    rate.periodMs = r.periodMs;
+    updateTitle();
+    const n = series.nSeries || r.axes.length;
+    const newNames = axisNames(r, n);
+    if (newNames.join('\u0000') !== names.join('\u0000') || n !== series.nSeries) reset(n);
+  };
+  const unsubs = [bus.onSample(onSample), bus.onRobot(onRobot)];
+  const r0 = bus.robot();
+  if (r0) onRobot(r0);
+
+  // Follow the area's size (window resizes, the table growing); resize() covers the rest.
+  let lastW = 0;
+  let lastH = 0;
+  const ro =
+    typeof ResizeObserver !== 'undefined'
+      ? new ResizeObserver(() => {
+          if (area.clientWidth === lastW && area.clientHeight === lastH) return;
+          lastW = area.clientWidth;
+          lastH = area.clientHeight;
+          if (!u) createChart();
+          else {
+            const s = chartSize();
+            if (s) u.setSize(s);
+          }
+        })
+      : null;
+  ro?.observe(area);
+
+  let raf = 0;
+  let frameNo = 0;
+  function frame(): void {
+    if (disposed) return;
+    raf = requestAnimationFrame(frame);
+    frameNo++;
+    if (!visible()) return;
+    if (!u && names.length > 0) createChart();
+    empty.style.display = series.length > 0 ? 'none' : '';
+    // Redraw at most every other frame (~30 Hz): the data come at the datagram rate.
+    if (!u || paused || !changed || frameNo % 2 !== 0) return;
+    changed = false;
+    u.setData(series.data(), true);
+  }
+  raf = requestAnimationFrame(frame);
+  updateTitle();
+
+  return {
+    resize() {
+      if (!u) {
+        createChart();
+        return;
+      }
+      const s = chartSize();
+      if (s) u.setSize(s);
+    },
+    dispose() {
+      disposed = true;
+      cancelAnimationFrame(raf);
+      ro?.disconnect();
+      for (const f of unsubs) f();
+      destroyChart();
+    },
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Task timing table
+
+const HIST_W = 150;
+const HIST_H = 30;
+
+function mountTaskTable(
+  parent: HTMLElement,
+  bus: Bus,
+  visible: () => boolean,
+): { shown(): void; dispose(): void } {
+  const section = el('div', 'plot-section plot-tasks-section', parent);
+  const bar = el('div', 'plot-bar', section);
+  el('span', 'plot-title', bar, 'Real-time tasks');
+  const status = el('span', 'plot-note', bar, '');
+  const wrap = el('div', 'plot-table-wrap', section);
+  const table = el('table', 'plot-table', wrap);
+  const thead = el('thead', '', table);
+  const h1 = el('tr', '', thead);
+  const h2 = el('tr', '', thead);
+  const th = (row: HTMLElement, text: string, opts: { rows?: number; cols?: number; title?: string } = {}): void => {
+    const c = el('th', '', row, text);
+    if (opts.rows) c.rowSpan = opts.rows;
+    if (opts.cols) c.colSpan = opts.cols;
+    if (opts.title) c.title = opts.title;
+  };
+  th(h1, 'Task', { rows: 2 });
+  th(h1, 'Prio', { rows: 2, title: 'Configured priority (lower = more urgent)' });
+  th(h1, 'Period [ms]', { rows: 2, title: 'Configured period' });
+  th(h1, 'Measured period [µs]', { cols: 3 });
+  th(h1, 'Execution [µs]', { cols: 2 });
+  th(h1, 'Wake-up latency [µs]', { cols: 3 });
+  th(h1, 'Overruns', { rows: 2, title: 'Cycles longer than the period' });
+  th(h1, 'Missed', { rows: 2, title: 'Missed periods' });
+  th(h1, 'Cycles', { rows: 2 });
+  th(h1, 'Latency histogram', { rows: 2, title: 'Cycles per power-of-two latency bin, log scale' });
+  for (const t of ['avg', 'min', 'max', 'avg', 'max', 'avg', 'p99', 'max']) th(h2, t);
+  const tbody = el('tbody', '', table);
+
+  interface Row {
+    name: string;
+    cells: HTMLTableCellElement[];
+    canvas: HTMLCanvasElement;
+  }
+  let rows: Row[] = [];
+  let timer: ReturnType<typeof setInterval> | null = null;
+  let inflight = 0; // time the pending request was sent (0: none)
+  let token = 0;
+  let disposed = false;
+
+  function setStatus(text: string, cls = 'plot-note'): void {
+    status.textContent = text;
+    status.className = cls;
+  }
+
+  function buildRows(tasks: TaskTiming[]): void {
+    tbody.replaceChildren();
+    rows = tasks.map((t) => {
+      const tr = el('tr', '', tbody);
+      const cells: HTMLTableCellElement[] = [];
+      for (let i = 0; i < 14; i++) cells.push(el('td', i === 0 ? 'plot-name' : '', tr));
+      const hc = el('td', 'plot-hist', tr);
+      const canvas = el('canvas', '', hc);
+      const dpr = Math.min(typeof window !== 'undefined' ? window.devicePixelRatio || 1 : 1, 3);
+      canvas.width = Math.round(HIST_W * dpr);
+      canvas.height = Math.round(HIST_H * dpr);
+      canvas.style.width = `${HIST_W}px`;
+      canvas.style.height = `${HIST_H}px`;
+      return { name: t.name, cells, canvas };
+    });
+  }
+
+  function render(tasks: TaskTiming[]): void {
+    if (rows.length !== tasks.length || rows.some((r, i) => r.name !== tasks[i]?.name)) buildRows(tasks);
+    const maxIdx = maxBinIndex(tasks);
+    tasks.forEach((t, i) => {
+      const row = rows[i] as Row;
+      const values: [string, string][] = [
+        [t.name, ''],
+        [String(t.priority), ''],
+        [fmtMs(t.periodMs), ''],
+        [fmtUs(t.periodAvgUs), ''],
+        [fmtUs(t.periodMinUs), ''],
+        [fmtUs(t.periodMaxUs), ''],
+        [fmtUs(t.execAvgUs), ''],
+        [fmtUs(t.execMaxUs), ''],
+        [fmtUs(t.latAvgUs), ''],
+        [fmtUs(t.latP99Us), ''],
+        [fmtUs(t.latMaxUs), ''],
+        [fmtCount(t.overruns), t.overruns > 0 ? 'plot-bad' : ''],
+        [fmtCount(t.missed), t.missed > 0 ? 'plot-bad' : ''],
+        [fmtCount(t.cycles), ''],
+      ];
+      values.forEach(([text, cls], k) => {
+        const c = row.cells[k] as HTMLTableCellElement;
+        if (c.textContent !== text) c.textContent = text;
+        const want = k === 0 ? 'plot-name' : cls;
+        if (c.className !== want) c.className = want;
+      });
+      drawHistogram(row.canvas, t, maxIdx);
+    });
+  }
+
+  async function poll(): Promise<void> {
+    if (disposed || !visible() || !bus.connected()) return;
+    const now = Date.now();
+    // A request that has not been answered in 5 s is given up (the connection was lost).
+    if (inflight !== 0 && now - inflight < 5000) return;
+    inflight = now;
+    const mine = ++token;
+    try {
+      const { first, events } = await bus.request('TASKS');
+      if (mine !== token || disposed) return;
+      if (first.kind === 'NAK') {
+        setStatus(`TASKS refused: ${first.code} ${first.text}`, 'plot-warn');
+        return;
+      }
+      const tasks = parseTasks(events);
+      render(tasks);
+      setStatus(`${tasks.length} task${tasks.length === 1 ? '' : 's'} · updated ${new Date().toLocaleTimeString()}`);
+    } catch (e) {
+      if (mine === token) setStatus(`TASKS failed: ${e instanceof Error ? e.message : String(e)}`, 'plot-warn');
+    } finally {
+      if (mine === token) inflight = 0;
+    }
+  }
+
+  timer = setInterval(() => void poll(), POLL_MS);
+  const unsub = bus.onConnection((c) => {
+    if (c) void poll();
+    else setStatus('not connected', 'plot-warn');
+  });
+  if (!bus.connected()) setStatus('not connected', 'plot-warn');
+  void poll();
+
+  return {
+    shown() {
+      void poll();
+      for (const r of rows) r.canvas.style.width = `${HIST_W}px`;
+    },
+    dispose() {
+      disposed = true;
+      if (timer !== null) clearInterval(timer);
+      unsub();
+    },
+  };
+}
+
+/** A task's latency histogram: one bar per power-of-two bin, height on a log scale. */
+function drawHistogram(canvas: HTMLCanvasElement, t: TaskTiming, maxIdx: number): void {
+  const ctx = canvas.getContext('2d');
+  const bins = fullBins(t.latHist, maxIdx);
+  canvas.title = bins
+    .filter((b) => b.count > 0)
+    .map((b) => `${binLabel(b.upperUs)}: ${b.count}`)
+    .join('\n') || 'no cycles yet';
+  if (!ctx) return;
+  const W = canvas.width;
+  const H = canvas.height;
+  const s = W / HIST_W;
+  ctx.clearRect(0, 0, W, H);
+  const labelH = 9 * s;
+  const plotH = H - labelH - 1 * s;
+  const n = bins.length;
+  const bw = W / n;
+  const maxCount = bins.reduce((m, b) => Math.max(m, b.count), 0);
+  ctx.fillStyle = '#20262d';
+  ctx.fillRect(0, 0, W, plotH);
+  for (let k = 0; k < n; k++) {
+    const b = bins[k] as { upperUs: number; count: number };
+    const h = logHeight(b.count, maxCount) * (plotH - 1 * s);
+    if (h <= 0) continue;
+    // 1 ms and beyond in red, 128 µs and beyond in amber: latencies a 10 ms cycle notices.
+    ctx.fillStyle = b.upperUs > 1024 ? '#ff6a5e' : b.upperUs > 128 ? '#f0b23c' : '#4fc3a1';
+    ctx.fillRect(k * bw + 0.5 * s, plotH - h, Math.max(1, bw - 1 * s), h);
+  }
+  ctx.fillStyle = '#7d8894';
+  ctx.font = `${8 * s}px ui-monospace, monospace`;
+  ctx.textBaseline = 'bottom';
+  ctx.textAlign = 'left';
+  ctx.fillText('1', 0, H);
+  ctx.textAlign = 'right';
+  const top = 2 ** maxIdx;
+  ctx.fillText(`${top} µs`, W, H);
+}

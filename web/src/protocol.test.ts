@@ -1,0 +1,240 @@
+import { describe, expect, it } from 'vitest';
+import {
+  IdAllocator,
+  completesLater,
+  diagsFromEvents,
+  errorText,
+  fmtNum,
+  formatRequest,
+  formatUpload,
+  isProgramName,
+  parseAxis,
+  parseDiag,
+  parseErrorEvent,
+  parseFields,
+  parseInputEvent,
+  parseIo,
+  parseLine,
+  parseProgramEvent,
+  parsePrograms,
+  parseStatus,
+  programAbsLine,
+  robotFromReply,
+  verbOf,
+} from './protocol';
+
+describe('parseLine', () => {
+  it('parses ACK with id and fields', () => {
+    expect(parseLine('ACK 1 state=IDLE homed=0 speed=100 owner=none err=0')).toEqual({
+      kind: 'ACK',
+      id: 1,
+      fields: { state: 'IDLE', homed: '0', speed: '100', owner: 'none', err: '0' },
+      line: 'ACK 1 state=IDLE homed=0 speed=100 owner=none err=0',
+    });
+  });
+
+  it('parses ACK without id', () => {
+    const l = parseLine('ACK speed=50');
+    expect(l).toMatchObject({ kind: 'ACK', id: null, fields: { speed: '50' } });
+    expect(parseLine('ACK')).toMatchObject({ kind: 'ACK', id: null, fields: {} });
+    expect(parseLine('ACK 3')).toMatchObject({ kind: 'ACK', id: 3, fields: {} });
+  });
+
+  it('compares ids as numbers', () => {
+    expect(parseLine('ACK 007')).toMatchObject({ id: 7 });
+  });
+
+  it('tells NAK <id> <code> from NAK <code>', () => {
+    expect(parseLine('NAK 2 110 not homed; send HOME first')).toMatchObject({
+      kind: 'NAK',
+      id: 2,
+      code: 110,
+      text: 'not homed; send HOME first',
+    });
+    expect(parseLine('NAK 103 line of 300 bytes is longer than the limit of 256 bytes; nothing was done')).toMatchObject({
+      kind: 'NAK',
+      id: null,
+      code: 103,
+    });
+  });
+
+  it('parses INF and ABS', () => {
+    expect(parseLine('INF 3')).toMatchObject({ kind: 'INF', id: 3, fields: {} });
+    expect(parseLine('ABS 5 200 stopped by STOP')).toMatchObject({ kind: 'ABS', id: 5, code: 200, text: 'stopped by STOP' });
+    expect(parseLine('ABS 2 210 demo line 4: division by zero')).toMatchObject({ code: 210, text: 'demo line 4: division by zero' });
+  });
+
+  it('parses events with upper-case names and the rest as body', () => {
+    expect(parseLine('EVT STATE MOVING')).toEqual({ kind: 'EVT', name: 'STATE', body: 'MOVING', line: 'EVT STATE MOVING' });
+    expect(parseLine('EVT PRINT  two  spaces kept')).toMatchObject({ name: 'PRINT', body: 'two  spaces kept' });
+    expect(parseLine('EVT UI CONNECTED /tmp/wrc/wrc.sock')).toMatchObject({ name: 'UI', body: 'CONNECTED /tmp/wrc/wrc.sock' });
+    expect(parseLine('EVT CONTROL')).toMatchObject({ name: 'CONTROL', body: '' });
+  });
+
+  it('drops a serial checksum and a trailing CR', () => {
+    expect(parseLine('ACK 1 state=IDLE homed=1 speed=100 owner=none err=0*04')).toMatchObject({ fields: { err: '0' } });
+    expect(parseLine('INF 4\r')).toMatchObject({ kind: 'INF', id: 4 });
+  });
+
+  it('classifies anything else as OTHER', () => {
+    expect(parseLine('hello')).toMatchObject({ kind: 'OTHER' });
+    expect(parseLine('')).toMatchObject({ kind: 'OTHER' });
+  });
+});
+
+describe('fields, status, io', () => {
+  it('parses key=value pairs', () => {
+    expect(parseFields('a=1 b= c=x=y plain')).toEqual({ a: '1', b: '', c: 'x=y' });
+  });
+
+  it('parses EVT STATUS', () => {
+    const s = parseStatus(
+      'state=MOVING homed=1 speed=50 owner=unix err=0 j=10,45.5,-45.5,5 x=310.243 y=199.555 z=5 yaw=10',
+    );
+    expect(s).toEqual({
+      state: 'MOVING',
+      homed: true,
+      speed: 50,
+      owner: 'unix',
+      err: 0,
+      joints: [10, 45.5, -45.5, 5],
+      x: 310.243,
+      y: 199.555,
+      z: 5,
+      yaw: 10,
+    });
+  });
+
+  it('parses WHERE fields and ignores an unknown state', () => {
+    expect(parseStatus({ j: '0,45,-45,5', x: '341.421', y: '141.421', z: '5', yaw: '0' })).toEqual({
+      joints: [0, 45, -45, 5],
+      x: 341.421,
+      y: 141.421,
+      z: 5,
+      yaw: 0,
+    });
+    expect(parseStatus('state=DANCING').state).toBeUndefined();
+  });
+
+  it('parses IO words', () => {
+    expect(parseIo({ in: '00000001', out: '80000008' })).toEqual({ inputs: 1, outputs: 0x80000008 });
+    expect(parseIo({ in: '1' })).toBeNull();
+  });
+
+  it('parses INPUT, ERROR, PROGRAM events and PROGRAMS', () => {
+    expect(parseInputEvent('3 1')).toEqual({ n: 3, on: true });
+    expect(parseInputEvent('3 x')).toBeNull();
+    expect(parseErrorEvent('203 following error on axis j2')).toEqual({ code: 203, text: 'following error on axis j2' });
+    expect(parseProgramEvent('demo RUNNING')).toEqual({ name: 'demo', state: 'RUNNING' });
+    expect(parsePrograms({ programs: 'a,b-2,c_3' })).toEqual(['a', 'b-2', 'c_3']);
+    expect(parsePrograms({ programs: '' })).toEqual([]);
+    expect(parsePrograms({})).toEqual([]);
+  });
+
+  it('names error codes', () => {
+    expect(errorText(0)).toBe('');
+    expect(errorText(201)).toBe('201 emergency stop');
+    expect(errorText(299)).toBe('299 error');
+  });
+});
+
+describe('robot', () => {
+  const events = [
+    'AXIS 2 name=j2 role=elbow unit=deg ppu=1000 min=-165 max=165 home=150',
+    'AXIS 1 name=j1 role=shoulder unit=deg ppu=1000 min=-180 max=180 home=-75',
+    'STATE IDLE',
+    'AXIS 3 name=j3 role=wrist unit=deg ppu=1000 min=-270 max=270 home=-75',
+    'AXIS 4 name=z role=z unit=mm ppu=1000 min=0 max=300 home=0',
+  ];
+  const ack = parseLine('ACK 1 name=paper-300mm link1=200 link2=200 hand=0 axes=4 period_ms=10 inputs=32 outputs=32');
+
+  it('parses one axis', () => {
+    expect(parseAxis('4 name=z role=z unit=mm ppu=1000 min=0 max=300 home=0')).toEqual({
+      index: 4,
+      name: 'z',
+      role: 'z',
+      unit: 'mm',
+      ppu: 1000,
+      min: 0,
+      max: 300,
+      home: 0,
+    });
+    expect(parseAxis('name=z')).toBeNull();
+  });
+
+  it('builds RobotInfo from the ROBOT reply, axes in order', () => {
+    if (ack.kind !== 'ACK') throw new Error('not an ACK');
+    const r = robotFromReply(ack.fields, events);
+    expect(r).toMatchObject({ name: 'paper-300mm', link1: 200, link2: 200, hand: 0, periodMs: 10, inputs: 32, outputs: 32 });
+    expect(r.axes.map((a) => a.name)).toEqual(['j1', 'j2', 'j3', 'z']);
+    expect(r.axes[0].home).toBe(-75);
+  });
+});
+
+describe('diagnostics', () => {
+  it('parses EVT DIAG bodies', () => {
+    expect(parseDiag('demo.wrl:3:7: error: unknown name TOTAL')).toEqual({
+      file: 'demo.wrl',
+      line: 3,
+      col: 7,
+      severity: 'error',
+      message: 'unknown name TOTAL',
+    });
+    expect(parseDiag('DIAG x.wrl:12:1: warning: variable N is assigned but never read: a: b')).toMatchObject({
+      line: 12,
+      col: 1,
+      severity: 'warning',
+      message: 'variable N is assigned but never read: a: b',
+    });
+    expect(parseDiag('garbage')).toBeNull();
+  });
+
+  it('collects only DIAG lines among events', () => {
+    const d = diagsFromEvents(['STATE IDLE', 'DIAG p.wrl:1:1: error: a', 'DIAG p.wrl:2:5: warning: b']);
+    expect(d.map((x) => [x.line, x.col, x.severity])).toEqual([
+      [1, 1, 'error'],
+      [2, 5, 'warning'],
+    ]);
+  });
+
+  it('finds the line an ABS names', () => {
+    expect(programAbsLine('demo line 4: division by zero')).toBe(4);
+    expect(programAbsLine('emergency stop')).toBeNull();
+  });
+});
+
+describe('requests', () => {
+  it('allocates ids 1..99999999 and wraps', () => {
+    const a = new IdAllocator();
+    expect([a.next(), a.next(), a.next()]).toEqual([1, 2, 3]);
+    const b = new IdAllocator(99_999_998);
+    expect([b.next(), b.next()]).toEqual([99_999_999, 1]);
+  });
+
+  it('formats requests and knows the verbs that complete later', () => {
+    expect(formatRequest(7, ' MOVP 1 2 3 4 ')).toBe('7 MOVP 1 2 3 4');
+    expect(verbOf('12 movj 1 2 3 4')).toBe('MOVJ');
+    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x']) expect(completesLater(v)).toBe(true);
+    for (const v of ['STATUS', 'STOP', 'ESTOP', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL']) expect(completesLater(v)).toBe(false);
+  });
+
+  it('formats an upload and refuses a lone dot', () => {
+    expect(formatUpload(1, 'demo', 'HOME\r\nPRINT "done"\n')).toBe('1 UPLOAD demo\nHOME\nPRINT "done"\n.');
+    expect(formatUpload(2, 'e', '')).toBe('2 UPLOAD e\n.');
+    expect(() => formatUpload(3, 'x', 'HOME\n.\nHOME')).toThrow(/line 2/);
+  });
+
+  it('checks program names', () => {
+    expect(isProgramName('pick_place-2')).toBe(true);
+    expect(isProgramName('')).toBe(false);
+    expect(isProgramName('a b')).toBe(false);
+    expect(isProgramName('x'.repeat(33))).toBe(false);
+  });
+
+  it('formats numbers like the protocol', () => {
+    expect(fmtNum(250)).toBe('250');
+    expect(fmtNum(-45.1234)).toBe('-45.123');
+    expect(fmtNum(12.5)).toBe('12.5');
+    expect(fmtNum(-0.0001)).toBe('0');
+  });
+});

@@ -357,11 +357,7 @@ impl ProgramStore {
             // than let the line writer turn it into '?'.
             let message = d.message.replace('\u{2026}', "...");
             let mut text = String::new();
-            let _ = write!(
-                text,
-                "{file}:{}:{}: {severity}: {}",
-                d.line, d.col, message
-            );
+            let _ = write!(text, "{file}:{}:{}: {severity}: {}", d.line, d.col, message);
             if severity == "error" && first_error.is_empty() {
                 first_error = format!("{}:{} {}", d.line, d.col, message);
             }

@@ -1,0 +1,1241 @@
+//! The wafer map: where every wafer is (a station slot or the hand), with an id per wafer,
+//! kept consistent across crashes.
+//!
+//! # Guarantees
+//!
+//! * No id is ever held twice, and no operation drops an id silently: every operation
+//!   checks its preconditions first and either applies completely or returns an error and
+//!   changes nothing. Ids leave the map only by [`WaferMap::remove`] (an operator takes a
+//!   wafer out) or by a mapping that finds the slot empty or faulty
+//!   ([`WaferMap::apply_mapping`], which reports it).
+//! * Transfers are two-phase. [`WaferMap::begin`] records the pending transfer; the caller
+//!   saves the map ([`WaferMap::save_atomic`]) *before* the robot moves. [`WaferMap::commit`]
+//!   moves the wafer once the vacuum sensor confirmed it; the caller saves again.
+//!   [`WaferMap::abort`] keeps the wafer where it was. Saves are atomic, so after `kill -9`
+//!   at any moment the file holds either the state before `begin`, the pending transfer, or
+//!   the committed state — and [`WaferMap::reconcile`] resolves a pending transfer at
+//!   start-up from the vacuum sensor: the only place a wafer can be in the middle of a
+//!   transfer is its source or the hand.
+//!
+//! # Start-up
+//!
+//! [`WaferMap::load`] the file (a missing one is an empty map), [`WaferMap::adopt_stations`]
+//! the current stations, then — before any output is written, so the vacuum valve is still
+//! as the previous run left it — [`WaferMap::reconcile`] with the vacuum-sensed input, and
+//! save. The vacuum output must survive the controller's death (the simulated board keeps
+//! its outputs); a board that dropped it would drop the wafer.
+//!
+//! # Slots
+//!
+//! Each slot of each station is [`SlotState::Unknown`] (never mapped: GET and PUT refuse it
+//! until `MAP <station>`), [`SlotState::Empty`], [`SlotState::Wafer`] or
+//! [`SlotState::Fault`] (the mapping saw a double or cross-slotted wafer there: GET and PUT
+//! refuse it until it is mapped clean).
+//!
+//! # File format (TOML, version 1)
+//!
+//! ```toml
+//! # wrc wafer map ...
+//! version = 1
+//! next_id = 27                 # the next new id; every id in the map is below it
+//! hand = "W3"                  # omitted when the hand is empty
+//!
+//! [pending]                    # omitted when no transfer is in progress
+//! kind = "get"                 # "get" or "put"
+//! station = "LP1"
+//! slot = 3
+//! wafer = "W3"
+//!
+//! [[station]]
+//! name = "LP1"
+//! slots = ["W1", "W2", "-", "?", "double", "cross"]   # slot 1 first
+//! ```
+//!
+//! Slot tokens: `W<n>` a wafer, `-` empty, `?` unknown, `double`, `cross`.
+//!
+//! # The `WAFERS` reply
+//!
+//! [`WaferMap::wafers_line`] gives one line: `hand=<tok> <STN>=<slots> … [pending=…]`, for
+//! example `hand=- LP1=W1..W25 LP2=-*25 AL=- PM1=? PM2=W26 pending=get:LP1.3:W3`. `<slots>`
+//! lists every slot from slot 1 up, comma-separated, with the tokens `W<n>` (a wafer), `-`
+//! (empty), `?` (unknown), `D` (double), `X` (cross-slotted), compressed two ways: three or
+//! more wafers with ids rising by one in successive slots as `W<a>..W<b>`, and a token
+//! repeated n ≥ 2 times as `<tok>*<n>`. With D the number of digits of the largest id, the
+//! line is at most `6 + D` bytes for the hand, `1 + len(name) + slots · (D + 2)` per station
+//! and `19 + len(name) + D` for a pending transfer: with the demo cell (53 places) and ids
+//! below 100 000 (D = 5), at most 427 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
+//! same content as one line per place group (the hand, each station, the pending transfer),
+//! for one `EVT WAFER` line each.
+
+use std::fmt;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::atomic::write_atomic;
+use crate::mapping::SlotCode;
+use crate::station::{parse_station_name, same_name, StationName, MAX_SLOTS};
+use crate::stations::Stations;
+use crate::transfer::TransferKind;
+
+/// Version of the wafer map file format written by [`WaferMap::to_text`].
+pub const FORMAT_VERSION: u32 = 1;
+
+/// A wafer's id in the map, shown as `W<n>`. Ids are handed out rising from `W1` and never
+/// reused (the next id is saved with the map).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct WaferId(pub u32);
+
+impl WaferId {
+    /// The id written as `W<n>` (or `w<n>`), `n` a decimal number without sign.
+    pub fn parse(text: &str) -> Option<WaferId> {
+        let digits = text.strip_prefix(['W', 'w'])?;
+        if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        digits.parse().ok().map(WaferId)
+    }
+}
+
+impl fmt::Display for WaferId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "W{}", self.0)
+    }
+}
+
+/// Where a wafer can be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Location {
+    /// In slot `slot` (1-based) of station `station`; shown `LP1.3`.
+    Slot {
+        /// The station.
+        station: StationName,
+        /// The slot, from 1.
+        slot: u16,
+    },
+    /// On the robot's hand; shown `hand`.
+    Hand,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Slot { station, slot } => write!(f, "{station}.{slot}"),
+            Location::Hand => f.write_str("hand"),
+        }
+    }
+}
+
+/// A mapping fault that makes a slot unusable until it is mapped clean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SlotFault {
+    /// Two wafers in one slot.
+    Double,
+    /// A wafer across two slots.
+    Cross,
+}
+
+impl SlotFault {
+    /// The mapping code of the fault.
+    pub fn code(self) -> SlotCode {
+        match self {
+            SlotFault::Double => SlotCode::Double,
+            SlotFault::Cross => SlotCode::Cross,
+        }
+    }
+}
+
+impl fmt::Display for SlotFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.code().name())
+    }
+}
+
+/// What the map knows about one slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SlotState {
+    /// Never mapped since the station was added: GET and PUT refuse it.
+    Unknown,
+    /// No wafer.
+    Empty,
+    /// This wafer.
+    Wafer(WaferId),
+    /// A mapping fault: GET and PUT refuse it.
+    Fault(SlotFault),
+}
+
+/// A transfer between a slot and the hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Transfer {
+    /// GET (slot → hand) or PUT (hand → slot).
+    pub kind: TransferKind,
+    /// The station.
+    pub station: StationName,
+    /// The slot, from 1.
+    pub slot: u16,
+    /// The wafer moved.
+    pub wafer: WaferId,
+}
+
+impl Transfer {
+    /// The slot's location.
+    pub fn slot_location(&self) -> Location {
+        Location::Slot {
+            station: self.station,
+            slot: self.slot,
+        }
+    }
+
+    /// Where the wafer is before the transfer.
+    pub fn source(&self) -> Location {
+        match self.kind {
+            TransferKind::Get => self.slot_location(),
+            TransferKind::Put => Location::Hand,
+        }
+    }
+
+    /// Where the wafer is after the transfer.
+    pub fn destination(&self) -> Location {
+        match self.kind {
+            TransferKind::Get => Location::Hand,
+            TransferKind::Put => self.slot_location(),
+        }
+    }
+}
+
+impl fmt::Display for Transfer {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} {} {} ({})",
+            self.kind, self.station, self.slot, self.wafer
+        )
+    }
+}
+
+/// What [`WaferMap::reconcile`] did at start-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reconciled {
+    /// No transfer was pending and the hand agrees with the map.
+    Consistent,
+    /// The pending transfer had happened (GET: a wafer is sensed on the hand; PUT: none is):
+    /// it is committed.
+    Committed(Transfer),
+    /// The pending transfer had not happened (GET: no wafer on the hand; PUT: the wafer is
+    /// still held): it is aborted, the wafer stays at its source.
+    Aborted(Transfer),
+    /// No transfer was pending, the map has this wafer on the hand, but none is sensed: it
+    /// was lost or dropped. The map is unchanged; an operator must find the wafer and
+    /// [`WaferMap::remove`] or re-place it.
+    HandWaferNotSensed(WaferId),
+    /// No transfer was pending and the map has no wafer on the hand, but one is sensed. The
+    /// map is unchanged; an operator must identify it ([`WaferMap::place`] on the hand).
+    UnknownWaferOnHand,
+}
+
+impl Reconciled {
+    /// Whether the map and the sensed hand agree now (no operator action needed).
+    pub fn is_consistent(&self) -> bool {
+        matches!(
+            self,
+            Reconciled::Consistent | Reconciled::Committed(_) | Reconciled::Aborted(_)
+        )
+    }
+}
+
+/// What [`WaferMap::apply_mapping`] changed in a station, slot by slot.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct MappingChanges {
+    /// Slots with a wafer the map did not know: the new ids.
+    pub created: Vec<(u16, WaferId)>,
+    /// Slots whose wafer the mapping confirmed: the id is kept.
+    pub kept: Vec<(u16, WaferId)>,
+    /// Slots where the map had a wafer but the mapping found none or a fault: the ids that
+    /// left the map.
+    pub removed: Vec<(u16, WaferId)>,
+    /// Slots with a double or cross-slotted wafer.
+    pub faults: Vec<(u16, SlotFault)>,
+}
+
+/// An operation the wafer map refuses, or a wafer map file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum WaferMapError {
+    /// No station of that name in the map.
+    #[error("the wafer map has no station named {station:?}")]
+    NoSuchStation {
+        /// The name asked for.
+        station: String,
+    },
+    /// A slot number the station does not have.
+    #[error("station {station} has no slot {slot}: its slots are 1 to {slots}")]
+    NoSuchSlot {
+        /// The station.
+        station: StationName,
+        /// The slot asked for.
+        slot: u16,
+        /// Its slot count.
+        slots: u16,
+    },
+    /// GET from a slot the map says is empty.
+    #[error("no GET from {station} slot {slot}: the wafer map says it is empty")]
+    SlotEmpty {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+    },
+    /// PUT (or place) into a slot that holds a wafer.
+    #[error("{station} slot {slot} already holds wafer {wafer}")]
+    SlotOccupied {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+        /// The wafer there.
+        wafer: WaferId,
+    },
+    /// A slot with a mapping fault.
+    #[error("{station} slot {slot} has a {fault} wafer: fix it by hand, then map the station again (MAP {station})")]
+    SlotFault {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+        /// The fault.
+        fault: SlotFault,
+    },
+    /// A slot that was never mapped.
+    #[error("{station} slot {slot} has not been mapped: map the station first (MAP {station})")]
+    SlotUnknown {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+    },
+    /// GET (or place on the hand) with a wafer already on the hand.
+    #[error("the hand already holds wafer {wafer}: PUT it somewhere first")]
+    HandOccupied {
+        /// The wafer on the hand.
+        wafer: WaferId,
+    },
+    /// PUT with no wafer on the hand.
+    #[error("no PUT: the wafer map says the hand holds no wafer")]
+    HandEmpty,
+    /// A transfer names another wafer than the one at its source.
+    #[error("the transfer names wafer {expected}, but {location} holds {}", found.map_or_else(|| "no wafer".to_string(), |w| w.to_string()))]
+    WrongWafer {
+        /// The transfer's source.
+        location: Location,
+        /// The wafer the transfer names.
+        expected: WaferId,
+        /// The wafer there, if any.
+        found: Option<WaferId>,
+    },
+    /// An operation while a transfer is pending.
+    #[error(
+        "transfer {transfer} is still pending: commit or abort it first (at start-up: reconcile)"
+    )]
+    TransferPending {
+        /// The pending transfer.
+        transfer: Transfer,
+    },
+    /// Commit or abort with no transfer pending.
+    #[error("no transfer is pending")]
+    NoPendingTransfer,
+    /// Placing a wafer whose id is already in the map.
+    #[error("wafer {wafer} is already in the map, at {at}; an id is held only once")]
+    AlreadyInMap {
+        /// The wafer.
+        wafer: WaferId,
+        /// Where it is.
+        at: Location,
+    },
+    /// Removing a wafer from a place that holds none.
+    #[error("{location} holds no wafer")]
+    NoWafer {
+        /// The place.
+        location: Location,
+    },
+    /// Every id up to `W4294967295` has been handed out.
+    #[error(
+        "all wafer ids up to W{} have been used; start a new wafer map",
+        u32::MAX
+    )]
+    IdsExhausted,
+    /// A mapping result with the wrong number of codes.
+    #[error("station {station} has {slots} slots but the mapping reported {got} codes")]
+    CodeCount {
+        /// The station.
+        station: StationName,
+        /// Its slot count.
+        slots: u16,
+        /// Codes reported.
+        got: usize,
+    },
+    /// The stations file no longer has a station or slot that holds a wafer (or the pending
+    /// transfer's slot).
+    #[error("{location} holds {what} but is no longer in the stations file: restore the station, or move or remove the wafer first")]
+    StationGone {
+        /// The slot.
+        location: Location,
+        /// What it holds (`wafer W3`, `the pending transfer`).
+        what: String,
+    },
+    /// The map breaks one of its own rules (a bug, or a hand-edited file).
+    #[error("the wafer map is inconsistent: {reason}")]
+    Inconsistent {
+        /// Which rule.
+        reason: String,
+    },
+    /// The file could not be read.
+    #[error("cannot read wafer map {file}: {source}")]
+    Read {
+        /// The file.
+        file: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file could not be written.
+    #[error("cannot write wafer map {file}: {source}; the previous file is unchanged")]
+    Write {
+        /// The file.
+        file: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not a usable wafer map: it is never replaced by an empty one.
+    #[error("wafer map {file} is corrupt: {reason}; fix or remove the file (removing it forgets every wafer: map all stations again)")]
+    Corrupt {
+        /// The file.
+        file: String,
+        /// What is wrong, with the line when the TOML parser gives it.
+        reason: String,
+    },
+    /// A file written by another version of wrc.
+    #[error("wafer map {file} has format version {found}; this wrc reads version {supported}")]
+    Version {
+        /// The file.
+        file: String,
+        /// The version in the file.
+        found: i64,
+        /// The version this build reads and writes.
+        supported: u32,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct MapStation {
+    name: StationName,
+    slots: Vec<SlotState>,
+}
+
+/// Where every wafer is. See the module docs for the guarantees and the file format.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WaferMap {
+    stations: Vec<MapStation>,
+    hand: Option<WaferId>,
+    pending: Option<Transfer>,
+    /// The next new id; every id in the map is below it. Up to `u32::MAX + 1`.
+    next_id: u64,
+}
+
+impl Default for WaferMap {
+    /// No stations, nothing on the hand, the next id `W1`.
+    fn default() -> Self {
+        WaferMap {
+            stations: Vec::new(),
+            hand: None,
+            pending: None,
+            next_id: 1,
+        }
+    }
+}
+
+const MAX_NEXT_ID: u64 = u32::MAX as u64 + 1;
+
+impl WaferMap {
+    /// A map of `stations` with every slot unknown and the hand empty.
+    pub fn new(stations: &Stations) -> WaferMap {
+        WaferMap {
+            stations: stations
+                .iter()
+                .map(|s| MapStation {
+                    name: s.name,
+                    slots: vec![SlotState::Unknown; usize::from(s.slots)],
+                })
+                .collect(),
+            ..WaferMap::default()
+        }
+    }
+
+    /// Follow a changed stations file: stations and slots in the file's order, new ones
+    /// unknown, names spelled as in the file. Refused, changing nothing, when a station or
+    /// slot that goes away holds a wafer or the pending transfer.
+    pub fn adopt_stations(&mut self, stations: &Stations) -> Result<(), WaferMapError> {
+        let mut new = Vec::with_capacity(stations.len());
+        for s in stations {
+            let n = usize::from(s.slots);
+            let mut slots = match self.station_index(s.name.as_str()) {
+                Some(i) => self.stations[i].slots.clone(),
+                None => Vec::new(),
+            };
+            for (i, state) in slots.iter().enumerate().skip(n) {
+                let slot = (i + 1) as u16;
+                self.check_goes_away(s.name, slot, *state)?;
+            }
+            slots.resize(n, SlotState::Unknown);
+            new.push(MapStation {
+                name: s.name,
+                slots,
+            });
+        }
+        for old in &self.stations {
+            if stations.get(old.name.as_str()).is_none() {
+                for (i, state) in old.slots.iter().enumerate() {
+                    self.check_goes_away(old.name, (i + 1) as u16, *state)?;
+                }
+            }
+        }
+        if let Some(t) = &mut self.pending {
+            // Its slot survived (checked above): follow the file's spelling of the name.
+            if let Some(s) = stations.get(t.station.as_str()) {
+                t.station = s.name;
+            }
+        }
+        self.stations = new;
+        Ok(())
+    }
+
+    fn check_goes_away(
+        &self,
+        station: StationName,
+        slot: u16,
+        state: SlotState,
+    ) -> Result<(), WaferMapError> {
+        let location = Location::Slot { station, slot };
+        if let SlotState::Wafer(w) = state {
+            return Err(WaferMapError::StationGone {
+                location,
+                what: format!("wafer {w}"),
+            });
+        }
+        if let Some(t) = &self.pending {
+            if same_name(t.station.as_str(), station.as_str()) && t.slot == slot {
+                return Err(WaferMapError::StationGone {
+                    location,
+                    what: "the pending transfer".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn station_index(&self, name: &str) -> Option<usize> {
+        self.stations
+            .iter()
+            .position(|s| same_name(s.name.as_str(), name))
+    }
+
+    fn find(&self, station: &str, slot: u16) -> Result<(usize, usize), WaferMapError> {
+        let si = self
+            .station_index(station)
+            .ok_or_else(|| WaferMapError::NoSuchStation {
+                station: station.chars().take(40).collect(),
+            })?;
+        let s = &self.stations[si];
+        let slots = s.slots.len() as u16;
+        if slot == 0 || slot > slots {
+            return Err(WaferMapError::NoSuchSlot {
+                station: s.name,
+                slot,
+                slots,
+            });
+        }
+        Ok((si, usize::from(slot - 1)))
+    }
+
+    /// The state of slot `slot` of station `station` (name ignoring case).
+    pub fn slot(&self, station: &str, slot: u16) -> Result<SlotState, WaferMapError> {
+        let (si, i) = self.find(station, slot)?;
+        Ok(self.stations[si].slots[i])
+    }
+
+    /// Every slot's state of station `station`, slot 1 first.
+    pub fn slots(&self, station: &str) -> Option<&[SlotState]> {
+        self.station_index(station)
+            .map(|i| self.stations[i].slots.as_slice())
+    }
+
+    /// The stations of the map, in order.
+    pub fn station_names(&self) -> impl Iterator<Item = StationName> + '_ {
+        self.stations.iter().map(|s| s.name)
+    }
+
+    /// The wafer on the hand.
+    pub fn hand(&self) -> Option<WaferId> {
+        self.hand
+    }
+
+    /// The transfer in progress, if any.
+    pub fn pending(&self) -> Option<&Transfer> {
+        self.pending.as_ref()
+    }
+
+    /// The wafer at `location`, if any (none for an unknown place).
+    pub fn wafer_at(&self, location: &Location) -> Option<WaferId> {
+        match location {
+            Location::Hand => self.hand,
+            Location::Slot { station, slot } => match self.slot(station.as_str(), *slot) {
+                Ok(SlotState::Wafer(w)) => Some(w),
+                _ => None,
+            },
+        }
+    }
+
+    /// Where wafer `id` is.
+    pub fn location_of(&self, id: WaferId) -> Option<Location> {
+        self.iter().find(|&(_, w)| w == id).map(|(at, _)| at)
+    }
+
+    /// Every wafer and where it is: station slots in order, then the hand.
+    pub fn iter(&self) -> impl Iterator<Item = (Location, WaferId)> + '_ {
+        self.stations
+            .iter()
+            .flat_map(|s| {
+                s.slots
+                    .iter()
+                    .enumerate()
+                    .filter_map(move |(i, state)| match state {
+                        SlotState::Wafer(w) => Some((
+                            Location::Slot {
+                                station: s.name,
+                                slot: (i + 1) as u16,
+                            },
+                            *w,
+                        )),
+                        _ => None,
+                    })
+            })
+            .chain(self.hand.map(|w| (Location::Hand, w)))
+    }
+
+    /// Number of wafers in the map.
+    pub fn len(&self) -> usize {
+        self.iter().count()
+    }
+
+    /// Whether the map holds no wafer.
+    pub fn is_empty(&self) -> bool {
+        self.iter().next().is_none()
+    }
+
+    /// The next id, never used before in this map.
+    pub fn new_id(&mut self) -> Result<WaferId, WaferMapError> {
+        if self.next_id >= MAX_NEXT_ID {
+            return Err(WaferMapError::IdsExhausted);
+        }
+        let id = WaferId(self.next_id as u32);
+        self.next_id += 1;
+        Ok(id)
+    }
+
+    fn refuse_if_pending(&self) -> Result<(), WaferMapError> {
+        match self.pending {
+            Some(transfer) => Err(WaferMapError::TransferPending { transfer }),
+            None => Ok(()),
+        }
+    }
+
+    /// Put wafer `id` at `location` by hand (an operator placed or identified it). Refused
+    /// while a transfer is pending, when the id is already in the map, or the place holds a
+    /// wafer or a fault. An unknown slot becomes known. Later new ids stay above `id`.
+    pub fn place(&mut self, location: Location, id: WaferId) -> Result<(), WaferMapError> {
+        self.refuse_if_pending()?;
+        if let Some(at) = self.location_of(id) {
+            return Err(WaferMapError::AlreadyInMap { wafer: id, at });
+        }
+        match location {
+            Location::Hand => {
+                if let Some(wafer) = self.hand {
+                    return Err(WaferMapError::HandOccupied { wafer });
+                }
+                self.hand = Some(id);
+            }
+            Location::Slot { station, slot } => {
+                let (si, i) = self.find(station.as_str(), slot)?;
+                let name = self.stations[si].name;
+                match self.stations[si].slots[i] {
+                    SlotState::Empty | SlotState::Unknown => {}
+                    SlotState::Wafer(wafer) => {
+                        return Err(WaferMapError::SlotOccupied {
+                            station: name,
+                            slot,
+                            wafer,
+                        })
+                    }
+                    SlotState::Fault(fault) => {
+                        return Err(WaferMapError::SlotFault {
+                            station: name,
+                            slot,
+                            fault,
+                        })
+                    }
+                }
+                self.stations[si].slots[i] = SlotState::Wafer(id);
+            }
+        }
+        self.next_id = self.next_id.max(u64::from(id.0) + 1);
+        Ok(())
+    }
+
+    /// Take the wafer at `location` out of the map (an operator removed it); returns its id.
+    /// Refused while a transfer is pending.
+    pub fn remove(&mut self, location: Location) -> Result<WaferId, WaferMapError> {
+        self.refuse_if_pending()?;
+        match location {
+            Location::Hand => self.hand.take().ok_or(WaferMapError::NoWafer { location }),
+            Location::Slot { station, slot } => {
+                let (si, i) = self.find(station.as_str(), slot)?;
+                match self.stations[si].slots[i] {
+                    SlotState::Wafer(w) => {
+                        self.stations[si].slots[i] = SlotState::Empty;
+                        Ok(w)
+                    }
+                    _ => Err(WaferMapError::NoWafer { location }),
+                }
+            }
+        }
+    }
+
+    /// Set a station's slots from a mapping scan (`codes`, slot 1 first): present → the
+    /// wafer the map already had there, or a new id; absent → empty; double or cross → that
+    /// fault (GET and PUT refuse it). Ids of wafers the scan did not find leave the map and
+    /// are reported. Refused while a transfer is pending.
+    pub fn apply_mapping(
+        &mut self,
+        station: &str,
+        codes: &[SlotCode],
+    ) -> Result<MappingChanges, WaferMapError> {
+        self.refuse_if_pending()?;
+        let si = self
+            .station_index(station)
+            .ok_or_else(|| WaferMapError::NoSuchStation {
+                station: station.chars().take(40).collect(),
+            })?;
+        let s = &self.stations[si];
+        if codes.len() != s.slots.len() {
+            return Err(WaferMapError::CodeCount {
+                station: s.name,
+                slots: s.slots.len() as u16,
+                got: codes.len(),
+            });
+        }
+        let needed = codes
+            .iter()
+            .zip(&s.slots)
+            .filter(|(c, old)| **c == SlotCode::Present && !matches!(old, SlotState::Wafer(_)))
+            .count() as u64;
+        if self.next_id + needed > MAX_NEXT_ID {
+            return Err(WaferMapError::IdsExhausted);
+        }
+        let mut changes = MappingChanges::default();
+        let mut slots = s.slots.clone();
+        for (i, (state, code)) in slots.iter_mut().zip(codes).enumerate() {
+            let slot = (i + 1) as u16;
+            let old = *state;
+            *state = match code {
+                SlotCode::Present => match old {
+                    SlotState::Wafer(w) => {
+                        changes.kept.push((slot, w));
+                        old
+                    }
+                    _ => {
+                        let w = WaferId(self.next_id as u32);
+                        self.next_id += 1;
+                        changes.created.push((slot, w));
+                        SlotState::Wafer(w)
+                    }
+                },
+                SlotCode::Absent => SlotState::Empty,
+                SlotCode::Double => SlotState::Fault(SlotFault::Double),
+                SlotCode::Cross => SlotState::Fault(SlotFault::Cross),
+            };
+            if let (SlotState::Wafer(w), false) = (old, *code == SlotCode::Present) {
+                changes.removed.push((slot, w));
+            }
+            if let SlotState::Fault(f) = *state {
+                changes.faults.push((slot, f));
+            }
+        }
+        self.stations[si].slots = slots;
+        Ok(changes)
+    }
+
+    /// Check a transfer against the map and build it with the wafer it moves: GET needs an
+    /// empty hand and a wafer in the slot; PUT a wafer on the hand and an empty slot. Unknown
+    /// and faulty slots are refused, and so is anything while a transfer is pending. Changes
+    /// nothing.
+    pub fn prepare(
+        &self,
+        kind: TransferKind,
+        station: &str,
+        slot: u16,
+    ) -> Result<Transfer, WaferMapError> {
+        self.refuse_if_pending()?;
+        let (si, i) = self.find(station, slot)?;
+        let name = self.stations[si].name;
+        let state = self.stations[si].slots[i];
+        match state {
+            SlotState::Unknown => {
+                return Err(WaferMapError::SlotUnknown {
+                    station: name,
+                    slot,
+                })
+            }
+            SlotState::Fault(fault) => {
+                return Err(WaferMapError::SlotFault {
+                    station: name,
+                    slot,
+                    fault,
+                })
+            }
+            SlotState::Empty | SlotState::Wafer(_) => {}
+        }
+        let wafer = match kind {
+            TransferKind::Get => {
+                if let Some(wafer) = self.hand {
+                    return Err(WaferMapError::HandOccupied { wafer });
+                }
+                match state {
+                    SlotState::Wafer(w) => w,
+                    _ => {
+                        return Err(WaferMapError::SlotEmpty {
+                            station: name,
+                            slot,
+                        })
+                    }
+                }
+            }
+            TransferKind::Put => {
+                let Some(w) = self.hand else {
+                    return Err(WaferMapError::HandEmpty);
+                };
+                if let SlotState::Wafer(wafer) = state {
+                    return Err(WaferMapError::SlotOccupied {
+                        station: name,
+                        slot,
+                        wafer,
+                    });
+                }
+                w
+            }
+        };
+        Ok(Transfer {
+            kind,
+            station: name,
+            slot,
+            wafer,
+        })
+    }
+
+    /// Record `transfer` as pending (save the map before the robot moves). It must pass
+    /// [`WaferMap::prepare`] and name the wafer at its source.
+    pub fn begin(&mut self, transfer: Transfer) -> Result<(), WaferMapError> {
+        let checked = self.prepare(transfer.kind, transfer.station.as_str(), transfer.slot)?;
+        if checked.wafer != transfer.wafer {
+            return Err(WaferMapError::WrongWafer {
+                location: checked.source(),
+                expected: transfer.wafer,
+                found: Some(checked.wafer),
+            });
+        }
+        self.pending = Some(checked);
+        Ok(())
+    }
+
+    /// The pending transfer happened (the vacuum sensor confirmed it): move its wafer to the
+    /// destination (save the map now). Returns the transfer.
+    pub fn commit(&mut self) -> Result<Transfer, WaferMapError> {
+        let t = self.pending.ok_or(WaferMapError::NoPendingTransfer)?;
+        // begin() checked the source and destination, and nothing else may change while a
+        // transfer is pending, so these indices are valid.
+        let (si, i) = self.find(t.station.as_str(), t.slot)?;
+        match t.kind {
+            TransferKind::Get => {
+                self.stations[si].slots[i] = SlotState::Empty;
+                self.hand = Some(t.wafer);
+            }
+            TransferKind::Put => {
+                self.hand = None;
+                self.stations[si].slots[i] = SlotState::Wafer(t.wafer);
+            }
+        }
+        self.pending = None;
+        Ok(t)
+    }
+
+    /// The pending transfer did not happen: the wafer stays at its source. Returns the
+    /// transfer.
+    pub fn abort(&mut self) -> Result<Transfer, WaferMapError> {
+        self.pending.take().ok_or(WaferMapError::NoPendingTransfer)
+    }
+
+    /// At start-up, before any output changes: resolve a pending transfer from whether the
+    /// vacuum sensor senses a wafer on the hand (`hand_has_wafer`), or compare the hand with
+    /// the map. See [`Reconciled`]. Never adds or drops an id.
+    pub fn reconcile(&mut self, hand_has_wafer: bool) -> Reconciled {
+        if let Some(t) = self.pending {
+            let happened = match t.kind {
+                TransferKind::Get => hand_has_wafer,
+                TransferKind::Put => !hand_has_wafer,
+            };
+            if happened {
+                // Cannot fail in a verified map (begin checked the slot); if it did, nothing
+                // moved, so aborting keeps the wafer at its source.
+                if let Ok(t) = self.commit() {
+                    return Reconciled::Committed(t);
+                }
+            }
+            self.pending = None;
+            return Reconciled::Aborted(t);
+        }
+        match (self.hand, hand_has_wafer) {
+            (Some(w), false) => Reconciled::HandWaferNotSensed(w),
+            (None, true) => Reconciled::UnknownWaferOnHand,
+            _ => Reconciled::Consistent,
+        }
+    }
+
+    /// Check the map's rules: station names valid and unique, 1 to 50 slots each, no id
+    /// twice, every id below the next id, and a pending transfer's wafer at its source with
+    /// its destination free.
+    pub fn verify(&self) -> Result<(), WaferMapError> {
+        let bad = |reason: String| Err(WaferMapError::Inconsistent { reason });
+        for (i, s) in self.stations.iter().enumerate() {
+            if self.stations[..i]
+                .iter()
+                .any(|o| same_name(o.name.as_str(), s.name.as_str()))
+            {
+                return bad(format!("station {} is listed twice", s.name));
+            }
+            if s.slots.is_empty() || s.slots.len() > usize::from(MAX_SLOTS) {
+                return bad(format!(
+                    "station {} has {} slots; a station has 1 to {MAX_SLOTS}",
+                    s.name,
+                    s.slots.len()
+                ));
+            }
+        }
+        if self.next_id == 0 || self.next_id > MAX_NEXT_ID {
+            return bad(format!(
+                "next_id {} is not between 1 and {MAX_NEXT_ID}",
+                self.next_id
+            ));
+        }
+        let mut seen: Vec<(WaferId, Location)> = Vec::new();
+        for (at, w) in self.iter() {
+            if let Some((_, first)) = seen.iter().find(|(id, _)| *id == w) {
+                return bad(format!("wafer {w} is both at {first} and at {at}"));
+            }
+            if u64::from(w.0) >= self.next_id {
+                return bad(format!(
+                    "wafer {w} at {at} is not below next_id {}",
+                    self.next_id
+                ));
+            }
+            seen.push((w, at));
+        }
+        if let Some(t) = &self.pending {
+            let state = match self.find(t.station.as_str(), t.slot) {
+                Ok((si, i)) => self.stations[si].slots[i],
+                Err(e) => return bad(format!("the pending transfer {t}: {e}")),
+            };
+            let ok = match t.kind {
+                TransferKind::Get => state == SlotState::Wafer(t.wafer) && self.hand.is_none(),
+                TransferKind::Put => self.hand == Some(t.wafer) && state == SlotState::Empty,
+            };
+            if !ok {
+                return bad(format!(
+                    "the pending transfer {t} does not match the map: its wafer must be at {} and {} must be free",
+                    t.source(),
+                    t.destination()
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The map as wafer-map file text (TOML, see the module docs).
+    pub fn to_text(&self) -> String {
+        let raw = RawMap {
+            version: i64::from(FORMAT_VERSION),
+            next_id: self.next_id as i64,
+            hand: self.hand.map(|w| w.to_string()),
+            pending: self.pending.map(|t| RawPending {
+                kind: match t.kind {
+                    TransferKind::Get => "get".into(),
+                    TransferKind::Put => "put".into(),
+                },
+                station: t.station.to_string(),
+                slot: i64::from(t.slot),
+                wafer: t.wafer.to_string(),
+            }),
+            station: self
+                .stations
+                .iter()
+                .map(|s| RawMapStation {
+                    name: s.name.to_string(),
+                    slots: s.slots.iter().map(|st| file_token(*st)).collect(),
+                })
+                .collect(),
+        };
+        let body = toml::to_string(&raw)
+            .unwrap_or_else(|e| format!("# could not write the wafer map: {e}\n"));
+        format!(
+            "# wrc wafer map: where every wafer is. Written atomically by the controller on \
+             every change;\n# do not edit while it runs. Format: the wrc-cell crate's \
+             wafer_map module.\n{body}"
+        )
+    }
+
+    /// Parse wafer-map file text; `file` names it in errors. Anything unusable — bad TOML,
+    /// an unknown key, a bad token, a broken rule ([`WaferMap::verify`]) — is an error, never
+    /// an empty map.
+    pub fn from_text(text: &str, file: &str) -> Result<WaferMap, WaferMapError> {
+        let corrupt = |reason: String| WaferMapError::Corrupt {
+            file: file.to_string(),
+            reason,
+        };
+        let toml_err = |e: toml::de::Error| corrupt(e.to_string().trim_end().replace('\n', "\n  "));
+        // The version first, so a newer format is named as such rather than as unknown keys.
+        let version: RawVersion = toml::from_str(text).map_err(toml_err)?;
+        match version.version {
+            None => return Err(corrupt("it has no format version (version = 1)".into())),
+            Some(v) if v != i64::from(FORMAT_VERSION) => {
+                return Err(WaferMapError::Version {
+                    file: file.to_string(),
+                    found: v,
+                    supported: FORMAT_VERSION,
+                })
+            }
+            Some(_) => {}
+        }
+        let raw: RawMap = toml::from_str(text).map_err(toml_err)?;
+        let mut map = WaferMap {
+            stations: Vec::with_capacity(raw.station.len()),
+            hand: None,
+            pending: None,
+            next_id: u64::try_from(raw.next_id)
+                .ok()
+                .filter(|n| (1..=MAX_NEXT_ID).contains(n))
+                .ok_or_else(|| {
+                    corrupt(format!(
+                        "next_id = {} is not between 1 and {MAX_NEXT_ID}",
+                        raw.next_id
+                    ))
+                })?,
+        };
+        let wafer = |text: &str, what: &str| {
+            WaferId::parse(text)
+                .ok_or_else(|| corrupt(format!("{what}: {text:?} is not a wafer id like \"W12\"")))
+        };
+        if let Some(h) = &raw.hand {
+            map.hand = Some(wafer(h, "hand")?);
+        }
+        for s in &raw.station {
+            let name = parse_station_name(&s.name).map_err(|e| corrupt(e.to_string()))?;
+            let mut slots = Vec::with_capacity(s.slots.len());
+            for (i, token) in s.slots.iter().enumerate() {
+                let state = parse_file_token(token).ok_or_else(|| {
+                    corrupt(format!(
+                        "station {name} slot {}: {token:?} is not a slot state; expected \"W<n>\", \"-\", \"?\", \"double\" or \"cross\"",
+                        i + 1
+                    ))
+                })?;
+                slots.push(state);
+            }
+            map.stations.push(MapStation { name, slots });
+        }
+        if let Some(p) = &raw.pending {
+            let kind = match p.kind.as_str() {
+                "get" => TransferKind::Get,
+                "put" => TransferKind::Put,
+                other => {
+                    return Err(corrupt(format!(
+                        "pending.kind {other:?} is neither \"get\" nor \"put\""
+                    )))
+                }
+            };
+            let station = parse_station_name(&p.station).map_err(|e| corrupt(e.to_string()))?;
+            let slot = u16::try_from(p.slot)
+                .map_err(|_| corrupt(format!("pending.slot {} is not a slot number", p.slot)))?;
+            map.pending = Some(Transfer {
+                kind,
+                station,
+                slot,
+                wafer: wafer(&p.wafer, "pending.wafer")?,
+            });
+        }
+        map.verify().map_err(|e| match e {
+            WaferMapError::Inconsistent { reason } => corrupt(reason),
+            other => other,
+        })?;
+        Ok(map)
+    }
+
+    /// Write [`WaferMap::to_text`] to `path` atomically: `path.tmp` in the same directory,
+    /// fsync, rename over `path`, fsync the directory. A crash leaves the old or the new map.
+    pub fn save_atomic(&self, path: &Path) -> Result<(), WaferMapError> {
+        write_atomic(path, self.to_text().as_bytes()).map_err(|source| WaferMapError::Write {
+            file: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// Read the map saved at `path`. A missing file is an empty map without stations
+    /// ([`WaferMap::default`]; follow with [`WaferMap::adopt_stations`]); an unreadable or
+    /// corrupt file is an error, never an empty map. A leftover `path.tmp` is ignored.
+    pub fn load(path: &Path) -> Result<WaferMap, WaferMapError> {
+        let file = path.display().to_string();
+        match std::fs::read_to_string(path) {
+            Ok(text) => WaferMap::from_text(&text, &file),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(WaferMap::default()),
+            Err(source) => Err(WaferMapError::Read { file, source }),
+        }
+    }
+
+    /// The `WAFERS` reply body on one line (format in the module docs), e.g.
+    /// `hand=- LP1=W1..W25 LP2=-*25 AL=- PM1=? PM2=W26`.
+    pub fn wafers_line(&self) -> String {
+        self.wafers_lines().join(" ")
+    }
+
+    /// The `WAFERS` content as one item per place group: `hand=…`, then `<STN>=…` per
+    /// station, then `pending=<kind>:<STN>.<slot>:<id>` while a transfer is pending (kind
+    /// `get` or `put`). Each is at most `len(name) + 1 + 50 · 12` bytes.
+    pub fn wafers_lines(&self) -> Vec<String> {
+        let mut lines = Vec::with_capacity(self.stations.len() + 2);
+        lines.push(format!(
+            "hand={}",
+            self.hand.map_or_else(|| "-".to_string(), |w| w.to_string())
+        ));
+        for s in &self.stations {
+            lines.push(format!("{}={}", s.name, compact_slots(&s.slots)));
+        }
+        if let Some(t) = &self.pending {
+            let kind = match t.kind {
+                TransferKind::Get => "get",
+                TransferKind::Put => "put",
+            };
+            lines.push(format!(
+                "pending={kind}:{}.{}:{}",
+                t.station, t.slot, t.wafer
+            ));
+        }
+        lines
+    }
+}
+
+/// The `WAFERS` token of a slot state.
+fn line_token(state: SlotState) -> String {
+    match state {
+        SlotState::Unknown => "?".into(),
+        SlotState::Empty => "-".into(),
+        SlotState::Wafer(w) => w.to_string(),
+        SlotState::Fault(SlotFault::Double) => "D".into(),
+        SlotState::Fault(SlotFault::Cross) => "X".into(),
+    }
+}
+
+/// Slots, comma-separated, with rising-id runs `Wa..Wb` (3 or more) and repeats `t*n`.
+fn compact_slots(slots: &[SlotState]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < slots.len() {
+        let mut j = i + 1;
+        if let SlotState::Wafer(first) = slots[i] {
+            while j < slots.len() {
+                match (slots[j], first.0.checked_add((j - i) as u32)) {
+                    (SlotState::Wafer(w), Some(next)) if w.0 == next => j += 1,
+                    _ => break,
+                }
+            }
+            if j - i >= 3 {
+                parts.push(format!("{first}..W{}", first.0 + (j - i - 1) as u32));
+            } else {
+                j = i + 1;
+                parts.push(first.to_string());
+            }
+        } else {
+            while j < slots.len() && slots[j] == slots[i] {
+                j += 1;
+            }
+            let token = line_token(slots[i]);
+            if j - i >= 2 {
+                parts.push(format!("{token}*{}", j - i));
+            } else {
+                parts.push(token);
+            }
+        }
+        i = j;
+    }
+    parts.join(",")
+}
+
+fn file_token(state: SlotState) -> String {
+    match state {
+        SlotState::Unknown => "?".into(),
+        SlotState::Empty => "-".into(),
+        SlotState::Wafer(w) => w.to_string(),
+        SlotState::Fault(SlotFault::Double) => "double".into(),
+        SlotState::Fault(SlotFault::Cross) => "cross".into(),
+    }
+}
+
+fn parse_file_token(token: &str) -> Option<SlotState> {
+    match token {
+        "?" => Some(SlotState::Unknown),
+        "-" => Some(SlotState::Empty),
+        "double" => Some(SlotState::Fault(SlotFault::Double)),
+        "cross" => Some(SlotState::Fault(SlotFault::Cross)),
+        other => WaferId::parse(other).map(SlotState::Wafer),
+    }
+}
+
+#[derive(Debug, Deserialize)]
+struct RawVersion {
+    version: Option<i64>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMap {
+    version: i64,
+    next_id: i64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    hand: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pending: Option<RawPending>,
+    #[serde(default)]
+    station: Vec<RawMapStation>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPending {
+    kind: String,
+    station: String,
+    slot: i64,
+    wafer: String,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMapStation {
+    name: String,
+    slots: Vec<String>,
+}
+
+#[cfg(test)]
+mod tests;

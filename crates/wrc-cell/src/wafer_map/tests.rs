@@ -1,0 +1,735 @@
+use super::*;
+use crate::station::parse_station_name;
+use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
+
+fn demo() -> Stations {
+    Stations::embedded_demo()
+}
+
+fn name(s: &str) -> StationName {
+    parse_station_name(s).unwrap()
+}
+
+fn at(station: &str, slot: u16) -> Location {
+    Location::Slot {
+        station: name(station),
+        slot,
+    }
+}
+
+/// The demo map with LP1 full (W1..W25) and every other station mapped empty.
+fn mapped() -> WaferMap {
+    let mut map = WaferMap::new(&demo());
+    map.apply_mapping("LP1", &[SlotCode::Present; 25]).unwrap();
+    map.apply_mapping("LP2", &[SlotCode::Absent; 25]).unwrap();
+    for s in ["AL", "PM1", "PM2"] {
+        map.apply_mapping(s, &[SlotCode::Absent]).unwrap();
+    }
+    map
+}
+
+fn ids(map: &WaferMap) -> Vec<WaferId> {
+    let mut v: Vec<WaferId> = map.iter().map(|(_, w)| w).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn wafer_ids_read_and_print() {
+    assert_eq!(WaferId::parse("W12"), Some(WaferId(12)));
+    assert_eq!(WaferId::parse("w7"), Some(WaferId(7)));
+    for bad in ["", "W", "12", "W-1", "W+1", "W1x", "W99999999999", "X1"] {
+        assert_eq!(WaferId::parse(bad), None, "{bad}");
+    }
+    assert_eq!(WaferId(3).to_string(), "W3");
+    assert_eq!(at("LP1", 3).to_string(), "LP1.3");
+    assert_eq!(Location::Hand.to_string(), "hand");
+}
+
+#[test]
+fn a_new_map_knows_nothing_and_refuses_transfers() {
+    let map = WaferMap::new(&demo());
+    assert!(map.is_empty());
+    assert_eq!(map.slot("LP1", 1).unwrap(), SlotState::Unknown);
+    let e = map.prepare(TransferKind::Get, "LP1", 1).unwrap_err();
+    assert!(matches!(e, WaferMapError::SlotUnknown { slot: 1, .. }));
+    assert!(e.to_string().contains("MAP LP1"), "{e}");
+    assert!(map.prepare(TransferKind::Put, "PM1", 1).is_err());
+    assert_eq!(
+        map.wafers_line(),
+        "hand=- LP1=?*25 LP2=?*25 AL=? PM1=? PM2=?"
+    );
+}
+
+#[test]
+fn mapping_gives_ids_keeps_known_ones_and_reports_changes() {
+    let mut map = mapped();
+    assert_eq!(map.len(), 25);
+    assert_eq!(map.wafer_at(&at("LP1", 25)), Some(WaferId(25)));
+    assert_eq!(map.location_of(WaferId(4)), Some(at("LP1", 4)));
+
+    // Re-map with slot 2 empty, slot 3 double, slot 4 cross: W1, W5.. kept; W2, W3, W4 gone.
+    let mut codes = vec![SlotCode::Present; 25];
+    codes[1] = SlotCode::Absent;
+    codes[2] = SlotCode::Double;
+    codes[3] = SlotCode::Cross;
+    let changes = map.apply_mapping("lp1", &codes).unwrap();
+    assert!(changes.created.is_empty());
+    assert_eq!(changes.kept.len(), 22);
+    assert_eq!(
+        changes.removed,
+        [(2, WaferId(2)), (3, WaferId(3)), (4, WaferId(4))]
+    );
+    assert_eq!(
+        changes.faults,
+        [(3, SlotFault::Double), (4, SlotFault::Cross)]
+    );
+    assert_eq!(
+        map.slot("LP1", 3).unwrap(),
+        SlotState::Fault(SlotFault::Double)
+    );
+
+    // Present again where it was empty: a new id, never a reused one.
+    let changes = map.apply_mapping("LP1", &[SlotCode::Present; 25]).unwrap();
+    assert_eq!(
+        changes.created,
+        [(2, WaferId(26)), (3, WaferId(27)), (4, WaferId(28))]
+    );
+    map.verify().unwrap();
+
+    let e = map
+        .apply_mapping("LP1", &[SlotCode::Present; 24])
+        .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("25 slots but the mapping reported 24"),
+        "{e}"
+    );
+    assert!(matches!(
+        map.apply_mapping("LP9", &[]),
+        Err(WaferMapError::NoSuchStation { .. })
+    ));
+}
+
+#[test]
+fn get_then_put_moves_the_wafer_in_two_phases() {
+    let mut map = mapped();
+    let get = map.prepare(TransferKind::Get, "lp1", 5).unwrap();
+    assert_eq!(get.wafer, WaferId(5));
+    assert_eq!(get.station.as_str(), "LP1");
+    map.begin(get).unwrap();
+    // Until commit the wafer is still at its source.
+    assert_eq!(map.wafer_at(&at("LP1", 5)), Some(WaferId(5)));
+    assert_eq!(map.hand(), None);
+    assert_eq!(map.pending(), Some(&get));
+    assert!(map.wafers_line().ends_with(" pending=get:LP1.5:W5"));
+    assert_eq!(map.commit().unwrap(), get);
+    assert_eq!(map.hand(), Some(WaferId(5)));
+    assert_eq!(map.slot("LP1", 5).unwrap(), SlotState::Empty);
+
+    let put = map.prepare(TransferKind::Put, "PM2", 1).unwrap();
+    map.begin(put).unwrap();
+    assert_eq!(map.abort().unwrap(), put);
+    assert_eq!(map.hand(), Some(WaferId(5)));
+    map.begin(put).unwrap();
+    map.commit().unwrap();
+    assert_eq!(map.wafer_at(&at("PM2", 1)), Some(WaferId(5)));
+    assert_eq!(map.hand(), None);
+    assert_eq!(
+        map.wafers_line(),
+        "hand=- LP1=W1..W4,-,W6..W25 LP2=-*25 AL=- PM1=- PM2=W5"
+    );
+    map.verify().unwrap();
+}
+
+#[test]
+fn every_refusal_leaves_the_map_unchanged() {
+    let mut map = mapped();
+    let check =
+        |map: &mut WaferMap, f: &dyn Fn(&mut WaferMap) -> Result<(), WaferMapError>, want: &str| {
+            let before = map.clone();
+            let e = f(map).unwrap_err();
+            assert_eq!(*map, before, "{e}");
+            let msg = e.to_string();
+            assert!(msg.contains(want), "{msg} lacks {want}");
+        };
+    let get = |st: &'static str, slot: u16| {
+        move |m: &mut WaferMap| m.prepare(TransferKind::Get, st, slot).map(|_| ())
+    };
+    let put = |st: &'static str, slot: u16| {
+        move |m: &mut WaferMap| m.prepare(TransferKind::Put, st, slot).map(|_| ())
+    };
+    check(
+        &mut map,
+        &get("LP2", 1),
+        "no GET from LP2 slot 1: the wafer map says it is empty",
+    );
+    check(
+        &mut map,
+        &put("PM1", 1),
+        "no PUT: the wafer map says the hand holds no wafer",
+    );
+    check(&mut map, &get("LP7", 1), "no station named \"LP7\"");
+    check(&mut map, &get("LP1", 26), "LP1 has no slot 26");
+    check(&mut map, &get("LP1", 0), "has no slot 0");
+    check(
+        &mut map,
+        &|m| m.commit().map(|_| ()),
+        "no transfer is pending",
+    );
+    check(
+        &mut map,
+        &|m| m.abort().map(|_| ()),
+        "no transfer is pending",
+    );
+    let wrong = Transfer {
+        kind: TransferKind::Get,
+        station: name("LP1"),
+        slot: 1,
+        wafer: WaferId(2),
+    };
+    check(
+        &mut map,
+        &move |m| m.begin(wrong),
+        "names wafer W2, but LP1.1 holds W1",
+    );
+
+    // A wafer on the hand: no GET, and no PUT into an occupied slot.
+    let t = map.prepare(TransferKind::Get, "LP1", 1).unwrap();
+    map.begin(t).unwrap();
+    check(
+        &mut map,
+        &get("LP1", 2),
+        "transfer GET LP1 1 (W1) is still pending",
+    );
+    check(
+        &mut map,
+        &|m| m.place(Location::Hand, WaferId(99)),
+        "still pending",
+    );
+    check(
+        &mut map,
+        &|m| m.remove(Location::Hand).map(|_| ()),
+        "still pending",
+    );
+    check(
+        &mut map,
+        &|m| m.apply_mapping("LP2", &[SlotCode::Absent; 25]).map(|_| ()),
+        "still pending",
+    );
+    map.commit().unwrap();
+    check(&mut map, &get("LP1", 2), "the hand already holds wafer W1");
+    check(
+        &mut map,
+        &put("LP1", 2),
+        "LP1 slot 2 already holds wafer W2",
+    );
+
+    // Faulty and unknown slots.
+    let mut codes = vec![SlotCode::Absent; 25];
+    codes[0] = SlotCode::Double;
+    codes[1] = SlotCode::Cross;
+    map.apply_mapping("LP2", &codes).unwrap();
+    check(&mut map, &put("LP2", 1), "LP2 slot 1 has a double wafer");
+    check(&mut map, &put("LP2", 2), "cross-slotted");
+    let mut fresh = WaferMap::new(&demo());
+    check(&mut fresh, &put("PM1", 1), "has not been mapped");
+
+    // Place and remove.
+    check(
+        &mut map,
+        &|m| m.place(at("LP2", 3), WaferId(2)),
+        "wafer W2 is already in the map, at LP1.2",
+    );
+    check(
+        &mut map,
+        &|m| m.place(at("LP1", 3), WaferId(90)),
+        "LP1 slot 3 already holds wafer W3",
+    );
+    check(
+        &mut map,
+        &|m| m.place(Location::Hand, WaferId(90)),
+        "the hand already holds wafer W1",
+    );
+    check(&mut map, &|m| m.place(at("LP2", 1), WaferId(90)), "double");
+    check(
+        &mut map,
+        &|m| m.remove(at("LP2", 5)).map(|_| ()),
+        "LP2.5 holds no wafer",
+    );
+    check(
+        &mut map,
+        &|m| m.remove(at("LP2", 1)).map(|_| ()),
+        "holds no wafer",
+    );
+}
+
+#[test]
+fn place_and_remove_keep_ids_unique_and_fresh() {
+    let mut map = mapped();
+    map.place(at("PM1", 1), WaferId(100)).unwrap();
+    assert_eq!(map.new_id().unwrap(), WaferId(101));
+    assert_eq!(map.remove(at("PM1", 1)).unwrap(), WaferId(100));
+    assert_eq!(map.slot("PM1", 1).unwrap(), SlotState::Empty);
+    // Placing into an unknown slot makes it known.
+    let mut fresh = WaferMap::new(&demo());
+    fresh.place(at("AL", 1), WaferId(1)).unwrap();
+    assert_eq!(fresh.slot("AL", 1).unwrap(), SlotState::Wafer(WaferId(1)));
+    fresh.place(Location::Hand, WaferId(u32::MAX)).unwrap();
+    assert!(matches!(fresh.new_id(), Err(WaferMapError::IdsExhausted)));
+    assert!(matches!(
+        fresh.apply_mapping("PM1", &[SlotCode::Present]),
+        Err(WaferMapError::IdsExhausted)
+    ));
+    fresh.verify().unwrap();
+    assert_eq!(WaferMap::from_text(&fresh.to_text(), "m").unwrap(), fresh);
+}
+
+#[test]
+fn reconcile_resolves_a_pending_transfer_from_the_vacuum_sensor() {
+    let base = mapped();
+    let get = base.prepare(TransferKind::Get, "LP1", 7).unwrap();
+
+    let mut m = base.clone();
+    m.begin(get).unwrap();
+    assert_eq!(m.reconcile(true), Reconciled::Committed(get));
+    assert_eq!(m.hand(), Some(WaferId(7)));
+
+    let mut m = base.clone();
+    m.begin(get).unwrap();
+    assert_eq!(m.reconcile(false), Reconciled::Aborted(get));
+    assert_eq!(m, base);
+
+    let mut holding = base.clone();
+    holding.begin(get).unwrap();
+    holding.commit().unwrap();
+    let put = holding.prepare(TransferKind::Put, "AL", 1).unwrap();
+
+    let mut m = holding.clone();
+    m.begin(put).unwrap();
+    assert_eq!(m.reconcile(true), Reconciled::Aborted(put));
+    assert_eq!(m, holding);
+
+    let mut m = holding.clone();
+    m.begin(put).unwrap();
+    let r = m.reconcile(false);
+    assert_eq!(r, Reconciled::Committed(put));
+    assert!(r.is_consistent());
+    assert_eq!(m.wafer_at(&at("AL", 1)), Some(WaferId(7)));
+
+    // Nothing pending: compare the hand.
+    let mut m = base.clone();
+    assert_eq!(m.reconcile(false), Reconciled::Consistent);
+    assert_eq!(m.reconcile(true), Reconciled::UnknownWaferOnHand);
+    let mut m = holding.clone();
+    assert_eq!(m.reconcile(true), Reconciled::Consistent);
+    let r = m.reconcile(false);
+    assert_eq!(r, Reconciled::HandWaferNotSensed(WaferId(7)));
+    assert!(!r.is_consistent());
+    assert_eq!(m, holding);
+}
+
+#[test]
+fn adopting_changed_stations_never_drops_a_wafer() {
+    let mut map = mapped();
+    let mut stations = demo();
+    // A new station appears unknown; renaming case follows the file.
+    let mut bf = stations.get("AL").unwrap().clone();
+    bf.name = name("BUF");
+    bf.kind = crate::StationKind::Buffer;
+    let mut list = stations.as_slice().to_vec();
+    list.push(bf);
+    list[3].name = name("pm1");
+    stations = Stations::from_list(list.clone()).unwrap();
+    map.adopt_stations(&stations).unwrap();
+    assert_eq!(map.slot("BUF", 1).unwrap(), SlotState::Unknown);
+    assert_eq!(map.station_names().nth(3).unwrap().as_str(), "pm1");
+
+    // LP1 shrinking to 20 slots would drop W21..W25: refused, nothing changes.
+    let before = map.clone();
+    let mut shrunk = list.clone();
+    shrunk[0].slots = 20;
+    shrunk[0].sim = None;
+    let e = map
+        .adopt_stations(&Stations::from_list(shrunk).unwrap())
+        .unwrap_err();
+    assert!(e.to_string().contains("LP1.21 holds wafer W21"), "{e}");
+    assert_eq!(map, before);
+
+    // Removing LP1 entirely: refused too. Removing the empty LP2: fine.
+    let without_lp1 = Stations::from_list(list[1..].to_vec()).unwrap();
+    assert!(map.adopt_stations(&without_lp1).is_err());
+    let mut without_lp2 = list.clone();
+    without_lp2.remove(1);
+    map.adopt_stations(&Stations::from_list(without_lp2.clone()).unwrap())
+        .unwrap();
+    assert!(map.slots("LP2").is_none());
+
+    // A pending transfer's slot cannot go away, even when it is empty (a PUT).
+    let t = map.prepare(TransferKind::Get, "LP1", 1).unwrap();
+    map.begin(t).unwrap();
+    map.commit().unwrap();
+    map.apply_mapping("BUF", &[SlotCode::Absent]).unwrap();
+    let put = map.prepare(TransferKind::Put, "BUF", 1).unwrap();
+    map.begin(put).unwrap();
+    let mut no_buf = without_lp2.clone();
+    no_buf.pop();
+    let e = map
+        .adopt_stations(&Stations::from_list(no_buf).unwrap())
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("BUF.1 holds the pending transfer"),
+        "{e}"
+    );
+    map.verify().unwrap();
+}
+
+#[test]
+fn the_text_form_round_trips_and_names_its_version() {
+    let mut map = mapped();
+    let t = map.prepare(TransferKind::Get, "LP1", 2).unwrap();
+    map.begin(t).unwrap();
+    let text = map.to_text();
+    assert!(
+        text.contains("version = 1") && text.contains("[pending]"),
+        "{text}"
+    );
+    assert_eq!(WaferMap::from_text(&text, "m.toml").unwrap(), map);
+    map.commit().unwrap();
+    let text = map.to_text();
+    assert!(
+        text.contains("hand = \"W2\"") && !text.contains("[pending]"),
+        "{text}"
+    );
+    assert_eq!(WaferMap::from_text(&text, "m.toml").unwrap(), map);
+    let empty = WaferMap::default();
+    assert_eq!(WaferMap::from_text(&empty.to_text(), "m").unwrap(), empty);
+}
+
+#[test]
+fn corrupt_files_are_errors_never_an_empty_map() {
+    let good = {
+        let mut m = mapped();
+        let t = m.prepare(TransferKind::Get, "LP1", 1).unwrap();
+        m.begin(t).unwrap();
+        m.to_text()
+    };
+    let bad = |text: &str, want: &str| {
+        let e = WaferMap::from_text(text, "wafers.toml").unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("wafers.toml") && msg.contains(want),
+            "{msg} lacks {want}"
+        );
+    };
+    let with = |from: &str, to: &str| {
+        assert!(good.contains(from), "{from}");
+        good.replacen(from, to, 1)
+    };
+    bad("", "no format version");
+    bad(
+        "version = 2\nwhatever = 1\n",
+        "format version 2; this wrc reads version 1",
+    );
+    bad("version = \"one\"", "version");
+    bad("version = 1\nnext_id = 1\n[[station]\n", "line 3");
+    bad(&with("next_id = 26", "next_id = 26\ncolour = 1"), "colour");
+    bad(&with("next_id = 26", "next_id = 0"), "next_id = 0");
+    bad(
+        &with("next_id = 26", "next_id = 25"),
+        "wafer W25 at LP1.25 is not below next_id 25",
+    );
+    bad(
+        &with("\"W3\"", "\"W2\""),
+        "wafer W2 is both at LP1.2 and at LP1.3",
+    );
+    bad(
+        &with("\"W3\"", "\"three\""),
+        "station LP1 slot 3: \"three\" is not a slot state",
+    );
+    bad(
+        &with("kind = \"get\"", "kind = \"grab\""),
+        "pending.kind \"grab\"",
+    );
+    bad(
+        &with("wafer = \"W1\"", "wafer = \"W2\""),
+        "the pending transfer GET LP1 1 (W2) does not match the map",
+    );
+    bad(&with("slot = 1", "slot = 70000"), "pending.slot 70000");
+    bad(&with("slot = 1", "slot = 40"), "LP1 has no slot 40");
+    bad(
+        &with("name = \"LP2\"", "name = \"lp1\""),
+        "station lp1 is listed twice",
+    );
+    bad(
+        &with("name = \"AL\"", "name = \"A L\""),
+        "not a usable station name",
+    );
+    bad(
+        &with("next_id = 26", "next_id = 26\nhand = \"W1\""),
+        "wafer W1 is both at LP1.1 and at hand",
+    );
+    bad(
+        &with("next_id = 26", "next_id = 26\nhand = \"nobody\""),
+        "hand: \"nobody\"",
+    );
+    bad(
+        "version = 1\nnext_id = 1\n[[station]]\nname = \"A\"\nslots = []\n",
+        "station A has 0 slots",
+    );
+}
+
+#[test]
+fn load_and_save() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wafers.toml");
+    // Missing file: an empty map, ready to adopt the stations.
+    let mut map = WaferMap::load(&path).unwrap();
+    assert_eq!(map, WaferMap::default());
+    map.adopt_stations(&demo()).unwrap();
+    assert_eq!(map, WaferMap::new(&demo()));
+    let map = mapped();
+    map.save_atomic(&path).unwrap();
+    assert_eq!(WaferMap::load(&path).unwrap(), map);
+    assert!(!dir.path().join("wafers.toml.tmp").exists());
+    // A truncated file (as a non-atomic write could leave) is an error.
+    let text = map.to_text();
+    std::fs::write(&path, &text[..text.len() / 2]).unwrap();
+    assert!(matches!(
+        WaferMap::load(&path),
+        Err(WaferMapError::Corrupt { .. })
+    ));
+    // Unreadable: a directory.
+    let e = WaferMap::load(dir.path()).unwrap_err();
+    assert!(matches!(e, WaferMapError::Read { .. }), "{e}");
+    let e = map
+        .save_atomic(&dir.path().join("no/such/dir.toml"))
+        .unwrap_err();
+    assert!(e.to_string().contains("previous file is unchanged"), "{e}");
+}
+
+#[test]
+fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
+    let s = |v: &[SlotState]| compact_slots(v);
+    let w = |n| SlotState::Wafer(WaferId(n));
+    assert_eq!(s(&[w(1), w(2)]), "W1,W2");
+    assert_eq!(s(&[w(1), w(2), w(3)]), "W1..W3");
+    assert_eq!(s(&[w(3), w(2), w(1)]), "W3,W2,W1");
+    assert_eq!(
+        s(&[w(1), w(2), w(3), w(5), w(6), w(7), w(8)]),
+        "W1..W3,W5..W8"
+    );
+    assert_eq!(
+        s(&[
+            SlotState::Empty,
+            SlotState::Empty,
+            SlotState::Unknown,
+            SlotState::Fault(SlotFault::Double),
+            SlotState::Fault(SlotFault::Double),
+            SlotState::Fault(SlotFault::Cross)
+        ]),
+        "-*2,?,D*2,X"
+    );
+    assert_eq!(
+        s(&[w(u32::MAX - 1), w(u32::MAX), w(0)]),
+        "W4294967294,W4294967295,W0"
+    );
+
+    // Worst case for the demo cell: every place full, no run compresses, 5-digit ids, plus
+    // the longest pending transfer: within the documented 427 bytes.
+    let mut map = WaferMap::new(&demo());
+    let mut next = 10_000u32;
+    for st in ["LP1", "LP2", "AL", "PM1", "PM2"] {
+        for slot in 1..=map.slots(st).unwrap().len() as u16 {
+            map.place(at(st, slot), WaferId(next)).unwrap();
+            next += 2;
+        }
+    }
+    let full = map.wafers_line();
+    assert!(full.len() <= 427 - 26, "{} bytes: {full}", full.len());
+    map.remove(at("LP2", 25)).unwrap();
+    map.place(Location::Hand, WaferId(99_999)).unwrap();
+    let put = map.prepare(TransferKind::Put, "LP2", 25).unwrap();
+    map.begin(put).unwrap();
+    let line = map.wafers_line();
+    assert!(line.len() <= 427, "{} bytes: {line}", line.len());
+    assert!(line.ends_with(" pending=put:LP2.25:W99999"), "{line}");
+    let lines = map.wafers_lines();
+    assert_eq!(lines.len(), 7);
+    assert_eq!(lines.join(" "), line);
+}
+
+// ---- property tests -------------------------------------------------------------------
+
+#[derive(Debug, Clone)]
+enum Op {
+    /// GET (true) or PUT from/to the n-th station, slot chosen modulo its slot count.
+    Begin(bool, usize, u16),
+    /// GET from the n-th occupied slot or PUT into the n-th empty one: likely to succeed.
+    BeginValid(usize),
+    Commit,
+    Abort,
+    Reconcile(bool),
+    /// Save the map (atomically: the whole text).
+    Save,
+    /// Kill -9: only the last saved text survives; changes since are gone.
+    Crash,
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    prop_oneof![
+        (any::<bool>(), 0usize..5, 1u16..30).prop_map(|(g, s, n)| Op::Begin(g, s, n)),
+        (0usize..60).prop_map(Op::BeginValid),
+        Just(Op::Commit),
+        Just(Op::Abort),
+        any::<bool>().prop_map(Op::Reconcile),
+        Just(Op::Save),
+        Just(Op::Crash),
+    ]
+}
+
+fn codes(n: usize) -> impl Strategy<Value = Vec<SlotCode>> {
+    proptest::collection::vec(
+        prop_oneof![
+            4 => Just(SlotCode::Present),
+            4 => Just(SlotCode::Absent),
+            1 => Just(SlotCode::Double),
+            1 => Just(SlotCode::Cross),
+        ],
+        n,
+    )
+}
+
+fn names() -> [&'static str; 5] {
+    ["LP1", "LP2", "AL", "PM1", "PM2"]
+}
+
+fn seeded(cases: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        rng_seed: RngSeed::Fixed(0x8_2024),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(seeded(256))]
+
+    /// Over any sequence of begin/commit/abort/reconcile, saves and crashes (the map is
+    /// rebuilt from its last saved text, losing what was not saved), the set of ids never changes: no id lost, none duplicated;
+    /// a refused operation changes nothing; the saved text always reads back.
+    #[test]
+    fn transfers_and_crashes_never_lose_or_duplicate_a_wafer(
+        lp1 in codes(25), lp2 in codes(25), singles in codes(3),
+        ops in proptest::collection::vec(op(), 1..80),
+    ) {
+        let stations = demo();
+        let mut map = WaferMap::new(&stations);
+        map.apply_mapping("LP1", &lp1).unwrap();
+        map.apply_mapping("LP2", &lp2).unwrap();
+        for (s, c) in ["AL", "PM1", "PM2"].into_iter().zip(&singles) {
+            map.apply_mapping(s, &[*c]).unwrap();
+        }
+        let initial = ids(&map);
+        let mut saved = map.to_text();
+        for op in ops {
+            let before = map.clone();
+            let result: Result<(), WaferMapError> = match op {
+                Op::Begin(get, s, n) => {
+                    let st = names()[s];
+                    let slots = map.slots(st).unwrap().len() as u16;
+                    let kind = if get { TransferKind::Get } else { TransferKind::Put };
+                    map.prepare(kind, st, (n - 1) % slots + 1).and_then(|t| map.begin(t))
+                }
+                Op::BeginValid(n) => {
+                    let want = if map.hand().is_some() { SlotState::Empty } else { SlotState::Wafer(WaferId(0)) };
+                    let places: Vec<(StationName, u16)> = map.station_names().flat_map(|st| {
+                        map.slots(st.as_str()).unwrap().iter().enumerate().filter(|(_, s)| match (s, want) {
+                            (SlotState::Wafer(_), SlotState::Wafer(_)) => true,
+                            (a, b) => **a == b,
+                        }).map(move |(i, _)| (st, i as u16 + 1)).collect::<Vec<_>>()
+                    }).collect();
+                    if places.is_empty() {
+                        Ok(())
+                    } else {
+                        let (st, slot) = places[n % places.len()];
+                        let kind = if map.hand().is_some() { TransferKind::Put } else { TransferKind::Get };
+                        map.prepare(kind, st.as_str(), slot).and_then(|t| map.begin(t))
+                    }
+                }
+                Op::Commit => map.commit().map(|_| ()),
+                Op::Abort => map.abort().map(|_| ()),
+                Op::Reconcile(sensed) => {
+                    let r = map.reconcile(sensed);
+                    if let Reconciled::Committed(t) = r {
+                        prop_assert_eq!(map.wafer_at(&t.destination()), Some(t.wafer));
+                    }
+                    if let Reconciled::Aborted(t) = r {
+                        prop_assert_eq!(map.wafer_at(&t.source()), Some(t.wafer));
+                    }
+                    Ok(())
+                }
+                Op::Save => {
+                    saved = map.to_text();
+                    Ok(())
+                }
+                Op::Crash => {
+                    map = WaferMap::from_text(&saved, "wafers.toml").unwrap();
+                    Ok(())
+                }
+            };
+            if result.is_err() {
+                prop_assert_eq!(&map, &before);
+            }
+            prop_assert_eq!(&WaferMap::from_text(&map.to_text(), "wafers.toml").unwrap(), &map);
+            map.verify().unwrap();
+            prop_assert_eq!(ids(&map), initial.clone());
+        }
+    }
+
+    /// Mapping, placing and removing on top of transfers: the map's rules always hold and
+    /// ids are never reused.
+    #[test]
+    fn every_operation_keeps_the_rules(
+        ops in proptest::collection::vec((0u8..7, 0usize..5, 1u16..30, codes(25)), 1..60),
+    ) {
+        let stations = demo();
+        let mut map = WaferMap::new(&stations);
+        let mut ever: Vec<WaferId> = Vec::new();
+        for (kind, s, n, codes) in ops {
+            let st = names()[s];
+            let slots = map.slots(st).unwrap().len();
+            let slot = (n - 1) % slots as u16 + 1;
+            let before = map.clone();
+            let result = match kind {
+                0 => map.apply_mapping(st, &codes[..slots]).map(|_| ()),
+                1 => map.new_id().and_then(|id| map.place(at(st, slot), id)),
+                2 => map.remove(at(st, slot)).map(|_| ()),
+                3 => map.prepare(TransferKind::Get, st, slot).and_then(|t| map.begin(t)),
+                4 => map.prepare(TransferKind::Put, st, slot).and_then(|t| map.begin(t)),
+                5 => map.commit().map(|_| ()),
+                _ => { map.reconcile(n % 2 == 0); Ok(()) }
+            };
+            if result.is_err() && kind != 1 {
+                prop_assert_eq!(&map, &before);
+            }
+            map.verify().unwrap();
+            for (_, w) in map.iter() {
+                if !ever.contains(&w) {
+                    // A new id is above every id ever seen.
+                    prop_assert!(ever.iter().all(|e| *e < w), "{} reused", w);
+                    ever.push(w);
+                }
+            }
+            prop_assert_eq!(WaferMap::from_text(&map.to_text(), "m").unwrap(), map.clone());
+        }
+    }
+
+    /// Arbitrary text never panics the parser.
+    #[test]
+    fn any_text_parses_or_errs(text in "\\PC{0,200}") {
+        let _ = WaferMap::from_text(&text, "m");
+    }
+}

@@ -1,0 +1,701 @@
+//! The simulated physical cell — the ground truth the simulated board keeps: which wafers
+//! lie in which station slots (flat, double or cross-slotted), whether one is on the hand,
+//! and what happens to them as the hand moves and the vacuum switches.
+//!
+//! The board calls [`World::step`] with the hand's pose (forward kinematics of its axes)
+//! and the vacuum valve every period; [`World::step`] does not allocate except to record a
+//! lost wafer. The model:
+//!
+//! * The hand is *seated* at a station when its x, y are within [`SEAT_TOLERANCE_MM`] of the
+//!   taught x, y and its yaw within [`SEAT_TOLERANCE_DEG`] of the taught yaw.
+//! * **Pick**: seated, the hand rises through a slot's support height (z of the previous
+//!   step below it, z now at or above it) with the vacuum on, the hand empty and one wafer
+//!   flat in the slot: the wafer goes onto the hand. With the vacuum off the wafer is not
+//!   taken ([`WorldEvent::UnclampedLift`], a fault); rising into a double or cross-slotted
+//!   slot, or into a wafer while carrying one, is a [`WorldEvent::Collision`] (a fault, the
+//!   wafers stay).
+//! * **Release**: whenever the vacuum is off while a wafer is on the hand, the wafer leaves
+//!   it. Seated, at most one stroke above a slot's support height, it drops onto that slot
+//!   ([`WorldEvent::Placed`]; onto a wafer already there it makes a double,
+//!   [`WorldEvent::Stacked`], a fault). Anywhere else it is lost ([`WorldEvent::Lost`], a
+//!   fault, counted): a wafer lost in motion.
+//! * The vacuum sensor ([`World::vacuum_sensor`]) is on when a wafer is on the hand and the
+//!   vacuum is on (no delay here; the board adds its own).
+//! * The mapping sensor ([`World::map_station`]) reports each slot's [`SlotCode`].
+//!
+//! # Identity: comparing the controller's map with the world
+//!
+//! Physical wafers carry a *tag* (a number given when the world is created, in station and
+//! slot order from 1; a double slot holds two). The controller never sees tags: it gives its
+//! own [`WaferId`]s when it maps. A test relates the two with [`Tracking`]: the first time
+//! an id and a tag are seen at the same place they are bound one to one; from then on the
+//! id must always be where that tag is. [`Tracking::check`] compares every place (each slot
+//! and the hand) — occupancy, faults and identity — and returns the mismatches. Compare
+//! after [`crate::WaferMap::reconcile`]: a pending transfer is itself reported.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+use wrc_robot::Pose;
+
+use crate::mapping::SlotCode;
+use crate::num::wrap180;
+use crate::station::{same_name, Station, StationName};
+use crate::stations::Stations;
+use crate::wafer_map::{Location, SlotFault, SlotState, Transfer, WaferId, WaferMap};
+
+/// How far the hand's x, y may be from a station's taught x, y to count as seated \[mm\].
+pub const SEAT_TOLERANCE_MM: f64 = 2.0;
+
+/// How far the hand's yaw may be from a station's taught yaw to count as seated \[deg\].
+pub const SEAT_TOLERANCE_DEG: f64 = 1.0;
+
+/// Version of the world's text form.
+const WORLD_VERSION: i64 = 1;
+
+/// What one slot physically holds; the numbers are wafer tags.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SlotContent {
+    /// Nothing.
+    Empty,
+    /// One wafer, flat.
+    Wafer(u32),
+    /// Two wafers stacked (lower, upper).
+    Double(u32, u32),
+    /// One wafer across this slot and the next.
+    Cross(u32),
+}
+
+impl SlotContent {
+    /// What the mapping sensor reports for it.
+    pub fn code(self) -> SlotCode {
+        match self {
+            SlotContent::Empty => SlotCode::Absent,
+            SlotContent::Wafer(_) => SlotCode::Present,
+            SlotContent::Double(..) => SlotCode::Double,
+            SlotContent::Cross(_) => SlotCode::Cross,
+        }
+    }
+}
+
+/// Something that happened to a wafer in [`World::step`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorldEvent {
+    /// A wafer went from the slot onto the hand.
+    Picked {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+        /// The wafer's tag.
+        tag: u32,
+    },
+    /// The wafer on the hand was set down into the empty slot.
+    Placed {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+        /// The wafer's tag.
+        tag: u32,
+    },
+    /// Fault: the wafer on the hand was set down onto a wafer; the slot is now double.
+    Stacked {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+        /// The tag of the wafer set down.
+        tag: u32,
+    },
+    /// Fault: the vacuum went off away from any slot: the wafer fell and is lost.
+    Lost {
+        /// The wafer's tag.
+        tag: u32,
+    },
+    /// Fault: the hand rose into a double or cross-slotted slot, or into a wafer while it
+    /// carried one. Nothing moved.
+    Collision {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+    },
+    /// Fault: the hand rose through a wafer with the vacuum off; the wafer was not taken.
+    UnclampedLift {
+        /// The station.
+        station: StationName,
+        /// The slot.
+        slot: u16,
+    },
+}
+
+impl WorldEvent {
+    /// Whether the event is a fault (anything but a clean pick or place).
+    pub fn is_fault(&self) -> bool {
+        !matches!(self, WorldEvent::Picked { .. } | WorldEvent::Placed { .. })
+    }
+}
+
+/// A world that cannot be built or read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum WorldError {
+    /// No station of that name.
+    #[error("the simulated cell has no station named {name:?}")]
+    NoSuchStation {
+        /// The name asked for.
+        name: String,
+    },
+    /// A slot number the station does not have.
+    #[error("station {station} has no slot {slot}: its slots are 1 to {slots}")]
+    NoSuchSlot {
+        /// The station.
+        station: StationName,
+        /// The slot asked for.
+        slot: u16,
+        /// Its slot count.
+        slots: u16,
+    },
+    /// Saved world text that does not fit the stations or is not readable.
+    #[error("the saved simulated cell is unusable: {reason}")]
+    Corrupt {
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct WorldStation {
+    station: Station,
+    slots: Vec<SlotContent>,
+}
+
+/// The simulated cell. See the module docs for the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct World {
+    stations: Vec<WorldStation>,
+    hand: Option<u32>,
+    vacuum: bool,
+    last_z: Option<f64>,
+    lost: Vec<u32>,
+    faults: u32,
+    next_tag: u32,
+}
+
+impl World {
+    /// The cell of `stations` with the wafers of their `[station.sim]` tables (stations
+    /// without one are empty), tagged from 1 in station and slot order; nothing on the hand,
+    /// vacuum off.
+    pub fn new(stations: &Stations) -> World {
+        let mut next_tag = 1u32;
+        let mut tag = || {
+            let t = next_tag;
+            next_tag = next_tag.saturating_add(1);
+            t
+        };
+        let list = stations
+            .iter()
+            .map(|s| {
+                let slots = (0..usize::from(s.slots))
+                    .map(|i| {
+                        let code = s
+                            .sim
+                            .as_ref()
+                            .and_then(|sim| sim.wafers.get(i).copied())
+                            .unwrap_or(SlotCode::Absent);
+                        match code {
+                            SlotCode::Absent => SlotContent::Empty,
+                            SlotCode::Present => SlotContent::Wafer(tag()),
+                            SlotCode::Double => {
+                                let lower = tag();
+                                SlotContent::Double(lower, tag())
+                            }
+                            SlotCode::Cross => SlotContent::Cross(tag()),
+                        }
+                    })
+                    .collect();
+                WorldStation {
+                    station: s.clone(),
+                    slots,
+                }
+            })
+            .collect();
+        World {
+            stations: list,
+            hand: None,
+            vacuum: false,
+            last_z: None,
+            lost: Vec::new(),
+            faults: 0,
+            next_tag,
+        }
+    }
+
+    fn station_index(&self, name: &str) -> Result<usize, WorldError> {
+        self.stations
+            .iter()
+            .position(|w| same_name(w.station.name.as_str(), name))
+            .ok_or_else(|| WorldError::NoSuchStation {
+                name: name.chars().take(40).collect(),
+            })
+    }
+
+    /// Whether `pose` is seated at station `w` (x, y and yaw within the tolerances).
+    fn seated(w: &WorldStation, pose: &Pose) -> bool {
+        let p = &w.station.pose;
+        (pose.x - p.x).hypot(pose.y - p.y) <= SEAT_TOLERANCE_MM
+            && wrap180(pose.yaw - p.yaw).abs() <= SEAT_TOLERANCE_DEG
+    }
+
+    /// Advance the world: the hand is now at `pose` with the vacuum valve `vacuum_on`.
+    /// Returns what happened to a wafer, if anything (see the module docs).
+    pub fn step(&mut self, pose: Pose, vacuum_on: bool) -> Option<WorldEvent> {
+        let prev_z = self.last_z.replace(pose.z);
+        self.vacuum = vacuum_on;
+        if let (Some(tag), false) = (self.hand, vacuum_on) {
+            self.hand = None;
+            return Some(self.release(tag, &pose));
+        }
+        let prev_z = prev_z?;
+        if pose.z.is_nan() || pose.z <= prev_z {
+            return None;
+        }
+        let hand = self.hand;
+        for w in &mut self.stations {
+            if !World::seated(w, &pose) {
+                continue;
+            }
+            for (i, content) in w.slots.iter_mut().enumerate() {
+                let support = w.station.pose.z + i as f64 * w.station.pitch_mm;
+                if !(prev_z < support && support <= pose.z) || *content == SlotContent::Empty {
+                    continue;
+                }
+                let station = w.station.name;
+                let slot = (i + 1) as u16;
+                let event = match (*content, hand, vacuum_on) {
+                    (SlotContent::Wafer(tag), None, true) => {
+                        *content = SlotContent::Empty;
+                        self.hand = Some(tag);
+                        WorldEvent::Picked { station, slot, tag }
+                    }
+                    (SlotContent::Wafer(_), None, false) => {
+                        WorldEvent::UnclampedLift { station, slot }
+                    }
+                    _ => WorldEvent::Collision { station, slot },
+                };
+                if event.is_fault() {
+                    self.faults = self.faults.saturating_add(1);
+                }
+                return Some(event);
+            }
+        }
+        None
+    }
+
+    /// The wafer `tag` leaves the hand at `pose`.
+    fn release(&mut self, tag: u32, pose: &Pose) -> WorldEvent {
+        for w in &mut self.stations {
+            if !World::seated(w, pose) {
+                continue;
+            }
+            // The highest slot whose support is at most one stroke below the hand.
+            let below = (0..w.slots.len()).rev().find(|&i| {
+                let support = w.station.pose.z + i as f64 * w.station.pitch_mm;
+                support <= pose.z && pose.z - support <= w.station.stroke_mm
+            });
+            let Some(i) = below else { continue };
+            let station = w.station.name;
+            let slot = (i + 1) as u16;
+            match w.slots[i] {
+                SlotContent::Empty => {
+                    w.slots[i] = SlotContent::Wafer(tag);
+                    return WorldEvent::Placed { station, slot, tag };
+                }
+                SlotContent::Wafer(lower) => {
+                    w.slots[i] = SlotContent::Double(lower, tag);
+                    self.faults = self.faults.saturating_add(1);
+                    return WorldEvent::Stacked { station, slot, tag };
+                }
+                // No room for a third wafer: it slides off.
+                SlotContent::Double(..) | SlotContent::Cross(_) => break,
+            }
+        }
+        self.lost.push(tag);
+        self.faults = self.faults.saturating_add(1);
+        WorldEvent::Lost { tag }
+    }
+
+    /// The vacuum-sensed input: a wafer is on the hand and the vacuum is on.
+    pub fn vacuum_sensor(&self) -> bool {
+        self.hand.is_some() && self.vacuum
+    }
+
+    /// The mapping sensor's scan of station `name`: one code per slot, slot 1 first.
+    pub fn map_station(&self, name: &str) -> Result<Vec<SlotCode>, WorldError> {
+        let i = self.station_index(name)?;
+        Ok(self.stations[i].slots.iter().map(|c| c.code()).collect())
+    }
+
+    /// What slot `slot` of station `name` holds.
+    pub fn slot(&self, name: &str, slot: u16) -> Result<SlotContent, WorldError> {
+        let w = &self.stations[self.station_index(name)?];
+        let slots = w.slots.len() as u16;
+        if slot == 0 || slot > slots {
+            return Err(WorldError::NoSuchSlot {
+                station: w.station.name,
+                slot,
+                slots,
+            });
+        }
+        Ok(w.slots[usize::from(slot - 1)])
+    }
+
+    /// The tag of the wafer on the hand.
+    pub fn hand(&self) -> Option<u32> {
+        self.hand
+    }
+
+    /// The vacuum valve's last state.
+    pub fn vacuum(&self) -> bool {
+        self.vacuum
+    }
+
+    /// Tags of the wafers lost so far, in order.
+    pub fn lost(&self) -> &[u32] {
+        &self.lost
+    }
+
+    /// Faults so far (every [`WorldEvent`] with [`WorldEvent::is_fault`]).
+    pub fn faults(&self) -> u32 {
+        self.faults
+    }
+
+    /// Every tag still in the cell (slots and hand, not the lost ones), sorted.
+    pub fn tags(&self) -> Vec<u32> {
+        let mut tags: Vec<u32> = self
+            .stations
+            .iter()
+            .flat_map(|w| w.slots.iter())
+            .flat_map(|c| match *c {
+                SlotContent::Empty => [None, None],
+                SlotContent::Wafer(t) | SlotContent::Cross(t) => [Some(t), None],
+                SlotContent::Double(a, b) => [Some(a), Some(b)],
+            })
+            .flatten()
+            .chain(self.hand)
+            .collect();
+        tags.sort_unstable();
+        tags
+    }
+
+    /// The world's state as text (TOML) for tests and for a board that restarts; read it
+    /// back with [`World::from_text`] and the same stations.
+    pub fn to_text(&self) -> String {
+        let raw = RawWorld {
+            version: WORLD_VERSION,
+            next_tag: i64::from(self.next_tag),
+            vacuum: self.vacuum,
+            hand: self.hand.map(i64::from),
+            last_z: self.last_z,
+            lost: self.lost.iter().map(|&t| i64::from(t)).collect(),
+            faults: i64::from(self.faults),
+            station: self
+                .stations
+                .iter()
+                .map(|w| RawWorldStation {
+                    name: w.station.name.to_string(),
+                    slots: w.slots.iter().map(|c| content_token(*c)).collect(),
+                })
+                .collect(),
+        };
+        toml::to_string(&raw).unwrap_or_else(|e| format!("# could not write the world: {e}\n"))
+    }
+
+    /// Read [`World::to_text`] back; `stations` must be the ones it was made with (same
+    /// names and slot counts). Tags must be unique.
+    pub fn from_text(text: &str, stations: &Stations) -> Result<World, WorldError> {
+        let corrupt = |reason: String| WorldError::Corrupt { reason };
+        let raw: RawWorld = toml::from_str(text).map_err(|e| corrupt(e.to_string()))?;
+        if raw.version != WORLD_VERSION {
+            return Err(corrupt(format!(
+                "version {} (this build reads {WORLD_VERSION})",
+                raw.version
+            )));
+        }
+        let tag = |v: i64, what: &str| {
+            u32::try_from(v).map_err(|_| corrupt(format!("{what} {v} is not a wafer tag")))
+        };
+        let mut world = World::new(stations);
+        if raw.station.len() != world.stations.len() {
+            return Err(corrupt(format!(
+                "{} stations saved, {} configured",
+                raw.station.len(),
+                world.stations.len()
+            )));
+        }
+        for (w, r) in world.stations.iter_mut().zip(&raw.station) {
+            if !same_name(w.station.name.as_str(), &r.name) || r.slots.len() != w.slots.len() {
+                return Err(corrupt(format!(
+                    "saved station {} with {} slots does not match station {} with {} slots",
+                    r.name,
+                    r.slots.len(),
+                    w.station.name,
+                    w.slots.len()
+                )));
+            }
+            for (c, token) in w.slots.iter_mut().zip(&r.slots) {
+                *c = parse_content_token(token)
+                    .ok_or_else(|| corrupt(format!("{token:?} is not a slot content")))?;
+            }
+        }
+        world.hand = raw.hand.map(|h| tag(h, "hand")).transpose()?;
+        world.vacuum = raw.vacuum;
+        world.last_z = raw.last_z;
+        world.lost = raw
+            .lost
+            .iter()
+            .map(|&t| tag(t, "lost"))
+            .collect::<Result<_, _>>()?;
+        world.faults = u32::try_from(raw.faults).map_err(|_| corrupt("faults".into()))?;
+        world.next_tag = tag(raw.next_tag, "next_tag")?;
+        let mut all = world.tags();
+        all.extend(&world.lost);
+        all.sort_unstable();
+        if all.windows(2).any(|p| p[0] == p[1]) {
+            return Err(corrupt("a wafer tag appears twice".into()));
+        }
+        if all.last().is_some_and(|&t| t >= world.next_tag) {
+            return Err(corrupt("a wafer tag is not below next_tag".into()));
+        }
+        Ok(world)
+    }
+}
+
+fn content_token(c: SlotContent) -> String {
+    match c {
+        SlotContent::Empty => "-".into(),
+        SlotContent::Wafer(t) => format!("T{t}"),
+        SlotContent::Double(a, b) => format!("D{a}+{b}"),
+        SlotContent::Cross(t) => format!("X{t}"),
+    }
+}
+
+fn parse_content_token(token: &str) -> Option<SlotContent> {
+    let num = |s: &str| -> Option<u32> {
+        if s.is_empty() || !s.bytes().all(|b| b.is_ascii_digit()) {
+            None
+        } else {
+            s.parse().ok()
+        }
+    };
+    if token == "-" {
+        return Some(SlotContent::Empty);
+    }
+    if let Some(rest) = token.strip_prefix('T') {
+        return num(rest).map(SlotContent::Wafer);
+    }
+    if let Some(rest) = token.strip_prefix('X') {
+        return num(rest).map(SlotContent::Cross);
+    }
+    let (a, b) = token.strip_prefix('D')?.split_once('+')?;
+    Some(SlotContent::Double(num(a)?, num(b)?))
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWorld {
+    version: i64,
+    next_tag: i64,
+    vacuum: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    hand: Option<i64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    last_z: Option<f64>,
+    #[serde(default)]
+    lost: Vec<i64>,
+    #[serde(default)]
+    faults: i64,
+    #[serde(default)]
+    station: Vec<RawWorldStation>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWorldStation {
+    name: String,
+    slots: Vec<String>,
+}
+
+/// A difference between the controller's wafer map and the world, found by
+/// [`Tracking::check`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Mismatch {
+    /// The map still has a pending transfer (reconcile first).
+    Pending(Transfer),
+    /// A station is in one but not the other.
+    Station {
+        /// Its name.
+        name: String,
+    },
+    /// A place where the map and the world disagree on what is there.
+    Occupancy {
+        /// The place.
+        location: Location,
+        /// What the map says (`W3`, `-`, `?`, `double`, `cross`).
+        map: String,
+        /// What is there (`T3`, `-`, `D1+2`, `X4`).
+        world: String,
+    },
+    /// The map's wafer at a place is not the physical wafer its id was bound to.
+    Identity {
+        /// The place.
+        location: Location,
+        /// The map's id there.
+        wafer: WaferId,
+        /// The tag that is there.
+        tag: u32,
+        /// The tag the id was bound to earlier, if any.
+        bound_tag: Option<u32>,
+        /// The id the tag was bound to earlier, if any.
+        bound_id: Option<WaferId>,
+    },
+}
+
+impl fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Mismatch::Pending(t) => write!(f, "transfer {t} is still pending in the map"),
+            Mismatch::Station { name } => {
+                write!(f, "station {name} is in only one of the map and the cell")
+            }
+            Mismatch::Occupancy {
+                location,
+                map,
+                world,
+            } => write!(f, "{location}: the map says {map}, the cell has {world}"),
+            Mismatch::Identity {
+                location,
+                wafer,
+                tag,
+                bound_tag,
+                bound_id,
+            } => write!(
+                f,
+                "{location}: the map's {wafer} (physical tag {}) is where tag {tag} (tracked as {}) is",
+                bound_tag.map_or_else(|| "-".into(), |t| t.to_string()),
+                bound_id.map_or_else(|| "-".into(), |w| w.to_string())
+            ),
+        }
+    }
+}
+
+/// The binding between the controller's wafer ids and the world's physical tags, built up
+/// over a test (see the module docs).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Tracking {
+    tag_of: BTreeMap<WaferId, u32>,
+    id_of: BTreeMap<u32, WaferId>,
+}
+
+impl Tracking {
+    /// No bindings yet.
+    pub fn new() -> Tracking {
+        Tracking::default()
+    }
+
+    /// The tag wafer `id` is bound to.
+    pub fn tag_of(&self, id: WaferId) -> Option<u32> {
+        self.tag_of.get(&id).copied()
+    }
+
+    /// Compare every place of `map` with `world`, binding new id–tag pairs found at the same
+    /// place; empty when they agree. Unknown slots in the map agree only with empty ones.
+    pub fn check(&mut self, map: &WaferMap, world: &World) -> Vec<Mismatch> {
+        let mut out = Vec::new();
+        if let Some(t) = map.pending() {
+            out.push(Mismatch::Pending(*t));
+        }
+        for name in map.station_names() {
+            if world.station_index(name.as_str()).is_err() {
+                out.push(Mismatch::Station {
+                    name: name.to_string(),
+                });
+            }
+        }
+        for w in &world.stations {
+            let name = w.station.name;
+            let Some(states) = map.slots(name.as_str()) else {
+                out.push(Mismatch::Station {
+                    name: name.to_string(),
+                });
+                continue;
+            };
+            if states.len() != w.slots.len() {
+                out.push(Mismatch::Station {
+                    name: name.to_string(),
+                });
+                continue;
+            }
+            for (i, (state, content)) in states.iter().zip(&w.slots).enumerate() {
+                let location = Location::Slot {
+                    station: name,
+                    slot: (i + 1) as u16,
+                };
+                self.compare(location, *state, *content, &mut out);
+            }
+        }
+        let hand_state = map.hand().map_or(SlotState::Empty, SlotState::Wafer);
+        let hand_content = world.hand.map_or(SlotContent::Empty, SlotContent::Wafer);
+        self.compare(Location::Hand, hand_state, hand_content, &mut out);
+        out
+    }
+
+    fn compare(
+        &mut self,
+        location: Location,
+        state: SlotState,
+        content: SlotContent,
+        out: &mut Vec<Mismatch>,
+    ) {
+        match (state, content) {
+            (SlotState::Empty | SlotState::Unknown, SlotContent::Empty)
+            | (SlotState::Fault(SlotFault::Double), SlotContent::Double(..))
+            | (SlotState::Fault(SlotFault::Cross), SlotContent::Cross(_)) => {}
+            (SlotState::Wafer(wafer), SlotContent::Wafer(tag)) => {
+                let bound_tag = self.tag_of.get(&wafer).copied();
+                let bound_id = self.id_of.get(&tag).copied();
+                match (bound_tag, bound_id) {
+                    (None, None) => {
+                        self.tag_of.insert(wafer, tag);
+                        self.id_of.insert(tag, wafer);
+                    }
+                    (Some(t), Some(w)) if t == tag && w == wafer => {}
+                    _ => out.push(Mismatch::Identity {
+                        location,
+                        wafer,
+                        tag,
+                        bound_tag,
+                        bound_id,
+                    }),
+                }
+            }
+            _ => out.push(Mismatch::Occupancy {
+                location,
+                map: match state {
+                    SlotState::Unknown => "?".into(),
+                    SlotState::Empty => "-".into(),
+                    SlotState::Wafer(w) => w.to_string(),
+                    SlotState::Fault(SlotFault::Double) => "double".into(),
+                    SlotState::Fault(SlotFault::Cross) => "cross".into(),
+                },
+                world: content_token(content),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -7,6 +7,7 @@ import { Commander, ControllerModel, h, mountControl } from './control';
 import { mountEditor } from './editor';
 import { mountSimulator } from './simulator';
 import { mountPlots } from './plots';
+import { mountStations } from './stations';
 
 type TabName = 'simulator' | 'editor' | 'plots';
 
@@ -75,8 +76,10 @@ function start(): void {
   app.replaceChildren(header, h('div', { class: 'body' }, controlEl, right));
 
   mountControl(controlEl, model, cmd);
+  const sim = mountSimulator(simEl, bus);
+  mountStations(bus, sim);
   const panels: Record<TabName, { resize(): void }> = {
-    simulator: mountSimulator(simEl, bus),
+    simulator: sim,
     editor: mountEditor(editorEl, bus),
     plots: mountPlots(plotsEl, bus),
   };

@@ -56,11 +56,11 @@
 //! # The `WAFERS` reply
 //!
 //! [`WaferMap::wafers_line`] gives one line: `hand=<tok> <STN>=<slots> … [pending=…]`, for
-//! example `hand=- LP1=W1..W25 LP2=-*25 AL=- PM1=? PM2=W26 pending=get:LP1.3:W3`. `<slots>`
+//! example `hand=- LP1=W1..W25 LP2=-x25 AL=- PM1=? PM2=W26 pending=get:LP1.3:W3`. `<slots>`
 //! lists every slot from slot 1 up, comma-separated, with the tokens `W<n>` (a wafer), `-`
 //! (empty), `?` (unknown), `D` (double), `X` (cross-slotted), compressed two ways: three or
 //! more wafers with ids rising by one in successive slots as `W<a>..W<b>`, and a token
-//! repeated n ≥ 2 times as `<tok>*<n>`. With D the number of digits of the largest id, the
+//! repeated n ≥ 2 times as `<tok>x<n>` (a lower-case x: in the protocol `*` only ever starts a checksum). With D the number of digits of the largest id, the
 //! line is at most `6 + D` bytes for the hand, `1 + len(name) + slots · (D + 2)` per station
 //! and `19 + len(name) + D` for a pending transfer: with the demo cell (53 places) and ids
 //! below 100 000 (D = 5), at most 427 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
@@ -1106,7 +1106,7 @@ impl WaferMap {
     }
 
     /// The `WAFERS` reply body on one line (format in the module docs), e.g.
-    /// `hand=- LP1=W1..W25 LP2=-*25 AL=- PM1=? PM2=W26`.
+    /// `hand=- LP1=W1..W25 LP2=-x25 AL=- PM1=? PM2=W26`.
     pub fn wafers_line(&self) -> String {
         self.wafers_lines().join(" ")
     }
@@ -1148,7 +1148,7 @@ fn line_token(state: SlotState) -> String {
     }
 }
 
-/// Slots, comma-separated, with rising-id runs `Wa..Wb` (3 or more) and repeats `t*n`.
+/// Slots, comma-separated, with rising-id runs `Wa..Wb` (3 or more) and repeats `tokxn` (a lower-case x: `*` only ever starts a checksum in the protocol).
 fn compact_slots(slots: &[SlotState]) -> String {
     let mut parts: Vec<String> = Vec::new();
     let mut i = 0;
@@ -1173,7 +1173,7 @@ fn compact_slots(slots: &[SlotState]) -> String {
             }
             let token = line_token(slots[i]);
             if j - i >= 2 {
-                parts.push(format!("{token}*{}", j - i));
+                parts.push(format!("{token}x{}", j - i));
             } else {
                 parts.push(token);
             }

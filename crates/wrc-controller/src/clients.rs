@@ -411,13 +411,19 @@ fn route<'b>(
         | Command::Run(_)
         | Command::Delete(_)
         | Command::Robot
-        | Command::Tasks => {
+        | Command::Tasks
+        | Command::Stn
+        | Command::Teach(_)
+        | Command::Wafers => {
             let from = slot.source;
             let request = match request.command {
                 Command::Run(name) => StoreRequest::Run { from, to, name },
                 Command::Delete(name) => StoreRequest::Delete { from, to, name },
                 Command::Robot => StoreRequest::Robot { from, to },
                 Command::Tasks => StoreRequest::Tasks { from, to },
+                Command::Stn => StoreRequest::Stn { from, to },
+                Command::Teach(name) => StoreRequest::Teach { from, to, name },
+                Command::Wafers => StoreRequest::Wafers { from, to },
                 _ => StoreRequest::List { from, to },
             };
             match routes.store.try_send(request) {

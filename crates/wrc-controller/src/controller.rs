@@ -53,6 +53,18 @@ pub struct Options {
     pub board_wait: Duration,
     /// Where robot-language programs are stored (created if missing).
     pub programs: PathBuf,
+    /// The wafer cell's files: the stations file (written from the embedded demo cell when
+    /// missing) and the wafer map; `None`: no stations (`STN`, `TEACH`, `WAFERS` are refused).
+    pub cell: Option<CellFiles>,
+}
+
+/// Where the wafer cell is kept.
+#[derive(Debug, Clone)]
+pub struct CellFiles {
+    /// The stations file (TOML).
+    pub stations: PathBuf,
+    /// The wafer map file (TOML).
+    pub wafers: PathBuf,
 }
 
 /// Why the controller could not start.
@@ -84,6 +96,9 @@ pub enum StartError {
     /// The runtime could not start a task.
     #[error("{0}")]
     Runtime(#[from] wrc_rt::RuntimeError),
+    /// The stations file or the wafer map is unusable.
+    #[error("wafer cell: {0}")]
+    Cell(#[from] crate::program_store::CellError),
     /// The program directory could not be used.
     #[error("cannot use the program directory {path}: {reason}")]
     Programs {
@@ -284,6 +299,15 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         reason,
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone());
+    let store = match &options.cell {
+        Some(files) => store.with_cell(crate::program_store::Cell::open(
+            &robot,
+            &files.stations,
+            &files.wafers,
+            shared.clone(),
+        )?),
+        None => store,
+    };
     let routes = Routes {
         incoming: incoming.clone(),
         urgent: urgent.clone(),

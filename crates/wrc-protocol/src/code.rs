@@ -89,6 +89,8 @@ pub enum Code {
     ProgramRunning = 127,
     /// 128: no program is running.
     NoProgram = 128,
+    /// 130: no station has that name.
+    StationUnknown = 130,
 
     // 2xx alarm: an action ended abnormally (ABS) or the controller stopped (EVT ERROR).
     /// 200: the motion was stopped by `STOP`.
@@ -149,6 +151,7 @@ impl Code {
         Code::ProgramInvalid,
         Code::ProgramRunning,
         Code::NoProgram,
+        Code::StationUnknown,
         Code::Stopped,
         Code::EmergencyStop,
         Code::EstopInput,
@@ -210,6 +213,7 @@ impl Code {
             Code::ProgramInvalid => "the program does not compile",
             Code::ProgramRunning => "a program is running; ABORT it first",
             Code::NoProgram => "no program is running",
+            Code::StationUnknown => "no such station; STN lists them",
             Code::Stopped => "stopped by STOP",
             Code::EmergencyStop => "emergency stop",
             Code::EstopInput => "emergency-stop input opened",
@@ -280,6 +284,7 @@ mod tests {
             (Code::ProgramInvalid, 126),
             (Code::ProgramRunning, 127),
             (Code::NoProgram, 128),
+            (Code::StationUnknown, 130),
             (Code::Stopped, 200),
             (Code::EmergencyStop, 201),
             (Code::EstopInput, 202),

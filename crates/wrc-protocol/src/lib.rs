@@ -71,7 +71,7 @@ pub use reply::{
 };
 pub use request::{
     checksum, ArgumentCount, Arity, AxisArg, Command, ParseError, Parser, ProgramName, Rejected,
-    Request, Token, MAX_ID_DIGITS, OUTPUT_COUNT,
+    Request, StationName, Token, MAX_ID_DIGITS, OUTPUT_COUNT,
 };
 pub use sim_stream::{DecodeError, EncodeError, SimFrame};
 pub use state::State;

@@ -426,6 +426,12 @@ pub enum Event<'a> {
     /// `EVT TASK <name> prio=… …`: one real-time task's timing in the reply to `TASKS` (to
     /// the requesting connection only); the body after `TASK`.
     Task(&'a str),
+    /// `EVT STATION <name> kind=… x=… …`: one station, in the reply to `STN` (to the
+    /// requester only) and after `TEACH` (to every connection); the body after `STATION`.
+    Station(&'a str),
+    /// `EVT WAFER <place>=<tokens>`: one part of the wafer map, when `WAFERS` does not fit
+    /// on one line (to the requester only).
+    Wafer(&'a str),
 }
 
 impl Event<'_> {
@@ -442,6 +448,8 @@ impl Event<'_> {
             Event::Diag(_) => "DIAG",
             Event::Axis(_) => "AXIS",
             Event::Task(_) => "TASK",
+            Event::Station(_) => "STATION",
+            Event::Wafer(_) => "WAFER",
         }
     }
 }
@@ -455,7 +463,12 @@ impl Display for Event<'_> {
             Event::Control { owner } => f.write_str(owner.unwrap_or("none")),
             Event::Status { status, position } => write!(f, "{status} {position}"),
             Event::Program { name, state } => write!(f, "{name} {state}"),
-            Event::Print(text) | Event::Diag(text) | Event::Axis(text) | Event::Task(text) => {
+            Event::Print(text)
+            | Event::Diag(text)
+            | Event::Axis(text)
+            | Event::Task(text)
+            | Event::Station(text)
+            | Event::Wafer(text) => {
                 for c in text.chars() {
                     let c = if c == '\n' || c == '\r' { ' ' } else { c };
                     fmt::Write::write_char(f, c)?;
@@ -596,9 +609,9 @@ mod tests {
         assert_eq!(text(out.ack(ID7, io)), "ACK 7 in=0000000F out=80000001\n");
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
-        assert!(
-            text(&help).ends_with(",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS\n")
-        );
+        assert!(text(&help).ends_with(
+            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,STN,TEACH,WAFERS\n"
+        ));
     }
 
     #[test]

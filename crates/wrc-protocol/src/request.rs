@@ -116,6 +116,12 @@ pub enum Command {
     Robot,
     /// `TASKS`.
     Tasks,
+    /// `STN`.
+    Stn,
+    /// `TEACH <station>`.
+    Teach(StationName),
+    /// `WAFERS`.
+    Wafers,
     /// `RUN <name>`.
     Run(ProgramName),
     /// `PAUSE`.
@@ -155,6 +161,9 @@ impl Command {
             Command::Programs => Verb::Programs,
             Command::Robot => Verb::Robot,
             Command::Tasks => Verb::Tasks,
+            Command::Stn => Verb::Stn,
+            Command::Teach(_) => Verb::Teach,
+            Command::Wafers => Verb::Wafers,
             Command::Run(_) => Verb::Run,
             Command::Pause => Verb::Pause,
             Command::Continue => Verb::Continue,
@@ -167,6 +176,9 @@ impl Command {
 /// A stored program's name: 1 to 32 ASCII letters, digits, `_` or `-` (so also a safe file
 /// name), kept inline so requests never allocate.
 pub type ProgramName = wrc_robot::InlineName<32>;
+
+/// A station's name: 1-16 letters, digits, `_` or `-`, stored inline (no allocation).
+pub type StationName = wrc_robot::InlineName<16>;
 
 /// The axis argument of `JOG`: a 1-based axis number or an axis name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -348,6 +360,9 @@ pub enum ParseError {
     /// A program name with characters other than letters, digits, `_` and `-`, or too long.
     #[error("program name \"{0}\" must be 1-32 letters, digits, _ or -")]
     BadProgramName(Token),
+    /// A station name with characters other than letters, digits, `_` and `-`, or too long.
+    #[error("station name \"{0}\" must be 1-16 letters, digits, _ or -")]
+    BadStationName(Token),
     /// A posture word other than `L` or `R`.
     #[error("posture \"{0}\" must be L or R")]
     BadPosture(Token),
@@ -391,7 +406,8 @@ impl ParseError {
             ParseError::BadAxisName(_)
             | ParseError::BadPosture(_)
             | ParseError::BadSwitch(_)
-            | ParseError::BadProgramName(_) => Code::BadArgument,
+            | ParseError::BadProgramName(_)
+            | ParseError::BadStationName(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
                 Code::BadChecksum
@@ -648,6 +664,9 @@ impl Parser {
             Verb::Programs => simple(Command::Programs),
             Verb::Robot => simple(Command::Robot),
             Verb::Tasks => simple(Command::Tasks),
+            Verb::Stn => simple(Command::Stn),
+            Verb::Teach => station_name(&args).map(Command::Teach),
+            Verb::Wafers => simple(Command::Wafers),
             Verb::Run => program_name(args).map(Command::Run),
             Verb::Pause => simple(Command::Pause),
             Verb::Continue => simple(Command::Continue),
@@ -674,6 +693,12 @@ impl Parser {
 }
 
 /// The one argument of `UPLOAD`, `RUN` and `DELETE`.
+fn station_name(args: &Args<'_>) -> Result<StationName, ParseError> {
+    args.exactly(1)?;
+    StationName::new(as_str(args.words[0]))
+        .ok_or_else(|| ParseError::BadStationName(Token::new(args.words[0])))
+}
+
 fn program_name(args: &Args<'_>) -> Result<ProgramName, ParseError> {
     args.exactly(1)?;
     ProgramName::new(as_str(args.words[0]))

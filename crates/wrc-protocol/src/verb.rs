@@ -64,6 +64,12 @@ pub enum Verb {
     Robot,
     /// `TASKS`: the real-time tasks' measured timing.
     Tasks,
+    /// `STN`: list the stations.
+    Stn,
+    /// `TEACH`: store the current pose as a station's taught pose.
+    Teach,
+    /// `WAFERS`: where every wafer is.
+    Wafers,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -114,6 +120,9 @@ impl Verb {
         Verb::Delete,
         Verb::Robot,
         Verb::Tasks,
+        Verb::Stn,
+        Verb::Teach,
+        Verb::Wafers,
     ];
 
     /// The verb's table entry.
@@ -198,6 +207,15 @@ impl Verb {
             Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, true),
             Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, false),
             Verb::Tasks => v("TASKS", "", "the real-time tasks' timing", false, false),
+            Verb::Stn => v("STN", "", "list the stations", false, false),
+            Verb::Teach => v(
+                "TEACH",
+                "<station>",
+                "store the current pose as the station's taught pose",
+                false,
+                true,
+            ),
+            Verb::Wafers => v("WAFERS", "", "where every wafer is", false, false),
         }
     }
 

@@ -89,6 +89,7 @@ fn start_controller(
         boards: vec![dpram.to_path_buf()],
         board_wait: Duration::from_secs(10),
         programs: dpram.with_file_name("programs"),
+        cell: None,
     };
     controller::start(config, &options).context("the controller could not start")
 }

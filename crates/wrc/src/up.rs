@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context};
 use clap::Args;
 use wrc_config::Config;
-use wrc_controller::controller::{self, Options};
+use wrc_controller::controller::{self, CellFiles, Options};
 use wrc_controller::rs232c::Parity;
 use wrc_rt::RealtimeMode;
 
@@ -37,6 +37,10 @@ pub struct UpArgs {
     /// Saved state, simulated boards' DPRAM files and the socket live here.
     #[arg(long, value_name = "DIR", default_value = "/tmp/wrc")]
     state_dir: PathBuf,
+    /// Stations file (TOML) [default: STATE_DIR/stations.toml, written from the built-in
+    /// demo cell when missing]; TEACH saves into it.
+    #[arg(long, value_name = "FILE")]
+    stations: Option<PathBuf>,
     /// Teaching pendant serial device (e.g. /dev/ttyUSB0).
     #[arg(long, value_name = "DEV")]
     serial: Option<PathBuf>,
@@ -277,6 +281,13 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         boards: boards.clone(),
         board_wait: Duration::from_secs(10),
         programs: args.state_dir.join("programs"),
+        cell: Some(CellFiles {
+            stations: args
+                .stations
+                .clone()
+                .unwrap_or_else(|| args.state_dir.join("stations.toml")),
+            wafers: args.state_dir.join("wafers.toml"),
+        }),
     };
     let running = match controller::start(&config, &options) {
         Ok(r) => r,
@@ -297,6 +308,13 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         "wrc: robot programs stored in {}",
         args.state_dir.join("programs").display()
     );
+    if let Some(cell) = &options.cell {
+        println!(
+            "wrc: stations in {}, wafer map in {}",
+            cell.stations.display(),
+            cell.wafers.display()
+        );
+    }
     if let Some(serial) = &args.serial {
         println!(
             "wrc: teaching pendant on {} ({} baud, parity {})",

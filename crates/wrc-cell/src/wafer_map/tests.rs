@@ -58,7 +58,7 @@ fn a_new_map_knows_nothing_and_refuses_transfers() {
     assert!(map.prepare(TransferKind::Put, "PM1", 1).is_err());
     assert_eq!(
         map.wafers_line(),
-        "hand=- LP1=?*25 LP2=?*25 AL=? PM1=? PM2=?"
+        "hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=?"
     );
 }
 
@@ -138,7 +138,7 @@ fn get_then_put_moves_the_wafer_in_two_phases() {
     assert_eq!(map.hand(), None);
     assert_eq!(
         map.wafers_line(),
-        "hand=- LP1=W1..W4,-,W6..W25 LP2=-*25 AL=- PM1=- PM2=W5"
+        "hand=- LP1=W1..W4,-,W6..W25 LP2=-x25 AL=- PM1=- PM2=W5"
     );
     map.verify().unwrap();
 }
@@ -529,7 +529,7 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
             SlotState::Fault(SlotFault::Double),
             SlotState::Fault(SlotFault::Cross)
         ]),
-        "-*2,?,D*2,X"
+        "-x2,?,Dx2,X"
     );
     assert_eq!(
         s(&[w(u32::MAX - 1), w(u32::MAX), w(0)]),

@@ -3,6 +3,7 @@
 mod compile;
 mod plan;
 mod program;
+mod stations;
 mod ui;
 mod up;
 

@@ -665,7 +665,7 @@ impl Parser {
             Verb::Robot => simple(Command::Robot),
             Verb::Tasks => simple(Command::Tasks),
             Verb::Stn => simple(Command::Stn),
-            Verb::Teach => station_name(&args).map(Command::Teach),
+            Verb::Teach => station_name(args).map(Command::Teach),
             Verb::Wafers => simple(Command::Wafers),
             Verb::Run => program_name(args).map(Command::Run),
             Verb::Pause => simple(Command::Pause),

@@ -3,6 +3,7 @@
 // 4) from `TASKS`, polled every second while the panel is visible and the bus connected,
 // with each task's wake-up latency histogram as a small log-scale bar chart.
 
+import { injectStyle } from './dom';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
 import type { Bus, RobotInfo, SimSample, TaskTiming } from './bus';
@@ -68,14 +69,6 @@ const STYLE = `
 .plot-table canvas { display: block; }
 `;
 
-function injectStyle(): void {
-  if (typeof document === 'undefined' || document.getElementById(STYLE_ID)) return;
-  const s = document.createElement('style');
-  s.id = STYLE_ID;
-  s.textContent = STYLE;
-  document.head.appendChild(s);
-}
-
 function el<K extends keyof HTMLElementTagNameMap>(
   tag: K,
   cls: string,
@@ -97,7 +90,7 @@ export interface PlotsHandle {
 }
 
 export function mountPlots(root: HTMLElement, bus: Bus): PlotsHandle {
-  injectStyle();
+  injectStyle(STYLE_ID, STYLE);
   const box = el('div', 'plot-root', root);
   const visible = (): boolean =>
     root.isConnected && box.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);

@@ -4,6 +4,7 @@
 // Scene units are millimetres in the robot's base frame, Z up (camera.up = +Z): the floor is
 // the z = 0 plane, x/y as in the kinematics (crates/wrc-robot/src/kinematics.rs).
 
+import { injectStyle } from './dom';
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import type { Bus, RobotInfo, RobotState, SimSample } from './bus';
@@ -77,14 +78,6 @@ const STYLE = `
 .sim-msg-box { background: rgba(12,14,17,0.85); border: 1px solid #3a434d; border-radius: 4px; padding: 12px 18px; max-width: 32em; }
 .sim-msg-error .sim-msg-box { border-color: #a33; color: #ffb4ae; }
 `;
-
-function injectStyle(): void {
-  if (typeof document === 'undefined' || document.getElementById(STYLE_ID)) return;
-  const s = document.createElement('style');
-  s.id = STYLE_ID;
-  s.textContent = STYLE;
-  document.head.appendChild(s);
-}
 
 /** True when the browser can give three.js a WebGL 2 context. */
 export function webglAvailable(): boolean {
@@ -201,7 +194,7 @@ interface RobotModel {
 }
 
 export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
-  injectStyle();
+  injectStyle(STYLE_ID, STYLE);
   const root = div('sim-root', el);
   const msg = div('sim-msg', root);
   const msgBox = div('sim-msg-box', msg);

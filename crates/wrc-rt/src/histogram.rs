@@ -130,6 +130,35 @@ impl Histogram {
         self.max_ns = self.max_ns.max(other.max_ns);
         self.sum_ns += other.sum_ns;
     }
+
+    /// What was recorded after `earlier`, a snapshot of this same histogram taken before:
+    /// the bucket counts and the sum are exact; min and max are the edges of the lowest and
+    /// highest non-empty bucket (so they are known to one bucket, 6.25 %), clamped to this
+    /// histogram's own min and max.
+    pub fn since(&self, earlier: &Histogram) -> Histogram {
+        let counts: Vec<u64> = self
+            .counts
+            .iter()
+            .zip(&earlier.counts)
+            .map(|(now, then)| now.saturating_sub(*then))
+            .collect();
+        let first = counts.iter().position(|&n| n > 0);
+        let last = counts.iter().rposition(|&n| n > 0);
+        let (min_ns, max_ns) = match (first, last) {
+            (Some(f), Some(l)) => (
+                bucket_range(f).0.max(self.min_ns),
+                (bucket_range(l).1 - 1).min(self.max_ns),
+            ),
+            _ => (u64::MAX, 0),
+        };
+        Histogram {
+            count: counts.iter().sum(),
+            counts,
+            min_ns,
+            max_ns,
+            sum_ns: self.sum_ns.saturating_sub(earlier.sum_ns),
+        }
+    }
 }
 
 /// The same histogram in atomics, written by one thread and copied by others.
@@ -196,6 +225,27 @@ impl AtomicHistogram {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn since_keeps_only_what_came_after_the_snapshot() {
+        let mut h = Histogram::new();
+        for v in [100, 2_000, 30_000] {
+            h.record(v);
+        }
+        let before = h.clone();
+        for v in [5_000, 5_000, 900_000] {
+            h.record(v);
+        }
+        let window = h.since(&before);
+        assert_eq!(window.count(), 3);
+        assert_eq!(window.mean_ns(), Some(910_000.0 / 3.0));
+        let (lo, hi) = (window.min_ns().unwrap(), window.max_ns().unwrap());
+        assert!(lo <= 5_000 && lo as f64 >= 5_000.0 * 0.93, "{lo}");
+        assert_eq!(hi, 900_000);
+        assert!(window.quantile_ns(0.5).unwrap() >= 5_000);
+        assert!(window.quantile_ns(0.5).unwrap() < 6_000);
+        assert_eq!(h.since(&h).count(), 0);
+    }
+
     use super::*;
 
     #[test]

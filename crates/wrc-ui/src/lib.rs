@@ -85,6 +85,11 @@ pub enum UiError {
         /// Why.
         source: std::io::Error,
     },
+    /// `--web-dir` names a folder without a built app.
+    #[error(
+        "--web-dir {0}: no index.html there; give the folder `npm run build` writes (web/dist)"
+    )]
+    WebDir(PathBuf),
     /// A thread could not be started.
     #[error("cannot start a thread: {0}")]
     Thread(std::io::Error),
@@ -181,6 +186,11 @@ impl Ui {
                 return Err(UiError::TokenRequired(options.listen))
             }
             _ => {}
+        }
+        if let Some(dir) = &options.web_dir {
+            if !dir.join("index.html").is_file() {
+                return Err(UiError::WebDir(dir.clone()));
+            }
         }
         let listener = TcpListener::bind(options.listen).map_err(|source| UiError::Listen {
             addr: options.listen,
@@ -443,6 +453,16 @@ mod tests {
             token: None,
             web_dir: None,
         };
-        assert!(matches!(Ui::start(options), Err(UiError::TokenRequired(_))));
+        assert!(matches!(
+            Ui::start(options.clone()),
+            Err(UiError::TokenRequired(_))
+        ));
+        let empty = tempfile::tempdir().unwrap();
+        let options = Options {
+            listen: "127.0.0.1:0".parse().unwrap(),
+            web_dir: Some(empty.path().to_path_buf()),
+            ..options
+        };
+        assert!(matches!(Ui::start(options), Err(UiError::WebDir(_))));
     }
 }

@@ -5,7 +5,7 @@
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpStream};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -138,32 +138,38 @@ fn pg_latency(running: &Running) -> (f64, f64) {
     }
 }
 
-/// Run `wrc bench controller`.
-pub fn run(args: ControllerArgs) -> anyhow::Result<ExitCode> {
-    let config = Config::embedded_default();
-    let dir = tempdir()?;
-    let dpram = dir.join("board0.dpram");
+/// Run `measure` with a simulated board (`wrc board-sim`) on `DIR/board0.dpram` in a fresh
+/// temporary directory `wrc-bench-<name>-<pid>`; the board and the directory are removed
+/// afterwards, whatever `measure` returns.
+pub(crate) fn on_simulated_board<T>(
+    name: &str,
+    measure: impl FnOnce(&Path) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    let dir = std::env::temp_dir().join(format!("wrc-bench-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut children = vec![crate::up::spawn_board(
         None,
         0,
-        &dpram,
+        &dir.join("board0.dpram"),
         &dir.join("board0.log"),
     )?];
-    let realtime = if args.no_rt {
-        RealtimeMode::Off
-    } else {
-        RealtimeMode::Auto
-    };
-    let result = measure(&args, &config, &dpram, realtime);
+    let result = measure(&dir);
     crate::up::stop_children(&mut children);
     let _ = std::fs::remove_dir_all(&dir);
     result
 }
 
-fn tempdir() -> anyhow::Result<PathBuf> {
-    let dir = std::env::temp_dir().join(format!("wrc-bench-controller-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    Ok(dir)
+/// Run `wrc bench controller`.
+pub fn run(args: ControllerArgs) -> anyhow::Result<ExitCode> {
+    let config = Config::embedded_default();
+    let realtime = if args.no_rt {
+        RealtimeMode::Off
+    } else {
+        RealtimeMode::Auto
+    };
+    on_simulated_board("controller", |dir| {
+        measure(&args, &config, &dir.join("board0.dpram"), realtime)
+    })
 }
 
 fn measure(

@@ -15,8 +15,7 @@ use clap::Args;
 use tungstenite::Message;
 use wrc_config::Config;
 use wrc_controller::controller::{self, Options, Running};
-use wrc_rt::histogram::bucket_range;
-use wrc_rt::RealtimeMode;
+use wrc_rt::{Histogram, RealtimeMode};
 
 use crate::bench_controller::Host;
 
@@ -37,13 +36,13 @@ pub struct UiBenchArgs {
     no_rt: bool,
 }
 
-/// The Pulse Generator's latency histogram counts, to take differences between windows.
-fn pg_counts(running: &Running) -> (Vec<u64>, u64) {
+/// The Pulse Generator's latency histogram and overrun count so far.
+fn pg_snapshot(running: &Running) -> (Histogram, u64) {
     running
         .task_stats()
         .into_iter()
         .find(|t| t.spec.name == "pulse_generator")
-        .map(|t| (t.stats.latency.bucket_counts().to_vec(), t.stats.overruns))
+        .map(|t| (t.stats.latency, t.stats.overruns))
         .unwrap_or_default()
 }
 
@@ -56,36 +55,16 @@ struct Window {
     overruns: u64,
 }
 
-/// Latency figures of the cycles between two snapshots (each value to within the
-/// histogram's 6.25 % bucket width; the upper edge of its bucket is reported).
-fn window(before: &(Vec<u64>, u64), after: &(Vec<u64>, u64)) -> Window {
-    let diff: Vec<u64> = after
-        .0
-        .iter()
-        .enumerate()
-        .map(|(i, a)| a - before.0.get(i).copied().unwrap_or(0))
-        .collect();
-    let cycles: u64 = diff.iter().sum();
-    let quantile = |q: f64| {
-        let target = ((cycles as f64) * q).ceil().max(1.0) as u64;
-        let mut seen = 0;
-        for (b, n) in diff.iter().enumerate() {
-            seen += n;
-            if seen >= target {
-                return bucket_range(b).1 as f64 / 1000.0;
-            }
-        }
-        0.0
-    };
-    let max_us = diff
-        .iter()
-        .rposition(|n| *n > 0)
-        .map_or(0.0, |b| bucket_range(b).1 as f64 / 1000.0);
+/// Latency figures of the cycles between two snapshots (to within the histogram's 6.25 %
+/// bucket width).
+fn window(before: &(Histogram, u64), after: &(Histogram, u64)) -> Window {
+    let h = after.0.since(&before.0);
+    let us = |ns: Option<u64>| ns.unwrap_or(0) as f64 / 1000.0;
     Window {
-        cycles,
-        p50_us: quantile(0.5),
-        p99_us: quantile(0.99),
-        max_us,
+        cycles: h.count(),
+        p50_us: us(h.quantile_ns(0.5)),
+        p99_us: us(h.quantile_ns(0.99)),
+        max_us: us(h.max_ns()),
         overruns: after.1 - before.1,
     }
 }
@@ -137,19 +116,7 @@ fn browser(port: u16, stop: Arc<AtomicBool>, frames: Arc<AtomicU64>) -> anyhow::
 /// Run `wrc bench ui`.
 pub fn run(args: UiBenchArgs) -> anyhow::Result<ExitCode> {
     let config = Config::embedded_default();
-    let dir = std::env::temp_dir().join(format!("wrc-bench-ui-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let dpram = dir.join("board0.dpram");
-    let mut children = vec![crate::up::spawn_board(
-        None,
-        0,
-        &dpram,
-        &dir.join("board0.log"),
-    )?];
-    let result = measure(&args, &config, &dir);
-    crate::up::stop_children(&mut children);
-    let _ = std::fs::remove_dir_all(&dir);
-    result
+    crate::bench_controller::on_simulated_board("ui", |dir| measure(&args, &config, dir))
 }
 
 fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow::Result<ExitCode> {
@@ -195,9 +162,9 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
     let window_len = Duration::from_secs(args.seconds);
 
     eprintln!("jitter, no GUI: {} s …", args.seconds);
-    let s0 = pg_counts(&running);
+    let s0 = pg_snapshot(&running);
     std::thread::sleep(window_len);
-    let s1 = pg_counts(&running);
+    let s1 = pg_snapshot(&running);
 
     let ui_port = free_tcp_port()?;
     let exe = std::env::current_exe().context("cannot find the wrc executable")?;
@@ -225,9 +192,9 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
         args.browsers, args.seconds
     );
     let f0 = frames.load(Ordering::Relaxed);
-    let s2 = pg_counts(&running);
+    let s2 = pg_snapshot(&running);
     std::thread::sleep(window_len);
-    let s3 = pg_counts(&running);
+    let s3 = pg_snapshot(&running);
     let frames_per_s = (frames.load(Ordering::Relaxed) - f0) as f64
         / args.seconds as f64
         / f64::from(args.browsers);
@@ -246,9 +213,9 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
         }
     }
     eprintln!("jitter, after kill -9 of wrc ui: {} s …", args.seconds);
-    let s4 = pg_counts(&running);
+    let s4 = pg_snapshot(&running);
     std::thread::sleep(window_len);
-    let s5 = pg_counts(&running);
+    let s5 = pg_snapshot(&running);
     stop_motion.store(true, Ordering::Release);
     let state = running.shared().state();
     let _ = running.shutdown(Duration::from_secs(3));

@@ -119,7 +119,6 @@ fn spawn_ui(
     port: u16,
     state_dir: &Path,
 ) -> anyhow::Result<(Child, String)> {
-    use std::io::BufRead;
     let exe = std::env::current_exe().context("cannot find the wrc executable to start wrc ui")?;
     let log_path = state_dir.join("ui.log");
     let mut cmd = Command::new(exe);
@@ -151,32 +150,17 @@ fn spawn_ui(
     let stderr = child.stderr.take().context("wrc ui has no stderr")?;
     let log = std::fs::File::create(&log_path)
         .with_context(|| format!("cannot create {}", log_path.display()))?;
+    // Every line goes to the log; the first stdout line naming the GUI's address and
+    // stderr's lines (why it failed) also come back here.
     let (tx, rx) = std::sync::mpsc::channel();
-    let err_log = log.try_clone()?;
-    std::thread::spawn(move || {
-        let mut log = log;
-        for line in std::io::BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-        {
-            use std::io::Write;
-            let _ = writeln!(log, "{line}");
-            if let Some(url) = line.strip_prefix("wrc ui: GUI on ") {
-                let _ = tx.send(url.to_string());
-            }
+    forward_lines(stdout, log.try_clone()?, move |line| {
+        if let Some(url) = line.strip_prefix("wrc ui: GUI on ") {
+            let _ = tx.send(url.to_string());
         }
     });
     let (etx, erx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let mut log = err_log;
-        for line in std::io::BufReader::new(stderr)
-            .lines()
-            .map_while(Result::ok)
-        {
-            use std::io::Write;
-            let _ = writeln!(log, "{line}");
-            let _ = etx.send(line);
-        }
+    forward_lines(stderr, log, move |line| {
+        let _ = etx.send(line.to_string());
     });
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
@@ -197,6 +181,21 @@ fn spawn_ui(
             );
         }
     }
+}
+
+/// Copy `from`'s lines into `log` on a thread of their own, showing each to `seen`.
+fn forward_lines(
+    from: impl std::io::Read + Send + 'static,
+    mut log: std::fs::File,
+    seen: impl Fn(&str) + Send + 'static,
+) {
+    use std::io::{BufRead, Write};
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(from).lines().map_while(Result::ok) {
+            let _ = writeln!(log, "{line}");
+            seen(&line);
+        }
+    });
 }
 
 pub(crate) fn stop_children(children: &mut [Child]) {

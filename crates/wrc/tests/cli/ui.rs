@@ -268,8 +268,9 @@ fn a_remote_gui_needs_a_token_off_loopback() {
     let c = Controller::start(&[]);
     let controller = format!("127.0.0.1:{}", c.port);
     let ui_port = free_port().to_string();
-    let refused = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args([
+    let remote_ui = || {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_wrc"));
+        cmd.args([
             "ui",
             "--no-sim",
             "--listen",
@@ -278,23 +279,16 @@ fn a_remote_gui_needs_a_token_off_loopback() {
             &ui_port,
         ])
         .args(["--controller", &controller])
-        .env_remove("WRC_UI_TOKEN")
-        .output()
-        .unwrap();
+        .env_remove("WRC_UI_TOKEN");
+        cmd
+    };
+    let refused = remote_ui().output().unwrap();
     assert_eq!(refused.status.code(), Some(2));
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(err.contains("requires --token"), "{err}");
 
-    let mut ui = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args([
-            "ui",
-            "--no-sim",
-            "--listen",
-            "0.0.0.0",
-            "--ui-port",
-            &ui_port,
-        ])
-        .args(["--controller", &controller, "--token", "s3cret-token"])
+    let mut ui = remote_ui()
+        .args(["--token", "s3cret-token"])
         .stdout(Stdio::null())
         .spawn()
         .unwrap();

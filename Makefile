@@ -21,6 +21,7 @@ check-toolchain:
 check-node:
 	@scripts/need.sh node nodejs
 	@scripts/need.sh npm npm
+	@node -e 'const [a,b]=process.versions.node.split(".").map(Number); process.exit(a>20||(a==20&&b>=19)?0:1)' || { echo "wrc: the web app (Vite 8) needs Node.js 20.19 or later; this is $$(node --version). Install a newer Node.js (https://nodejs.org) and retry"; exit 1; }
 
 web/node_modules/.package-lock.json: web/package-lock.json web/package.json | check-node
 	cd web && npm ci --no-audit --no-fund

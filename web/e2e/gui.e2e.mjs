@@ -29,7 +29,7 @@ const wrcBin = resolve(webDir, process.env.WRC_BIN ?? '../target/debug/wrc');
 const outDir = resolve(process.env.WRC_TEST_OUTPUT ?? join(repo, 'test-output', 'gui'));
 const chromiumPath = process.env.WRC_CHROMIUM ?? '/usr/bin/chromium';
 const STEP_MS = Number(process.env.WRC_E2E_STEP_MS ?? 30_000);
-const TOTAL_MS = Number(process.env.WRC_E2E_TOTAL_MS ?? 300_000);
+const TOTAL_MS = Number(process.env.WRC_E2E_TOTAL_MS ?? 480_000);
 
 const t0 = Date.now();
 const secs = () => ((Date.now() - t0) / 1000).toFixed(1).padStart(6);
@@ -75,7 +75,9 @@ function withTimeout(promise, ms, what) {
 
 let stepNo = 0;
 const results = [];
-async function step(name, fn, ms = STEP_MS) {
+// A step makes several waits of up to STEP_MS each; on a loaded 2-core machine the browser
+// alone can take seconds per click, so a step as a whole gets twice that.
+async function step(name, fn, ms = 2 * STEP_MS) {
   stepNo += 1;
   const label = `${String(stepNo).padStart(2)}. ${name}`;
   const start = Date.now();
@@ -96,6 +98,7 @@ async function step(name, fn, ms = STEP_MS) {
 
 let wrc = null;
 let wrcOut = '';
+let pageLog = '';
 let stateDir = null;
 
 async function startWrc() {
@@ -171,10 +174,27 @@ async function startWrc() {
     await sleep(100);
   }
   log(`GUI at ${url}`);
+  watchEvents(hostPort);
   return url;
 }
 
+/** A second host connection that only listens: the controller's events, for a failure report. */
+let events = '';
+let eventSocket = null;
+function watchEvents(port) {
+  const sock = net.connect(port, '127.0.0.1');
+  eventSocket = sock;
+  sock.setEncoding('latin1');
+  sock.on('data', (d) => {
+    for (const line of d.split('\n')) if (line.trim()) events += `[${secs()} s] ${line.trim()}\n`;
+  });
+  sock.on('error', (e) => {
+    events += `[${secs()} s] (event connection: ${e.message})\n`;
+  });
+}
+
 async function stopWrc() {
+  eventSocket?.destroy();
   if (!wrc) return;
   const p = wrc;
   wrc = null;
@@ -329,9 +349,10 @@ async function run() {
     ],
   });
   const pageErrors = [];
+  let page = null;
   try {
     const context = await browser.newContext({ viewport: { width: 1600, height: 1000 } });
-    const page = await context.newPage();
+    page = await context.newPage();
     page.on('pageerror', (e) => pageErrors.push(e.message));
     page.on('console', (m) => {
       if (m.type() === 'error') log(`     browser console error: ${m.text()}`);
@@ -498,6 +519,15 @@ async function run() {
     });
 
     if (pageErrors.length > 0) throw new Error(`errors in the page:\n  ${pageErrors.join('\n  ')}`);
+  } catch (e) {
+    // What the operator would have seen: the command log and the error text.
+    try {
+      const logText = page ? await page.locator(tid('command-log')).innerText({ timeout: 2000 }) : '';
+      pageLog = logText.split('\n').slice(-40).join('\n');
+    } catch {
+      /* the page is gone */
+    }
+    throw e;
   } finally {
     await browser.close().catch(() => undefined);
   }
@@ -521,8 +551,13 @@ try {
   /* best effort */
 }
 if (failed) {
-  console.error(`\ngui e2e FAILED after ${secs().trim()} s: ${failed.message}`);
+  const why = `gui e2e FAILED after ${secs().trim()} s: ${failed.message}`;
+  console.error(`\n${why}`);
   if (wrcOut.trim()) console.error(`--- wrc up output (last 4000 chars) ---\n${wrcOut.slice(-4000)}`);
+  if (events.trim()) console.error(`--- controller events (last 40) ---\n${events.trim().split('\n').slice(-40).join('\n')}`);
+  if (pageLog.trim()) console.error(`--- the page's command log (last 40 lines) ---\n${pageLog}`);
+  // Again at the end, where a CI log's tail shows it.
+  console.error(`\n${summary}\n${why}`);
   process.exit(1);
 }
 const passed = results.filter((r) => r.ok).length;

@@ -34,6 +34,9 @@ pub const MAX_HOSTS: usize = 256;
 /// Local GUI clients served at once (Unix socket).
 pub const MAX_GUIS: usize = 16;
 
+/// The tasks whose overruns during a motion are a fault (code 207) under real-time scheduling.
+const MOTION_PATH: [&str; 3] = ["error_check", "pulse_generator", "velocity_generator"];
+
 /// Where the controller listens and sends.
 #[derive(Debug, Clone)]
 pub struct Options {
@@ -428,7 +431,22 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     runtime.add(spec("rs232c"), Rs232c::new(serial, pendant, serial_out));
 
     let running = runtime.start()?;
-    let _ = stats.set(running.stats_cells());
+    if running.scheduling().is_realtime() {
+        // Error Check stops a motion on overruns of the motion path only, and only when the
+        // tasks really run real-time: an ordinary process on a busy machine overruns, which
+        // the runtime already reports (once, and per overrun in the log and TASKS).
+        let watched = running
+            .task_cells()
+            .into_iter()
+            .filter(|(spec, _)| MOTION_PATH.contains(&spec.name.as_str()))
+            .map(|(_, cell)| cell)
+            .collect();
+        let _ = stats.set(watched);
+    } else {
+        eprintln!(
+            "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
+        );
+    }
     let _ = task_cells.set(running.task_cells());
     let quit = Arc::new(AtomicBool::new(false));
     let path = UrgentPath {

@@ -26,7 +26,8 @@ pub struct Limits {
     pub following_error: [i64; MAX_AXES],
     /// Soft limits per axis [pulse] (min, max).
     pub soft: [(i64, i64); MAX_AXES],
-    /// Overruns of any task within one Error Check period that count as a fault.
+    /// Overruns of one watched task within one Error Check period that count as a fault while
+    /// the robot moves.
     pub overruns_per_check: u64,
 }
 
@@ -58,7 +59,10 @@ pub struct ErrorCheck<B: MotionBoard> {
     axis_count: usize,
     /// Set by the Ethernet/RS232C task when the controlling client disconnects mid-motion.
     pub owner_lost: Arc<AtomicBool>,
-    /// The runtime's statistics, once it runs.
+    /// The statistics of the tasks whose overruns stop a motion (the motion path: Error
+    /// Check, Pulse Generator, Velocity Generator). Set once the runtime runs on real-time
+    /// scheduling; left unset without it, where overruns are counted and reported but are
+    /// no fault (an ordinary process on a busy machine overruns, and says so once).
     stats: Arc<OnceLock<Vec<Arc<StatsCell>>>>,
     overruns_seen: [u64; 16],
     scratch: TaskStats,
@@ -130,11 +134,17 @@ impl<B: MotionBoard> ErrorCheck<B> {
             return Some(Code::ClientLost);
         }
         if let Some(cells) = self.stats.get() {
+            // Overruns matter while pulses flow: a gap in them is a jerk of the motors. At
+            // rest they are counted (TASKS, the log) but stop nothing.
+            let moving = matches!(
+                self.shared.state(),
+                RobotState::Moving | RobotState::Stopping
+            );
             let mut fault = None;
             for (seen, cell) in self.overruns_seen.iter_mut().zip(cells) {
                 cell.snapshot_into(&mut self.scratch);
                 let now = self.scratch.overruns;
-                if now.saturating_sub(*seen) >= self.limits.overruns_per_check {
+                if moving && now.saturating_sub(*seen) >= self.limits.overruns_per_check {
                     fault = Some(Code::TaskOverrun);
                 }
                 *seen = now;

@@ -152,6 +152,7 @@ pub(crate) fn on_simulated_board<T>(
         0,
         &dir.join("board0.dpram"),
         &dir.join("board0.log"),
+        None,
     )?];
     let result = measure(&dir);
     crate::up::stop_children(&mut children);

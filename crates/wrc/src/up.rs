@@ -73,11 +73,21 @@ pub(crate) fn termination_signals() -> libc::sigset_t {
     }
 }
 
+/// Whether this process may run threads under SCHED_FIFO (a probe thread tries it).
+fn fifo_allowed() -> bool {
+    std::thread::spawn(|| wrc_rt::sched_policy::set_current_thread_fifo(1).is_ok())
+        .join()
+        .unwrap_or(false)
+}
+
+/// Start `wrc board-sim` for board `id` on `dpram`; `watchdog_periods` overrides the
+/// configured host-watchdog limit.
 pub(crate) fn spawn_board(
     config: Option<&Path>,
     id: u32,
     dpram: &Path,
     log: &Path,
+    watchdog_periods: Option<u32>,
 ) -> anyhow::Result<Child> {
     let exe =
         std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
@@ -89,6 +99,9 @@ pub(crate) fn spawn_board(
         .arg(id.to_string());
     if let Some(c) = config {
         cmd.arg("--config").arg(c);
+    }
+    if let Some(p) = watchdog_periods {
+        cmd.arg("--watchdog-periods").arg(p.to_string());
     }
     let log =
         std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
@@ -244,12 +257,30 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
 
     let mut children = Vec::new();
     let boards: Vec<PathBuf> = if args.board.is_empty() {
+        // An ordinary process on a busy machine (or a VM) stalls for 100 ms now and then; the
+        // simulated board then keeps its host watchdog to 1 s, so such a stall is not a fault
+        // at rest. A real board keeps its own setting.
+        let lenient =
+            (args.no_rt || !fifo_allowed()).then(|| (1.0 / config.motion.period_s).ceil() as u32);
         let mut paths = Vec::new();
         for b in &config.boards {
             let dpram = args.state_dir.join(format!("board{}.dpram", b.id));
             let log = args.state_dir.join(format!("board{}.log", b.id));
             let _ = std::fs::remove_file(&dpram);
-            children.push(spawn_board(args.config.as_deref(), b.id, &dpram, &log)?);
+            let watchdog = lenient.map(|p| p.max(b.watchdog_periods));
+            if let Some(p) = watchdog.filter(|&p| p != b.watchdog_periods) {
+                println!(
+                    "wrc: not real-time: the simulated board {} watches the host with {p} periods instead of {}",
+                    b.id, b.watchdog_periods
+                );
+            }
+            children.push(spawn_board(
+                args.config.as_deref(),
+                b.id,
+                &dpram,
+                &log,
+                watchdog,
+            )?);
             paths.push(dpram);
         }
         paths

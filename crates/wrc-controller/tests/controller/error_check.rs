@@ -1,0 +1,124 @@
+//! Error Check's overrun policy: overruns of the watched (motion-path) tasks stop a motion,
+//! overruns at rest stop nothing, and without watched tasks (not real-time) nothing does.
+
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, OnceLock};
+
+use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::{DpramBoard, Expect, Mapping};
+use wrc_config::Config;
+use wrc_controller::error_check::{ErrorCheck, Limits};
+use wrc_controller::shared::{RobotState, Shared, Urgent};
+use wrc_protocol::Code;
+use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::stats::CycleSample;
+use wrc_rt::StatsCell;
+
+struct Rig {
+    _sim: SimBoard,
+    ec: ErrorCheck<DpramBoard>,
+    shared: Arc<Shared>,
+    urgent: Arc<MessageQueue<Urgent>>,
+    cell: Arc<StatsCell>,
+}
+
+fn rig(watched: bool) -> Rig {
+    let config = Config::embedded_default();
+    let settings = SimSettings::from_config(&config, &config.boards[0]);
+    let mapping = Mapping::anonymous().unwrap();
+    let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+    sim.step();
+    let board = DpramBoard::attach(mapping, Expect::default()).unwrap();
+    let shared = Arc::new(Shared::default());
+    let urgent = Arc::new(MessageQueue::new(8));
+    let cell = Arc::new(StatsCell::new());
+    let stats = Arc::new(OnceLock::new());
+    if watched {
+        let _ = stats.set(vec![cell.clone()]);
+    }
+    let ec = ErrorCheck::new(
+        board,
+        config.robot.axes().len(),
+        shared.clone(),
+        urgent.clone(),
+        Arc::new(Semaphore::new(0)),
+        Limits::for_robot(&config.robot),
+        Arc::new(AtomicBool::new(false)),
+        stats,
+    );
+    Rig {
+        _sim: sim,
+        ec,
+        shared,
+        urgent,
+        cell,
+    }
+}
+
+impl Rig {
+    fn overrun(&self, times: usize) {
+        for _ in 0..times {
+            self.cell.record(&CycleSample {
+                overrun: true,
+                missed_periods: 1,
+                ..Default::default()
+            });
+        }
+    }
+
+    fn fault(&self) -> Option<u16> {
+        match self.urgent.try_recv() {
+            Ok(Urgent::Fault(code)) => Some(code),
+            Ok(_) => panic!("Error Check sent something else than a fault"),
+            Err(_) => None,
+        }
+    }
+}
+
+#[test]
+fn overruns_of_a_watched_task_during_a_motion_are_fault_207() {
+    let mut r = rig(true);
+    r.shared.set_state(RobotState::Moving);
+    r.ec.step();
+    assert_eq!(r.fault(), None, "no overrun yet");
+    r.overrun(2);
+    r.ec.step();
+    assert_eq!(
+        r.fault(),
+        None,
+        "2 overruns in one check are below the limit of 3"
+    );
+    r.overrun(3);
+    r.ec.step();
+    assert_eq!(r.fault(), Some(Code::TaskOverrun.number()));
+}
+
+#[test]
+fn overruns_at_rest_stop_nothing_and_do_not_count_later() {
+    let mut r = rig(true);
+    r.shared.set_state(RobotState::Idle);
+    r.overrun(10);
+    r.ec.step();
+    assert_eq!(r.fault(), None, "the robot stands: nothing to stop");
+    // The overruns at rest are not carried into the next motion.
+    r.shared.set_state(RobotState::Moving);
+    r.ec.step();
+    assert_eq!(r.fault(), None);
+    r.shared.set_state(RobotState::Stopping);
+    r.overrun(3);
+    r.ec.step();
+    assert_eq!(
+        r.fault(),
+        Some(Code::TaskOverrun.number()),
+        "a stop is a motion too"
+    );
+}
+
+#[test]
+fn without_real_time_overruns_are_no_fault() {
+    let mut r = rig(false);
+    r.shared.set_state(RobotState::Moving);
+    r.overrun(50);
+    r.ec.step();
+    assert_eq!(r.fault(), None);
+}

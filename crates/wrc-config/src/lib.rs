@@ -11,6 +11,7 @@
 #![deny(missing_docs)]
 
 mod board;
+mod hand;
 mod raw;
 mod tasks;
 
@@ -20,6 +21,7 @@ use wrc_motion::MotionSettings;
 use wrc_robot::Robot;
 
 pub use board::{default_dpram, BoardConfig, BoardSimConfig, VacuumConfig};
+pub use hand::HandConfig;
 
 /// The embedded default configuration (`config/default.toml`).
 pub const DEFAULT_TOML: &str = include_str!("../../../config/default.toml");
@@ -73,6 +75,8 @@ pub struct Config {
     /// Real-time tasks (`[[task]]`): priority and period of each; the paper's Table 1 when the
     /// file has no `[[task]]` section.
     pub tasks: wrc_rt::TaskTable,
+    /// The hand's signals (`[hand]`; defaults when absent).
+    pub hand: HandConfig,
 }
 
 impl Config {
@@ -167,6 +171,25 @@ mod tests {
 
         let e = err("this is = = not toml");
         assert!(e.contains("cell.toml"), "{e}");
+    }
+
+    #[test]
+    fn hand_signals_default_and_are_checked() {
+        assert_eq!(Config::embedded_default().hand, HandConfig::default());
+        let e = err(&with("mapping_output = 1 ", "mapping_output = 0 "));
+        assert!(
+            e.contains("hand.mapping_output") && e.contains("vacuum"),
+            "{e}"
+        );
+        let e = err(&with("vacuum_input = 0 ", "vacuum_input = 32 "));
+        assert!(
+            e.contains("hand.vacuum_input") && e.contains("0 to 31"),
+            "{e}"
+        );
+        let e = err(&with("vacuum_settle_ms = 500.0", "vacuum_settle_ms = 0.0"));
+        assert!(e.contains("hand.vacuum_settle_ms"), "{e}");
+        let c = Config::parse(&with("vacuum_output = 0 ", "vacuum_output = 5 "), "x").unwrap();
+        assert_eq!(c.hand.vacuum_output, 5);
     }
 
     #[test]

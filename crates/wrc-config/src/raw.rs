@@ -18,6 +18,8 @@ pub(crate) struct RawConfig {
     board: Vec<crate::board::RawBoard>,
     #[serde(default)]
     task: Vec<crate::tasks::RawTask>,
+    #[serde(default)]
+    hand: crate::hand::RawHand,
 }
 
 #[derive(Debug, Deserialize)]
@@ -186,6 +188,7 @@ impl RawConfig {
             motion,
             boards,
             tasks: crate::tasks::tasks(self.task, file)?,
+            hand: self.hand.into_hand(file)?,
         })
     }
 }

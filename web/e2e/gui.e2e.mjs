@@ -371,7 +371,7 @@ async function run() {
       await page.waitForSelector(`${tid('connection')}[data-connected="1"]`, { timeout: STEP_MS });
       await page.waitForSelector(tid('current-axis-1'), { timeout: STEP_MS }); // ROBOT answered
       await page.waitForSelector('#panel-control', { timeout: STEP_MS });
-      for (const id of ['panel-simulator', 'panel-editor', 'panel-plots']) {
+      for (const id of ['panel-simulator', 'panel-wafers', 'panel-editor', 'panel-plots']) {
         if ((await page.locator(`#${id}`).count()) !== 1) throw new Error(`no #${id}`);
       }
       if (!(await page.locator('#panel-simulator').isVisible())) throw new Error('the Simulator tab is not shown first');
@@ -471,6 +471,29 @@ async function run() {
       await page.waitForSelector('#panel-plots', { state: 'visible', timeout: STEP_MS });
       await sleep(1500); // a few timing updates
       await shot(page, '#panel-plots', 'plots.png');
+    });
+
+    await step('Wafers tab: a column per station, a fresh map is all unmapped', async () => {
+      await page.click(tid('tab-wafers'));
+      await page.waitForSelector('#panel-wafers', { state: 'visible', timeout: STEP_MS });
+      await page.waitForSelector(tid('wafer-station-LP1'), { timeout: STEP_MS }); // WAFERS answered
+      const slots = page.locator(`${tid('wafer-station-LP1')} [data-testid^="wafer-slot-LP1-"]`);
+      const n = await slots.count();
+      if (n !== 25) throw new Error(`LP1 shows ${n} slots, not 25`);
+      const states = await slots.evaluateAll((els) => els.map((e) => e.getAttribute('data-state')));
+      const other = states.filter((s) => s !== 'unknown');
+      if (other.length > 0) throw new Error(`a fresh map shows ${JSON.stringify(other)}, not only "unknown"`);
+      // Slot 25 on top, like a cassette.
+      const first = await slots.first().getAttribute('data-testid');
+      if (first !== 'wafer-slot-LP1-25') throw new Error(`the top slot is ${first}, not wafer-slot-LP1-25`);
+      const hand = await page.locator(tid('wafer-hand')).getAttribute('data-wafer');
+      if (hand !== '') throw new Error(`the hand shows ${JSON.stringify(hand)} on a fresh map`);
+      // Selecting an unmapped slot: GET stays disabled (nothing is sent), MAP is offered.
+      await page.click(tid('wafer-slot-LP1-3'));
+      await page.waitForSelector(`${tid('wafer-slot-LP1-3')}[data-selected="1"]`, { timeout: STEP_MS });
+      if (!(await page.locator(tid('wafer-get')).isDisabled())) throw new Error('GET is enabled for an unmapped slot');
+      if (!(await page.locator(tid('wafer-map')).isEnabled())) throw new Error('MAP is disabled while this page holds control');
+      await shot(page, '#panel-wafers', 'wafers.png');
     });
 
     let stopState = '';

@@ -66,7 +66,7 @@ export type FirstReply =
   | { kind: 'ACK'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'NAK'; id: number; code: number; text: string; line: string };
 
-/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN. */
+/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT, MAP. */
 export type FinalReply =
   | { kind: 'INF'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'ABS'; id: number; code: number; text: string; line: string };
@@ -110,10 +110,10 @@ export interface Bus {
   onEvent(cb: (name: string, body: string, line: string) => void): Unsubscribe;
   /**
    * Send one request (without an id: the bus adds one). Resolves with its first reply;
-   * `final`, when the verb completes later (HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN) and the
-   * first reply is an ACK, resolves with its INF or ABS. Events that arrive between the
-   * request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`) are collected in
-   * `events` (lines without `EVT `).
+   * `final`, when the verb completes later (HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT,
+   * MAP) and the first reply is an ACK, resolves with its INF or ABS. Events that arrive
+   * between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`, `EVT WAFER`)
+   * are collected in `events` (lines without `EVT `).
    */
   request(line: string): Promise<{ first: FirstReply; final: Promise<FinalReply> | null; events: string[] }>;
   /** Send raw lines (UPLOAD and its text): the reply to the request among them is returned. */

@@ -1,6 +1,7 @@
 import { afterEach, beforeEach, describe, expect, it, vi } from 'vitest';
 import type { SimSample } from './bus';
 import { Connection, defaultUrl, type SocketLike } from './connection';
+import { createWaferStore } from './wafers';
 
 class FakeSocket implements SocketLike {
   binaryType = 'blob';
@@ -272,6 +273,33 @@ describe('Connection', () => {
     const p = conn.request('STATUS');
     vi.advanceTimersByTime(30_000);
     await expect(p).rejects.toThrow(/no reply to STATUS/);
+  });
+
+  it('hands a split WAFERS reply (EVT WAFER parts, then ACK parts=n) to the wafer store, then follows EVT WAFER', async () => {
+    const store = createWaferStore(conn, () => undefined);
+    const s = up(); // the greeting: 1 SUBSCRIBE, 2 ROBOT, 3 IO; then the store's 4 WAFERS
+    expect(s.lines()).toEqual(['1 SUBSCRIBE', '2 ROBOT', '3 IO', '4 WAFERS']);
+    s.recv(
+      'ACK 1',
+      'EVT WAFER hand=W3',
+      'EVT STATE IDLE',
+      'EVT WAFER LP1=W1,W2,-,W4..W25',
+      'EVT WAFER LP2=-x25',
+      'EVT WAFER pending=get:LP2.1:W3',
+      'ACK 4 parts=4',
+    );
+    await flush();
+    const m = store.state().map;
+    expect(store.state().available).toBe(true);
+    expect(m.hand).toBe('W3');
+    expect([...m.stations.keys()]).toEqual(['LP1', 'LP2']);
+    expect(m.stations.get('LP1')).toHaveLength(25);
+    expect(m.pending).toEqual({ kind: 'get', station: 'LP2', slot: 1, wafer: 'W3' });
+    s.recv('EVT WAFER pending=-', 'EVT WAFER hand=-', 'EVT WAFER LP2=W3,-x24');
+    expect(store.state().map.pending).toBeNull();
+    expect(store.state().map.hand).toBeNull();
+    expect(store.state().map.stations.get('LP2')?.[0]).toEqual({ state: 'wafer', wafer: 'W3' });
+    store.dispose();
   });
 
   it('does not reconnect after close()', () => {

@@ -10,6 +10,7 @@ import {
   parseInputEvent,
   parseIo,
   parseStatus,
+  replyRest,
   verbOf,
 } from './protocol';
 
@@ -338,8 +339,11 @@ export class Commander {
     if (final) {
       final
         .then((f) => {
-          if (f.kind === 'INF') this.log.add('inf', `INF ${verb} finished`);
-          else this.log.add('abs', `ABS ${verb}: ${f.code} ${f.text}`);
+          if (f.kind === 'INF') {
+            // GET/PUT say which wafer moved (`INF 3 W3`), MAP the slots it found (`INF 7 LP1 1111…`).
+            const rest = replyRest(f.line);
+            this.log.add('inf', `INF ${verb} finished${rest ? `: ${rest}` : ''}`);
+          } else this.log.add('abs', `ABS ${verb}: ${f.code} ${f.text}`);
         })
         .catch((e: unknown) => this.log.add('abs', `${verb}: ${e instanceof Error ? e.message : String(e)}`));
     }

@@ -1,5 +1,6 @@
 // The app shell: the header (robot, connection, state, error, control lock, RESET and the
-// E-STOP), the Control panel on the left and the tabs [Simulator | Editor | Plots] on the right.
+// E-STOP), the Control panel on the left and the tabs [Simulator | Wafers | Editor | Plots] on
+// the right.
 
 import './style.css';
 import { Connection, defaultUrl } from './connection';
@@ -8,8 +9,11 @@ import { mountEditor } from './editor';
 import { mountSimulator } from './simulator';
 import { mountPlots } from './plots';
 import { mountStations } from './stations';
+import { mountWaferPanel } from './wafer-panel';
+import { createWaferStore, drawWafers } from './wafers';
 
-type TabName = 'simulator' | 'editor' | 'plots';
+type TabName = 'simulator' | 'wafers' | 'editor' | 'plots';
+const TAB_NAMES: readonly TabName[] = ['simulator', 'wafers', 'editor', 'plots'];
 
 function start(): void {
   const app = document.getElementById('app') ?? document.body.appendChild(h('div', { id: 'app' }));
@@ -60,10 +64,12 @@ function start(): void {
   // ---- body ----
   const controlEl = h('aside', { id: 'panel-control', class: 'panel' });
   const simEl = h('div', { id: 'panel-simulator', class: 'panel tab-panel' });
+  const wafersEl = h('div', { id: 'panel-wafers', class: 'panel tab-panel' });
   const editorEl = h('div', { id: 'panel-editor', class: 'panel tab-panel' });
   const plotsEl = h('div', { id: 'panel-plots', class: 'panel tab-panel' });
   const tabs: Record<TabName, { btn: HTMLButtonElement; el: HTMLElement; label: string }> = {
     simulator: { btn: h('button'), el: simEl, label: 'Simulator' },
+    wafers: { btn: h('button'), el: wafersEl, label: 'Wafers' },
     editor: { btn: h('button'), el: editorEl, label: 'Editor' },
     plots: { btn: h('button'), el: plotsEl, label: 'Plots' },
   };
@@ -72,14 +78,17 @@ function start(): void {
     t.btn = h('button', { class: 'tab', role: 'tab', 'data-testid': `tab-${name}`, onclick: () => show(name) }, t.label);
     tabBar.append(t.btn);
   }
-  const right = h('main', { class: 'right' }, tabBar, h('div', { class: 'tab-body' }, simEl, editorEl, plotsEl));
+  const right = h('main', { class: 'right' }, tabBar, h('div', { class: 'tab-body' }, simEl, wafersEl, editorEl, plotsEl));
   app.replaceChildren(header, h('div', { class: 'body' }, controlEl, right));
 
   mountControl(controlEl, model, cmd);
   const sim = mountSimulator(simEl, bus);
-  mountStations(bus, sim);
+  const stations = mountStations(bus, sim);
+  const wafers = createWaferStore(bus);
+  drawWafers(wafers, stations, sim);
   const panels: Record<TabName, { resize(): void }> = {
     simulator: sim,
+    wafers: mountWaferPanel(wafersEl, wafers, model, cmd, stations),
     editor: mountEditor(editorEl, bus),
     plots: mountPlots(plotsEl, bus),
   };
@@ -108,7 +117,7 @@ function start(): void {
       return null;
     }
   })();
-  show(savedTab === 'editor' || savedTab === 'plots' ? savedTab : 'simulator');
+  show(TAB_NAMES.find((t) => t === savedTab) ?? 'simulator');
   window.addEventListener('resize', () => panels[active].resize());
 
   // ---- header updates ----
@@ -137,7 +146,7 @@ function start(): void {
 
   window.addEventListener('beforeunload', () => bus.close());
   // For debugging from the browser console.
-  (window as unknown as { wrc: unknown }).wrc = { bus, model };
+  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers };
 }
 
 start();

@@ -19,6 +19,7 @@ import {
   parsePrograms,
   parseStatus,
   programAbsLine,
+  replyRest,
   robotFromReply,
   verbOf,
 } from './protocol';
@@ -134,7 +135,16 @@ describe('fields, status, io', () => {
   it('names error codes', () => {
     expect(errorText(0)).toBe('');
     expect(errorText(201)).toBe('201 emergency stop');
+    expect(errorText(213)).toBe('213 wafer lost');
     expect(errorText(299)).toBe('299 error');
+  });
+
+  it('gives what an INF says after its id (GET names the wafer, MAP the slots)', () => {
+    expect(replyRest('INF 3 W3')).toBe('W3');
+    expect(replyRest('INF 7 LP1 1111111111111111111111111')).toBe('LP1 1111111111111111111111111');
+    expect(replyRest('INF 3')).toBe('');
+    expect(replyRest('INF W3')).toBe('W3');
+    expect(replyRest('ACK 4 owner=gui0*1F')).toBe('owner=gui0');
   });
 });
 
@@ -214,8 +224,12 @@ describe('requests', () => {
   it('formats requests and knows the verbs that complete later', () => {
     expect(formatRequest(7, ' MOVP 1 2 3 4 ')).toBe('7 MOVP 1 2 3 4');
     expect(verbOf('12 movj 1 2 3 4')).toBe('MOVJ');
-    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x']) expect(completesLater(v)).toBe(true);
-    for (const v of ['STATUS', 'STOP', 'ESTOP', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL']) expect(completesLater(v)).toBe(false);
+    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'MAP LP1']) {
+      expect(completesLater(v), v).toBe(true);
+    }
+    for (const v of ['STATUS', 'STOP', 'ESTOP', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL', 'WAFERS', 'STN', 'TEACH LP1']) {
+      expect(completesLater(v), v).toBe(false);
+    }
   });
 
   it('formats an upload and refuses a lone dot', () => {

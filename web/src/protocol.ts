@@ -211,6 +211,16 @@ export function programAbsLine(text: string): number | null {
   return m ? Number(m[1]) : null;
 }
 
+/**
+ * What an `ACK`/`INF` line says after its reply word and id (`INF 7 LP1 1111` → `LP1 1111`,
+ * `INF 3 W3` → `W3`, `INF 3` → ''), without a checksum.
+ */
+export function replyRest(line: string): string {
+  const ws = words(stripChecksum(line));
+  const i = ws.length > 1 && DIGITS.test(ws[1]) ? 2 : 1;
+  return ws.slice(i).join(' ');
+}
+
 /** `ACK … in=<hex> out=<hex>` of `IO`. */
 export function parseIo(fields: Record<string, string>): { inputs: number; outputs: number } | null {
   if (fields.in === undefined || fields.out === undefined) return null;
@@ -248,7 +258,7 @@ export function parsePrograms(fields: Record<string, string>): string[] {
 }
 
 /** Verbs whose accepted request later ends with `INF` or `ABS`. */
-const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN']);
+const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN', 'GET', 'PUT', 'MAP']);
 
 /** The verb of a request line (upper case), skipping a leading id. */
 export function verbOf(request: string): string {
@@ -322,6 +332,9 @@ const ALARM_TEXT: Record<number, string> = {
   209: 'motion fault',
   210: 'program error',
   211: 'WAIT timed out',
+  212: 'wafer not sensed',
+  213: 'wafer lost',
+  214: 'station interlock opened',
   300: 'motion board lost',
   301: 'internal error',
 };

@@ -2,12 +2,16 @@
 // (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample).
 //
 // Scene units are millimetres in the robot's base frame, Z up (camera.up = +Z): the floor is
-// the z = 0 plane, x/y as in the kinematics (crates/wrc-robot/src/kinematics.rs).
+// the z = 0 plane, x/y as in the kinematics (crates/wrc-robot/src/kinematics.rs). Heights the
+// controller gives (the TCP's z, a station's support height) are the Z axis's frame: the
+// scene draws height z at `sceneZ(z)`, where the hand's wafer rests when the TCP is at z, so
+// the hand meets the wafers in the stations where the controller says they are.
 
 import { injectStyle } from './dom';
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import type { Bus, RobotInfo, RobotState, SimSample } from './bus';
+import type { WaferDisc } from './wafers';
 import { StreamStats } from './stream';
 import { armAxes, armPose, forwardTcp, homePositions, type ArmAxes, type ArmPose } from './sim-kinematics';
 
@@ -18,7 +22,10 @@ export interface StationSpec {
   /** Centre of the box's footprint [mm]. */
   x: number;
   y: number;
-  /** Bottom of the box [mm] (default 0: on the floor). */
+  /**
+   * Bottom of the box [mm] in the Z axis's frame, like a station's support height (default 0);
+   * drawn at `sceneZ(z)` on a stand that reaches down to the floor.
+   */
   z?: number;
   /** Rotation about +Z [deg], counter-clockwise (default 0). */
   yaw?: number;
@@ -39,6 +46,11 @@ export interface SimulatorHandle {
   clearStations(): void;
   /** Show or hide the wafer on the hand (shown by default). */
   setWafer(onHand: boolean): void;
+  /**
+   * The wafers in the stations (replacing those drawn before); call when the map or the
+   * stations change, not per frame.
+   */
+  setStationWafers(discs: readonly WaferDisc[]): void;
   /** Remove the view and stop everything (not needed by the app; for tests and reuse). */
   dispose(): void;
 }
@@ -54,8 +66,21 @@ const LINK1_R = 44;
 const LINK2_R = 38;
 const HUB_T = 18;
 const FORK_T = 7;
+const ELBOW_DZ = LINK1_T + 2; // link 2's bottom above link 1's
+const WRIST_DZ = LINK2_T + 2; // the wrist hub's bottom above link 2's
 const WAFER_R = 150;
 const WAFER_T = 2;
+/** Scene height of the fork's top (where the hand's wafer rests) with the Z axis at 0 [mm]. */
+const FORK_TOP_Z0 = BASE_H + SHOULDER_Z + ELBOW_DZ + WRIST_DZ + HUB_T + FORK_T;
+/** Wafers float this much above what they rest on, against z-fighting [mm]. */
+const WAFER_GAP = 0.5;
+/** A double wafer (two wafers in one slot) is drawn this many wafers thick. */
+const DOUBLE_SCALE = 3;
+
+/** The scene height of a height `z` of the Z axis's frame (a TCP z, a support height) [mm]. */
+export function sceneZ(z: number): number {
+  return FORK_TOP_Z0 + z;
+}
 
 const STYLE_ID = 'sim-style';
 const STYLE = `
@@ -210,6 +235,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     removeStation() {},
     clearStations() {},
     setWafer() {},
+    setStationWafers() {},
     dispose() {
       root.remove();
     },
@@ -276,6 +302,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   scene.add(floorGroup);
   const stationGroup = new THREE.Group();
   scene.add(stationGroup);
+  const slotWaferGroup = new THREE.Group();
+  scene.add(slotWaferGroup);
 
   let model: RobotModel | null = null;
   let waferOnHand = true;
@@ -310,6 +338,11 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     side: THREE.DoubleSide,
   });
   const trimMat = new THREE.MeshStandardMaterial({ color: '#e0a526', metalness: 0.1, roughness: 0.6 });
+  // Faulty slots: a double wafer red, a cross-slotted one orange (as in the Wafers panel).
+  const doubleMat = new THREE.MeshStandardMaterial({ color: '#e0352b', metalness: 0.3, roughness: 0.4, emissive: '#3a0500' });
+  const crossMat = new THREE.MeshStandardMaterial({ color: '#f08a1c', metalness: 0.3, roughness: 0.4, emissive: '#2e1600' });
+  // One wafer geometry for the hand and every slot (not disposed with a robot model).
+  const waferGeo = zCylinder(WAFER_R, WAFER_T, 96);
   // The base housing keeps its colour: the moving parts show the state.
   const tinted = [linkMat, columnMat, handMat];
 
@@ -383,14 +416,14 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     cap1.position.z = LINK1_T;
 
     const elbow = new THREE.Group();
-    elbow.position.set(l1, 0, LINK1_T + 2);
+    elbow.position.set(l1, 0, ELBOW_DZ);
     shoulder.add(elbow);
     mesh(g(slot(l2, LINK2_R, LINK2_T)), linkMat.mat, elbow);
     const cap2 = mesh(g(zCylinder(LINK2_R * 0.55, 4)), jointMat, elbow);
     cap2.position.z = LINK2_T;
 
     const wrist = new THREE.Group();
-    wrist.position.set(l2, 0, LINK2_T + 2);
+    wrist.position.set(l2, 0, WRIST_DZ);
     elbow.add(wrist);
     mesh(g(zCylinder(30, HUB_T)), jointMat, wrist);
     // Bar from the wrist hub to the palm of the fork (behind the wrist when hand < 125 mm).
@@ -400,8 +433,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     if (palmBack < 0) bar.rotation.z = Math.PI;
     const fork = mesh(g(forkGeometry(hand)), handMat.mat, wrist);
     fork.position.z = HUB_T;
-    const wafer = mesh(g(zCylinder(WAFER_R, WAFER_T, 96)), waferMat, wrist);
-    wafer.position.set(hand, 0, HUB_T + FORK_T + 0.5);
+    const wafer = mesh(waferGeo, waferMat, wrist);
+    wafer.position.set(hand, 0, HUB_T + FORK_T + WAFER_GAP);
     wafer.castShadow = false;
     wafer.visible = waferOnHand;
     wafer.renderOrder = 1;
@@ -623,8 +656,18 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       new THREE.LineBasicMaterial({ color: color.clone().offsetHSL(0, 0, 0.2) }),
     );
     grp.add(box, edges);
-    grp.position.set(spec.x, spec.y, (spec.z ?? 0) + Math.max(1, spec.height) / 2);
+    const bottom = sceneZ(spec.z ?? 0);
+    grp.position.set(spec.x, spec.y, bottom + Math.max(1, spec.height) / 2);
     grp.rotation.z = THREE.MathUtils.degToRad(spec.yaw ?? 0);
+    if (bottom > 1) {
+      // A stand down to the floor, so the box does not float.
+      const stand = new THREE.Mesh(
+        new THREE.BoxGeometry(Math.max(1, spec.depth * 0.5), Math.max(1, spec.width * 0.5), bottom),
+        new THREE.MeshStandardMaterial({ color, transparent: true, opacity: 0.14, depthWrite: false, roughness: 0.9 }),
+      );
+      stand.position.z = -Math.max(1, spec.height) / 2 - bottom / 2;
+      grp.add(stand);
+    }
     grp.name = id;
     stationGroup.add(grp);
     stations.set(id, grp);
@@ -637,6 +680,32 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     stationGroup.remove(o);
     disposeObject(o);
     stations.delete(id);
+    dirty = true;
+  }
+
+  // Wafers in the stations: a pool of meshes sharing one geometry, placed when the map
+  // changes (meshes are only added when the pool is too small).
+  const slotWafers: THREE.Mesh[] = [];
+  function setStationWafers(discs: readonly WaferDisc[]): void {
+    while (slotWafers.length < discs.length) {
+      const m = new THREE.Mesh(waferGeo, waferMat);
+      m.castShadow = false;
+      m.receiveShadow = true;
+      m.renderOrder = 1;
+      slotWaferGroup.add(m);
+      slotWafers.push(m);
+    }
+    slotWafers.forEach((m, i) => {
+      const d = discs[i];
+      m.visible = d !== undefined;
+      if (!d) return;
+      m.material = d.state === 'double' ? doubleMat : d.state === 'cross' ? crossMat : waferMat;
+      m.position.set(d.x, d.y, sceneZ(d.z) + WAFER_GAP);
+      // Yaw about +Z, then a cross-slotted wafer's tilt about the station's hand direction.
+      m.rotation.set(THREE.MathUtils.degToRad(d.tilt), 0, THREE.MathUtils.degToRad(d.yaw), 'ZYX');
+      m.scale.set(1, 1, d.state === 'double' ? DOUBLE_SCALE : 1);
+      m.name = `${d.station}.${d.slot}`;
+    });
     dirty = true;
   }
 
@@ -655,10 +724,12 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       for (const id of [...stations.keys()]) removeStation(id);
     },
     setWafer(onHand: boolean) {
+      if (onHand === waferOnHand) return;
       waferOnHand = onHand;
       if (model) model.wafer.visible = onHand;
       dirty = true;
     },
+    setStationWafers,
     dispose() {
       if (disposed) return;
       disposed = true;

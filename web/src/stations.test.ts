@@ -234,6 +234,27 @@ describe('mountStations', () => {
     expect(sim.calls).toEqual([]);
   });
 
+  it('tells its listeners when the stations drawn change', async () => {
+    const { bus, h } = setup({ first: ack(1), events: [`STATION ${LP1}`] });
+    let n = 0;
+    h.onChange(() => n++);
+    await flush();
+    expect(n).toBe(1); // the STN reply
+    bus.event(`EVT STATION ${AL}`);
+    expect(n).toBe(2);
+    bus.event('EVT STATION broken');
+    bus.event('EVT INPUT 3 1');
+    expect(n).toBe(2);
+    bus.reply = () => ({
+      first: { kind: 'NAK', id: 2, code: 100, text: 'unknown verb STN', line: 'NAK 2 100 unknown verb STN' },
+      events: [],
+    });
+    await h.refresh();
+    expect(n).toBe(3); // an older controller: the stations were removed
+    await h.refresh();
+    expect(n).toBe(3); // nothing left to remove
+  });
+
   it('stops listening after dispose', async () => {
     const { bus, sim, h } = setup({ first: ack(0), events: [] });
     await flush();

@@ -148,6 +148,8 @@ export type StationSink = Pick<SimulatorHandle, 'addStation' | 'removeStation' |
 export interface StationsHandle {
   /** The stations drawn, in the order received. */
   stations(): StationInfo[];
+  /** Called after the stations drawn changed (a `STN` reply, an `EVT STATION`). */
+  onChange(cb: () => void): Unsubscribe;
   /** Ask `STN` again (resolves when its reply has been handled; never rejects). */
   refresh(): Promise<void>;
   dispose(): void;
@@ -156,8 +158,19 @@ export interface StationsHandle {
 /** Ask the controller for its stations after each connection and draw them in `sim`. */
 export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
   const drawn = new Map<string, { info: StationInfo; id: string }>();
+  const listeners = new Set<() => void>();
   let token = 0;
   let disposed = false;
+
+  function changed(): void {
+    for (const cb of [...listeners]) {
+      try {
+        cb();
+      } catch (e) {
+        console.error('wrc: stations listener failed', e);
+      }
+    }
+  }
 
   function upsert(info: StationInfo): void {
     const old = drawn.get(info.name);
@@ -187,7 +200,10 @@ export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
     const { first, events } = reply;
     if (first.kind === 'NAK') {
       // 100: an older controller without stations (draw none). Others: keep what is drawn.
-      if (first.code === 100) clear();
+      if (first.code === 100 && drawn.size > 0) {
+        clear();
+        changed();
+      }
       return;
     }
     // Last one wins (an EVT STATION after a TEACH may arrive among the reply's events).
@@ -200,6 +216,7 @@ export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
     sim.clearStations();
     drawn.clear();
     for (const info of list.values()) upsert(info);
+    changed();
   }
 
   const unsubs: Unsubscribe[] = [
@@ -210,16 +227,26 @@ export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
     bus.onEvent((name, body) => {
       if (disposed || name !== 'STATION') return;
       const info = parseStationLine(body);
-      if (info) upsert(info);
+      if (info) {
+        upsert(info);
+        changed();
+      }
     }),
   ];
   void refresh();
 
   return {
     stations: () => [...drawn.values()].map((d) => d.info),
+    onChange(cb) {
+      listeners.add(cb);
+      return () => {
+        listeners.delete(cb);
+      };
+    },
     refresh,
     dispose() {
       disposed = true;
+      listeners.clear();
       for (const u of unsubs) u();
     },
   };

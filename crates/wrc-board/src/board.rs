@@ -109,6 +109,70 @@ impl Feedback {
     }
 }
 
+/// The mapping sensor's latch, filled by [`MotionBoard::read_mapping`]: which station's
+/// slots the sensor has passed since the last [`MotionBoard::clear_mapping`] and what it saw
+/// in each (`docs/dpram.md`, Mapping sensor). Make it once and reuse it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MappingScan {
+    /// The board has acted on the last clear (`CLEAR_ACK == CLEAR_SEQ`): the latch shows
+    /// only what was scanned since. Stays false on a board without a mapping sensor.
+    pub cleared: bool,
+    /// 1 + the index (stations-file order) of the station scanned; 0: none yet.
+    pub station: u32,
+    /// Bit `s - 1` set when slot `s` has been scanned.
+    pub seen: u64,
+    /// `codes[s - 1]` is slot `s`'s code, [`crate::layout::slot_code`] (0 absent, 1 present,
+    /// 2 double, 3 cross); meaningful where `seen` has the slot's bit.
+    pub codes: [u8; crate::layout::mapping::MAX_SLOTS],
+}
+
+impl Default for MappingScan {
+    fn default() -> Self {
+        MappingScan {
+            cleared: false,
+            station: 0,
+            seen: 0,
+            codes: [0; crate::layout::mapping::MAX_SLOTS],
+        }
+    }
+}
+
+impl MappingScan {
+    /// Decode the board's words.
+    pub fn from_record(cleared: bool, record: &crate::dpram::MappingRecord) -> MappingScan {
+        let mut scan = MappingScan {
+            cleared,
+            station: record.station,
+            seen: record.seen,
+            ..MappingScan::default()
+        };
+        for (i, code) in scan.codes.iter_mut().enumerate() {
+            *code = ((record.codes[i / 16] >> (2 * (i % 16))) & 0b11) as u8;
+        }
+        scan
+    }
+
+    /// Whether slot `slot` (1-based) has been scanned.
+    pub fn is_seen(&self, slot: u16) -> bool {
+        (1..=crate::layout::mapping::MAX_SLOTS as u16).contains(&slot)
+            && self.seen & (1u64 << (slot - 1)) != 0
+    }
+
+    /// Slot `slot`'s code (1-based), or `None` when it has not been scanned.
+    pub fn slot_code(&self, slot: u16) -> Option<wrc_cell::SlotCode> {
+        use crate::layout::slot_code as c;
+        if !self.is_seen(slot) {
+            return None;
+        }
+        Some(match u32::from(self.codes[usize::from(slot - 1)]) {
+            c::ABSENT => wrc_cell::SlotCode::Absent,
+            c::PRESENT => wrc_cell::SlotCode::Present,
+            c::DOUBLE => wrc_cell::SlotCode::Double,
+            _ => wrc_cell::SlotCode::Cross,
+        })
+    }
+}
+
 /// A motion board (or several) as the controller's real-time tasks use it.
 ///
 /// Axes are numbered 0.. in the controller's (robot's) order; I/O words one per board.
@@ -156,6 +220,13 @@ pub trait MotionBoard: Send {
     /// Whether a command posted with [`MotionBoard::clear_alarms`] or [`MotionBoard::reset`]
     /// has not yet been carried out (the board has not acknowledged it).
     fn command_pending(&self) -> bool;
+
+    /// Clear the mapping sensor's latch and start a new scan (board 0's sensor): the board
+    /// acts at its next period; [`MappingScan::cleared`] says when it has.
+    fn clear_mapping(&mut self);
+
+    /// Fill `out` with the mapping sensor's latch (board 0's sensor).
+    fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn>;
 }
 
 impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
@@ -197,5 +268,11 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     }
     fn command_pending(&self) -> bool {
         (**self).command_pending()
+    }
+    fn clear_mapping(&mut self) {
+        (**self).clear_mapping()
+    }
+    fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn> {
+        (**self).read_mapping(out)
     }
 }

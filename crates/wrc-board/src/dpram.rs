@@ -17,6 +17,10 @@
 //!   the record, makes `fb_seq` even again (release). The host reads `fb_seq` (acquire),
 //!   the record, `fb_seq` again; equal and even means a consistent snapshot, otherwise it
 //!   retries a bounded number of times and then reports [`Torn`].
+//! - **Mapping latch** (board → host): the same seqlock on `mapping::SEQ` over the
+//!   station, seen and codes words. The host clears it by bumping `CLEAR_SEQ`; the board
+//!   clears the latch at its next period, publishes it, then stores `CLEAR_ACK = CLEAR_SEQ`
+//!   (release).
 //! - **Mailboxes** (host commands, injected faults): the writer stores code and arguments,
 //!   then bumps `seq` (release); the board acts once per period when `seq != ack`, then stores
 //!   `ack = seq` (release). A writer posts a new command only when `ack == seq`.
@@ -49,6 +53,17 @@ pub struct AxisRecord {
     pub alarm: u32,
     /// Increment executed in the last period [pulse/period].
     pub increment: i64,
+}
+
+/// The mapping-sensor latch as the board publishes it ([`layout::mapping`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MappingRecord {
+    /// 1 + the index of the station whose slots were seen; 0: none yet.
+    pub station: u32,
+    /// Bit `s - 1` set when slot `s` has been scanned.
+    pub seen: u64,
+    /// 2 bits a slot, slot `s` in word `(s - 1) / 16` at bit `2 · ((s - 1) % 16)`.
+    pub codes: [u32; layout::mapping::CODE_WORDS],
 }
 
 /// What the board found at the head of an axis FIFO.
@@ -296,6 +311,56 @@ impl Dpram {
         Err(Torn)
     }
 
+    // ---- mapping latch seqlock ----
+
+    /// Board: publish the mapping latch (seqlock, like the feedback records).
+    pub fn write_mapping(&self, record: &MappingRecord) {
+        use layout::mapping as m;
+        let seq = self.map.u32(m::SEQ);
+        let s = seq.load(Ordering::Relaxed);
+        let s = if s % 2 == 1 { s.wrapping_add(1) } else { s };
+        seq.store(s.wrapping_add(1), Ordering::Relaxed);
+        fence(Ordering::Release);
+        self.map
+            .u32(m::STATION)
+            .store(record.station, Ordering::Relaxed);
+        self.map.u64(m::SEEN).store(record.seen, Ordering::Relaxed);
+        for (i, code) in record.codes.iter().enumerate() {
+            self.map
+                .u32(m::CODES + 4 * i)
+                .store(*code, Ordering::Relaxed);
+        }
+        seq.store(s.wrapping_add(2), Ordering::Release);
+    }
+
+    /// Host: read the mapping latch consistently into `out`; [`Torn`] after a bounded number
+    /// of attempts that found the board writing.
+    pub fn read_mapping(&self, out: &mut MappingRecord) -> Result<(), Torn> {
+        use layout::mapping as m;
+        let seq = self.map.u32(m::SEQ);
+        for _ in 0..SEQLOCK_TRIES {
+            let s1 = seq.load(Ordering::Acquire);
+            if s1 % 2 == 1 {
+                std::hint::spin_loop();
+                continue;
+            }
+            let mut record = MappingRecord {
+                station: self.map.u32(m::STATION).load(Ordering::Relaxed),
+                seen: self.map.u64(m::SEEN).load(Ordering::Relaxed),
+                codes: [0; m::CODE_WORDS],
+            };
+            for (i, code) in record.codes.iter_mut().enumerate() {
+                *code = self.map.u32(m::CODES + 4 * i).load(Ordering::Relaxed);
+            }
+            fence(Ordering::Acquire);
+            if seq.load(Ordering::Relaxed) == s1 {
+                *out = record;
+                return Ok(());
+            }
+        }
+        Err(Torn)
+    }
+
     // ---- mailboxes ----
 
     /// Writer: post (`code`, `args`) to the mailbox at `seq_offset` (code and arguments
@@ -335,5 +400,85 @@ impl Dpram {
     pub fn acknowledge(&self, seq_offset: usize, ack_offset: usize) {
         let seq = self.load(seq_offset);
         self.store(ack_offset, seq);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    use super::*;
+    use crate::layout::mapping;
+
+    fn dpram() -> Dpram {
+        let header = Header {
+            board_id: 0,
+            axis_count: 1,
+            period_us: 1_000,
+            fifo_depth: 4,
+            epoch: 1,
+        };
+        Dpram::initialize(Mapping::anonymous().unwrap(), header)
+    }
+
+    /// A record whose words all derive from `n`, so a mix of two writes is detectable.
+    fn record(n: u32) -> MappingRecord {
+        MappingRecord {
+            station: n,
+            seen: u64::from(n) * 0x1_0000_0001,
+            codes: [n, !n, n.rotate_left(7), n ^ 0x5555_5555],
+        }
+    }
+
+    #[test]
+    fn a_mapping_record_being_written_is_not_read() {
+        let d = dpram();
+        d.write_mapping(&record(7));
+        let mut out = MappingRecord::default();
+        d.read_mapping(&mut out).unwrap();
+        assert_eq!(out, record(7));
+        // The board died half-way through a write: odd sequence, never a half record.
+        let seq = d.load(mapping::SEQ);
+        d.store(mapping::SEQ, seq + 1);
+        d.store(mapping::STATION, 99);
+        assert_eq!(d.read_mapping(&mut out), Err(Torn));
+        assert_eq!(out, record(7), "out is untouched by a torn read");
+        // The board's next write starts from an even sequence again.
+        d.write_mapping(&record(8));
+        assert_eq!(d.load(mapping::SEQ) % 2, 0);
+        d.read_mapping(&mut out).unwrap();
+        assert_eq!(out, record(8));
+    }
+
+    #[test]
+    fn reads_racing_a_busy_writer_are_retried_and_never_mixed() {
+        let d = dpram();
+        d.write_mapping(&record(0));
+        let done = AtomicBool::new(false);
+        let (mut ok, mut torn) = (0u32, 0u32);
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                let mut n = 0u32;
+                while !done.load(Ordering::Relaxed) {
+                    n = n.wrapping_add(1);
+                    d.write_mapping(&record(n));
+                    if n % 64 == 0 {
+                        std::thread::yield_now();
+                    }
+                }
+            });
+            let mut out = MappingRecord::default();
+            let mut mixed = None;
+            for _ in 0..200_000 {
+                match d.read_mapping(&mut out) {
+                    Ok(()) if out != record(out.station) => mixed = Some(out),
+                    Ok(()) => ok += 1,
+                    Err(Torn) => torn += 1,
+                }
+            }
+            done.store(true, Ordering::Relaxed);
+            assert_eq!(mixed, None, "a mixed record was returned");
+        });
+        assert!(ok > 0, "no read succeeded ({torn} torn)");
     }
 }

@@ -87,6 +87,42 @@ pub mod fault {
     pub const ACK: usize = 0x0B0;
 }
 
+/// Mapping-sensor latch (a board that simulates the cell; a board without one leaves every
+/// word 0). The host clears the latch through `CLEAR_SEQ`/`CLEAR_ACK`; the board latches a
+/// code for every slot the sensor passes and publishes the latch under the seqlock `SEQ`.
+pub mod mapping {
+    /// `u32` clear sequence: the host increments it to clear the latch and start a new scan.
+    pub const CLEAR_SEQ: usize = 0x0C0;
+    /// `u32` the last `CLEAR_SEQ` the board acted on (the latch was cleared).
+    pub const CLEAR_ACK: usize = 0x0C4;
+    /// `u32` seqlock over `STATION`, `SEEN` and `CODES`: odd while the board writes them.
+    pub const SEQ: usize = 0x0C8;
+    /// `u32` 1 + the index (stations-file order) of the station whose slots the sensor has
+    /// seen since the last clear; 0: none yet.
+    pub const STATION: usize = 0x0CC;
+    /// `u64` bit `s - 1` set when slot `s` has been scanned.
+    pub const SEEN: usize = 0x0D0;
+    /// `u32 × 4` slot codes, 2 bits a slot: slot `s` in word `(s - 1) / 16` at bit
+    /// `2 · ((s - 1) % 16)`; values [`super::slot_code`].
+    pub const CODES: usize = 0x0D8;
+    /// Words of `CODES`.
+    pub const CODE_WORDS: usize = 4;
+    /// Slots the latch holds at most.
+    pub const MAX_SLOTS: usize = 64;
+}
+
+/// Mapping-sensor slot codes (2 bits, [`mapping::CODES`]), as `wrc_cell::SlotCode`.
+pub mod slot_code {
+    /// No wafer (`0`).
+    pub const ABSENT: u32 = 0;
+    /// One wafer, flat (`1`).
+    pub const PRESENT: u32 = 1;
+    /// Two wafers in one slot (`2`).
+    pub const DOUBLE: u32 = 2;
+    /// A wafer across two slots (`X`).
+    pub const CROSS: u32 = 3;
+}
+
 /// Per-axis block offsets, relative to [`axis_base`].
 pub mod axis {
     /// `u32` feedback sequence (seqlock): odd while the board writes the record.
@@ -398,6 +434,25 @@ mod tests {
         assert_eq!(axis_base(3), 0xE80);
         assert_eq!(fifo_slot(0, 65), 0x100 + 0x80 + 16);
         assert_eq!(MAGIC.to_le_bytes(), *b"WRCB");
+        // The mapping latch lives in the control block's free space, after the fault
+        // mailbox and before the first axis block; nothing else moved.
+        assert_eq!(
+            [
+                mapping::CLEAR_SEQ,
+                mapping::CLEAR_ACK,
+                mapping::SEQ,
+                mapping::STATION,
+                mapping::SEEN,
+                mapping::CODES
+            ],
+            [0x0C0, 0x0C4, 0x0C8, 0x0CC, 0x0D0, 0x0D8]
+        );
+        const {
+            assert!(fault::ACK + 4 <= mapping::CLEAR_SEQ);
+            assert!(mapping::SEEN % 8 == 0);
+            assert!(mapping::CODES + 4 * mapping::CODE_WORDS <= AXIS_BLOCKS);
+            assert!(mapping::MAX_SLOTS == 16 * mapping::CODE_WORDS);
+        }
     }
 
     #[test]

@@ -13,7 +13,9 @@
 //!   non-blocking, allocation-free and system-call-free; [`MultiBoard`] puts up to 16 axes
 //!   on up to 4 boards;
 //! - a simulated board ([`sim::SimBoard`]) that is a plain struct stepped one board period at
-//!   a time, so tests run it against a mock clock; `wrc board-sim` runs it as a process.
+//!   a time, so tests run it against a mock clock; `wrc board-sim` runs it as a process. It
+//!   can simulate the wafer cell ([`sim::cell`]): a `wrc_cell::World` moved by the hand's
+//!   encoders and vacuum valve, with the vacuum and mapping sensors read through the DPRAM.
 //!
 //! ```
 //! use wrc_board::sim::{SimBoard, SimSettings};
@@ -48,7 +50,12 @@ pub mod layout;
 pub mod multi;
 pub mod sim;
 
-pub use board::{AxisFeedback, BoardFeedback, Busy, Feedback, Full, MotionBoard, Torn};
+/// The wafer cell crate, whose stations and world the simulated cell ([`sim::cell`]) uses.
+pub use wrc_cell;
+
+pub use board::{
+    AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
+};
 pub use driver::{DpramBoard, Expect, Mapping, OpenError};
 pub use fault::Fault;
 pub use multi::{MultiBoard, MultiError};

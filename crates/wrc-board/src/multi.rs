@@ -4,7 +4,7 @@
 
 use wrc_robot::MAX_AXES;
 
-use crate::board::{Busy, Feedback, Full, MotionBoard, Torn};
+use crate::board::{Busy, Feedback, Full, MappingScan, MotionBoard, Torn};
 use crate::layout::{AXES_PER_BOARD, MAX_BOARDS};
 
 /// Boards and an axis map that do not fit together.
@@ -207,5 +207,15 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
 
     fn command_pending(&self) -> bool {
         self.boards.iter().any(|b| b.command_pending())
+    }
+
+    /// The mapping sensor is board 0's.
+    fn clear_mapping(&mut self) {
+        self.boards[0].clear_mapping();
+    }
+
+    /// The mapping sensor is board 0's.
+    fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn> {
+        self.boards[0].read_mapping(out)
     }
 }

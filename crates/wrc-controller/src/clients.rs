@@ -17,6 +17,7 @@ use wrc_protocol::{
 use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 
+use crate::cell_job::JobKind;
 use crate::program_store::StoreRequest;
 use crate::shared::{OutLine, Shared, SourceId, Urgent};
 
@@ -414,7 +415,10 @@ fn route<'b>(
         | Command::Tasks
         | Command::Stn
         | Command::Teach(_)
-        | Command::Wafers => {
+        | Command::Wafers
+        | Command::Get { .. }
+        | Command::Put { .. }
+        | Command::Map(_) => {
             let from = slot.source;
             let request = match request.command {
                 Command::Run(name) => StoreRequest::Run { from, to, name },
@@ -424,6 +428,27 @@ fn route<'b>(
                 Command::Stn => StoreRequest::Stn { from, to },
                 Command::Teach(name) => StoreRequest::Teach { from, to, name },
                 Command::Wafers => StoreRequest::Wafers { from, to },
+                Command::Get { station, slot } => StoreRequest::Job {
+                    from,
+                    to,
+                    kind: JobKind::Get,
+                    station,
+                    slot,
+                },
+                Command::Put { station, slot } => StoreRequest::Job {
+                    from,
+                    to,
+                    kind: JobKind::Put,
+                    station,
+                    slot,
+                },
+                Command::Map(station) => StoreRequest::Job {
+                    from,
+                    to,
+                    kind: JobKind::Map,
+                    station,
+                    slot: 0,
+                },
                 _ => StoreRequest::List { from, to },
             };
             match routes.store.try_send(request) {

@@ -29,6 +29,8 @@ use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::{CycleContext, Task};
 
+mod cell;
+
 use crate::clients::{source_name, Incoming};
 use crate::program_store::{ProgramStart, StoreLinks};
 use crate::shared::{
@@ -128,6 +130,8 @@ enum ProgramWait {
         value: bool,
         deadline: Option<u64>,
     },
+    /// `GET`, `PUT` or `MAP`: the cell service's answer, then the job.
+    Job,
 }
 
 /// The program the Command Interpreter is running.
@@ -221,6 +225,13 @@ pub struct CommandInterpreter<B: MotionBoard> {
     retire: Option<Box<Program>>,
     refusal: Refusal,
     now_ns: u64,
+    /// The hand's signals (vacuum valve and sensor, mapping sensor).
+    pub hand: wrc_config::HandConfig,
+    job: Option<cell::RunningJob>,
+    scan: wrc_board::MappingScan,
+    /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
+    /// hand moved outside a job.
+    hand_dropped: u32,
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
@@ -274,6 +285,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 len: 0,
             },
             now_ns: 0,
+            hand: wrc_config::HandConfig::default(),
+            job: None,
+            scan: wrc_board::MappingScan::default(),
+            hand_dropped: 0,
         }
     }
 
@@ -294,7 +309,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     fn nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
-        if from == SourceId::PROGRAM {
+        if from == SourceId::PROGRAM || from == SourceId::CELL {
             self.refusal.record(code, text);
         } else {
             let line = self.buf.nak(to, code, text);
@@ -308,8 +323,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// Abort every accepted motion and WAIT with ABS `code`.
     fn abort_all(&mut self, code: Code, text: &str) {
+        if self.job.is_some() {
+            self.end_job(Some((code, text)));
+        }
         for i in 0..MAX_TICKETS {
             if let Some(t) = self.tickets[i].take() {
+                if t.from == SourceId::CELL {
+                    continue;
+                }
                 let line = self.buf.abs(t.to, code, text);
                 deliver(&self.out, t.from, line);
             }
@@ -418,9 +439,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let to = request.reply_to();
         let verb = request.command.verb();
         let owner = self.owner();
-        // A program's requests act for the source that started it.
+        // A program's requests act for the source that started it; a job's for the source
+        // that asked for it (or that program's starter).
         let acting = match (&self.program, from) {
             (Some(p), SourceId::PROGRAM) => p.from,
+            (_, SourceId::CELL) => match (&self.job, &self.program) {
+                (Some(j), Some(p)) if j.from() == SourceId::PROGRAM => p.from,
+                (Some(j), _) => j.from(),
+                (None, _) => from,
+            },
             _ => from,
         };
         if verb.spec().needs_control && owner != SourceId::NONE && owner != acting {
@@ -448,7 +475,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 | Command::Jog { .. }
         );
         if is_motion {
-            if self.program.is_some() && from != SourceId::PROGRAM {
+            if self.job.is_some() && from != SourceId::CELL {
+                return self.nak(
+                    from,
+                    to,
+                    Code::TransferBusy,
+                    "a transfer or mapping is in progress; wait for its end or STOP",
+                );
+            }
+            if self.program.is_some() && from != SourceId::PROGRAM && from != SourceId::CELL {
                 return self.nak(
                     from,
                     to,
@@ -761,6 +796,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             return self.program_motion_done(t.ticket, done.outcome);
         }
+        if t.from == SourceId::CELL {
+            return self.job_motion_done(t.ticket, done.outcome);
+        }
         match done.outcome {
             MoveOutcome::Completed => {
                 if t.home {
@@ -795,6 +833,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             if w.is_some_and(|w| w.0 == source) {
                 *w = None;
             }
+        }
+        if let Some(j) = self.job.as_mut() {
+            j.forget_requester(source);
         }
         if self.owner() == source {
             self.shared.owner.store(0, Ordering::Release);
@@ -1018,7 +1059,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         };
         match p.wait {
             ProgramWait::Nothing => {}
-            ProgramWait::Motion(_) => return,
+            ProgramWait::Motion(_) | ProgramWait::Job => return,
             ProgramWait::Until(t) => {
                 if self.now_ns < t {
                     return;
@@ -1124,6 +1165,39 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             R::Out { n, on } => Command::Out { n, on },
             R::Speed { pct } => Command::Speed(pct),
+            R::Transfer { .. } | R::Map { .. } => {
+                let (kind, station, slot) = match request {
+                    R::Transfer {
+                        kind: wrc_lang::TransferKind::Get,
+                        station,
+                        slot,
+                    } => (crate::cell_job::JobKind::Get, station, slot),
+                    R::Transfer { station, slot, .. } => {
+                        (crate::cell_job::JobKind::Put, station, slot)
+                    }
+                    R::Map { station } => (crate::cell_job::JobKind::Map, station, 0),
+                    _ => return true,
+                };
+                let asked = self
+                    .links
+                    .requests
+                    .try_send(crate::program_store::StoreRequest::Job {
+                        from: SourceId::PROGRAM,
+                        to: ReplyTo::default(),
+                        kind,
+                        station,
+                        slot,
+                    });
+                if asked.is_err() {
+                    self.end_program(Some((
+                        Code::Busy,
+                        "the controller is busy; the transfer could not be asked for",
+                    )));
+                } else if let Some(p) = self.program.as_mut() {
+                    p.wait = ProgramWait::Job;
+                }
+                return false;
+            }
             _ => {
                 self.vm.resume(Resume::Failed(RuntimeErrorKind::BadArgument(
                     "this controller cannot carry out that request",
@@ -1232,7 +1306,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         while let Ok(start) = self.links.starts.try_recv() {
             self.start_program(start);
         }
+        while let Ok(offer) = self.links.jobs.try_recv() {
+            self.offer_job(offer);
+        }
         self.run_program();
+        self.run_job();
+        self.watch_hand();
         if let Some(program) = self.retire.take() {
             if let Err(e) = self.links.retired.try_send(program) {
                 self.retire = Some(e.into_inner());
@@ -1240,6 +1319,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
         let at_rest = !self.outstanding()
+            && self.job.is_none()
             && self.orders.is_empty()
             && self.shared.in_flight.load(Ordering::Acquire) == 0
             && self.shared.stopped_epoch.load(Ordering::Acquire)

@@ -101,7 +101,7 @@ pub enum StartError {
     Runtime(#[from] wrc_rt::RuntimeError),
     /// The stations file or the wafer map is unusable.
     #[error("wafer cell: {0}")]
-    Cell(#[from] crate::program_store::CellError),
+    Cell(#[from] crate::cell_service::CellError),
     /// The program directory could not be used.
     #[error("cannot use the program directory {path}: {reason}")]
     Programs {
@@ -303,11 +303,12 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone());
     let store = match &options.cell {
-        Some(files) => store.with_cell(crate::program_store::Cell::open(
+        Some(files) => store.with_cell(crate::cell_service::CellService::open(
             &robot,
             &files.stations,
             &files.wafers,
             shared.clone(),
+            config.hand,
         )?),
         None => store,
     };
@@ -391,6 +392,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         links,
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
+    interpreter.hand = config.hand;
     runtime.add(spec("command_interpreter"), interpreter);
     runtime.add(
         spec("io_monitor"),

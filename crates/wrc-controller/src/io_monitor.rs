@@ -67,6 +67,9 @@ impl<B: MotionBoard> IoMonitor<B> {
             }
             self.previous[b] = inputs;
         }
+        if self.first {
+            self.shared.io_ready.store(true, Ordering::Release);
+        }
         self.first = false;
     }
 }

@@ -8,6 +8,8 @@
 //! `wrc_rt::ipc` queues and the atomics of [`shared::Shared`]. [`controller`] starts it all.
 #![deny(missing_docs)]
 
+pub mod cell_job;
+pub mod cell_service;
 pub mod clients;
 pub mod command_interpreter;
 pub mod controller;

@@ -21,11 +21,10 @@ use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo, MAX_LINE};
 use wrc_robot::Robot;
 use wrc_rt::ipc::MessageQueue;
 
+use crate::cell_service::CellService;
 use crate::command_interpreter::Outputs;
 use crate::queries::TaskCells;
-use crate::shared::Shared;
 use crate::shared::SourceId;
-use wrc_cell::{Stations, WaferMap};
 use wrc_protocol::StationName;
 
 /// Most lines in an uploaded program.
@@ -119,6 +118,20 @@ pub enum StoreRequest {
         /// Where the replies go.
         to: ReplyTo,
     },
+    /// `GET`, `PUT` or `MAP` (from a connection, or from the running program with
+    /// [`SourceId::PROGRAM`]).
+    Job {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
+        /// Which.
+        kind: crate::cell_job::JobKind,
+        /// The station.
+        station: StationName,
+        /// GET/PUT: the slot.
+        slot: u16,
+    },
     /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
     Run {
         /// The requesting connection.
@@ -165,6 +178,10 @@ pub struct StoreLinks {
     pub starts: Arc<MessageQueue<ProgramStart>>,
     /// Programs the Command Interpreter is done with (freed by the store).
     pub retired: Arc<MessageQueue<Box<Program>>>,
+    /// Wafer jobs (and refusals of a program's) for the Command Interpreter.
+    pub jobs: Arc<MessageQueue<crate::cell_job::JobOffer>>,
+    /// What the Command Interpreter reports of the wafer jobs.
+    pub cell_events: Arc<MessageQueue<crate::cell_job::CellEvent>>,
 }
 
 impl StoreLinks {
@@ -174,6 +191,8 @@ impl StoreLinks {
             requests: Arc::new(MessageQueue::new(4096)),
             starts: Arc::new(MessageQueue::new(4)),
             retired: Arc::new(MessageQueue::new(16)),
+            jobs: Arc::new(MessageQueue::new(4)),
+            cell_events: Arc::new(MessageQueue::new(64)),
         }
     }
 }
@@ -203,64 +222,7 @@ pub struct ProgramStore {
     buf: ReplyBuf,
     period_ms: f64,
     tasks: TaskCells,
-    cell: Option<Cell>,
-}
-
-/// The wafer cell the store keeps: stations and the wafer map, each with its file.
-pub struct Cell {
-    /// The stations.
-    pub stations: Stations,
-    /// Where they are saved (atomically) after `TEACH`.
-    pub stations_path: PathBuf,
-    /// Where every wafer is.
-    pub wafers: WaferMap,
-    /// Where the map is saved (atomically) on every change.
-    pub wafers_path: PathBuf,
-    /// The controller's state, for TEACH's checks and the current pose.
-    pub shared: Arc<Shared>,
-}
-
-/// Why the wafer cell could not be opened.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum CellError {
-    /// The stations file is unusable.
-    #[error(transparent)]
-    Stations(#[from] wrc_cell::StationsError),
-    /// The wafer map file is unusable.
-    #[error(transparent)]
-    WaferMap(#[from] wrc_cell::WaferMapError),
-}
-
-impl Cell {
-    /// Open the stations file (written from the embedded demo cell when it does not exist)
-    /// and the wafer map (empty, every slot unknown, when it does not exist); both are
-    /// checked against `robot`.
-    pub fn open(
-        robot: &Robot,
-        stations_path: &Path,
-        wafers_path: &Path,
-        shared: Arc<Shared>,
-    ) -> Result<Cell, CellError> {
-        let stations = if stations_path.exists() {
-            Stations::load(stations_path)?
-        } else {
-            let demo = Stations::embedded_demo();
-            demo.save_atomic(stations_path)?;
-            demo
-        };
-        stations.validate(robot)?;
-        let mut wafers = WaferMap::load(wafers_path)?;
-        wafers.adopt_stations(&stations)?;
-        wafers.save_atomic(wafers_path)?;
-        Ok(Cell {
-            stations,
-            stations_path: stations_path.to_path_buf(),
-            wafers,
-            wafers_path: wafers_path.to_path_buf(),
-            shared,
-        })
-    }
+    cell: Option<CellService>,
 }
 
 impl ProgramStore {
@@ -285,8 +247,9 @@ impl ProgramStore {
         })
     }
 
-    /// Also answer `STN`, `TEACH` and `WAFERS` from `cell`.
-    pub fn with_cell(mut self, cell: Cell) -> ProgramStore {
+    /// Also serve the wafer cell: `STN`, `TEACH`, `WAFERS`, `GET`, `PUT`, `MAP`.
+    pub fn with_cell(mut self, mut cell: CellService) -> ProgramStore {
+        cell.connect(self.out.clone(), self.links.clone());
         self.cell = Some(cell);
         self
     }
@@ -309,12 +272,19 @@ impl ProgramStore {
         }
     }
 
-    /// Serve every queued request and free retired programs (public for tests).
+    /// Serve every queued request and the wafer cell's events, and free retired programs
+    /// (public for tests).
     pub fn step(&mut self) {
         while let Ok(request) = self.links.requests.try_recv() {
             self.handle(request);
         }
         while self.links.retired.try_recv().is_ok() {}
+        if let Some(cell) = self.cell.as_mut() {
+            while let Ok(event) = self.links.cell_events.try_recv() {
+                cell.on_event(event);
+            }
+            cell.poll();
+        }
     }
 
     fn path(&self, name: &ProgramName) -> PathBuf {
@@ -390,9 +360,35 @@ impl ProgramStore {
                 let line = self.buf.ack(to, ack);
                 self.out.send(from, line);
             }
-            StoreRequest::Stn { from, to } => self.stn(from, to),
-            StoreRequest::Teach { from, to, name } => self.teach(from, to, &name),
-            StoreRequest::Wafers { from, to } => self.wafers(from, to),
+            StoreRequest::Stn { from, to } => match self.cell.as_mut() {
+                Some(cell) => cell.stn(from, to),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Teach { from, to, name } => match self.cell.as_mut() {
+                Some(cell) => cell.teach(from, to, &name),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Wafers { from, to } => match self.cell.as_mut() {
+                Some(cell) => cell.wafers(from, to),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Job {
+                from,
+                to,
+                kind,
+                station,
+                slot,
+            } => match self.cell.as_mut() {
+                Some(cell) => {
+                    // The Command Interpreter reports a job's end before it lets the program
+                    // ask for the next one: take that report first.
+                    while let Ok(event) = self.links.cell_events.try_recv() {
+                        cell.on_event(event);
+                    }
+                    cell.job(from, to, kind, &station, slot)
+                }
+                None => self.no_cell(from, to),
+            },
             StoreRequest::Tasks { from, to } => {
                 let tasks = self.tasks.get().map(Vec::as_slice).unwrap_or_default();
                 for (spec, cell) in tasks {
@@ -407,100 +403,23 @@ impl ProgramStore {
     }
 
     fn no_cell(&mut self, from: SourceId, to: ReplyTo) {
+        if from == SourceId::PROGRAM {
+            let refusal = crate::cell_job::JobRefusal::new(
+                Code::NotAvailable,
+                "this controller has no wafer cell (no stations file)",
+            );
+            let _ = self
+                .links
+                .jobs
+                .try_send(crate::cell_job::JobOffer::Refused(refusal));
+            return;
+        }
         self.reply_nak(
             from,
             to,
             Code::NotAvailable,
             "this controller has no wafer cell (no stations file)",
         );
-    }
-
-    fn stn(&mut self, from: SourceId, to: ReplyTo) {
-        let Some(cell) = &self.cell else {
-            return self.no_cell(from, to);
-        };
-        let lines: Vec<String> = cell.stations.iter().map(wrc_cell::stn_line).collect();
-        for text in &lines {
-            let line = self.buf.event(to.checksum, &Event::Station(text));
-            self.out.send(from, line);
-        }
-        let line = self.buf.ack(to, format_args!("stations={}", lines.len()));
-        self.out.send(from, line);
-    }
-
-    fn teach(&mut self, from: SourceId, to: ReplyTo, name: &StationName) {
-        let Some(cell) = &mut self.cell else {
-            return self.no_cell(from, to);
-        };
-        let shared = cell.shared.clone();
-        let owner = shared.owner.load(Ordering::Acquire);
-        let refusal = if owner != SourceId::NONE.0 && owner != from.0 {
-            Some((
-                Code::ControlHeld,
-                "control is held by another source".to_string(),
-            ))
-        } else if !shared.homed.load(Ordering::Acquire) {
-            Some((Code::NotHomed, "not homed; send HOME first".to_string()))
-        } else if shared.state() != wrc_protocol::State::Idle
-            || shared.in_flight.load(Ordering::Acquire) != 0
-        {
-            Some((
-                Code::Busy,
-                "the robot is moving; teach when it stands still".to_string(),
-            ))
-        } else if cell.stations.get(name.as_str()).is_none() {
-            Some((
-                Code::StationUnknown,
-                format!("no station named {name}; STN lists them"),
-            ))
-        } else {
-            None
-        };
-        if let Some((code, text)) = refusal {
-            return self.reply_nak(from, to, code, &text);
-        }
-        let joints = self.robot.pulses_to_joints(&shared.commanded_pulses());
-        let pose = self.robot.forward(&joints);
-        let mut taught = cell.stations.clone();
-        let result = taught
-            .teach(name.as_str(), pose, &self.robot)
-            .map(wrc_cell::stn_line);
-        let body = match result {
-            Ok(body) => body,
-            Err(e) => {
-                let text = format!("cannot teach {name} here: {e}");
-                return self.reply_nak(from, to, Code::OutOfReach, &text);
-            }
-        };
-        if let Err(e) = taught.save_atomic(&cell.stations_path) {
-            let text = format!("cannot save the stations: {e}; nothing changed");
-            return self.reply_nak(from, to, Code::Internal, &text);
-        }
-        // Teaching moves a station; its slots, and so the wafer map, stay as they are.
-        cell.stations = taught;
-        let line = self.buf.ack(to, &body);
-        self.out.send(from, line);
-        let line = self.buf.event(false, &Event::Station(&body));
-        self.out.send(SourceId::BROADCAST, line);
-    }
-
-    fn wafers(&mut self, from: SourceId, to: ReplyTo) {
-        let Some(cell) = &self.cell else {
-            return self.no_cell(from, to);
-        };
-        let one = cell.wafers.wafers_line();
-        if one.len() <= wrc_protocol::MAX_LINE {
-            let line = self.buf.ack(to, &one);
-            self.out.send(from, line);
-            return;
-        }
-        let parts = cell.wafers.wafers_lines();
-        for part in &parts {
-            let line = self.buf.event(to.checksum, &Event::Wafer(part));
-            self.out.send(from, line);
-        }
-        let line = self.buf.ack(to, format_args!("parts={}", parts.len()));
-        self.out.send(from, line);
     }
 
     /// The stored programs' names, sorted.

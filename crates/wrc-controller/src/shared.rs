@@ -42,6 +42,10 @@ pub struct Shared {
     pub urgent_read_ns: AtomicU64,
     /// When the Pulse Generator pushed the first decelerating batch of the latest stop.
     pub decel_ns: AtomicU64,
+    /// The I/O Monitor has read the inputs at least once (`inputs` are real).
+    pub io_ready: AtomicBool,
+    /// The wafer map has a wafer on the hand (set by the cell service).
+    pub hand_wafer: AtomicBool,
 }
 
 impl Default for Shared {
@@ -62,6 +66,8 @@ impl Default for Shared {
             first_pulse_ns: AtomicU64::new(0),
             urgent_read_ns: AtomicU64::new(0),
             decel_ns: AtomicU64::new(0),
+            io_ready: AtomicBool::new(false),
+            hand_wafer: AtomicBool::new(false),
         }
     }
 }
@@ -175,6 +181,8 @@ impl SourceId {
     pub const BROADCAST: SourceId = SourceId(2);
     /// The robot-language program the Command Interpreter runs.
     pub const PROGRAM: SourceId = SourceId(3);
+    /// The steps of a wafer job (`GET`, `PUT`, `MAP`) the Command Interpreter carries out.
+    pub const CELL: SourceId = SourceId(4);
     /// Kind tag of a TCP host connection.
     pub const TCP: u32 = 1;
     /// Kind tag of a local GUI connection (Unix socket).
@@ -204,6 +212,7 @@ impl std::fmt::Display for SourceId {
             _ if *self == SourceId::NONE => f.write_str("none"),
             _ if *self == SourceId::CONTROLLER => f.write_str("controller"),
             _ if *self == SourceId::PROGRAM => f.write_str("program"),
+            _ if *self == SourceId::CELL => f.write_str("cell"),
             SourceId::TCP => write!(f, "tcp{}", self.slot()),
             SourceId::GUI => write!(f, "gui{}", self.slot()),
             SourceId::PENDANT => f.write_str("pendant"),

@@ -178,6 +178,12 @@ pub enum Instr {
     },
     /// Pop `n` values, format them into the print buffer, yield.
     Print(u8),
+    /// Pop the slot and the station, yield a GET (slot → hand).
+    Get,
+    /// Pop the slot and the station, yield a PUT (hand → slot).
+    Put,
+    /// Pop the station, yield a MAP (scan its slots).
+    Map,
 }
 
 impl Instr {
@@ -194,8 +200,8 @@ impl Instr {
             Builtin(b) => (u32::from(b.arity()), 1),
             ForTest => (3, 1),
             Jump(_) | Call(_) | Ret | Halt | Home => (0, 0),
-            JumpIfFalse(_) | MoveJ | MoveP(_) | MoveL | Jog(_) | Speed | Delay => (1, 0),
-            Out => (2, 0),
+            JumpIfFalse(_) | MoveJ | MoveP(_) | MoveL | Jog(_) | Speed | Delay | Map => (1, 0),
+            Out | Get | Put => (2, 0),
             Wait { timeout } => (if timeout { 3 } else { 2 }, 0),
             Print(n) => (u32::from(n), 0),
         }
@@ -248,6 +254,9 @@ impl Instr {
             Out => "OUT",
             Wait { .. } => "WAIT",
             Print(_) => "PRINT",
+            Get => "GET",
+            Put => "PUT",
+            Map => "MAP",
         }
     }
 }
@@ -804,6 +813,10 @@ fn encode(w: &mut Vec<u8>, instr: Instr) {
         Out => (41, None),
         Wait { timeout } => (42, Some(u32::from(timeout))),
         Print(n) => (43, Some(u32::from(n))),
+        // Wafer handling (format version 1 still: appended numbers, none renumbered).
+        Get => (44, None),
+        Put => (45, None),
+        Map => (46, None),
     };
     w.push(op);
     if let Some(arg) = arg {
@@ -1020,6 +1033,9 @@ fn decode_instr(r: &mut Reader<'_>) -> Result<Instr, DecodeError> {
             },
         },
         43 => Print(r.small("code")?),
+        44 => Get,
+        45 => Put,
+        46 => Map,
         _ => return Err(bad("unknown opcode")),
     })
 }
@@ -1128,6 +1144,9 @@ mod tests {
             Out,
             Wait { timeout: true },
             Print(3),
+            Get,
+            Put,
+            Map,
         ];
         for instr in all {
             let mut w = Vec::new();
@@ -1136,5 +1155,22 @@ mod tests {
             assert_eq!(decode_instr(&mut r).unwrap(), instr);
             assert_eq!(r.pos, w.len());
         }
+    }
+
+    #[test]
+    fn wafer_handling_opcodes_keep_their_numbers() {
+        // Appended after PRINT (43); stored programs depend on these numbers.
+        for (instr, op) in [(Instr::Get, 44u8), (Instr::Put, 45), (Instr::Map, 46)] {
+            let mut w = Vec::new();
+            encode(&mut w, instr);
+            assert_eq!(w, [op], "{instr:?}");
+        }
+        assert_eq!(Instr::Get.stack_effect(), (2, 0));
+        assert_eq!(Instr::Put.stack_effect(), (2, 0));
+        assert_eq!(Instr::Map.stack_effect(), (1, 0));
+        assert_eq!(
+            [Instr::Get, Instr::Put, Instr::Map].map(Instr::mnemonic),
+            ["GET", "PUT", "MAP"]
+        );
     }
 }

@@ -743,6 +743,21 @@ impl Checker<'_> {
                 }
             }
         }
+        if check == ConstCheck::StationName {
+            // Strings are not folded (their value is a string-table index), so the literal
+            // itself is checked; a variable's text is checked by the VM.
+            if let TKind::Str(text) = &t.kind {
+                if value::station(text).is_err() {
+                    let msg = format!(
+                        "{:?} is not a station name; station names are 1 to {} letters, digits, '_' or '-' (like \"LP1\")",
+                        text,
+                        value::STATION_NAME_LEN
+                    );
+                    self.error(t.span, msg);
+                    return None;
+                }
+            }
+        }
         let Some(k) = t.konst else { return Some(t) };
         let problem = match (check, k) {
             (
@@ -775,6 +790,14 @@ impl Checker<'_> {
                     "{} takes a whole number of pulses (at most 1e15), got {}",
                     def.keyword,
                     fmt_num(x)
+                ))
+            }
+            (ConstCheck::Slot, Value::Num(x)) if value::slot(Value::Num(x)).is_err() => {
+                Some(format!(
+                    "slot {} does not exist; {} takes a whole slot number from 1 to {}",
+                    fmt_num(x),
+                    def.keyword,
+                    value::MAX_SLOT
                 ))
             }
             (ConstCheck::Seconds, Value::Num(x)) if x < 0.0 => Some(format!(

@@ -263,6 +263,9 @@ impl Gen {
             CommandOp::Print => Instr::Print(items),
             CommandOp::Call => return, // emitted with its argument
             CommandOp::End => Instr::Halt,
+            CommandOp::Get => Instr::Get,
+            CommandOp::Put => Instr::Put,
+            CommandOp::Map => Instr::Map,
         };
         self.emit(instr, span);
     }

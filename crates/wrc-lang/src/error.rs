@@ -32,6 +32,18 @@ pub enum RuntimeErrorKind {
     /// is the host's.
     #[error("stopped: {0}")]
     Aborted(&'static str),
+    /// A GET, PUT or MAP the host could not carry out for a wafer-handling reason (the slot
+    /// is empty or occupied, the hand is full or empty, the station's interlock is closed,
+    /// the vacuum sensor did not confirm the wafer, …). The host resumes with this:
+    /// `code` is its protocol code (e.g. 131 for an empty slot), which it reports when the
+    /// program ends, and `reason` its text.
+    #[error("transfer failed: {reason}")]
+    Transfer {
+        /// The host's code for the failure (the controller's protocol code, `ABS … 131 …`).
+        code: u16,
+        /// What went wrong, in the host's words.
+        reason: &'static str,
+    },
     /// `WAIT IN(n) = v TIMEOUT s`: the input did not reach the level in time.
     #[error("WAIT timed out")]
     WaitTimeout,

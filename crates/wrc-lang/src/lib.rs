@@ -3,7 +3,8 @@
 //!
 //! The language is line-oriented and BASIC-like, in the tradition of Epson SPEL+, Denso PAC
 //! and Kawasaki AS: `MOVEJ JOINTS(30, 60, -90, 100)`, `MOVEL P1 + POSE(0, 0, 10, 0)`,
-//! `WAIT IN(0) = 1 TIMEOUT 2`, `FOR`/`WHILE`/`IF`, `SUB`/`CALL`, `PRINT` (docs/language.md).
+//! `WAIT IN(0) = 1 TIMEOUT 2`, `GET "LP1", 3`, `FOR`/`WHILE`/`IF`, `SUB`/`CALL`, `PRINT`
+//! (docs/language.md).
 //!
 //! - [`compile`] lexes, parses, checks (names, types, argument counts, blocks, and constant
 //!   targets against the [`Robot`]: reachability, joint limits, axis count) and emits
@@ -14,8 +15,9 @@
 //!   [`Program::from_bytes`], which verifies every index, jump and stack depth).
 //! - The [`Vm`] is real-time safe: after [`Vm::new`] no more memory is allocated.
 //!   [`Vm::run`] executes at most a budget of instructions and returns a [`Step`]; motions,
-//!   delays, input waits, outputs, speed changes and PRINT are [`Request`]s the host carries
-//!   out before it calls [`Vm::resume`]. The VM never blocks, sleeps or prints.
+//!   delays, input waits, outputs, speed changes, PRINT and wafer transfers (`GET`, `PUT`,
+//!   `MAP`) are [`Request`]s the host carries out before it calls [`Vm::resume`]. The VM
+//!   never blocks, sleeps or prints.
 //!
 //! ```
 //! use wrc_lang::{compile, Motion, Request, Resume, Step, Vm, VmIo, VmLimits};
@@ -81,7 +83,7 @@ pub use bytecode::{Builtin, Instr, Program, SourcePos, SubEntry, Variable, FORMA
 pub use diagnostic::{Diagnostic, Severity};
 pub use error::{DecodeError, LoadError, RuntimeError, RuntimeErrorKind};
 pub use value::Ty;
-pub use vm::{Motion, Request, Resume, Step, Vm, VmIo, VmLimits, PRINT_CAPACITY};
+pub use vm::{Motion, Request, Resume, Step, TransferKind, Vm, VmIo, VmLimits, PRINT_CAPACITY};
 
 /// The result of [`compile`]: the program (`None` when there is an error) and every
 /// diagnostic, in source order.

@@ -358,6 +358,16 @@ impl Parser<'_, '_> {
     /// A statement from the table: its arguments by the table's grammar.
     fn command(&mut self, def: &'static StatementDef) -> PResult<Stmt> {
         let kw = self.bump();
+        if self.peek().tok == Tok::Eq {
+            // `MAP = 1`: a name that became a statement keyword (GET, PUT, MAP are recent).
+            let msg = format!(
+                "{} is a statement keyword and cannot name a variable; choose another name",
+                self.text(&kw)
+            );
+            self.error(kw.span, msg);
+            self.skip_line();
+            return Err(());
+        }
         let result = self.command_args(def);
         match result {
             Ok(args) => {

@@ -5,28 +5,31 @@
 //!
 //! # Adding a statement
 //!
-//! Wafer handling (issue 8) adds `GET station, slot`. The change is:
+//! Wafer handling (issue 8) added `GET station, slot`, `PUT station, slot` and `MAP station`
+//! this way; `GET` is the worked example. The change is:
 //!
 //! 1. a row here:
 //!    ```text
 //!    StatementDef {
 //!        keyword: "GET",
 //!        syntax: "GET station, slot",
-//!        summary: "take the wafer from a station's slot",
+//!        summary: "take the wafer in a station's slot onto the hand",
 //!        args: &[
-//!            ArgSpec::Value { ty: ArgTy::Number, check: ConstCheck::WholeNumber },
-//!            ArgSpec::Value { ty: ArgTy::Number, check: ConstCheck::WholeNumber },
+//!            ArgSpec::Value { ty: ArgTy::Station, check: ConstCheck::StationName },
+//!            ArgSpec::Value { ty: ArgTy::Is(Ty::Number), check: ConstCheck::Slot },
 //!        ],
 //!        op: CommandOp::Get,
 //!    },
 //!    ```
+//!    (a new kind of argument value is an `ArgTy` or `ConstCheck` variant, checked by
+//!    `check.rs` at compile time through the same function of `value.rs` the VM uses);
 //! 2. `CommandOp::Get`, and its instruction in `bytecode.rs` (`Instr::Get`: pops the slot and
-//!    the station; an opcode byte and a `stack_effect` arm, which the encoder, decoder,
-//!    verifier and listing then handle);
+//!    the station; an appended opcode number, a mnemonic and a `stack_effect` arm, which the
+//!    encoder, decoder, verifier and listing then handle);
 //! 3. its arm in `codegen.rs` (`CommandOp::Get => Instr::Get`) and in the VM, which checks the
-//!    values and yields a new [`Request`](crate::Request) variant (`Request::Get { station,
+//!    values and yields a [`Request`](crate::Request) (`Request::Transfer { kind, station,
 //!    slot }`; `Request` is `#[non_exhaustive]`, so hosts already have a fallback arm);
-//! 4. a line in `docs/language.md` and a test.
+//! 4. a section in `docs/language.md` and tests.
 //!
 //! Parsing, type checking, constant checks and diagnostics come from the row.
 
@@ -79,6 +82,8 @@ pub(crate) enum ArgTy {
     Is(Ty),
     /// A signal level: a number 0 or 1, or TRUE / FALSE.
     Level,
+    /// A station name: a string (`"LP1"`, or a variable holding one).
+    Station,
 }
 
 impl ArgTy {
@@ -86,6 +91,7 @@ impl ArgTy {
         match self {
             ArgTy::Is(want) => want == ty,
             ArgTy::Level => matches!(ty, Ty::Number | Ty::Bool),
+            ArgTy::Station => ty == Ty::Str,
         }
     }
 
@@ -93,6 +99,7 @@ impl ArgTy {
         match self {
             ArgTy::Is(ty) => ty.with_article(),
             ArgTy::Level => "0 or 1 (or TRUE / FALSE)",
+            ArgTy::Station => "a station name in quotes (like \"LP1\")",
         }
     }
 }
@@ -118,6 +125,10 @@ pub(crate) enum ConstCheck {
     WholeNumber,
     /// A number of seconds, 0 or more.
     Seconds,
+    /// A station name: 1 to 16 letters, digits, `_` or `-` (checked on string literals).
+    StationName,
+    /// A slot number: a whole number from 1 to 65535.
+    Slot,
 }
 
 /// The instruction a statement ends in.
@@ -135,6 +146,9 @@ pub(crate) enum CommandOp {
     Print,
     Call,
     End,
+    Get,
+    Put,
+    Map,
 }
 
 /// Every simple statement.
@@ -260,6 +274,48 @@ pub(crate) const STATEMENTS: &[StatementDef] = &[
         summary: "run a SUB and come back",
         args: &[ArgSpec::Sub],
         op: CommandOp::Call,
+    },
+    StatementDef {
+        keyword: "GET",
+        syntax: "GET station, slot",
+        summary: "take the wafer in a station's slot (from 1) onto the hand",
+        args: &[
+            ArgSpec::Value {
+                ty: ArgTy::Station,
+                check: ConstCheck::StationName,
+            },
+            ArgSpec::Value {
+                ty: ArgTy::Is(Ty::Number),
+                check: ConstCheck::Slot,
+            },
+        ],
+        op: CommandOp::Get,
+    },
+    StatementDef {
+        keyword: "PUT",
+        syntax: "PUT station, slot",
+        summary: "put the hand's wafer into a station's slot (from 1)",
+        args: &[
+            ArgSpec::Value {
+                ty: ArgTy::Station,
+                check: ConstCheck::StationName,
+            },
+            ArgSpec::Value {
+                ty: ArgTy::Is(Ty::Number),
+                check: ConstCheck::Slot,
+            },
+        ],
+        op: CommandOp::Put,
+    },
+    StatementDef {
+        keyword: "MAP",
+        syntax: "MAP station",
+        summary: "scan a station's slots with the mapping sensor",
+        args: &[ArgSpec::Value {
+            ty: ArgTy::Station,
+            check: ConstCheck::StationName,
+        }],
+        op: CommandOp::Map,
     },
     StatementDef {
         keyword: "END",

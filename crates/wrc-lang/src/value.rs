@@ -3,7 +3,7 @@
 
 use core::fmt;
 
-use wrc_robot::{Joints, Pose, MAX_AXES};
+use wrc_robot::{InlineName, Joints, Pose, MAX_AXES};
 
 use crate::bytecode::Builtin;
 use crate::error::RuntimeErrorKind;
@@ -342,5 +342,64 @@ pub(crate) fn seconds(v: Value) -> Result<f64, RuntimeErrorKind> {
             "a time must be 0 or more seconds",
         )),
         _ => Err(MISMATCH),
+    }
+}
+
+/// Longest station name [characters]: the host protocol's station names
+/// (`wrc_protocol::StationName`, `wrc_robot::InlineName<16>`).
+pub(crate) const STATION_NAME_LEN: usize = 16;
+
+/// A station name as GET, PUT and MAP take it: 1 to 16 ASCII letters, digits, `_` or `-`
+/// (the rule of [`InlineName::new`], which does the check).
+pub(crate) fn station(text: &str) -> Result<InlineName<STATION_NAME_LEN>, RuntimeErrorKind> {
+    InlineName::new(text).ok_or(RuntimeErrorKind::BadArgument(
+        "a station name must be 1 to 16 letters, digits, '_' or '-'",
+    ))
+}
+
+/// Highest slot number GET and PUT take.
+pub(crate) const MAX_SLOT: u16 = u16::MAX;
+
+/// A slot number: a whole number from 1 to [`MAX_SLOT`].
+pub(crate) fn slot(v: Value) -> Result<u16, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (1.0..=f64::from(MAX_SLOT)).contains(&x) && x.fract() == 0.0 => {
+            Ok(x as u16)
+        }
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "a slot must be a whole number from 1 to 65535",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slots_are_whole_numbers_from_1_to_65535() {
+        assert_eq!(slot(Value::Num(1.0)), Ok(1));
+        assert_eq!(slot(Value::Num(65535.0)), Ok(65535));
+        for bad in [0.0, -1.0, 1.5, 65536.0, 70000.0, f64::NAN, f64::INFINITY] {
+            assert!(
+                matches!(slot(Value::Num(bad)), Err(RuntimeErrorKind::BadArgument(_))),
+                "{bad}"
+            );
+        }
+        assert_eq!(slot(Value::Bool(true)), Err(MISMATCH));
+    }
+
+    #[test]
+    fn station_names_follow_the_protocols_rule() {
+        for good in ["LP1", "a", "load_port-2", "ABCDEFGHIJKLMNOP"] {
+            assert_eq!(
+                station(good).map(|n| n.as_str().to_string()),
+                Ok(good.into())
+            );
+        }
+        for bad in ["", "L P1", "bad name!", "ABCDEFGHIJKLMNOPQ", "LPé", "LP1\n"] {
+            assert!(station(bad).is_err(), "{bad:?}");
+        }
     }
 }

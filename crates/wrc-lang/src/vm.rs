@@ -4,15 +4,16 @@
 //! After that, [`Vm::load`], [`Vm::run`] and [`Vm::resume`] never allocate, block, sleep or
 //! print: `run` executes at most a budget of instructions and returns a [`Step`] — ran out
 //! of budget, yielded a [`Request`] to the host (a move, a delay, an input wait, a line of
-//! text, an output, a speed), finished, or faulted. The host owns all timing and I/O.
+//! text, an output, a speed, a wafer transfer or a slot scan), finished, or faulted. The
+//! host owns all timing and I/O.
 
 use core::fmt::{self, Write as _};
 
-use wrc_robot::{Joints, Pose, Posture, MAX_AXES};
+use wrc_robot::{InlineName, Joints, Pose, Posture, MAX_AXES};
 
 use crate::bytecode::{Instr, Program, SourcePos};
 use crate::error::{LoadError, RuntimeError, RuntimeErrorKind};
-use crate::value::{self, Arith, Cmp, Value};
+use crate::value::{self, Arith, Cmp, Value, STATION_NAME_LEN};
 
 /// Size of the PRINT text buffer [bytes]; longer text is cut at a character boundary.
 pub const PRINT_CAPACITY: usize = 256;
@@ -69,6 +70,25 @@ pub enum Motion {
     },
 }
 
+/// Which way a [`Request::Transfer`] moves a wafer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TransferKind {
+    /// `GET`: from the station's slot onto the hand.
+    Get,
+    /// `PUT`: from the hand into the station's slot.
+    Put,
+}
+
+impl TransferKind {
+    /// The statement's keyword: `GET` or `PUT`.
+    pub fn keyword(self) -> &'static str {
+        match self {
+            TransferKind::Get => "GET",
+            TransferKind::Put => "PUT",
+        }
+    }
+}
+
 /// What the program waits for the host to do. After carrying it out the host calls
 /// [`Vm::resume`]; until then [`Vm::run`] returns the same request again.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -105,6 +125,24 @@ pub enum Request {
         /// 1-100 [%].
         pct: f64,
     },
+    /// Move a wafer between a station slot and the hand; resume when it finished (or
+    /// failed: [`RuntimeErrorKind::Transfer`] for a wafer-handling reason, with the host's
+    /// code).
+    Transfer {
+        /// GET (slot → hand) or PUT (hand → slot).
+        kind: TransferKind,
+        /// The station, e.g. `LP1`, as the program wrote it (1-16 letters, digits, `_`,
+        /// `-`; the VM checked that).
+        station: InlineName<16>,
+        /// The slot, from 1.
+        slot: u16,
+    },
+    /// Scan a station's slots with the mapping sensor; resume when it finished (or failed,
+    /// like [`Request::Transfer`]).
+    Map {
+        /// The station.
+        station: InlineName<16>,
+    },
 }
 
 /// How the host answers a [`Request`].
@@ -113,7 +151,8 @@ pub enum Resume {
     /// Done: the move finished, the delay elapsed, the input matched, the text was printed…
     Ok,
     /// It failed; the next [`Vm::run`] returns this fault at the requesting statement's line
-    /// (e.g. [`RuntimeErrorKind::Unreachable`], [`RuntimeErrorKind::WaitTimeout`]).
+    /// (e.g. [`RuntimeErrorKind::Unreachable`], [`RuntimeErrorKind::WaitTimeout`],
+    /// [`RuntimeErrorKind::Transfer`]).
     Failed(RuntimeErrorKind),
 }
 
@@ -374,6 +413,20 @@ impl Vm {
         }
     }
 
+    /// Pop a string and check it is a station name.
+    fn station(
+        &mut self,
+        program: &Program,
+    ) -> Result<InlineName<STATION_NAME_LEN>, RuntimeErrorKind> {
+        match self.pop()? {
+            // A string variable not assigned yet holds an index past the table: "".
+            Value::Str(i) => {
+                value::station(program.strings.get(i as usize).map_or("", |s| s.as_str()))
+            }
+            _ => Err(RuntimeErrorKind::InvalidProgram("expected a string")),
+        }
+    }
+
     fn binary(&mut self, f: impl FnOnce(Value, Value) -> Result<Value, RuntimeErrorKind>) -> Exec {
         let b = self.pop()?;
         let a = self.pop()?;
@@ -570,6 +623,25 @@ impl Vm {
                 }
                 self.stack.truncate(start);
                 return Ok(Flow::Yield(Request::Print));
+            }
+            Get | Put => {
+                let slot = self.pop()?;
+                let station = self.station(program)?;
+                let slot = value::slot(slot)?;
+                let kind = if instr == Get {
+                    TransferKind::Get
+                } else {
+                    TransferKind::Put
+                };
+                return Ok(Flow::Yield(Request::Transfer {
+                    kind,
+                    station,
+                    slot,
+                }));
+            }
+            Map => {
+                let station = self.station(program)?;
+                return Ok(Flow::Yield(Request::Map { station }));
             }
         }
         Ok(Flow::Next)

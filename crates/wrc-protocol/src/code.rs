@@ -91,6 +91,22 @@ pub enum Code {
     NoProgram = 128,
     /// 130: no station has that name.
     StationUnknown = 130,
+    /// 131: GET from a slot the wafer map says is empty.
+    SlotEmpty = 131,
+    /// 132: PUT into a slot the wafer map says is occupied.
+    SlotOccupied = 132,
+    /// 133: GET while the hand already holds a wafer.
+    HandFull = 133,
+    /// 134: PUT while the hand holds no wafer.
+    HandEmpty = 134,
+    /// 135: the station's interlock input says it is closed (not safe to enter).
+    InterlockClosed = 135,
+    /// 136: the slot is not usable: not mapped yet, a double or a cross-slotted wafer.
+    SlotNotUsable = 136,
+    /// 137: the station has no such slot.
+    SlotUnknown = 137,
+    /// 138: a wafer transfer or mapping is in progress.
+    TransferBusy = 138,
 
     // 2xx alarm: an action ended abnormally (ABS) or the controller stopped (EVT ERROR).
     /// 200: the motion was stopped by `STOP`.
@@ -117,6 +133,13 @@ pub enum Code {
     ProgramError = 210,
     /// 211: a program's `WAIT IN(n) = v TIMEOUT s` timed out.
     WaitTimeout = 211,
+    /// 212: the vacuum sensor did not confirm the wafer after a GET (or its release after a
+    /// PUT).
+    WaferNotSensed = 212,
+    /// 213: the vacuum sensor lost the wafer while the hand carried it.
+    WaferLost = 213,
+    /// 214: the station's interlock opened while the hand was entering or inside it.
+    InterlockOpened = 214,
 
     // 3xx fatal: the controller cannot go on.
     /// 300: the motion board stopped answering.
@@ -152,6 +175,14 @@ impl Code {
         Code::ProgramRunning,
         Code::NoProgram,
         Code::StationUnknown,
+        Code::SlotEmpty,
+        Code::SlotOccupied,
+        Code::HandFull,
+        Code::HandEmpty,
+        Code::InterlockClosed,
+        Code::SlotNotUsable,
+        Code::SlotUnknown,
+        Code::TransferBusy,
         Code::Stopped,
         Code::EmergencyStop,
         Code::EstopInput,
@@ -164,6 +195,9 @@ impl Code {
         Code::MotionFault,
         Code::ProgramError,
         Code::WaitTimeout,
+        Code::WaferNotSensed,
+        Code::WaferLost,
+        Code::InterlockOpened,
         Code::BoardLost,
         Code::Internal,
     ];
@@ -214,6 +248,14 @@ impl Code {
             Code::ProgramRunning => "a program is running; ABORT it first",
             Code::NoProgram => "no program is running",
             Code::StationUnknown => "no such station; STN lists them",
+            Code::SlotEmpty => "the slot is empty",
+            Code::SlotOccupied => "the slot is occupied",
+            Code::HandFull => "the hand already holds a wafer",
+            Code::HandEmpty => "the hand holds no wafer",
+            Code::InterlockClosed => "the station's interlock is closed",
+            Code::SlotNotUsable => "the slot is not mapped or holds a faulty wafer; MAP it",
+            Code::SlotUnknown => "no such slot",
+            Code::TransferBusy => "a transfer or mapping is in progress",
             Code::Stopped => "stopped by STOP",
             Code::EmergencyStop => "emergency stop",
             Code::EstopInput => "emergency-stop input opened",
@@ -226,6 +268,9 @@ impl Code {
             Code::MotionFault => "motion fault",
             Code::ProgramError => "program error",
             Code::WaitTimeout => "WAIT timed out",
+            Code::WaferNotSensed => "wafer not sensed",
+            Code::WaferLost => "wafer lost",
+            Code::InterlockOpened => "station interlock opened",
             Code::BoardLost => "motion board lost",
             Code::Internal => "internal error",
         }
@@ -285,6 +330,14 @@ mod tests {
             (Code::ProgramRunning, 127),
             (Code::NoProgram, 128),
             (Code::StationUnknown, 130),
+            (Code::SlotEmpty, 131),
+            (Code::SlotOccupied, 132),
+            (Code::HandFull, 133),
+            (Code::HandEmpty, 134),
+            (Code::InterlockClosed, 135),
+            (Code::SlotNotUsable, 136),
+            (Code::SlotUnknown, 137),
+            (Code::TransferBusy, 138),
             (Code::Stopped, 200),
             (Code::EmergencyStop, 201),
             (Code::EstopInput, 202),
@@ -297,6 +350,9 @@ mod tests {
             (Code::MotionFault, 209),
             (Code::ProgramError, 210),
             (Code::WaitTimeout, 211),
+            (Code::WaferNotSensed, 212),
+            (Code::WaferLost, 213),
+            (Code::InterlockOpened, 214),
             (Code::BoardLost, 300),
             (Code::Internal, 301),
         ];

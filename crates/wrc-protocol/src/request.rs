@@ -122,6 +122,22 @@ pub enum Command {
     Teach(StationName),
     /// `WAFERS`.
     Wafers,
+    /// `GET <station> <slot>`: take the wafer in the slot onto the hand.
+    Get {
+        /// The station.
+        station: StationName,
+        /// The slot, from 1.
+        slot: u16,
+    },
+    /// `PUT <station> <slot>`: put the hand's wafer into the slot.
+    Put {
+        /// The station.
+        station: StationName,
+        /// The slot, from 1.
+        slot: u16,
+    },
+    /// `MAP <station>`: scan the station's slots with the mapping sensor.
+    Map(StationName),
     /// `RUN <name>`.
     Run(ProgramName),
     /// `PAUSE`.
@@ -164,6 +180,9 @@ impl Command {
             Command::Stn => Verb::Stn,
             Command::Teach(_) => Verb::Teach,
             Command::Wafers => Verb::Wafers,
+            Command::Get { .. } => Verb::Get,
+            Command::Put { .. } => Verb::Put,
+            Command::Map(_) => Verb::Map,
             Command::Run(_) => Verb::Run,
             Command::Pause => Verb::Pause,
             Command::Continue => Verb::Continue,
@@ -363,6 +382,9 @@ pub enum ParseError {
     /// A station name with characters other than letters, digits, `_` and `-`, or too long.
     #[error("station name \"{0}\" must be 1-16 letters, digits, _ or -")]
     BadStationName(Token),
+    /// A slot number below 1 or beyond any station.
+    #[error("slot {0} does not exist; slots are numbered from 1")]
+    SlotNumber(i64),
     /// A posture word other than `L` or `R`.
     #[error("posture \"{0}\" must be L or R")]
     BadPosture(Token),
@@ -409,6 +431,7 @@ impl ParseError {
             | ParseError::BadProgramName(_)
             | ParseError::BadStationName(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
+            ParseError::SlotNumber(_) => Code::SlotUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
                 Code::BadChecksum
             }
@@ -667,6 +690,15 @@ impl Parser {
             Verb::Stn => simple(Command::Stn),
             Verb::Teach => station_name(args).map(Command::Teach),
             Verb::Wafers => simple(Command::Wafers),
+            Verb::Get => {
+                let (station, slot) = station_slot(args)?;
+                Ok(Command::Get { station, slot })
+            }
+            Verb::Put => {
+                let (station, slot) = station_slot(args)?;
+                Ok(Command::Put { station, slot })
+            }
+            Verb::Map => station_name(args).map(Command::Map),
             Verb::Run => program_name(args).map(Command::Run),
             Verb::Pause => simple(Command::Pause),
             Verb::Continue => simple(Command::Continue),
@@ -697,6 +729,18 @@ fn station_name(args: &Args<'_>) -> Result<StationName, ParseError> {
     args.exactly(1)?;
     StationName::new(as_str(args.words[0]))
         .ok_or_else(|| ParseError::BadStationName(Token::new(args.words[0])))
+}
+
+/// The two arguments of `GET` and `PUT`: a station and a slot number from 1.
+fn station_slot(args: &Args<'_>) -> Result<(StationName, u16), ParseError> {
+    args.exactly(2)?;
+    let station = StationName::new(as_str(args.words[0]))
+        .ok_or_else(|| ParseError::BadStationName(Token::new(args.words[0])))?;
+    let slot = whole(args.words[1])?;
+    match u16::try_from(slot) {
+        Ok(n) if n >= 1 => Ok((station, n)),
+        _ => Err(ParseError::SlotNumber(slot)),
+    }
 }
 
 fn program_name(args: &Args<'_>) -> Result<ProgramName, ParseError> {

@@ -70,6 +70,12 @@ pub enum Verb {
     Teach,
     /// `WAFERS`: where every wafer is.
     Wafers,
+    /// `GET`: take a wafer from a station slot onto the hand.
+    Get,
+    /// `PUT`: put the hand's wafer into a station slot.
+    Put,
+    /// `MAP`: scan a station's slots with the mapping sensor.
+    Map,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -123,6 +129,9 @@ impl Verb {
         Verb::Stn,
         Verb::Teach,
         Verb::Wafers,
+        Verb::Get,
+        Verb::Put,
+        Verb::Map,
     ];
 
     /// The verb's table entry.
@@ -216,6 +225,27 @@ impl Verb {
                 true,
             ),
             Verb::Wafers => v("WAFERS", "", "where every wafer is", false, false),
+            Verb::Get => v(
+                "GET",
+                "<station> <slot>",
+                "take the wafer in a station slot onto the hand",
+                true,
+                true,
+            ),
+            Verb::Put => v(
+                "PUT",
+                "<station> <slot>",
+                "put the hand's wafer into a station slot",
+                true,
+                true,
+            ),
+            Verb::Map => v(
+                "MAP",
+                "<station>",
+                "scan a station's slots with the mapping sensor",
+                true,
+                true,
+            ),
         }
     }
 

@@ -153,6 +153,7 @@ pub(crate) fn on_simulated_board<T>(
         &dir.join("board0.dpram"),
         &dir.join("board0.log"),
         None,
+        None,
     )?];
     let result = measure(&dir);
     crate::up::stop_children(&mut children);

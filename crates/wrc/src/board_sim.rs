@@ -1,17 +1,22 @@
 //! `wrc board-sim`: run a simulated motion board on a DPRAM file (the DSP side of
-//! `docs/dpram.md`), inject faults into a running one, or print its state.
+//! `docs/dpram.md`), optionally with the simulated wafer cell as its ground truth, inject
+//! faults into a running one, or print its state or a world file.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
 use wrc_board::layout::{alarm, axis_status, board_status};
+use wrc_board::sim::cell::SimCell;
 use wrc_board::sim::runner::{self, SystemClock};
+use wrc_board::sim::world_file::{self, Change, Origin, WorldSaver};
 use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
+use wrc_board::wrc_cell::{SlotCode, Stations};
+use wrc_board::{DpramBoard, Expect, Fault, Feedback, MappingScan, MotionBoard};
 use wrc_config::{BoardConfig, Config};
 
 /// Arguments of `wrc board-sim`.
@@ -29,8 +34,21 @@ enum Action {
     /// Inject a fault into a running simulated board:
     /// alarm AXIS | encoder-stuck AXIS on|off | sensor-flip INPUT on|off | estop on|off | clear
     Inject(InjectArgs),
-    /// Print a board's header, status, axes and I/O once.
+    /// Print a board's header, status, axes, I/O and mapping latch once.
     Status(TargetArgs),
+    /// Print a simulated cell's world file: each station's slot codes, the hand, lost
+    /// wafers and the fault count.
+    World(WorldArgs),
+}
+
+#[derive(Debug, Args)]
+struct WorldArgs {
+    /// The world file (`--world` of a running board).
+    #[arg(long, value_name = "FILE")]
+    world: PathBuf,
+    /// The stations file the world was made with [default: the embedded demo cell].
+    #[arg(long, value_name = "FILE")]
+    stations: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -72,6 +90,16 @@ struct RunArgs {
     /// Exit after this many board periods [default: run until killed].
     #[arg(long, value_name = "N")]
     periods: Option<u64>,
+    /// Simulate the wafer cell of this stations file: the hand's pose from the encoders
+    /// moves wafers, the vacuum and mapping sensors follow the cell (every robot axis must
+    /// be on this board).
+    #[arg(long, value_name = "FILE")]
+    stations: Option<PathBuf>,
+    /// The cell's ground truth: read at start (created from the stations' [station.sim]
+    /// wafers when missing, refused when unusable), rewritten atomically after every change
+    /// and at SIGINT/SIGTERM. Needs --stations.
+    #[arg(long, value_name = "FILE")]
+    world: Option<PathBuf>,
 }
 
 /// Run `wrc board-sim`.
@@ -80,6 +108,7 @@ pub fn run(args: BoardSimArgs) -> anyhow::Result<ExitCode> {
         None => run_board(args.run),
         Some(Action::Inject(a)) => inject(a),
         Some(Action::Status(t)) => status(t),
+        Some(Action::World(w)) => world(w),
     }
 }
 
@@ -120,11 +149,30 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|f| f.parse::<Fault>().with_context(|| "--fault"))
         .collect::<anyhow::Result<Vec<_>>>()?;
+    let cell = match (&args.stations, &args.world) {
+        (None, None) => None,
+        (None, Some(world)) => bail!(
+            "--world {}: the simulated cell needs --stations FILE too (the world's stations and \
+             slots are the stations file's)",
+            world.display()
+        ),
+        (Some(stations), world) => Some(load_cell(&config, &board, stations, world.as_deref())?),
+    };
     let settings = SimSettings::from_config(&config, &board);
     let mut sim = SimBoard::create(&board.dpram, &settings)?;
     for fault in faults {
         sim.apply_fault(fault);
     }
+    let Some(cell) = cell else {
+        print_started(&sim, &board);
+        let stop = AtomicBool::new(false);
+        runner::run(&mut sim, &SystemClock::default(), &stop, args.periods);
+        return Ok(ExitCode::SUCCESS);
+    };
+    run_cell_board(sim, cell, &board, args.world, args.periods)
+}
+
+fn print_started(sim: &SimBoard, board: &BoardConfig) {
     let h = *sim.dpram().header();
     eprintln!(
         "wrc board-sim: board {} with {} axes, period {} µs, FIFO depth {}, watchdog {} periods, DPRAM {} (epoch {})",
@@ -136,8 +184,102 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
         board.dpram.display(),
         h.epoch
     );
-    let stop = AtomicBool::new(false);
-    runner::run(&mut sim, &SystemClock::default(), &stop, args.periods);
+}
+
+/// The simulated cell of `stations_path`, from the world file when given (created when
+/// missing, refused when unusable).
+fn load_cell(
+    config: &Config,
+    board: &BoardConfig,
+    stations_path: &Path,
+    world_path: Option<&Path>,
+) -> anyhow::Result<SimCell> {
+    let stations = Stations::load(stations_path)?;
+    let cell = SimCell::new(config, board, stations)
+        .with_context(|| format!("--stations {}", stations_path.display()))?;
+    let Some(path) = world_path else {
+        eprintln!(
+            "wrc board-sim: simulated cell of {} (wafers from its [station.sim] tables, not saved)",
+            stations_path.display()
+        );
+        return Ok(cell);
+    };
+    let (world, origin) = world_file::load_or_create(path, cell.stations())?;
+    let how = match origin {
+        Origin::Loaded => "read from",
+        Origin::Created => "new, written to",
+    };
+    eprintln!(
+        "wrc board-sim: simulated cell of {}; ground truth {how} {}",
+        stations_path.display(),
+        path.display()
+    );
+    Ok(cell.with_world(world))
+}
+
+/// Run the board with its cell until SIGINT/SIGTERM (or `periods`), handing every world
+/// change to the saver thread, and save the final state.
+fn run_cell_board(
+    mut sim: SimBoard,
+    cell: SimCell,
+    board: &BoardConfig,
+    world_path: Option<PathBuf>,
+    periods: Option<u64>,
+) -> anyhow::Result<ExitCode> {
+    // SIGINT/SIGTERM are taken by a thread of their own (sigwait), so they are blocked here
+    // before any thread exists; threads inherit the mask.
+    let signals = crate::up::termination_signals();
+    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
+    unsafe {
+        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let stopper = stop.clone();
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            let mut sig: libc::c_int = 0;
+            // SAFETY: waits for one of the blocked signals in `signals`.
+            unsafe {
+                libc::sigwait(&signals, &mut sig);
+            }
+            stopper.store(true, Ordering::Relaxed);
+        })
+        .context("cannot start the signal thread")?;
+    let saver = WorldSaver::spawn(world_path.clone(), |line| {
+        eprintln!("wrc board-sim: {line}")
+    })
+    .context("cannot start the world-saver thread")?;
+
+    sim.attach_cell(cell)?;
+    print_started(&sim, board);
+    let save = world_path.is_some();
+    runner::run_with(&mut sim, &SystemClock::default(), &stop, periods, |board| {
+        // Outside the step: at most one text a change, written by the saver thread.
+        if let Some(event) = board.take_cell_event() {
+            if let Some(cell) = board.cell() {
+                saver.send(Change {
+                    text: save.then(|| cell.world().to_text()),
+                    event: Some(event),
+                    faults: cell.world().faults(),
+                });
+            }
+        }
+    });
+    if let Some(cell) = sim.cell() {
+        saver.send(Change {
+            text: save.then(|| cell.world().to_text()),
+            event: None,
+            faults: cell.world().faults(),
+        });
+    }
+    saver.finish();
+    if let Some(path) = &world_path {
+        eprintln!(
+            "wrc board-sim: stopped; ground truth saved in {}",
+            path.display()
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -260,5 +402,38 @@ fn status(t: TargetArgs) -> anyhow::Result<ExitCode> {
             )
         );
     }
+    let mut scan = MappingScan::default();
+    board.read_mapping(&mut scan)?;
+    println!("{}", mapping_line(&scan));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `mapping station N seen K codes ...`: the codes of slots 1 up to the highest seen one,
+/// `.` for a slot not seen.
+fn mapping_line(scan: &MappingScan) -> String {
+    let highest = 64 - scan.seen.leading_zeros() as u16;
+    let codes: String = (1..=highest)
+        .map(|slot| scan.slot_code(slot).map_or('.', SlotCode::as_char))
+        .collect();
+    format!(
+        "mapping station {} seen {} codes {} clear {}",
+        scan.station,
+        scan.seen.count_ones(),
+        if codes.is_empty() { "-" } else { &codes },
+        if scan.cleared {
+            "acknowledged"
+        } else {
+            "pending (no simulated cell?)"
+        }
+    )
+}
+
+fn world(args: WorldArgs) -> anyhow::Result<ExitCode> {
+    let stations = match &args.stations {
+        Some(path) => Stations::load(path)?,
+        None => Stations::embedded_demo(),
+    };
+    let world = world_file::load(&args.world, &stations)?;
+    print!("{}", world_file::summary(&world, &stations));
     Ok(ExitCode::SUCCESS)
 }

@@ -81,13 +81,16 @@ fn fifo_allowed() -> bool {
 }
 
 /// Start `wrc board-sim` for board `id` on `dpram`; `watchdog_periods` overrides the
-/// configured host-watchdog limit.
+/// configured host-watchdog limit; `cell` = (stations file, world file) makes it simulate
+/// the wafer cell, and then waits until the board is up so a refusal (an unusable world
+/// file, stations out of reach) is reported here with the board's own words.
 pub(crate) fn spawn_board(
     config: Option<&Path>,
     id: u32,
     dpram: &Path,
     log: &Path,
     watchdog_periods: Option<u32>,
+    cell: Option<(&Path, &Path)>,
 ) -> anyhow::Result<Child> {
     let exe =
         std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
@@ -103,6 +106,13 @@ pub(crate) fn spawn_board(
     if let Some(p) = watchdog_periods {
         cmd.arg("--watchdog-periods").arg(p.to_string());
     }
+    if let Some((stations, world)) = cell {
+        cmd.arg("--stations")
+            .arg(stations)
+            .arg("--world")
+            .arg(world);
+    }
+    let log_path = log;
     let log =
         std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
     cmd.stdin(Stdio::null())
@@ -120,8 +130,26 @@ pub(crate) fn spawn_board(
             Ok(())
         });
     }
-    cmd.spawn()
-        .context("cannot start the simulated board (wrc board-sim)")
+    let mut child = cmd
+        .spawn()
+        .context("cannot start the simulated board (wrc board-sim)")?;
+    if cell.is_some() {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if let Ok(Some(status)) = child.try_wait() {
+                let said = std::fs::read_to_string(log_path).unwrap_or_default();
+                bail!(
+                    "the simulated board {id} did not start ({status}): {}",
+                    said.trim()
+                );
+            }
+            if wrc_board::DpramBoard::open(dpram, wrc_board::Expect::default()).is_ok() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    Ok(child)
 }
 
 /// Start `wrc ui` on the controller's Unix socket and wait until it serves; returns the
@@ -256,6 +284,31 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     }
 
     let mut children = Vec::new();
+    // The simulated cell (board 0, when it drives every robot axis) reads the same stations
+    // file as the controller, so the controller's seeding from the demo cell happens here,
+    // before the boards start.
+    let stations_path = args
+        .stations
+        .clone()
+        .unwrap_or_else(|| args.state_dir.join("stations.toml"));
+    let world_path = args.state_dir.join("world.toml");
+    let simulate_cell = args.board.is_empty()
+        && config
+            .boards
+            .first()
+            .is_some_and(|b| (0..config.robot.axis_count()).all(|axis| b.axes.contains(&axis)));
+    if simulate_cell {
+        if !stations_path.exists() {
+            wrc_board::wrc_cell::Stations::embedded_demo().save_atomic(&stations_path)?;
+        }
+        println!(
+            "wrc: simulated cell: stations {}, ground truth {}",
+            stations_path.display(),
+            world_path.display()
+        );
+    } else if args.board.is_empty() {
+        println!("wrc: no simulated cell: the robot's axes are not all on board 0");
+    }
     let boards: Vec<PathBuf> = if args.board.is_empty() {
         // An ordinary process on a busy machine (or a VM) stalls for 100 ms now and then; the
         // simulated board then keeps its host watchdog to 1 s, so such a stall is not a fault
@@ -274,13 +327,15 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
                     b.id, b.watchdog_periods
                 );
             }
-            children.push(spawn_board(
-                args.config.as_deref(),
-                b.id,
-                &dpram,
-                &log,
-                watchdog,
-            )?);
+            let cell = (simulate_cell && paths.is_empty())
+                .then_some((stations_path.as_path(), world_path.as_path()));
+            match spawn_board(args.config.as_deref(), b.id, &dpram, &log, watchdog, cell) {
+                Ok(child) => children.push(child),
+                Err(e) => {
+                    stop_children(&mut children);
+                    return Err(e);
+                }
+            }
             paths.push(dpram);
         }
         paths

@@ -11,9 +11,11 @@ use wrc_robot::MAX_AXES;
 
 pub use mmap::Mapping;
 
-use crate::board::{AxisFeedback, BoardFeedback, Busy, Feedback, Full, MotionBoard, Torn};
-use crate::dpram::{AxisRecord, Dpram};
-use crate::layout::{self, axis, command, control, io, Header, LayoutError};
+use crate::board::{
+    AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
+};
+use crate::dpram::{AxisRecord, Dpram, MappingRecord};
+use crate::layout::{self, axis, command, control, io, mapping, Header, LayoutError};
 
 /// A DPRAM that cannot be used; every variant names the path.
 #[derive(Debug, thiserror::Error)]
@@ -289,5 +291,19 @@ impl MotionBoard for DpramBoard {
 
     fn command_pending(&self) -> bool {
         self.dpram.load(control::COMMAND_ACK) != self.dpram.load(control::COMMAND_SEQ)
+    }
+
+    fn clear_mapping(&mut self) {
+        self.dpram.bump(mapping::CLEAR_SEQ);
+    }
+
+    fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn> {
+        // Acknowledgement first (acquire): when it matches, the cleared latch the board
+        // published before it is visible, so the record read next is the new scan's.
+        let cleared = self.dpram.load(mapping::CLEAR_ACK) == self.dpram.load(mapping::CLEAR_SEQ);
+        let mut record = MappingRecord::default();
+        self.dpram.read_mapping(&mut record)?;
+        *out = MappingScan::from_record(cleared, &record);
+        Ok(())
     }
 }

@@ -7,12 +7,17 @@
 //! update the digital I/O and the E-stop; then per axis take one FIFO entry (counting an
 //! underrun if a streaming axis finds none), check it against the motor's velocity limit,
 //! interpolate it over the sub-steps through the servo lag, check following error and limit
-//! switches, and publish the feedback record.
+//! switches, and publish the feedback record. With a simulated cell attached
+//! ([`SimBoard::attach_cell`], [`cell`]) the board also clears the mapping latch when the
+//! host asks, steps the cell with the new encoder positions and the outputs, drives the
+//! hand's vacuum sensor from it and publishes the mapping latch.
 
+pub mod cell;
 pub mod io;
 pub mod runner;
 pub mod servo;
 pub mod watchdog;
+pub mod world_file;
 
 use std::path::Path;
 use std::sync::atomic::Ordering;
@@ -23,10 +28,11 @@ use crate::dpram::{AxisRecord, Dpram, Pop};
 use crate::driver::{Mapping, OpenError};
 use crate::fault::Fault;
 use crate::layout::{
-    self, alarm, axis, axis_status, board_status, command, control, header, Header, LayoutError,
-    AXES_PER_BOARD,
+    self, alarm, axis, axis_status, board_status, command, control, header, mapping, Header,
+    LayoutError, AXES_PER_BOARD,
 };
 
+use cell::SimCell;
 use io::{IoSettings, SimIo, Vacuum};
 use servo::{Drive, ServoAxis, ServoSettings};
 use watchdog::HostWatchdog;
@@ -151,7 +157,12 @@ pub struct SimBoard {
     period_s: f64,
     substeps: u32,
     periods: u64,
+    /// The simulated cell, and the vacuum hand (of `io`) its wafer drives.
+    cell: Option<(SimCell, usize)>,
 }
+
+/// Delay of the hand's vacuum sensor when `[board.sim] vacuum` does not list the hand [s].
+pub const CELL_VACUUM_DELAY_S: f64 = 0.05;
 
 impl SimBoard {
     /// Create (or take over) the DPRAM file at `path` and initialise it. An existing file
@@ -232,6 +243,7 @@ impl SimBoard {
             period_s: f64::from(settings.period_us) / 1e6,
             substeps: settings.substeps.max(1),
             periods: 0,
+            cell: None,
         };
         board.publish();
         Ok(board)
@@ -250,6 +262,43 @@ impl SimBoard {
     /// Axis `channel`'s model (for tests and diagnostics).
     pub fn axis(&self, channel: usize) -> Option<&ServoAxis> {
         self.axes.get(channel).and_then(|a| a.as_ref())
+    }
+
+    /// Simulate `cell` on this board from the next period on: the hand's vacuum sensor
+    /// (the `[board.sim] vacuum` hand with the cell's `vacuum_output` and `vacuum_input`,
+    /// added with a [`CELL_VACUUM_DELAY_S`] delay when there is none) senses a wafer only
+    /// when the cell has one on the hand, and the mapping latch is published. Fails when all
+    /// vacuum hands are taken by others.
+    pub fn attach_cell(&mut self, cell: SimCell) -> Result<(), SimError> {
+        let hand = *cell.hand();
+        let delay = (CELL_VACUUM_DELAY_S / self.period_s).ceil() as u32;
+        let Some(index) = self
+            .io
+            .ensure_vacuum(hand.vacuum_output, hand.vacuum_input, delay)
+        else {
+            return Err(SimError::Settings(format!(
+                "[board.sim] vacuum lists {} hands, none with valve output {} and sensor input \
+                 {} of [hand]; there is no room for the simulated cell's hand",
+                io::MAX_VACUUM,
+                hand.vacuum_output,
+                hand.vacuum_input
+            )));
+        };
+        self.io.set_wafer(index, cell.wafer_on_hand());
+        self.dpram.write_mapping(cell.latch());
+        self.cell = Some((cell, index));
+        Ok(())
+    }
+
+    /// The simulated cell, if one is attached.
+    pub fn cell(&self) -> Option<&SimCell> {
+        self.cell.as_ref().map(|(c, _)| c)
+    }
+
+    /// The simulated cell's event of the last period that had one, once (see
+    /// [`SimCell::take_event`]); for the runner loop to report outside [`SimBoard::step`].
+    pub fn take_cell_event(&mut self) -> Option<wrc_cell::WorldEvent> {
+        self.cell.as_mut().and_then(|(c, _)| c.take_event())
     }
 
     /// Apply a fault directly (the mailbox path does the same).
@@ -314,6 +363,17 @@ impl SimBoard {
                 .acknowledge(layout::fault::SEQ, layout::fault::ACK);
         }
 
+        if let Some((cell, _)) = self.cell.as_mut() {
+            let seq = self.dpram.load(mapping::CLEAR_SEQ);
+            if seq != self.dpram.load(mapping::CLEAR_ACK) {
+                cell.clear_latch();
+                if let Some(latch) = cell.take_latch_change() {
+                    self.dpram.write_mapping(&latch);
+                }
+                self.dpram.store(mapping::CLEAR_ACK, seq);
+            }
+        }
+
         if self.watchdog.step(self.dpram.load(control::HOST_WATCHDOG)) {
             self.dpram.bump(control::WATCHDOG_TRIPS);
         }
@@ -369,6 +429,20 @@ impl SimBoard {
             }
             if !stop {
                 a.end_stop();
+            }
+        }
+        if let Some((cell, hand)) = self.cell.as_mut() {
+            let mut encoders = [0i64; AXES_PER_BOARD];
+            for (e, a) in encoders.iter_mut().zip(&self.axes) {
+                if let Some(a) = a {
+                    *e = a.encoder();
+                }
+            }
+            cell.step(&encoders, outputs);
+            // The sensor input follows at the next periods, after the hand's delay.
+            self.io.set_wafer(*hand, cell.wafer_on_hand());
+            if let Some(latch) = cell.take_latch_change() {
+                self.dpram.write_mapping(&latch);
             }
         }
         self.publish();

@@ -50,11 +50,26 @@ pub fn run(
     stop: &AtomicBool,
     max_periods: Option<u64>,
 ) -> u64 {
+    run_with(board, clock, stop, max_periods, |_| {})
+}
+
+/// [`run`], calling `after_step` after every [`SimBoard::step`] (caught-up periods too),
+/// outside the step: the place to take the simulated cell's event
+/// ([`SimBoard::take_cell_event`]) and hand it to a non-real-time thread. It must not
+/// block.
+pub fn run_with(
+    board: &mut SimBoard,
+    clock: &impl Clock,
+    stop: &AtomicBool,
+    max_periods: Option<u64>,
+    mut after_step: impl FnMut(&mut SimBoard),
+) -> u64 {
     let period = Duration::from_micros(u64::from(board.period_us()));
     let mut deadline = clock.now();
     let mut stepped = 0u64;
     while !stop.load(Ordering::Relaxed) && max_periods.is_none_or(|m| stepped < m) {
         board.step();
+        after_step(board);
         stepped += 1;
         deadline += period;
         let now = clock.now();
@@ -67,6 +82,7 @@ pub fn run(
                 for _ in 0..behind {
                     board.note_late();
                     board.step();
+                    after_step(board);
                     stepped += 1;
                     deadline += period;
                 }
@@ -121,5 +137,20 @@ mod tests {
         // are stepped at once and counted; the one due at 150 ms starts within its period.
         assert_eq!(board.dpram().load(control::LATE_PERIODS), 4);
         assert_eq!(board.dpram().load64(control::PERIOD_COUNT), stepped);
+    }
+
+    #[test]
+    fn the_hook_sees_every_period_caught_up_ones_too() {
+        let mut board = SimBoard::new(Mapping::anonymous().unwrap(), &settings(), 1).unwrap();
+        let clock = MockClock {
+            now: Cell::new(Duration::ZERO),
+            stall_at: Duration::from_millis(100),
+            stall: Duration::from_millis(55),
+        };
+        let mut seen = Vec::new();
+        let stepped = run_with(&mut board, &clock, &AtomicBool::new(false), Some(30), |b| {
+            seen.push(b.dpram().load64(control::PERIOD_COUNT))
+        });
+        assert_eq!(seen, (1..=stepped).collect::<Vec<_>>());
     }
 }

@@ -1,10 +1,11 @@
 //! Counting allocator: `load`, `run` and `resume` allocate nothing, over a program with
-//! loops, SUB calls, pose arithmetic, PRINT and every kind of request.
+//! loops, SUB calls, pose arithmetic, PRINT and every kind of request, and over wafer
+//! transfers that succeed, fail at the host, and fail on a bad slot or station name.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use wrc_lang::{Request, Resume, Step, Vm, VmLimits};
+use wrc_lang::{Request, Resume, RuntimeErrorKind, Step, Vm, VmLimits};
 use wrc_robot::Pose;
 
 use crate::common::{program, Io};
@@ -47,7 +48,11 @@ HOME
 BASE = POSE(300, -50, 20, 0)
 UP = POSE(0, 0, 30, 0)
 COUNT = 0
+LOADER = \"LP1\"
+MAP LOADER
 FOR i = 1 TO 5
+  GET LOADER, i
+  PUT \"LP2\", 6 - i
   TARGET = BASE + POSE(0, 20 * i, 0, 5 * i)
   MOVEP TARGET + UP, R
   MOVEL TARGET
@@ -94,6 +99,7 @@ fn load_run_and_resume_allocate_nothing() {
     };
     let mut prints = 0;
     let mut requests = 0;
+    let mut transfers = 0;
     let mut print_bytes = 0;
     let before = allocations();
     for _round in 0..3 {
@@ -109,6 +115,9 @@ fn load_run_and_resume_allocate_nothing() {
                         prints += 1;
                         print_bytes += vm.print_text().len();
                     }
+                    if matches!(r, Request::Transfer { .. } | Request::Map { .. }) {
+                        transfers += 1;
+                    }
                     if let Request::WaitInput { n, .. } = r {
                         io.inputs |= 1 << n;
                     }
@@ -123,5 +132,88 @@ fn load_run_and_resume_allocate_nothing() {
     // Per round: 5 grips, slots 4 and 5, slot 3 (HERE), done.
     assert_eq!(prints, 3 * (5 + 2 + 1 + 1));
     assert!(requests > 3 * 40, "{requests}");
+    assert_eq!(transfers, 3 * (1 + 5 + 5));
     assert!(print_bytes > 500, "{print_bytes}");
+}
+
+/// Moves wafers slot by slot, computing the slot and choosing the station from variables;
+/// the host fails the 4th GET of round 2, and rounds 3 and 4 end on a bad slot or name.
+const TRANSFERS: &str = "\
+SRC = \"LP1\"
+DST = \"LP2\"
+LAST = 6
+BAD = \"LP3\"
+MAP SRC
+MAP DST
+FOR slot = 1 TO LAST
+  GET SRC, slot
+  PRINT \"wafer\", slot, \"from\", SRC, \"to\", DST
+  PUT DST, LAST + 1 - slot
+NEXT slot
+IF LAST > 5 THEN
+  LAST = 70000
+  BAD = \"not a station!\"
+ENDIF
+";
+
+#[test]
+fn wafer_transfers_and_their_failures_allocate_nothing() {
+    let good = program(TRANSFERS);
+    let bad_slot = program(&format!("{TRANSFERS}GET SRC, LAST\n"));
+    let bad_name = program(&format!("{TRANSFERS}MAP BAD\n"));
+    let mut vm = Vm::new(VmLimits::default());
+    let mut io = Io::default();
+    let mut transfers = 0;
+    let mut faults = Vec::with_capacity(4); // pushing must not allocate below
+    let mut printed = 0;
+    let before = allocations();
+    for (round, p) in [&good, &good, &bad_slot, &bad_name].into_iter().enumerate() {
+        vm.load(p).unwrap();
+        let mut gets = 0;
+        loop {
+            match vm.run(p, 5, &mut io) {
+                Step::Budget => {}
+                Step::Done => break,
+                Step::Fault(e) => {
+                    faults.push((round, e));
+                    break;
+                }
+                Step::Yield(r) => {
+                    let mut answer = Resume::Ok;
+                    match r {
+                        Request::Transfer { kind, station, .. } => {
+                            transfers += 1;
+                            if kind == wrc_lang::TransferKind::Get && station.as_str() == "LP1" {
+                                gets += 1;
+                                if round == 1 && gets == 4 {
+                                    answer = Resume::Failed(RuntimeErrorKind::Transfer {
+                                        code: 131,
+                                        reason: "the slot is empty",
+                                    });
+                                }
+                            }
+                        }
+                        Request::Map { .. } => transfers += 1,
+                        Request::Print => printed += vm.print_text().len(),
+                        _ => {}
+                    }
+                    vm.resume(answer);
+                }
+            }
+        }
+    }
+    let after = allocations();
+    assert_eq!(after - before, 0, "wafer transfers allocated");
+    // Round 1: 2 maps + 12 transfers; round 2 stops at the 4th GET (2 + 3 * 2 + 1);
+    // rounds 3 and 4 run everything, then fault.
+    assert_eq!(transfers, 14 + 9 + 14 + 14);
+    assert!(printed > 20 * 6, "{printed}");
+    let lines: Vec<_> = faults.iter().map(|(round, e)| (*round, e.line)).collect();
+    assert_eq!(lines, [(1, 8), (2, 16), (3, 16)]);
+    assert!(matches!(
+        faults[0].1.kind,
+        RuntimeErrorKind::Transfer { code: 131, .. }
+    ));
+    assert!(matches!(faults[1].1.kind, RuntimeErrorKind::BadArgument(_)));
+    assert!(matches!(faults[2].1.kind, RuntimeErrorKind::BadArgument(_)));
 }

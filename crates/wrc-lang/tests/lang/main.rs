@@ -10,4 +10,5 @@ mod golden;
 mod requests;
 mod robustness;
 mod roundtrip;
+mod transfer;
 mod vm;

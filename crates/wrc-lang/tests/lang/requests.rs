@@ -1,7 +1,7 @@
 //! Every request a program makes reaches the host with the right values.
 
-use wrc_lang::{Motion, Request};
-use wrc_robot::{Pose, Posture, MAX_AXES};
+use wrc_lang::{Motion, Request, TransferKind};
+use wrc_robot::{InlineName, Pose, Posture, MAX_AXES};
 
 use crate::common::{program, run};
 
@@ -35,6 +35,9 @@ OUT 4, FALSE
 WAIT IN(0) = 1
 WAIT IN(5) = 0 TIMEOUT 2.5
 PRINT \"x\", P.X
+MAP \"LP1\"
+GET \"LP1\", 3
+PUT \"PM_2\", 1
 ";
     let r = run(&program(src));
     assert_eq!(r.fault, None);
@@ -77,6 +80,19 @@ PRINT \"x\", P.X
                 timeout_s: Some(2.5)
             },
             Request::Print,
+            Request::Map {
+                station: InlineName::new("LP1").unwrap()
+            },
+            Request::Transfer {
+                kind: TransferKind::Get,
+                station: InlineName::new("LP1").unwrap(),
+                slot: 3
+            },
+            Request::Transfer {
+                kind: TransferKind::Put,
+                station: InlineName::new("PM_2").unwrap(),
+                slot: 1
+            },
         ]
     );
     assert_eq!(r.printed, ["x 300"]);

@@ -24,10 +24,11 @@ impl Rng {
 const WORDS: &[&str] = &[
     "IF", "THEN", "ELSEIF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR", "TO", "STEP", "NEXT",
     "SUB", "ENDSUB", "CALL", "END", "HOME", "MOVEJ", "MOVEP", "MOVEL", "JOG", "SPEED", "DELAY",
-    "OUT", "WAIT", "IN", "TIMEOUT", "PRINT", "AND", "OR", "NOT", "TRUE", "FALSE", "JOINTS", "POSE",
-    "HERE", "SIN", "ATAN2", "SQRT", "MIN", "X", "Y", "P", "J", "i", "s", "J1", "Z", "L", "R", "0",
-    "1", "2", "-1", "300", "1e308", "0.5", "\"txt\"", "(", ")", ",", ".", "=", "<>", "<", ">=",
-    "+", "-", "*", "/", "\n", "\n", "\n", "'c", "\"", ";", "é",
+    "OUT", "WAIT", "IN", "TIMEOUT", "PRINT", "GET", "PUT", "MAP", "\"LP1\"", "\"a b\"", "65536",
+    "AND", "OR", "NOT", "TRUE", "FALSE", "JOINTS", "POSE", "HERE", "SIN", "ATAN2", "SQRT", "MIN",
+    "X", "Y", "P", "J", "i", "s", "J1", "Z", "L", "R", "0", "1", "2", "-1", "300", "1e308", "0.5",
+    "\"txt\"", "(", ")", ",", ".", "=", "<>", "<", ">=", "+", "-", "*", "/", "\n", "\n", "\n",
+    "'c", "\"", ";", "é",
 ];
 
 fn exercise(source: &str) {
@@ -97,6 +98,11 @@ fn random_lines_of_valid_statements_never_panic() {
         "SPEED X",
         "X = 1 / (X - 5)",
         "MOVEJ JOINTS(X, 0, 0, 0)",
+        "S = \"LP1\"",
+        "S = \"not a station\"",
+        "MAP S",
+        "GET S, X",
+        "PUT \"LP2\", X - 3",
     ];
     let mut rng = Rng(42);
     for _ in 0..3000 {

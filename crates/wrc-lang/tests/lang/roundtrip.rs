@@ -8,6 +8,8 @@ use crate::common::{program, run};
 const SOURCE: &str = "\
 P = POSE(300, -100, 0, 0)
 J = JOINTS(1, 2, 3, 4)
+STATION = \"LP2\"
+MAP STATION
 FOR i = 5 TO 1 STEP -2
   IF i > 2 AND NOT IN(3) THEN
     MOVEP P + POSE(0, i, 0, 0), L
@@ -16,6 +18,8 @@ FOR i = 5 TO 1 STEP -2
   ENDIF
   JOG Z, 100
   WAIT IN(1) = 1 TIMEOUT 1
+  GET \"LP1\", i
+  PUT STATION, 6 - i
 NEXT
 CALL s
 PRINT \"J\", J.J2, \"é\", P, SQRT(2)

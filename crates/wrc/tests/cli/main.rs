@@ -6,6 +6,8 @@ mod program;
 mod stations;
 mod ui;
 mod up;
+mod wafer_cycle;
+mod wafers;
 
 use std::process::{Command, Output};
 

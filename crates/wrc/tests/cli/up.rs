@@ -127,6 +127,11 @@ pub(crate) struct Client {
 }
 
 impl Client {
+    /// A client of the controller on `port`.
+    pub(crate) fn connect_to(port: u16) -> Client {
+        Client::connect(port)
+    }
+
     fn connect(port: u16) -> Client {
         let s = TcpStream::connect(("127.0.0.1", port)).unwrap();
         s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();

@@ -1,0 +1,188 @@
+//! The messages of a wafer job (`GET`, `PUT`, `MAP`) between the cell service (non-real-time:
+//! it checks the request against the wafer map, saves the map and plans the steps) and the
+//! Command Interpreter (real-time: it carries the steps out, watches the vacuum, and
+//! answers). Every type is fixed-size and `Copy`, so the real-time side sends and receives
+//! them without allocating.
+//!
+//! The order that makes the map crash-safe: the service saves the pending transfer
+//! (`WaferMap::begin`) *before* it hands the job over; the Command Interpreter reports
+//! [`CellEvent::Commit`] the moment the vacuum sensor has confirmed the wafer's new place,
+//! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
+//! from the vacuum sensor, as at start-up) and saves.
+
+use wrc_cell::Step;
+use wrc_protocol::{Code, ReplyTo, StationName};
+
+use crate::shared::SourceId;
+
+/// Most steps in one job.
+pub const MAX_JOB_STEPS: usize = 24;
+
+/// Most slots a mapping reports.
+pub const MAX_MAP_SLOTS: usize = 64;
+
+/// What a job does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JobKind {
+    /// `GET <station> <slot>`.
+    Get,
+    /// `PUT <station> <slot>`.
+    Put,
+    /// `MAP <station>`.
+    Map,
+}
+
+impl JobKind {
+    /// The verb, as on the wire.
+    pub fn verb(self) -> &'static str {
+        match self {
+            JobKind::Get => "GET",
+            JobKind::Put => "PUT",
+            JobKind::Map => "MAP",
+        }
+    }
+}
+
+/// One step of a job.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JobStep {
+    /// A step of a transfer ([`wrc_cell::plan`]).
+    Transfer(Step),
+    /// Clear the board's mapping latch and wait until it has.
+    MapClear,
+    /// Switch the mapping sensor on or off.
+    MapSensor(bool),
+    /// Read the mapping latch: every slot must have been seen at the job's station.
+    MapRead,
+}
+
+/// A job the cell service hands to the Command Interpreter.
+#[derive(Debug, Clone, Copy)]
+pub struct CellJob {
+    /// Who asked ([`SourceId::PROGRAM`] for a program's statement): gets the replies.
+    pub from: SourceId,
+    /// Where the replies go.
+    pub to: ReplyTo,
+    /// What it does.
+    pub kind: JobKind,
+    /// The station.
+    pub station: StationName,
+    /// The station's index in the stations file (the board's mapping latch names it + 1).
+    pub station_index: u32,
+    /// GET/PUT: the slot; MAP: the station's slot count.
+    pub slot: u16,
+    /// GET/PUT: the wafer's id number (`W<n>`).
+    pub wafer: u32,
+    /// The steps, `steps[..len]`.
+    pub steps: [JobStep; MAX_JOB_STEPS],
+    /// Steps used.
+    pub len: usize,
+}
+
+impl CellJob {
+    /// A job without steps.
+    pub fn new(from: SourceId, to: ReplyTo, kind: JobKind, station: StationName) -> CellJob {
+        CellJob {
+            from,
+            to,
+            kind,
+            station,
+            station_index: 0,
+            slot: 0,
+            wafer: 0,
+            steps: [JobStep::MapRead; MAX_JOB_STEPS],
+            len: 0,
+        }
+    }
+
+    /// Append a step; `false` when the job is full.
+    pub fn push(&mut self, step: JobStep) -> bool {
+        if self.len == MAX_JOB_STEPS {
+            return false;
+        }
+        self.steps[self.len] = step;
+        self.len += 1;
+        true
+    }
+
+    /// The steps.
+    pub fn steps(&self) -> &[JobStep] {
+        &self.steps[..self.len]
+    }
+}
+
+/// A refusal for a program's statement: the program ends with it.
+#[derive(Debug, Clone, Copy)]
+pub struct JobRefusal {
+    /// The code.
+    pub code: Code,
+    /// Bytes used in `text`.
+    pub len: usize,
+    /// The reason.
+    pub text: [u8; 200],
+}
+
+impl JobRefusal {
+    /// A refusal with `text` (cut at 200 bytes, on a character boundary).
+    pub fn new(code: Code, text: &str) -> JobRefusal {
+        let mut len = text.len().min(200);
+        while !text.is_char_boundary(len) {
+            len -= 1;
+        }
+        let mut buf = [0u8; 200];
+        buf[..len].copy_from_slice(&text.as_bytes()[..len]);
+        JobRefusal {
+            code,
+            len,
+            text: buf,
+        }
+    }
+
+    /// The reason.
+    pub fn text(&self) -> &str {
+        std::str::from_utf8(&self.text[..self.len]).unwrap_or("refused")
+    }
+}
+
+/// From the cell service to the Command Interpreter.
+// The job is large on purpose: boxing it would allocate in the real-time receiver's
+// counterpart, and the queue holds four.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+pub enum JobOffer {
+    /// Carry this job out.
+    Start(CellJob),
+    /// The running program's statement was refused: end the program with this.
+    Refused(JobRefusal),
+}
+
+/// From the Command Interpreter to the cell service.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellEvent {
+    /// The vacuum sensor confirmed the pending transfer's wafer at its destination.
+    Commit,
+    /// The job ended. `started`: it was accepted (ACK) and steps ran; `code`: `None` when
+    /// it finished normally; `sensed`: the vacuum sensor's reading at the end.
+    Ended {
+        /// The job's kind.
+        kind: JobKind,
+        /// Whether it was accepted.
+        started: bool,
+        /// Why it failed, if it did.
+        code: Option<Code>,
+        /// The vacuum-sensed input at the end.
+        sensed: bool,
+    },
+    /// A mapping's result: `codes[..count]`, one [`wrc_cell::SlotCode`] number per slot
+    /// (0 absent, 1 present, 2 double, 3 cross).
+    Mapped {
+        /// The station's index in the stations file.
+        station_index: u32,
+        /// Slots.
+        count: u16,
+        /// The codes.
+        codes: [u8; MAX_MAP_SLOTS],
+    },
+    /// The vacuum sensor lost the hand's wafer outside a job (code 213).
+    WaferLost,
+}

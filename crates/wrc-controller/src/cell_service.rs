@@ -1,0 +1,532 @@
+//! The cell service: the wafer cell's non-real-time half, run on the service thread beside
+//! the program store. It owns the stations (`STN`, `TEACH`) and the wafer map (`WAFERS`),
+//! and for `GET`, `PUT` and `MAP` it checks the request against the map and the controller's
+//! state (a refusal is a `NAK` and nothing moves), plans the steps (`wrc_cell::plan`), saves
+//! the pending transfer *before* anything moves, and hands the job to the Command
+//! Interpreter ([`crate::cell_job`]). It commits and saves the map when the Command
+//! Interpreter reports the vacuum sensor's confirmation, settles a failed transfer from the
+//! vacuum sensor (as at start-up), applies mappings, and tells every connection what changed
+//! (`EVT WAFER`).
+//!
+//! At start-up it reconciles a transfer left pending by a crash from the vacuum sensor,
+//! once the I/O Monitor has read the inputs; until then `GET` and `PUT` are refused (138).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_cell::{plan, Reconciled, SlotCode, Stations, TransferKind, WaferMap, WaferMapError};
+use wrc_config::HandConfig;
+use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
+use wrc_robot::Robot;
+
+use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
+use crate::command_interpreter::Outputs;
+use crate::program_store::StoreLinks;
+use crate::shared::{RobotState, Shared, SourceId};
+
+/// Why the wafer cell could not be opened.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CellError {
+    /// The stations file is unusable.
+    #[error(transparent)]
+    Stations(#[from] wrc_cell::StationsError),
+    /// The wafer map file is unusable.
+    #[error(transparent)]
+    WaferMap(#[from] wrc_cell::WaferMapError),
+}
+
+/// The wafer cell: stations and the wafer map, each with its file, and the job in progress.
+pub struct CellService {
+    /// The stations.
+    pub stations: Stations,
+    stations_path: PathBuf,
+    /// Where every wafer is.
+    pub wafers: WaferMap,
+    wafers_path: PathBuf,
+    shared: Arc<Shared>,
+    robot: Robot,
+    hand: HandConfig,
+    out: Option<Outputs>,
+    links: Option<StoreLinks>,
+    buf: ReplyBuf,
+    /// A job handed to the Command Interpreter and not ended yet.
+    busy: Option<JobKind>,
+    /// A pending transfer left by a crash has been settled (or there was none).
+    reconciled: bool,
+}
+
+impl CellService {
+    /// Open the stations file (written from the embedded demo cell when it does not exist)
+    /// and the wafer map (every slot unknown when it does not exist); both are checked
+    /// against `robot`.
+    pub fn open(
+        robot: &Robot,
+        stations_path: &Path,
+        wafers_path: &Path,
+        shared: Arc<Shared>,
+        hand: HandConfig,
+    ) -> Result<CellService, CellError> {
+        let stations = if stations_path.exists() {
+            Stations::load(stations_path)?
+        } else {
+            let demo = Stations::embedded_demo();
+            demo.save_atomic(stations_path)?;
+            demo
+        };
+        stations.validate(robot)?;
+        let mut wafers = WaferMap::load(wafers_path)?;
+        wafers.adopt_stations(&stations)?;
+        wafers.save_atomic(wafers_path)?;
+        let reconciled = wafers.pending().is_none();
+        Ok(CellService {
+            stations,
+            stations_path: stations_path.to_path_buf(),
+            wafers,
+            wafers_path: wafers_path.to_path_buf(),
+            shared,
+            robot: robot.clone(),
+            hand,
+            out: None,
+            links: None,
+            buf: ReplyBuf::new(),
+            busy: None,
+            reconciled,
+        })
+    }
+
+    /// Connect the service to the connections and the Command Interpreter.
+    pub fn connect(&mut self, out: Outputs, links: StoreLinks) {
+        self.out = Some(out);
+        self.links = Some(links);
+    }
+
+    fn send(&self, to: SourceId, line: &[u8]) {
+        if let Some(out) = &self.out {
+            out.send(to, line);
+        }
+    }
+
+    fn nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
+        if from == SourceId::PROGRAM {
+            if let Some(links) = &self.links {
+                let _ = links
+                    .jobs
+                    .try_send(JobOffer::Refused(JobRefusal::new(code, text)));
+            }
+            return;
+        }
+        let line = self.buf.nak(to, code, text).to_vec();
+        self.send(from, &line);
+    }
+
+    fn ack(&mut self, from: SourceId, to: ReplyTo, body: &str) {
+        let line = self.buf.ack(to, body).to_vec();
+        self.send(from, &line);
+    }
+
+    fn event(&mut self, to: SourceId, checksum: bool, event: &Event<'_>) {
+        let line = self.buf.event(checksum, event).to_vec();
+        self.send(to, &line);
+    }
+
+    /// Tell every connection the map's places (`EVT WAFER` per place, `pending=-` when no
+    /// transfer is pending any more).
+    fn broadcast_map(&mut self) {
+        let mut parts = self.wafers.wafers_lines();
+        if self.wafers.pending().is_none() {
+            parts.push("pending=-".to_string());
+        }
+        for part in &parts {
+            self.event(SourceId::BROADCAST, false, &Event::Wafer(part));
+        }
+    }
+
+    /// Save the map; on failure say so on stderr (the service thread may print) and return
+    /// the error's text.
+    fn save(&mut self) -> Result<(), String> {
+        self.wafers
+            .save_atomic(&self.wafers_path)
+            .map_err(|e| e.to_string())
+    }
+
+    /// `STN`.
+    pub fn stn(&mut self, from: SourceId, to: ReplyTo) {
+        let lines: Vec<String> = self.stations.iter().map(wrc_cell::stn_line).collect();
+        for text in &lines {
+            self.event(from, to.checksum, &Event::Station(text));
+        }
+        self.ack(from, to, &format!("stations={}", lines.len()));
+    }
+
+    /// `WAFERS`.
+    pub fn wafers(&mut self, from: SourceId, to: ReplyTo) {
+        let one = self.wafers.wafers_line();
+        if one.len() <= MAX_LINE - 16 {
+            return self.ack(from, to, &one);
+        }
+        let parts = self.wafers.wafers_lines();
+        for part in &parts {
+            self.event(from, to.checksum, &Event::Wafer(part));
+        }
+        self.ack(from, to, &format!("parts={}", parts.len()));
+    }
+
+    /// The refusal common to TEACH, GET, PUT and MAP, from the controller's state.
+    fn state_refusal(&self, from: SourceId, motion: bool) -> Option<(Code, String)> {
+        let shared = &self.shared;
+        let owner = shared.owner.load(Ordering::Acquire);
+        if from != SourceId::PROGRAM && owner != SourceId::NONE.0 && owner != from.0 {
+            return Some((
+                Code::ControlHeld,
+                "control is held by another source".to_string(),
+            ));
+        }
+        if !shared.homed.load(Ordering::Acquire) {
+            return Some((Code::NotHomed, "not homed; send HOME first".to_string()));
+        }
+        match shared.state() {
+            RobotState::Error => {
+                return Some((Code::InError, "the robot is in ERROR; RESET first".into()))
+            }
+            RobotState::Estop => {
+                return Some((Code::InEstop, "the robot is in ESTOP; RESET first".into()))
+            }
+            _ => {}
+        }
+        if !motion
+            && (shared.state() != RobotState::Idle || shared.in_flight.load(Ordering::Acquire) != 0)
+        {
+            return Some((
+                Code::Busy,
+                "the robot is moving; teach when it stands still".to_string(),
+            ));
+        }
+        None
+    }
+
+    /// `TEACH <station>`.
+    pub fn teach(&mut self, from: SourceId, to: ReplyTo, name: &StationName) {
+        let mut refusal = self.state_refusal(from, false);
+        if refusal.is_none() && self.stations.get(name.as_str()).is_none() {
+            refusal = Some((
+                Code::StationUnknown,
+                format!("no station named {name}; STN lists them"),
+            ));
+        }
+        if let Some((code, text)) = refusal {
+            return self.nak(from, to, code, &text);
+        }
+        let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        let pose = self.robot.forward(&joints);
+        let mut taught = self.stations.clone();
+        let body = match taught
+            .teach(name.as_str(), pose, &self.robot)
+            .map(wrc_cell::stn_line)
+        {
+            Ok(body) => body,
+            Err(e) => {
+                let text = format!("cannot teach {name} here: {e}");
+                return self.nak(from, to, Code::OutOfReach, &text);
+            }
+        };
+        if let Err(e) = taught.save_atomic(&self.stations_path) {
+            let text = format!("cannot save the stations: {e}; nothing changed");
+            return self.nak(from, to, Code::Internal, &text);
+        }
+        // Teaching moves a station; its slots, and so the wafer map, stay as they are.
+        self.stations = taught;
+        self.ack(from, to, &body);
+        self.event(SourceId::BROADCAST, false, &Event::Station(&body));
+    }
+
+    /// `GET`/`PUT <station> <slot>` (`kind`), or `MAP <station>` (`kind` = `Map`, `slot`
+    /// ignored), from a connection or from the running program.
+    pub fn job(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        kind: JobKind,
+        station: &StationName,
+        slot: u16,
+    ) {
+        match self.plan_job(from, to, kind, station, slot) {
+            Ok(job) => {
+                let sent = self
+                    .links
+                    .as_ref()
+                    .is_some_and(|l| l.jobs.try_send(JobOffer::Start(job)).is_ok());
+                if sent {
+                    self.busy = Some(kind);
+                } else {
+                    if self.wafers.pending().is_some() {
+                        let _ = self.wafers.abort();
+                        let _ = self.save();
+                        self.broadcast_map();
+                    }
+                    self.nak(
+                        from,
+                        to,
+                        Code::Busy,
+                        "the controller is busy; repeat the request",
+                    );
+                }
+            }
+            Err((code, text)) => self.nak(from, to, code, &text),
+        }
+    }
+
+    /// Check a job and build it; for GET and PUT, save the pending transfer.
+    fn plan_job(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        kind: JobKind,
+        name: &StationName,
+        slot: u16,
+    ) -> Result<CellJob, (Code, String)> {
+        if let Some((code, text)) = self.state_refusal(from, true) {
+            return Err((code, text));
+        }
+        if self.busy.is_some() || self.wafers.pending().is_some() && self.reconciled {
+            return Err((
+                Code::TransferBusy,
+                "a transfer or mapping is in progress".to_string(),
+            ));
+        }
+        if !self.reconciled {
+            return Err((
+                Code::TransferBusy,
+                "the wafer map is being reconciled with the vacuum sensor; repeat in a moment"
+                    .to_string(),
+            ));
+        }
+        let Some(index) = self
+            .stations
+            .iter()
+            .position(|s| s.name.as_str().eq_ignore_ascii_case(name.as_str()))
+        else {
+            return Err((
+                Code::StationUnknown,
+                format!("no station named {name}; STN lists them"),
+            ));
+        };
+        let station = self
+            .stations
+            .iter()
+            .nth(index)
+            .cloned()
+            .ok_or((Code::Internal, "the station list changed".to_string()))?;
+        let mut job = CellJob::new(from, to, kind, station.name);
+        job.station_index = index as u32;
+        if kind == JobKind::Map {
+            job.slot = station.slots;
+            for step in map_steps(&station).map_err(|e| (Code::OutOfReach, e))? {
+                job.push(step);
+            }
+            return Ok(job);
+        }
+        if slot == 0 || slot > station.slots {
+            return Err((
+                Code::SlotUnknown,
+                format!(
+                    "{} has no slot {slot}; its slots are 1 to {}",
+                    station.name, station.slots
+                ),
+            ));
+        }
+        let tkind = if kind == JobKind::Get {
+            TransferKind::Get
+        } else {
+            TransferKind::Put
+        };
+        let transfer = self
+            .wafers
+            .prepare(tkind, station.name.as_str(), slot)
+            .map_err(|e| (map_error_code(&e), e.to_string()))?;
+        if let Some(n) = station.interlock_input {
+            if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << (n & 31)) == 0 {
+                return Err((
+                    Code::InterlockClosed,
+                    format!(
+                        "the interlock of {} (input {n}) is closed; nothing moved",
+                        station.name
+                    ),
+                ));
+            }
+        }
+        let steps = plan(tkind, &station, slot).map_err(|e| (Code::OutOfReach, e.to_string()))?;
+        for step in steps {
+            if !job.push(JobStep::Transfer(step)) {
+                return Err((Code::Internal, "the transfer has too many steps".into()));
+            }
+        }
+        job.slot = slot;
+        job.wafer = transfer.wafer.0;
+        // The pending transfer is on disk before anything moves.
+        self.wafers
+            .begin(transfer)
+            .map_err(|e| (map_error_code(&e), e.to_string()))?;
+        if let Err(e) = self.save() {
+            let _ = self.wafers.abort();
+            return Err((
+                Code::Internal,
+                format!("cannot save the wafer map: {e}; nothing moved"),
+            ));
+        }
+        self.broadcast_map();
+        Ok(job)
+    }
+
+    /// What the Command Interpreter reports.
+    pub fn on_event(&mut self, event: CellEvent) {
+        match event {
+            CellEvent::Commit => {
+                if self.wafers.commit().is_ok() {
+                    self.persist();
+                }
+            }
+            CellEvent::Ended {
+                kind,
+                started,
+                code,
+                sensed,
+            } => {
+                self.busy = None;
+                if kind == JobKind::Map {
+                    return;
+                }
+                if code == Some(Code::WaferLost) {
+                    // The wafer was on the hand (a PUT not yet released, or after a GET).
+                    let _ = self.wafers.abort();
+                    self.lose_hand_wafer();
+                    return self.persist();
+                }
+                if self.wafers.pending().is_none() {
+                    return;
+                }
+                if !started {
+                    let _ = self.wafers.abort();
+                } else {
+                    // Settled by the vacuum sensor, exactly as at start-up.
+                    let r = self.wafers.reconcile(sensed);
+                    eprintln!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                }
+                self.persist();
+            }
+            CellEvent::Mapped {
+                station_index,
+                count,
+                codes,
+            } => {
+                let Some(station) = self.stations.iter().nth(station_index as usize) else {
+                    return;
+                };
+                let name = station.name;
+                let scan: Vec<SlotCode> = codes[..usize::from(count)]
+                    .iter()
+                    .map(|&c| match c {
+                        0 => SlotCode::Absent,
+                        1 => SlotCode::Present,
+                        2 => SlotCode::Double,
+                        _ => SlotCode::Cross,
+                    })
+                    .collect();
+                match self.wafers.apply_mapping(name.as_str(), &scan) {
+                    Ok(changes) => {
+                        for (slot, id) in &changes.removed {
+                            eprintln!("wrc: MAP {name}: wafer {id} of slot {slot} is gone");
+                        }
+                        self.persist();
+                    }
+                    Err(e) => eprintln!("wrc: MAP {name}: the wafer map refused the result: {e}"),
+                }
+            }
+            CellEvent::WaferLost => {
+                self.lose_hand_wafer();
+                self.persist();
+            }
+        }
+    }
+
+    fn lose_hand_wafer(&mut self) {
+        if self.wafers.hand().is_some() {
+            if let Ok(id) = self.wafers.remove(wrc_cell::Location::Hand) {
+                eprintln!("wrc: wafer {id} was lost from the hand; it left the wafer map");
+            }
+        }
+    }
+
+    fn persist(&mut self) {
+        if let Err(e) = self.save() {
+            eprintln!("wrc: cannot save the wafer map: {e}");
+        }
+        self.broadcast_map();
+    }
+
+    /// Periodic work: reconcile a transfer left pending by a crash once the inputs are
+    /// known, and keep `shared.hand_wafer` true while the map has a wafer on the hand.
+    pub fn poll(&mut self) {
+        if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
+            let sensed = self.shared.inputs[0].load(Ordering::Acquire)
+                & (1u32 << (self.hand.vacuum_input & 31))
+                != 0;
+            let r = self.wafers.reconcile(sensed);
+            self.reconciled = true;
+            match r {
+                Reconciled::Committed(t) => {
+                    eprintln!("wrc: a transfer was under way at the last stop: {t} had happened (the vacuum sensor says so); committed")
+                }
+                Reconciled::Aborted(t) => {
+                    eprintln!("wrc: a transfer was under way at the last stop: {t} had not happened (the vacuum sensor says so); the wafer stays at its source")
+                }
+                _ => {}
+            }
+            self.persist();
+        }
+        self.shared
+            .hand_wafer
+            .store(self.wafers.hand().is_some(), Ordering::Release);
+    }
+}
+
+/// The code of a wafer-map refusal.
+fn map_error_code(e: &WaferMapError) -> Code {
+    match e {
+        WaferMapError::NoSuchStation { .. } => Code::StationUnknown,
+        WaferMapError::NoSuchSlot { .. } => Code::SlotUnknown,
+        WaferMapError::SlotEmpty { .. } => Code::SlotEmpty,
+        WaferMapError::SlotOccupied { .. } => Code::SlotOccupied,
+        WaferMapError::SlotFault { .. } | WaferMapError::SlotUnknown { .. } => Code::SlotNotUsable,
+        WaferMapError::HandOccupied { .. } => Code::HandFull,
+        WaferMapError::HandEmpty => Code::HandEmpty,
+        WaferMapError::TransferPending { .. } => Code::TransferBusy,
+        _ => Code::Internal,
+    }
+}
+
+/// The steps of `MAP`: the mapping sensor on at the approach pose below slot 1, a straight
+/// Z sweep up past the last slot, the sensor off, the latch read.
+fn map_steps(station: &wrc_cell::Station) -> Result<Vec<JobStep>, String> {
+    use wrc_cell::Step;
+    let first = station.approach_pose(1, false).map_err(|e| e.to_string())?;
+    let last = station
+        .approach_pose(station.slots, true)
+        .map_err(|e| e.to_string())?;
+    let mut steps = Vec::with_capacity(9);
+    steps.extend(
+        station
+            .interlock_input
+            .map(|n| JobStep::Transfer(Step::RequireInput(n))),
+    );
+    steps.push(JobStep::Transfer(Step::Ptp(first, station.posture)));
+    steps.push(JobStep::Transfer(Step::Speed(station.speed_pct)));
+    steps.push(JobStep::MapClear);
+    steps.push(JobStep::MapSensor(true));
+    steps.push(JobStep::Transfer(Step::Z(last)));
+    steps.push(JobStep::MapSensor(false));
+    steps.push(JobStep::MapRead);
+    steps.push(JobStep::Transfer(Step::RestoreSpeed));
+    Ok(steps)
+}

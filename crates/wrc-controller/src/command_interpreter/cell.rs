@@ -1,0 +1,613 @@
+//! The Command Interpreter's wafer jobs (`GET`, `PUT`, `MAP`): it carries out the steps the
+//! cell service planned ([`crate::cell_job`]), one at a time — motions through the same
+//! checks as every other motion, the vacuum valve and the mapping sensor through the
+//! outputs, waits on the vacuum sensor and the board's mapping latch — and watches the
+//! vacuum while the hand holds a wafer. A wafer fault (212, 213, 214) stops the robot like
+//! any alarm: `ABS` to the job, `EVT ERROR` to everyone, state `ERROR` until `RESET`.
+//!
+//! Real-time promise: as the rest of the task — no allocation, no blocking, no printing.
+
+use std::io::Write;
+use std::sync::atomic::Ordering;
+
+use wrc_board::MotionBoard;
+use wrc_cell::Step;
+use wrc_protocol::{Code, Command, Request};
+
+use super::{deliver, CommandInterpreter, ProgramWait};
+use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
+use crate::shared::{RobotState, SourceId, Urgent};
+
+/// How long the board may take to clear its mapping latch or to apply an output [ns].
+const BOARD_ACK_NS: u64 = 1_000_000_000;
+
+/// Cycles the vacuum sensor may read "no wafer" during a motion before the wafer counts as
+/// lost (2 × the Command Interpreter's period: a single glitch is no loss).
+const LOST_CYCLES: u32 = 2;
+
+/// What a running job waits for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum JobWait {
+    /// Nothing: do the next step.
+    Nothing,
+    /// Its motion with this ticket to finish.
+    Motion(u32),
+    /// The board to show `outputs & mask == value` (the I/O Monitor applies outputs).
+    Output {
+        mask: u32,
+        value: u32,
+        deadline: u64,
+    },
+    /// The vacuum sensor to read `expect`, until the deadline.
+    Vacuum { expect: bool, deadline: u64 },
+    /// The board to clear its mapping latch.
+    MapClear { deadline: u64 },
+}
+
+/// The job the Command Interpreter is carrying out.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RunningJob {
+    job: CellJob,
+    /// The next step.
+    next: usize,
+    wait: JobWait,
+    /// A wafer is on the hand (confirmed, or not yet released): the vacuum is watched.
+    holding: bool,
+    /// The speed override before the job's `Speed` step.
+    saved_speed: Option<u32>,
+    /// Successive cycles the vacuum sensor read "no wafer" while holding.
+    dropped: u32,
+}
+
+impl RunningJob {
+    /// Who asked for the job.
+    pub(super) fn from(&self) -> SourceId {
+        self.job.from
+    }
+
+    /// `source` went away: the job goes on, its replies go nowhere.
+    pub(super) fn forget_requester(&mut self, source: SourceId) {
+        if self.job.from == source {
+            self.job.from = SourceId::NONE;
+        }
+    }
+}
+
+impl<B: MotionBoard> CommandInterpreter<B> {
+    /// The vacuum-sensed input, fresh from the board.
+    fn vacuum_sensed(&self) -> bool {
+        self.board.read_inputs(0) & (1u32 << (self.hand.vacuum_input & 31)) != 0
+    }
+
+    /// Set or clear output `n`; returns the wait for the board to apply it.
+    fn job_output(&mut self, n: u8, on: bool) -> JobWait {
+        let bit = 1u32 << (n & 31);
+        if on {
+            self.shared.outputs[0].fetch_or(bit, Ordering::AcqRel);
+        } else {
+            self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
+        }
+        JobWait::Output {
+            mask: bit,
+            value: if on { bit } else { 0 },
+            deadline: self.now_ns.saturating_add(BOARD_ACK_NS),
+        }
+    }
+
+    /// A job offer from the cell service.
+    pub(super) fn offer_job(&mut self, offer: JobOffer) {
+        match offer {
+            JobOffer::Start(job) => self.start_job(job),
+            JobOffer::Refused(r) => {
+                if self
+                    .program
+                    .as_ref()
+                    .is_some_and(|p| p.wait == ProgramWait::Job)
+                {
+                    self.end_program(Some((r.code, r.text())));
+                }
+            }
+        }
+    }
+
+    /// Whether the job may start now; the refusal otherwise.
+    fn job_refusal(&self, job: &CellJob) -> Option<(Code, &'static str)> {
+        let for_program = job.from == SourceId::PROGRAM;
+        let acting = match (&self.program, for_program) {
+            (Some(p), true) => p.from,
+            _ => job.from,
+        };
+        let owner = self.owner();
+        if self.job.is_some() {
+            Some((Code::TransferBusy, "a transfer or mapping is in progress"))
+        } else if for_program
+            && !self
+                .program
+                .as_ref()
+                .is_some_and(|p| p.wait == ProgramWait::Job)
+        {
+            Some((
+                Code::NoProgram,
+                "the program that asked is no longer running",
+            ))
+        } else if !for_program && self.program.is_some() {
+            Some((Code::ProgramRunning, "a program is running; ABORT it first"))
+        } else if owner != SourceId::NONE && owner != acting {
+            Some((Code::ControlHeld, "control is held by another source"))
+        } else if self.shared.state() == RobotState::Error {
+            Some((Code::InError, "the robot is in ERROR; RESET first"))
+        } else if self.shared.state() == RobotState::Estop {
+            Some((Code::InEstop, "the robot is in ESTOP; RESET first"))
+        } else if !self.shared.homed.load(Ordering::Acquire) {
+            Some((Code::NotHomed, "the robot is not homed; send HOME first"))
+        } else if self.outstanding() || self.shared.state() == RobotState::Stopping {
+            Some((Code::Busy, "the robot is moving; WAIT first"))
+        } else {
+            None
+        }
+    }
+
+    fn start_job(&mut self, job: CellJob) {
+        let refusal = self.job_refusal(&job);
+        // The station's interlock is checked before anything moves: a closed one refuses.
+        let inputs = self.board.read_inputs(0);
+        let closed = job.steps().iter().find_map(|s| match s {
+            JobStep::Transfer(Step::RequireInput(n)) if inputs & (1u32 << (n & 31)) == 0 => {
+                Some(*n)
+            }
+            _ => None,
+        });
+        let mut text = [0u8; 120];
+        let refusal = match (refusal, closed) {
+            (Some((code, t)), _) => Some((code, t)),
+            (None, Some(n)) => {
+                let mut w: &mut [u8] = &mut text[..];
+                let _ = write!(
+                    w,
+                    "the interlock of {} (input {n}) is closed; nothing moved",
+                    job.station
+                );
+                let len = 120 - w.len();
+                Some((
+                    Code::InterlockClosed,
+                    std::str::from_utf8(&text[..len]).unwrap_or("the interlock is closed"),
+                ))
+            }
+            (None, None) => None,
+        };
+        if let Some((code, text)) = refusal {
+            if job.from == SourceId::PROGRAM {
+                if self
+                    .program
+                    .as_ref()
+                    .is_some_and(|p| p.wait == ProgramWait::Job)
+                {
+                    self.end_program(Some((code, text)));
+                }
+            } else {
+                self.nak(job.from, job.to, code, text);
+            }
+            let sensed = self.vacuum_sensed();
+            let _ = self.links.cell_events.try_send(CellEvent::Ended {
+                kind: job.kind,
+                started: false,
+                code: Some(code),
+                sensed,
+            });
+            return;
+        }
+        if job.from != SourceId::PROGRAM {
+            let line = self.buf.ack(job.to, "");
+            deliver(&self.out, job.from, line);
+        }
+        self.job = Some(RunningJob {
+            job,
+            next: 0,
+            wait: JobWait::Nothing,
+            holding: job.kind == JobKind::Put,
+            saved_speed: None,
+            dropped: 0,
+        });
+    }
+
+    /// A motion of the running job finished.
+    pub(super) fn job_motion_done(&mut self, ticket: u32, outcome: crate::shared::MoveOutcome) {
+        use crate::shared::MoveOutcome;
+        let Some(j) = self.job.as_mut() else {
+            return;
+        };
+        if j.wait != JobWait::Motion(ticket) {
+            return;
+        }
+        match outcome {
+            MoveOutcome::Completed => {
+                j.wait = JobWait::Nothing;
+                j.next += 1;
+            }
+            MoveOutcome::Stopped => self.end_job(Some((Code::Stopped, "stopped"))),
+            MoveOutcome::Refused(number) => {
+                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+                self.end_job(Some((code, code.text())));
+            }
+        }
+    }
+
+    /// Issue one motion of the job through the checks every motion goes through.
+    fn job_motion(&mut self, command: Command) -> Result<Option<u32>, Code> {
+        self.refusal.code = None;
+        let next = self.next_ticket;
+        self.handle_request(
+            SourceId::CELL,
+            Request {
+                id: None,
+                command,
+                checksum: false,
+            },
+        );
+        if let Some(code) = self.refusal.code {
+            return Err(code);
+        }
+        Ok(self
+            .tickets
+            .iter()
+            .flatten()
+            .find(|t| t.from == SourceId::CELL && t.ticket >= next)
+            .map(|t| t.ticket))
+    }
+
+    /// Carry the running job on: check what it waits for, then do steps until one waits.
+    pub(super) fn run_job(&mut self) {
+        let Some(mut j) = self.job else {
+            return;
+        };
+        // The wafer on the hand is watched during every motion of the job.
+        if j.holding && matches!(j.wait, JobWait::Motion(_)) {
+            if self.vacuum_sensed() {
+                j.dropped = 0;
+            } else {
+                j.dropped += 1;
+            }
+            if let Some(r) = self.job.as_mut() {
+                r.dropped = j.dropped;
+            }
+            if j.dropped >= LOST_CYCLES {
+                return self.job_fault(
+                    Code::WaferLost,
+                    "the vacuum sensor lost the wafer while the hand carried it",
+                );
+            }
+        }
+        for _ in 0..crate::cell_job::MAX_JOB_STEPS + 1 {
+            let Some(j) = self.job else {
+                return;
+            };
+            match j.wait {
+                JobWait::Nothing => {}
+                JobWait::Motion(_) => return,
+                JobWait::Output {
+                    mask,
+                    value,
+                    deadline,
+                } => {
+                    let applied = self.board.read_feedback(&mut self.feedback).is_ok()
+                        && self.feedback.boards[0].outputs & mask == value;
+                    if applied {
+                        self.job_advance();
+                    } else if self.now_ns >= deadline {
+                        return self.end_job(Some((
+                            Code::MotionFault,
+                            "the board did not apply an output within 1 s",
+                        )));
+                    } else {
+                        return;
+                    }
+                }
+                JobWait::Vacuum { expect, deadline } => {
+                    if self.vacuum_sensed() == expect {
+                        if let Some(r) = self.job.as_mut() {
+                            r.holding = expect;
+                        }
+                        self.job_advance();
+                    } else if self.now_ns >= deadline {
+                        let (verb, station, slot) = (j.job.kind.verb(), j.job.station, j.job.slot);
+                        let mut text = [0u8; 160];
+                        let mut w: &mut [u8] = &mut text[..];
+                        let _ = if expect {
+                            write!(
+                                w,
+                                "{verb} {station} {slot}: the vacuum sensor (input {}) sees no wafer on the hand",
+                                self.hand.vacuum_input
+                            )
+                        } else {
+                            write!(
+                                w,
+                                "{verb} {station} {slot}: the vacuum sensor (input {}) still sees a wafer after the release",
+                                self.hand.vacuum_input
+                            )
+                        };
+                        let len = 160 - w.len();
+                        let text = std::str::from_utf8(&text[..len]).unwrap_or("wafer not sensed");
+                        return self.job_fault_text(Code::WaferNotSensed, text);
+                    } else {
+                        return;
+                    }
+                }
+                JobWait::MapClear { deadline } => {
+                    let cleared =
+                        self.board.read_mapping(&mut self.scan).is_ok() && self.scan.cleared;
+                    if cleared {
+                        self.job_advance();
+                    } else if self.now_ns >= deadline {
+                        return self.end_job(Some((
+                            Code::MotionFault,
+                            "the board did not clear its mapping sensor within 1 s",
+                        )));
+                    } else {
+                        return;
+                    }
+                }
+            }
+            let Some(j) = self.job else {
+                return;
+            };
+            if j.next >= j.job.len {
+                return self.end_job(None);
+            }
+            self.job_step(j.job.steps[j.next]);
+        }
+    }
+
+    /// Outside a job: while the wafer map has a wafer on the hand and the robot moves, the
+    /// vacuum sensor must keep seeing it; a wafer lost in motion stops the robot (213).
+    pub(super) fn watch_hand(&mut self) {
+        let carrying = self.job.is_none()
+            && self.shared.hand_wafer.load(Ordering::Acquire)
+            && self.shared.state() == RobotState::Moving;
+        if !carrying || self.vacuum_sensed() {
+            self.hand_dropped = 0;
+            return;
+        }
+        self.hand_dropped += 1;
+        if self.hand_dropped >= LOST_CYCLES {
+            self.hand_dropped = 0;
+            let _ = self.links.cell_events.try_send(CellEvent::WaferLost);
+            self.shared.request_stop();
+            self.handle_urgent(Urgent::Fault(Code::WaferLost.number()));
+        }
+    }
+
+    /// The current step is done: on to the next.
+    fn job_advance(&mut self) {
+        if let Some(r) = self.job.as_mut() {
+            r.wait = JobWait::Nothing;
+            r.next += 1;
+        }
+    }
+
+    fn job_wait(&mut self, wait: JobWait) {
+        if let Some(r) = self.job.as_mut() {
+            r.wait = wait;
+        }
+    }
+
+    /// Start one step.
+    fn job_step(&mut self, step: JobStep) {
+        match step {
+            JobStep::Transfer(step) => match step {
+                Step::RequireInput(n) => {
+                    if self.board.read_inputs(0) & (1u32 << (n & 31)) == 0 {
+                        return self.job_fault(
+                            Code::InterlockOpened,
+                            "the station's interlock opened while the hand was entering",
+                        );
+                    }
+                    self.job_advance();
+                }
+                Step::Ptp(pose, posture) => self.job_move(Command::MovP { pose, posture }),
+                Step::Line(pose) | Step::Z(pose) => self.job_move(Command::MovL { pose }),
+                Step::Speed(pct) => {
+                    let now = self.shared.speed_pct.load(Ordering::Acquire);
+                    let near = (pct.round().clamp(1.0, 100.0) as u32).min(now);
+                    if let Some(r) = self.job.as_mut() {
+                        r.saved_speed.get_or_insert(now);
+                    }
+                    self.shared.speed_pct.store(near, Ordering::Release);
+                    self.job_advance();
+                }
+                Step::RestoreSpeed => {
+                    self.restore_job_speed();
+                    self.job_advance();
+                }
+                Step::Vacuum(on) => {
+                    if !on {
+                        if let Some(r) = self.job.as_mut() {
+                            r.holding = false;
+                        }
+                    }
+                    let wait = self.job_output(self.hand.vacuum_output, on);
+                    self.job_wait(wait);
+                }
+                Step::CheckVacuum { expect } => {
+                    let deadline = self
+                        .now_ns
+                        .saturating_add((self.hand.vacuum_settle_s * 1e9) as u64);
+                    self.job_wait(JobWait::Vacuum { expect, deadline });
+                }
+                Step::CommitMap => {
+                    let _ = self.links.cell_events.try_send(CellEvent::Commit);
+                    self.job_advance();
+                }
+            },
+            JobStep::MapClear => {
+                self.board.clear_mapping();
+                let deadline = self.now_ns.saturating_add(BOARD_ACK_NS);
+                self.job_wait(JobWait::MapClear { deadline });
+            }
+            JobStep::MapSensor(on) => {
+                let wait = self.job_output(self.hand.mapping_output, on);
+                self.job_wait(wait);
+            }
+            JobStep::MapRead => self.job_map_read(),
+        }
+    }
+
+    fn job_move(&mut self, command: Command) {
+        match self.job_motion(command) {
+            Ok(Some(ticket)) => self.job_wait(JobWait::Motion(ticket)),
+            Ok(None) => self.job_advance(),
+            Err(code) => {
+                let mut text = [0u8; 400];
+                let n = self.refusal.len;
+                text[..n].copy_from_slice(&self.refusal.text[..n]);
+                let text = std::str::from_utf8(&text[..n]).unwrap_or("refused");
+                self.end_job(Some((code, text)));
+            }
+        }
+    }
+
+    /// Read the mapping latch: the station's every slot must have been seen.
+    fn job_map_read(&mut self) {
+        let Some(j) = self.job else {
+            return;
+        };
+        let count = usize::from(j.job.slot).min(MAX_MAP_SLOTS);
+        if self.board.read_mapping(&mut self.scan).is_err() {
+            return; // torn: read again next cycle
+        }
+        let all = if count == 64 {
+            u64::MAX
+        } else {
+            (1u64 << count) - 1
+        };
+        if self.scan.station != j.job.station_index + 1 || self.scan.seen & all != all {
+            let mut text = [0u8; 160];
+            let mut w: &mut [u8] = &mut text[..];
+            let _ = write!(
+                w,
+                "MAP {}: the mapping sensor saw {} of {} slots; is the station where it was taught?",
+                j.job.station,
+                if self.scan.station == j.job.station_index + 1 {
+                    (self.scan.seen & all).count_ones()
+                } else {
+                    0
+                },
+                count
+            );
+            let len = 160 - w.len();
+            let text = std::str::from_utf8(&text[..len]).unwrap_or("mapping incomplete");
+            return self.end_job(Some((Code::MotionFault, text)));
+        }
+        let mut codes = [0u8; MAX_MAP_SLOTS];
+        codes[..count].copy_from_slice(&self.scan.codes[..count]);
+        let _ = self.links.cell_events.try_send(CellEvent::Mapped {
+            station_index: j.job.station_index,
+            count: count as u16,
+            codes,
+        });
+        self.job_advance();
+    }
+
+    fn restore_job_speed(&mut self) {
+        if let Some(r) = self.job.as_mut() {
+            if let Some(s) = r.saved_speed.take() {
+                self.shared.speed_pct.store(s, Ordering::Release);
+            }
+        }
+    }
+
+    /// A wafer fault: end the job with `code` and stop the robot like an alarm.
+    fn job_fault(&mut self, code: Code, text: &str) {
+        self.job_fault_text(code, text);
+    }
+
+    fn job_fault_text(&mut self, code: Code, text: &str) {
+        self.end_job(Some((code, text)));
+        self.shared.request_stop();
+        self.handle_urgent(Urgent::Fault(code.number()));
+    }
+
+    /// End the running job: `INF` (with the wafer, or the mapping) or `ABS`; stop its motion
+    /// if one is under way; tell the cell service.
+    pub(super) fn end_job(&mut self, failure: Option<(Code, &str)>) {
+        let Some(j) = self.job else {
+            return;
+        };
+        self.restore_job_speed();
+        self.job = None;
+        if failure.is_some() {
+            if let JobWait::Motion(ticket) = j.wait {
+                if self
+                    .tickets
+                    .iter()
+                    .any(|t| t.is_some_and(|t| t.ticket == ticket))
+                {
+                    self.shared.request_stop();
+                    if self.shared.state() == RobotState::Moving {
+                        self.set_state(RobotState::Stopping);
+                    }
+                }
+            }
+            for t in self.tickets.iter_mut() {
+                if t.is_some_and(|t| t.from == SourceId::CELL) {
+                    *t = None;
+                }
+            }
+        }
+        // The mapping sensor is only on during a scan.
+        if j.job.kind == JobKind::Map {
+            let bit = 1u32 << (self.hand.mapping_output & 31);
+            self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
+        }
+        let sensed = self.vacuum_sensed();
+        let _ = self.links.cell_events.try_send(CellEvent::Ended {
+            kind: j.job.kind,
+            started: true,
+            code: failure.map(|f| f.0),
+            sensed,
+        });
+        if j.job.from == SourceId::PROGRAM {
+            let waiting = self
+                .program
+                .as_ref()
+                .is_some_and(|p| p.wait == ProgramWait::Job);
+            if waiting {
+                match failure {
+                    None => {
+                        if let Some(p) = self.program.as_mut() {
+                            p.wait = ProgramWait::Nothing;
+                        }
+                        self.vm.resume(wrc_lang::Resume::Ok);
+                    }
+                    Some((code, text)) => self.end_program(Some((code, text))),
+                }
+            }
+            return;
+        }
+        let line = match failure {
+            None => {
+                let mut body = [0u8; 120];
+                let mut w: &mut [u8] = &mut body[..];
+                let _ = match j.job.kind {
+                    JobKind::Map => {
+                        let _ = write!(w, "{} ", j.job.station);
+                        for &c in &self.scan.codes[..usize::from(j.job.slot).min(MAX_MAP_SLOTS)] {
+                            let _ = w.write_all(match c {
+                                0 => b"0",
+                                1 => b"1",
+                                2 => b"2",
+                                _ => b"X",
+                            });
+                        }
+                        Ok(())
+                    }
+                    _ => write!(w, "W{}", j.job.wafer),
+                };
+                let len = 120 - w.len();
+                let body = std::str::from_utf8(&body[..len]).unwrap_or("");
+                self.buf.inf(j.job.to, body)
+            }
+            Some((code, text)) => self.buf.abs(j.job.to, code, text),
+        };
+        deliver(&self.out, j.job.from, line);
+    }
+}

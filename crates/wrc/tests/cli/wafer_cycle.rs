@@ -1,0 +1,309 @@
+//! The wafer map under load (issue 8): the bundled demo program moves all 25 wafers LP1 → AL
+//! → LP2 with the map checked against the simulated cell at the end; and `wrc up` killed
+//! with SIGKILL again and again during transfers never loses or duplicates a wafer in the
+//! map, checked against the simulated board's ground truth after every restart.
+//!
+//! Both run the demo cell with the stations' speed limits lifted to 100 % and the Command
+//! Interpreter, Velocity Generator and I/O Monitor at 10 ms instead of Table 1's 50/50/100 ms,
+//! so that 100 transfers fit in a test run; the steps, checks and files are the same.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::up::{free_port, Client, Controller};
+use crate::wafers::{truth, truth_codes};
+use crate::{text, wrc};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The fast test configuration and stations (see the module docs), written into `dir`.
+fn fast_cell(dir: &Path) -> (PathBuf, PathBuf) {
+    let config = std::fs::read_to_string(repo().join("config/default.toml")).unwrap();
+    let mut fast = String::new();
+    let mut task = "";
+    for line in config.lines() {
+        if let Some(name) = line.strip_prefix("name = \"") {
+            task = name.trim_end_matches('"');
+        }
+        let faster = ["velocity_generator", "command_interpreter", "io_monitor"].contains(&task);
+        if faster && line.starts_with("period_ms") {
+            fast.push_str("period_ms = 10\n");
+        } else {
+            fast.push_str(line);
+            fast.push('\n');
+        }
+    }
+    assert_eq!(fast.matches("period_ms = 10\n").count(), 5, "{fast}");
+    let stations = std::fs::read_to_string(repo().join("config/stations.toml")).unwrap();
+    let stations: String = stations
+        .lines()
+        .map(|l| {
+            if l.starts_with("speed_pct") {
+                "speed_pct = 100.0\n".to_string()
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let (c, s) = (dir.join("fast.toml"), dir.join("fast-stations.toml"));
+    std::fs::write(&c, fast).unwrap();
+    std::fs::write(&s, stations).unwrap();
+    (c, s)
+}
+
+/// The map's occupancy of `station` from a `WAFERS` reply: `1` a wafer, `0` empty, `?`
+/// unknown, `2`/`X` faults.
+fn map_codes(wafers: &str, station: &str) -> String {
+    let list = wafers
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix(&format!("{station}=")))
+        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    let mut codes = String::new();
+    for tok in list.split(',') {
+        let (tok, times) = match tok.rsplit_once('x') {
+            Some((t, n)) if n.parse::<usize>().is_ok() && !t.is_empty() => {
+                (t, n.parse::<usize>().unwrap())
+            }
+            _ => (tok, 1),
+        };
+        let (c, n) = match tok.split_once("..") {
+            Some((a, b)) => {
+                let a: usize = a.trim_start_matches('W').parse().unwrap();
+                let b: usize = b.trim_start_matches('W').parse().unwrap();
+                ('1', b - a + 1)
+            }
+            None => match tok {
+                "-" => ('0', 1),
+                "?" => ('?', 1),
+                "D" => ('2', 1),
+                "X" => ('X', 1),
+                _ => ('1', 1),
+            },
+        };
+        for _ in 0..n * times {
+            codes.push(c);
+        }
+    }
+    codes
+}
+
+fn hand(wafers: &str) -> &str {
+    wafers
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("hand="))
+        .unwrap()
+}
+
+/// The map (after any start-up reconciliation) agrees with the cell: every station's
+/// occupancy, the hand, and 25 wafers in all, none lost.
+fn check_against_truth(host: &mut Client, world: &Path, when: &str) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let wafers = loop {
+        let w = host.ask("WAFERS");
+        if !w.contains("pending=") {
+            break w;
+        }
+        assert!(Instant::now() < deadline, "{when}: still pending: {w}");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let t = truth(world);
+    let mut total = 0;
+    for station in ["LP1", "LP2", "AL"] {
+        let map = map_codes(&wafers, station);
+        let real = truth_codes(world, station);
+        assert_eq!(
+            map, real,
+            "{when}: {station} in the map vs the cell\n{wafers}\n{t}"
+        );
+        total += map.matches('1').count();
+    }
+    let on_hand = hand(&wafers) != "-";
+    assert_eq!(
+        on_hand,
+        !t.contains("hand -"),
+        "{when}: the hand in the map vs the cell\n{wafers}\n{t}"
+    );
+    total += usize::from(on_hand);
+    assert_eq!(total, 25, "{when}: wafers in the map\n{wafers}\n{t}");
+    assert!(t.contains("lost -"), "{when}: the cell lost a wafer\n{t}");
+}
+
+#[test]
+fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
+    let scratch = tempfile::tempdir().unwrap();
+    let (config, stations) = fast_cell(scratch.path());
+    let c = Controller::start(&[
+        "--config",
+        config.to_str().unwrap(),
+        "--stations",
+        stations.to_str().unwrap(),
+    ]);
+    let world = c.dir_path().join("world.toml");
+    let program = repo().join("examples/wafer_cycle.wrl");
+    let out = wrc(&[
+        "run",
+        program.to_str().unwrap(),
+        "--addr",
+        &format!("127.0.0.1:{}", c.port),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    // A progress line per wafer, in order.
+    for n in 1..=25 {
+        let line = format!("wafer {n} of 25: LP1 slot {n} -> AL -> LP2 slot {n}");
+        assert!(stdout.contains(&line), "no {line:?} in\n{stdout}");
+    }
+    assert!(stdout.contains("all 25 wafers are in LP2"), "{stdout}");
+    assert_eq!(truth_codes(&world, "LP1"), "0".repeat(25));
+    assert_eq!(truth_codes(&world, "LP2"), "1".repeat(25));
+    let mut host = c.client();
+    check_against_truth(&mut host, &world, "after the cycle");
+    let wafers = host.ask("WAFERS");
+    assert!(
+        wafers.starts_with("ACK hand=- LP1=-x25 LP2=W1..W25 AL=- "),
+        "{wafers}"
+    );
+}
+
+struct Board(Child);
+
+impl Drop for Board {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start_up(dir: &Path, dpram: &Path, config: &Path, stations: &Path, port: u16) -> Child {
+    let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["up", "--no-rt", "--no-ui"])
+        .args(["--port", &format!("127.0.0.1:{port}")])
+        .args(["--sim-addr", &format!("127.0.0.1:{}", free_port())])
+        .arg("--state-dir")
+        .arg(dir)
+        .arg("--board")
+        .arg(dpram)
+        .arg("--config")
+        .arg(config)
+        .arg("--stations")
+        .arg(stations)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(Instant::now() < deadline, "wrc up did not open its port");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child
+}
+
+/// A deterministic pseudo-random kill time per round [ms], 1.5 to 6.5 s into the transfers.
+fn kill_after_ms(round: u64) -> u64 {
+    let x = round.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17) ^ 0xD1B5_4A32_D192_ED03;
+    1500 + x % 5000
+}
+
+#[test]
+fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
+    let scratch = tempfile::tempdir().unwrap();
+    let (config, stations) = fast_cell(scratch.path());
+    let state = scratch.path().join("state");
+    std::fs::create_dir_all(&state).unwrap();
+    let dpram = scratch.path().join("board0.dpram");
+    let world = scratch.path().join("world.toml");
+    // The board runs on its own, like hardware, and outlives every controller.
+    let mut board = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["board-sim", "--watchdog-periods", "100", "--dpram"])
+        .arg(&dpram)
+        .arg("--config")
+        .arg(&config)
+        .arg("--stations")
+        .arg(&stations)
+        .arg("--world")
+        .arg(&world)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = board.stderr.take().unwrap();
+    let board = Board(board);
+    let mut lines = BufReader::new(stderr).lines();
+    // Wait for the board to be up.
+    loop {
+        let l = lines.next().expect("board-sim ended").unwrap();
+        if l.contains("board 0 with") {
+            break;
+        }
+    }
+    std::thread::spawn(move || for _ in lines {});
+
+    let rounds = 4u64;
+    for round in 1..=rounds {
+        let port = free_port();
+        let mut up = start_up(&state, &dpram, &config, &stations, port);
+        let mut host = Client::connect_to(port);
+        if round > 1 {
+            check_against_truth(&mut host, &world, &format!("restart {round}"));
+        }
+        assert!(host.ask("CONTROL").starts_with("ACK"));
+        // The board stopped the arm when the controller died (its watchdog): RESET, HOME.
+        let _ = host.ask("RESET");
+        assert_eq!(host.motion(1, "HOME"), "INF 1", "round {round}");
+        if round == 1 {
+            assert!(host.motion(2, "MAP LP1").starts_with("INF 2 LP1 "));
+            assert!(host.motion(3, "MAP LP2").starts_with("INF 3 LP2 "));
+            assert!(host.motion(4, "MAP AL").starts_with("INF 4 AL "));
+            check_against_truth(&mut host, &world, "after mapping");
+        }
+        // Carry on: the hand's wafer to LP2, then LP1's wafers slot for slot through AL.
+        let wafers = host.ask("WAFERS");
+        let mut program = String::new();
+        if let Some(id) = hand(&wafers).strip_prefix('W') {
+            let lp2 = map_codes(&wafers, "LP2");
+            let free = lp2.find('0').unwrap() + 1;
+            program.push_str(&format!("PUT \"LP2\", {free}\n' W{id}\n"));
+        }
+        if map_codes(&wafers, "AL") == "1" {
+            program.push_str("GET \"AL\", 1\n");
+            let lp2 = map_codes(&wafers, "LP2");
+            let free = lp2.find('0').unwrap() + 1;
+            program.push_str(&format!("PUT \"LP2\", {free}\n"));
+        }
+        let lp1 = map_codes(&wafers, "LP1");
+        for (i, c) in lp1.chars().enumerate() {
+            if c == '1' {
+                let s = i + 1;
+                program.push_str(&format!(
+                    "GET \"LP1\", {s}\nPUT \"AL\", 1\nGET \"AL\", 1\nPUT \"LP2\", {s}\n"
+                ));
+            }
+        }
+        host.send_raw(b"UPLOAD carry\n");
+        for line in program.lines() {
+            host.send_raw(format!("{line}\n").as_bytes());
+        }
+        assert!(host.ask(".").starts_with("ACK name=carry"), "{program}");
+        assert_eq!(host.ask("5 RUN carry"), "ACK 5");
+        // SIGKILL at a moment no one chose: somewhere in a GET, PUT or between them.
+        std::thread::sleep(Duration::from_millis(kill_after_ms(round)));
+        up.kill().unwrap();
+        up.wait().unwrap();
+        drop(host);
+        // Let the board stop the arm (its watchdog: 1 s) and save the cell.
+        std::thread::sleep(Duration::from_millis(1500));
+    }
+    // A last restart: the map still matches the cell.
+    let port = free_port();
+    let mut up = start_up(&state, &dpram, &config, &stations, port);
+    let mut host = Client::connect_to(port);
+    check_against_truth(&mut host, &world, "the last restart");
+    up.kill().unwrap();
+    let _ = up.wait();
+    drop(board);
+}

@@ -1,0 +1,177 @@
+//! Wafer handling as an equipment engineer meets it (issue 8): `MAP`, `GET`, `PUT` against
+//! the simulated board's cell (its ground truth is the world file `wrc board-sim` keeps),
+//! every refusal with its own code, the wafer-sense fault, and the wafer map checked against
+//! the ground truth.
+
+use std::path::Path;
+
+use crate::up::{Client, Controller};
+use crate::{text, wrc};
+
+/// The ground truth: `wrc board-sim world` of the world file, one line per station
+/// (`LP1 11111…`) and the hand.
+pub(crate) fn truth(world: &Path) -> String {
+    let out = wrc(&["board-sim", "world", "--world", world.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    stdout
+}
+
+/// The ground truth's codes of `station` (spaces removed).
+pub(crate) fn truth_codes(world: &Path, station: &str) -> String {
+    truth(world)
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("{station} ")))
+        .unwrap_or_else(|| panic!("no {station} in the world: {}", truth(world)))
+        .replace(' ', "")
+}
+
+fn expect_nak(host: &mut Client, id: u32, line: &str, code: u32) -> String {
+    let reply = host.ask(&format!("{id} {line}"));
+    assert!(
+        reply.starts_with(&format!("NAK {id} {code} ")),
+        "{line}: expected NAK {code}, got {reply}"
+    );
+    reply
+}
+
+fn inject(c: &Controller, fault: &str) {
+    let dpram = c.dpram();
+    let mut args = vec!["board-sim", "inject", "--dpram", dpram.to_str().unwrap()];
+    args.extend(fault.split_whitespace());
+    let out = wrc(&args);
+    assert!(out.status.success(), "{:?}", text(&out));
+}
+
+#[test]
+fn map_get_put_with_every_refusal_and_the_map_matches_the_cell() {
+    let c = Controller::start(&[]);
+    let world = c.dir_path().join("world.toml");
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    // Nothing moves before HOME.
+    expect_nak(&mut host, 2, "MAP LP1", 110);
+    assert_eq!(host.motion(3, "HOME"), "INF 3");
+
+    // Unmapped slots are refused; a mapping reports the cell's wafers.
+    expect_nak(&mut host, 4, "GET LP1 1", 136);
+    assert_eq!(
+        host.motion(5, "MAP LP1"),
+        format!("INF 5 LP1 {}", truth_codes(&world, "LP1"))
+    );
+    assert_eq!(
+        host.motion(6, "MAP LP2"),
+        "INF 6 LP2 0000000000000000000000000"
+    );
+    assert_eq!(host.motion(7, "MAP AL"), "INF 7 AL 0");
+    let map = host.ask("8 WAFERS");
+    assert!(
+        map.starts_with("ACK 8 hand=- LP1=W1..W25 LP2=-x25 AL=- "),
+        "{map}"
+    );
+
+    // The refusals, each with its code; nothing moves.
+    expect_nak(&mut host, 10, "GET LP9 1", 130);
+    expect_nak(&mut host, 11, "GET LP1 26", 137);
+    expect_nak(&mut host, 12, "GET LP1 0", 137);
+    expect_nak(&mut host, 13, "GET LP2 1", 131);
+    expect_nak(&mut host, 14, "PUT LP2 1", 134);
+    expect_nak(&mut host, 15, "PUT LP1 1", 134);
+    expect_nak(&mut host, 16, "GET PM1 1", 136);
+
+    // GET: the wafer leaves LP1 slot 3 for the hand, in the map and in the cell.
+    assert_eq!(host.motion(20, "GET LP1 3"), "INF 20 W3");
+    assert_eq!(
+        truth_codes(&world, "LP1"),
+        "1101111111111111111111111",
+        "the cell"
+    );
+    expect_nak(&mut host, 21, "GET LP1 4", 133);
+    expect_nak(&mut host, 22, "PUT LP1 4", 132);
+    // The interlock (input 14, held by the board) closed: refused before anything moves.
+    inject(&c, "sensor-flip 14 on");
+    let r = expect_nak(&mut host, 23, "PUT LP2 1", 135);
+    assert!(r.contains("interlock"), "{r}");
+    inject(&c, "sensor-flip 14 off");
+
+    // PUT: into LP2 slot 1.
+    assert_eq!(host.motion(24, "PUT LP2 1"), "INF 24 W3");
+    assert_eq!(truth_codes(&world, "LP2"), "1000000000000000000000000");
+    let map = host.ask("25 WAFERS");
+    assert!(
+        map.starts_with("ACK 25 hand=- LP1=W1,W2,-,W4..W25 LP2=W3,-x24 AL=- "),
+        "{map}"
+    );
+    // A second mapping confirms the map: ids are kept.
+    assert_eq!(
+        host.motion(26, "MAP LP2"),
+        "INF 26 LP2 1000000000000000000000000"
+    );
+    assert!(host.ask("27 WAFERS").contains(" LP2=W3,-x24 "));
+    let t = truth(&world);
+    assert!(t.contains("hand -"), "{t}");
+}
+
+#[test]
+fn a_vacuum_sensor_that_sees_no_wafer_stops_the_get_with_212() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3 LP1 1"));
+    // The vacuum sensor reads inverted: after the lift it says "no wafer".
+    inject(&c, "sensor-flip 0 on");
+    host.seen.clear();
+    let end = host.motion(4, "GET LP1 1");
+    assert!(end.starts_with("ABS 4 212 "), "{end}");
+    assert!(end.contains("vacuum sensor"), "{end}");
+    // Everyone is told, and the robot waits for RESET.
+    while !host.seen.iter().any(|l| l.starts_with("EVT ERROR 212 ")) {
+        host.line();
+    }
+    assert!(host.status().contains("state=ERROR"));
+    expect_nak(&mut host, 5, "GET LP1 2", 122);
+    inject(&c, "sensor-flip 0 off");
+    assert!(host.ask("6 RESET").starts_with("ACK 6"));
+    assert!(host.status().contains("state=IDLE"));
+}
+
+#[test]
+fn a_program_maps_and_moves_wafers_with_get_and_put() {
+    let c = Controller::start(&[]);
+    let world = c.dir_path().join("world.toml");
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    let program = "\
+MAP \"LP1\"
+MAP \"LP2\"
+FOR I = 1 TO 2
+  GET \"LP1\", I
+  PUT \"LP2\", I
+  PRINT \"moved\", I
+NEXT
+GET \"LP1\", 1
+";
+    host.send_raw(b"3 UPLOAD two\n");
+    for line in program.lines() {
+        host.send_raw(format!("{line}\n").as_bytes());
+    }
+    assert!(host.ask(".").starts_with("ACK 3 name=two "));
+    host.seen.clear();
+    // The last GET finds slot 1 empty: the program ends with the transfer's code.
+    let end = host.motion(4, "RUN two");
+    assert!(end.starts_with("ABS 4 131 two line 8: "), "{end}");
+    assert!(
+        host.seen.iter().any(|l| l == "EVT PRINT moved 2"),
+        "{:?}",
+        host.seen
+    );
+    assert_eq!(truth_codes(&world, "LP1"), "0011111111111111111111111");
+    assert_eq!(truth_codes(&world, "LP2"), "1100000000000000000000000");
+    let map = host.ask("5 WAFERS");
+    assert!(
+        map.starts_with("ACK 5 hand=- LP1=-x2,W3..W25 LP2=W1,W2,-x23 "),
+        "{map}"
+    );
+}

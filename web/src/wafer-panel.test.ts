@@ -1,0 +1,102 @@
+import { describe, expect, it } from 'vitest';
+import { actionsHint, keepSelection, slotLabel, slotTitle, waferActions, type WaferSelection } from './wafer-panel';
+import { parseWafersBody, type WaferState } from './wafers';
+
+function state(body: string, available: boolean | null = true): WaferState {
+  return { available, map: parseWafersBody(body).map, refusal: '', ignored: [] };
+}
+
+const MAP = 'hand=- LP1=W1,-,?,D,X LP2=-x3 AL=W9';
+const sel = (station: string, slot: number | null = null): WaferSelection => ({ station, slot });
+const ready = { connected: true, mayCommand: true };
+
+describe('slotLabel and slotTitle', () => {
+  it('show each state', () => {
+    const m = state(MAP).map.stations.get('LP1')!;
+    expect(m.map(slotLabel)).toEqual(['W1', '', '?', 'double', 'cross']);
+    expect(slotTitle('LP1', 1, m[0])).toBe('LP1 slot 1: W1');
+    expect(slotTitle('LP1', 3, m[2])).toBe('LP1 slot 3: not mapped yet');
+    expect(slotTitle('LP1', 4, m[3])).toMatch(/double wafer/);
+  });
+});
+
+describe('keepSelection', () => {
+  it('drops a station that is gone and a slot beyond the new count', () => {
+    const m = state(MAP).map;
+    expect(keepSelection(m, null)).toBeNull();
+    expect(keepSelection(m, sel('LP1', 5))).toEqual(sel('LP1', 5));
+    expect(keepSelection(m, sel('LP2', 4))).toEqual(sel('LP2'));
+    expect(keepSelection(m, sel('PM9', 1))).toBeNull();
+  });
+});
+
+describe('waferActions', () => {
+  it('GET from a slot with a wafer while the hand is empty; MAP the station', () => {
+    const a = waferActions({ ...ready, state: state(MAP), selection: sel('LP1', 1) });
+    expect(a.get).toEqual({ enabled: true, request: 'GET LP1 1', why: '' });
+    expect(a.put.enabled).toBe(false);
+    expect(a.put.request).toBe('PUT LP1 1');
+    expect(a.put.why).toBe('the hand holds no wafer');
+    expect(a.map).toEqual({ enabled: true, request: 'MAP LP1', why: '' });
+  });
+
+  it('PUT into an empty slot while the hand holds a wafer', () => {
+    const s = state(MAP.replace('hand=-', 'hand=W7'));
+    const a = waferActions({ ...ready, state: s, selection: sel('LP2', 2) });
+    expect(a.put).toEqual({ enabled: true, request: 'PUT LP2 2', why: '' });
+    expect(a.get.why).toBe('the hand already holds W7');
+    expect(waferActions({ ...ready, state: s, selection: sel('AL', 1) }).put.why).toBe('AL slot 1 holds W9');
+  });
+
+  it('says why a slot cannot be used', () => {
+    const why = (slot: number, hand = '-') =>
+      waferActions({ ...ready, state: state(MAP.replace('hand=-', `hand=${hand}`)), selection: sel('LP1', slot) });
+    expect(why(2).get.why).toBe('LP1 slot 2 is empty');
+    expect(why(3).get.why).toBe('LP1 slot 3 is not mapped yet: MAP LP1 first');
+    expect(why(3, 'W7').put.why).toBe('LP1 slot 3 is not mapped yet: MAP LP1 first');
+    expect(why(4).get.why).toMatch(/^LP1 slot 4 holds a double wafer .*: clear it and MAP LP1$/);
+    expect(why(5, 'W7').put.why).toMatch(/^LP1 slot 5 holds a cross-slotted wafer/);
+    expect(why(3).map.enabled).toBe(true); // mapping is how an unknown slot becomes known
+  });
+
+  it('needs a slot for GET/PUT and a station for MAP', () => {
+    const none = waferActions({ ...ready, state: state(MAP), selection: null });
+    expect(none.get).toEqual({ enabled: false, request: null, why: 'select a slot' });
+    expect(none.map).toEqual({ enabled: false, request: null, why: 'select a station to map' });
+    const station = waferActions({ ...ready, state: state(MAP), selection: sel('LP2') });
+    expect(station.get.enabled).toBe(false);
+    expect(station.map.enabled).toBe(true);
+    expect(waferActions({ ...ready, state: state(MAP), selection: sel('PM9', 1) }).map.enabled).toBe(false);
+  });
+
+  it('disables everything, with one reason, when not connected, not in control, without a map or during a transfer', () => {
+    const cases: [Parameters<typeof waferActions>[0], string][] = [
+      [{ connected: false, mayCommand: true, state: state(MAP), selection: sel('LP1', 1) }, 'not connected to the controller'],
+      [{ ...ready, state: state('', false), selection: sel('LP1', 1) }, 'this controller has no wafer cell'],
+      [{ ...ready, state: state('', null), selection: sel('LP1', 1) }, 'waiting for the wafer map (WAFERS)'],
+      [{ connected: true, mayCommand: false, state: state(MAP), selection: sel('LP1', 1) }, 'control is held by another source; take control first'],
+      [{ ...ready, state: state(`${MAP} pending=get:LP1.1:W1`), selection: sel('LP1', 1) }, 'a transfer is in progress (GET LP1.1 W1)'],
+      [{ ...ready, state: state(MAP), selection: sel('LP1', 1), running: 'MAP LP1' }, 'MAP LP1 is running'],
+    ];
+    for (const [input, why] of cases) {
+      const a = waferActions(input);
+      for (const k of ['get', 'put', 'map'] as const) {
+        expect(a[k].enabled, `${why}: ${k}`).toBe(false);
+        expect(a[k].why).toBe(why);
+      }
+      expect(a.get.request).toBe('GET LP1 1'); // the button still names what it would send
+      expect(actionsHint(a)).toBe(why);
+    }
+  });
+});
+
+describe('actionsHint', () => {
+  it('lists each disabled button with its reason, or nothing', () => {
+    const a = waferActions({ ...ready, state: state(MAP), selection: sel('LP1', 1) });
+    expect(actionsHint(a)).toBe('PUT: the hand holds no wafer');
+    const b = waferActions({ ...ready, state: state(MAP), selection: null });
+    expect(actionsHint(b)).toBe('GET: select a slot · PUT: select a slot · MAP: select a station to map');
+    const c = waferActions({ ...ready, state: state(MAP.replace('hand=-', 'hand=W7')), selection: sel('LP2', 1) });
+    expect(actionsHint(c)).toBe('GET: the hand already holds W7');
+  });
+});

@@ -1,0 +1,437 @@
+// The Wafers panel: the wafer map as an operator reads a cassette — one column per station,
+// its highest slot on top, each slot coloured by what it holds — with the hand's wafer, the
+// transfer in progress, and GET / PUT / MAP for the selected slot or station. Requests go
+// through the Commander, so they and their ACK/NAK and INF/ABS appear in the command log.
+//
+// The decisions (what a slot shows, which button is enabled and why) are plain functions of
+// the state, unit-tested without a DOM; `mountWaferPanel` only draws them.
+
+import { injectStyle } from './dom';
+import { frameThrottle, h, type Commander, type ControllerModel } from './control';
+import type { StationInfo, StationsHandle } from './stations';
+import { formatPending, type SlotState, type SlotToken, type WaferMap, type WaferState, type WaferStore } from './wafers';
+
+/** The slot (or, with `slot` null, only the station) the operator clicked. */
+export interface WaferSelection {
+  station: string;
+  slot: number | null;
+}
+
+/** One button: whether it may be pressed, the request it sends, and why not. */
+export interface WaferAction {
+  enabled: boolean;
+  /** `GET LP1 3`, `PUT LP1 3`, `MAP LP1`; null when nothing is selected. */
+  request: string | null;
+  /** Why the button is disabled ('' when enabled). */
+  why: string;
+}
+
+export interface WaferActions {
+  get: WaferAction;
+  put: WaferAction;
+  map: WaferAction;
+}
+
+/** What a slot shows as its text. */
+export function slotLabel(t: SlotToken): string {
+  switch (t.state) {
+    case 'wafer':
+      return t.wafer ?? 'wafer';
+    case 'empty':
+      return '';
+    case 'unknown':
+      return '?';
+    case 'double':
+      return 'double';
+    case 'cross':
+      return 'cross';
+  }
+}
+
+const STATE_WORDS: Record<SlotState, string> = {
+  wafer: 'a wafer',
+  empty: 'empty',
+  unknown: 'not mapped yet',
+  double: 'a double wafer (two wafers in one slot)',
+  cross: 'a cross-slotted wafer (resting in two slots)',
+};
+
+/** The tooltip of a slot: `LP1 slot 3: W3`. */
+export function slotTitle(station: string, slot: number, t: SlotToken): string {
+  return `${station} slot ${slot}: ${t.state === 'wafer' ? (t.wafer ?? 'a wafer') : STATE_WORDS[t.state]}`;
+}
+
+/** The selection kept valid for a new map: null when its station is gone, no slot when its slot is. */
+export function keepSelection(map: WaferMap, sel: WaferSelection | null): WaferSelection | null {
+  if (!sel) return null;
+  const slots = map.stations.get(sel.station);
+  if (!slots) return null;
+  if (sel.slot !== null && (sel.slot < 1 || sel.slot > slots.length)) return { station: sel.station, slot: null };
+  return sel;
+}
+
+const ok = (request: string): WaferAction => ({ enabled: true, request, why: '' });
+const no = (request: string | null, why: string): WaferAction => ({ enabled: false, request, why });
+
+/**
+ * Which of GET, PUT and MAP may be pressed, and why not. The controller checks everything
+ * again (NAK 130-138); this only spares the operator requests the map already says it
+ * would refuse.
+ */
+export function waferActions(input: {
+  connected: boolean;
+  /** May this page command motions (nobody or this page holds control)? */
+  mayCommand: boolean;
+  state: WaferState;
+  selection: WaferSelection | null;
+  /** A GET, PUT or MAP this page sent that has not ended yet (`GET LP1 3`), or null. */
+  running?: string | null;
+}): WaferActions {
+  const { state, selection: sel } = input;
+  const map = state.map;
+  const slots = sel ? map.stations.get(sel.station) : undefined;
+  const slotReq = (verb: string): string | null => (sel && sel.slot !== null ? `${verb} ${sel.station} ${sel.slot}` : null);
+  const getReq = slotReq('GET');
+  const putReq = slotReq('PUT');
+  const mapReq = sel ? `MAP ${sel.station}` : null;
+
+  const general = !input.connected
+    ? 'not connected to the controller'
+    : state.available === false
+      ? 'this controller has no wafer cell'
+      : state.available === null
+        ? 'waiting for the wafer map (WAFERS)'
+        : !input.mayCommand
+          ? 'control is held by another source; take control first'
+          : input.running
+            ? `${input.running} is running`
+            : map.pending
+              ? `a transfer is in progress (${formatPending(map.pending)})`
+              : '';
+  if (general) return { get: no(getReq, general), put: no(putReq, general), map: no(mapReq, general) };
+
+  const mapAction = mapReq && slots ? ok(mapReq) : no(mapReq, 'select a station to map');
+  if (!sel || sel.slot === null || !slots || getReq === null || putReq === null) {
+    const why = 'select a slot';
+    return { get: no(getReq, why), put: no(putReq, why), map: mapAction };
+  }
+  const where = `${sel.station} slot ${sel.slot}`;
+  const t = slots[sel.slot - 1];
+  const fault = (s: SlotState): string => `${where} holds ${STATE_WORDS[s]}: clear it and MAP ${sel.station}`;
+  const unmapped = `${where} is not mapped yet: MAP ${sel.station} first`;
+
+  let get: WaferAction;
+  if (map.hand !== null) get = no(getReq, `the hand already holds ${map.hand}`);
+  else if (!t) get = no(getReq, `${where} does not exist`);
+  else if (t.state === 'wafer') get = ok(getReq);
+  else if (t.state === 'empty') get = no(getReq, `${where} is empty`);
+  else if (t.state === 'unknown') get = no(getReq, unmapped);
+  else get = no(getReq, fault(t.state));
+
+  let put: WaferAction;
+  if (map.hand === null) put = no(putReq, 'the hand holds no wafer');
+  else if (!t) put = no(putReq, `${where} does not exist`);
+  else if (t.state === 'empty') put = ok(putReq);
+  else if (t.state === 'wafer') put = no(putReq, `${where} holds ${t.wafer ?? 'a wafer'}`);
+  else if (t.state === 'unknown') put = no(putReq, unmapped);
+  else put = no(putReq, fault(t.state));
+
+  return { get, put, map: mapAction };
+}
+
+/**
+ * One line on why buttons are disabled: the reason they share, or each button's own
+ * (`GET: LP1 slot 3 is empty · MAP: …`); '' when all are enabled.
+ */
+export function actionsHint(a: WaferActions): string {
+  const whys = (['get', 'put', 'map'] as const).filter((k) => a[k].why !== '');
+  if (whys.length === 0) return '';
+  if (whys.length === 3 && a.get.why === a.put.why && a.put.why === a.map.why) return a.get.why;
+  return whys.map((k) => `${k.toUpperCase()}: ${a[k].why}`).join(' · ');
+}
+
+/** `load_port` → `load port`. */
+function kindWords(kind: string): string {
+  return kind.replace(/_/g, ' ');
+}
+
+const STYLE_ID = 'wafer-style';
+const STYLE = `
+.wafer-panel { display: flex; flex-direction: column; background: var(--bg); }
+.wafer-panel .toolbar { gap: 10px; }
+.wafer-hand, .wafer-pending, .wafer-selection { font-family: var(--mono); padding: 2px 8px; border-radius: 4px;
+  border: 1px solid var(--line); background: #0d1319; white-space: nowrap; }
+.wafer-hand[data-wafer]:not([data-wafer='']) { background: #1d4f8c; border-color: #3d7fd6; color: #fff; font-weight: 700; }
+.wafer-pending[data-pending='1'] { background: #4a3500; border-color: var(--warn); color: #ffd27a; font-weight: 700; }
+.wafer-pending[data-pending='0'] { color: var(--dim); }
+.wafer-label { color: var(--dim); font-size: 12px; }
+.wafer-hint { padding: 3px 10px; min-height: 22px; font-size: 12px; color: var(--warn); background: #0f151c;
+  border-bottom: 1px solid var(--line); }
+.wafer-stations { flex: 1; min-height: 0; display: flex; gap: 12px; align-items: flex-start; overflow: auto; padding: 10px 12px; }
+.wafer-empty { color: var(--dim); padding: 20px; }
+.wcol { flex: 0 0 150px; display: flex; flex-direction: column; background: var(--card); border: 1px solid var(--line);
+  border-radius: 6px; padding: 6px; }
+.wcol[data-selected='1'] { border-color: var(--accent); }
+.wcol-head { display: flex; flex-direction: column; align-items: flex-start; background: none; border: none; padding: 0 2px 6px;
+  cursor: pointer; text-align: left; }
+.wcol-name { font-weight: 700; font-family: var(--mono); color: var(--accent); font-size: 14px; }
+.wcol-kind { color: var(--dim); font-size: 11px; }
+.wslots { display: flex; flex-direction: column; gap: 2px; }
+.wslot { display: grid; grid-template-columns: 22px 1fr; align-items: center; height: 19px; padding: 0 4px; cursor: pointer;
+  border: 1px solid #2c3a49; border-radius: 3px; background: #0d1319; font: 11px/1 var(--mono); color: var(--dim); text-align: left; }
+.wslot-n { color: #5d6b7a; text-align: right; padding-right: 6px; }
+.wslot-label { overflow: hidden; text-overflow: ellipsis; white-space: nowrap; }
+.wslot[data-state='wafer'], .wlegend-wafer { background: #1d4f8c; border-color: #3d7fd6; color: #fff; }
+.wslot[data-state='wafer'] .wslot-n, .wslot[data-state='double'] .wslot-n, .wslot[data-state='cross'] .wslot-n {
+  color: #e6edf5; }
+.wslot[data-state='empty'], .wlegend-empty { background: #0d1319; }
+.wslot[data-state='unknown'], .wlegend-unknown { background: repeating-linear-gradient(135deg, #232a33 0 4px, #1a2028 4px 8px);
+  color: #8795a5; }
+.wslot[data-state='double'], .wlegend-double { background: #8e1f17; border-color: #ff4d4f; color: #fff; font-weight: 700; }
+.wslot[data-state='cross'], .wlegend-cross { background: repeating-linear-gradient(160deg, #8a4a00 0 5px, #b36200 5px 10px);
+  border-color: #ffb020; color: #fff; font-weight: 700; }
+.wslot[data-selected='1'], .wlegend-selected { outline: 2px solid var(--accent); outline-offset: 0; }
+.wslot[data-pending='1'], .wlegend-pending { box-shadow: 0 0 0 2px var(--warn), 0 0 8px var(--warn); }
+.wslot:focus-visible { outline: 2px solid #fff; }
+.wafer-legend { display: flex; gap: 12px; flex-wrap: wrap; align-items: center; padding: 5px 12px; border-top: 1px solid var(--line);
+  background: var(--bg2); font-size: 12px; color: var(--dim); }
+.wlegend-item { display: inline-flex; align-items: center; gap: 5px; }
+.wlegend-swatch { display: inline-block; width: 26px; height: 14px; border: 1px solid #2c3a49; border-radius: 3px; }
+`;
+
+export interface WaferPanel {
+  resize(): void;
+  /** The current selection (for tests and the console). */
+  selection(): WaferSelection | null;
+  dispose(): void;
+}
+
+/**
+ * Draw the Wafers panel into `el`. `stations` (optional) names each station's kind in its
+ * column head.
+ */
+export function mountWaferPanel(
+  el: HTMLElement,
+  store: WaferStore,
+  model: ControllerModel,
+  cmd: Commander,
+  stations?: Pick<StationsHandle, 'stations' | 'onChange'>,
+): WaferPanel {
+  injectStyle(STYLE_ID, STYLE);
+  el.classList.add('wafer-panel');
+  el.replaceChildren();
+
+  let selection: WaferSelection | null = null;
+  let actions: WaferActions | null = null;
+
+  const hand = h('span', { class: 'wafer-hand', 'data-testid': 'wafer-hand', 'data-wafer': '' }, 'empty');
+  const pending = h('span', { class: 'wafer-pending', 'data-testid': 'wafer-pending', 'data-pending': '0' }, 'no transfer');
+  const selected = h('span', { class: 'wafer-selection', 'data-testid': 'wafer-selection' }, 'nothing selected');
+  let running: string | null = null;
+  async function run(which: keyof WaferActions): Promise<void> {
+    const a = actions?.[which];
+    if (!a?.enabled || !a.request || running) return;
+    running = a.request;
+    render();
+    try {
+      const sent = await cmd.send(a.request);
+      if (sent?.final) await sent.final.catch(() => undefined);
+    } finally {
+      running = null;
+      schedule();
+    }
+  }
+  const press = (which: keyof WaferActions) => () => void run(which);
+  const getBtn = h('button', { class: 'btn go', 'data-testid': 'wafer-get', onclick: press('get') }, 'GET');
+  const putBtn = h('button', { class: 'btn go', 'data-testid': 'wafer-put', onclick: press('put') }, 'PUT');
+  const mapBtn = h('button', { class: 'btn primary', 'data-testid': 'wafer-map', onclick: press('map') }, 'MAP');
+  const refreshBtn = h(
+    'button',
+    { class: 'btn small', 'data-testid': 'wafer-refresh', title: 'Ask the controller for the whole map again (WAFERS)', onclick: () => void store.refresh() },
+    'Refresh',
+  );
+  const hint = h('div', { class: 'wafer-hint', 'data-testid': 'wafer-hint' });
+  const columns = h('div', { class: 'wafer-stations', 'data-testid': 'wafer-stations' });
+
+  const legendItem = (cls: string, text: string) =>
+    h('span', { class: 'wlegend-item' }, h('span', { class: `wlegend-swatch ${cls}` }), text);
+  const legend = h(
+    'div',
+    { class: 'wafer-legend', 'data-testid': 'wafer-legend' },
+    legendItem('wlegend-wafer', 'wafer (id)'),
+    legendItem('wlegend-empty', 'empty'),
+    legendItem('wlegend-unknown', 'not mapped'),
+    legendItem('wlegend-double', 'double'),
+    legendItem('wlegend-cross', 'cross-slotted'),
+    legendItem('wlegend-pending', 'transfer in progress'),
+    legendItem('wlegend-selected', 'selected'),
+    h('span', {}, 'Slot 1 is at the bottom of each column, as in a cassette.'),
+  );
+
+  el.append(
+    h(
+      'div',
+      { class: 'toolbar' },
+      h('span', { class: 'wafer-label' }, 'Hand'),
+      hand,
+      pending,
+      h('span', { class: 'spacer' }),
+      selected,
+      getBtn,
+      putBtn,
+      mapBtn,
+      refreshBtn,
+    ),
+    hint,
+    columns,
+    legend,
+  );
+
+  // ---- station columns: rebuilt when the stations or their slot counts change ----
+  interface Column {
+    col: HTMLElement;
+    kind: HTMLElement;
+    slots: HTMLButtonElement[]; // index 0 = slot 1
+  }
+  const cols = new Map<string, Column>();
+  let layout: string | null = null; // the stations and slot counts the columns were built for
+
+  function select(sel: WaferSelection): void {
+    selection = sel;
+    render();
+  }
+
+  function build(map: WaferMap): void {
+    cols.clear();
+    columns.replaceChildren();
+    if (map.stations.size === 0) {
+      columns.append(h('div', { class: 'wafer-empty', 'data-testid': 'wafer-none' }, 'No stations in the wafer map.'));
+      return;
+    }
+    for (const [name, slots] of map.stations) {
+      const kind = h('span', { class: 'wcol-kind' });
+      const head = h(
+        'button',
+        { class: 'wcol-head', title: `Select ${name} (for MAP)`, onclick: () => select({ station: name, slot: null }) },
+        h('span', { class: 'wcol-name' }, name),
+        kind,
+      );
+      const list = h('div', { class: 'wslots' });
+      const buttons: HTMLButtonElement[] = [];
+      for (let n = 1; n <= slots.length; n++) {
+        const b = h(
+          'button',
+          {
+            class: 'wslot',
+            'data-testid': `wafer-slot-${name}-${n}`,
+            'data-slot': n,
+            'data-state': 'unknown',
+            'data-wafer': '',
+            'data-selected': '0',
+            'data-pending': '0',
+            onclick: () => select({ station: name, slot: n }),
+          },
+          h('span', { class: 'wslot-n' }, String(n)),
+          h('span', { class: 'wslot-label' }),
+        );
+        buttons.push(b);
+      }
+      // Highest slot on top, like a cassette seen from the front.
+      for (let i = buttons.length - 1; i >= 0; i--) list.append(buttons[i]);
+      const col = h('div', { class: 'wcol', 'data-testid': `wafer-station-${name}`, 'data-selected': '0' }, head, list);
+      columns.append(col);
+      cols.set(name, { col, kind, slots: buttons });
+    }
+  }
+
+  function setText(e: Element, t: string): void {
+    if (e.textContent !== t) e.textContent = t;
+  }
+  function setAttr(e: Element, k: string, v: string): void {
+    if (e.getAttribute(k) !== v) e.setAttribute(k, v);
+  }
+
+  function render(): void {
+    const st = store.state();
+    const map = st.map;
+    const v = model.v;
+    const key = [...map.stations].map(([n, s]) => `${n}:${s.length}`).join(' ');
+    if (key !== layout) {
+      layout = key;
+      build(map);
+    }
+    selection = keepSelection(map, selection);
+
+    const info = new Map<string, StationInfo>((stations?.stations() ?? []).map((s) => [s.name, s]));
+    for (const [name, c] of cols) {
+      const slots = map.stations.get(name) ?? [];
+      const si = info.get(name);
+      setText(c.kind, si ? `${kindWords(si.kind)} · ${slots.length} slot${slots.length === 1 ? '' : 's'}` : `${slots.length} slot${slots.length === 1 ? '' : 's'}`);
+      setAttr(c.col, 'data-selected', selection?.station === name ? '1' : '0');
+      c.slots.forEach((b, i) => {
+        const t = slots[i];
+        if (!t) return;
+        const n = i + 1;
+        setAttr(b, 'data-state', t.state);
+        setAttr(b, 'data-wafer', t.wafer ?? '');
+        setAttr(b, 'data-selected', selection?.station === name && selection.slot === n ? '1' : '0');
+        const p = map.pending;
+        setAttr(b, 'data-pending', p && p.station === name && p.slot === n ? '1' : '0');
+        setAttr(b, 'title', slotTitle(name, n, t));
+        setAttr(b, 'aria-pressed', selection?.station === name && selection.slot === n ? 'true' : 'false');
+        setText(b.lastElementChild as Element, slotLabel(t));
+      });
+    }
+
+    setAttr(hand, 'data-wafer', map.hand ?? '');
+    setText(hand, map.hand ?? 'empty');
+    const p = map.pending;
+    setAttr(pending, 'data-pending', p ? '1' : '0');
+    setAttr(pending, 'data-kind', p ? p.kind : '');
+    setText(pending, p ? `${p.kind === 'get' ? 'GET' : 'PUT'} ${p.station} slot ${p.slot} (${p.wafer}) in progress` : 'no transfer');
+    setText(selected, selection ? (selection.slot === null ? selection.station : `${selection.station} slot ${selection.slot}`) : 'nothing selected');
+
+    actions = waferActions({ connected: v.connected, mayCommand: model.mayCommand(), state: st, selection, running });
+    const btn = (b: HTMLButtonElement, a: WaferAction, verb: string): void => {
+      b.disabled = !a.enabled;
+      setText(b, a.request ?? verb);
+      setAttr(b, 'title', a.enabled ? `Send ${a.request}` : `${verb}: ${a.why}`);
+    };
+    btn(getBtn, actions.get, 'GET');
+    btn(putBtn, actions.put, 'PUT');
+    btn(mapBtn, actions.map, 'MAP');
+    refreshBtn.disabled = !v.connected;
+
+    let text: string;
+    if (st.available === false) text = `This controller has no wafer cell (WAFERS: ${st.refusal}).`;
+    else if (!v.connected) text = `Not connected: ${v.connDetail}. The map shown is the last one received.`;
+    else text = actionsHint(actions);
+    if (st.ignored.length > 0) text += `${text ? ' · ' : ''}ignored ${st.ignored.length} malformed map part(s), e.g. ${st.ignored[st.ignored.length - 1]}`;
+    setText(hint, text);
+  }
+
+  // Controller updates come every frame while the robot moves; redraw only when what the
+  // buttons depend on changed.
+  let ctl = '';
+  const schedule = frameThrottle(render);
+  const unsubs = [
+    store.onChange(() => schedule()),
+    model.onChange((v) => {
+      const k = `${v.connected}|${model.mayCommand()}|${v.connDetail}`;
+      if (k === ctl) return;
+      ctl = k;
+      schedule();
+    }),
+    ...(stations ? [stations.onChange(() => schedule())] : []),
+  ];
+  render();
+
+  return {
+    resize: () => undefined,
+    selection: () => selection,
+    dispose() {
+      for (const u of unsubs) u();
+      el.replaceChildren();
+    },
+  };
+}

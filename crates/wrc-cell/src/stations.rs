@@ -15,7 +15,7 @@
 //! pitch_mm = 10.0              # > 0 with several slots; optional, default 0
 //! approach_mm = 220.0          # > 0
 //! stroke_mm = 6.0              # > 0, < pitch_mm with several slots
-//! speed_pct = 30.0             # 1-100
+//! speed_pct = 60.0             # 1-100
 //! interlock_input = 14         # 0-31, optional: no interlock
 //! posture = "right"            # "right" | "left", optional: either
 //!
@@ -754,7 +754,7 @@ speed_pct = 40.0
         assert_eq!(
             line,
             "LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220 \
-             stroke=6 speed=30 interlock=14 posture=any"
+             stroke=6 speed=60 interlock=14 posture=any"
         );
         let line = stn_line(stations.get("PM1").unwrap());
         assert!(

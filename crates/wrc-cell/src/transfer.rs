@@ -235,7 +235,7 @@ mod tests {
             ]
         );
         assert_eq!(steps[0], Step::RequireInput(14));
-        assert_eq!(steps[2], Step::Speed(30.0));
+        assert_eq!(steps[2], Step::Speed(60.0));
         assert_eq!(steps[5], Step::Vacuum(true));
         assert_eq!(steps[7], Step::CheckVacuum { expect: true });
         assert_eq!(steps[10], Step::RestoreSpeed);

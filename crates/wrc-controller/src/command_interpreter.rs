@@ -110,7 +110,8 @@ fn floor_char_boundary(text: &str, max: usize) -> usize {
 /// Send `line` to `to`; replies to the running program need not be sent (its refusals are
 /// recorded by [`CommandInterpreter::nak`]).
 fn deliver(out: &Outputs, to: SourceId, line: &[u8]) {
-    if to != SourceId::PROGRAM {
+    // A program's and a job's own motions are answered to themselves, not on the wire.
+    if to != SourceId::PROGRAM && to != SourceId::CELL {
         out.send(to, line);
     }
 }

@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Mapping};
+use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, Outputs};
 use wrc_controller::program_store::{ProgramStart, StoreLinks};
@@ -165,4 +165,122 @@ fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
     );
     // The program went back to the store to be freed there.
     assert!(links.retired.try_recv().is_ok());
+}
+
+/// A wafer job (GET) through the Command Interpreter: its motions, the speed near the
+/// station, the vacuum valve (applied by a stand-in for the I/O Monitor), the vacuum check
+/// (this board has no cell: its sensor follows the valve), the commit and the end — no
+/// allocation.
+#[test]
+fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing() {
+    use wrc_controller::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep};
+    let config = Config::embedded_default();
+    let robot = config.robot.clone();
+    let settings = SimSettings::from_config(&config, &config.boards[0]);
+    let mapping = Mapping::anonymous().unwrap();
+    let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+    sim.step();
+    let board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+    let mut io = DpramBoard::attach(mapping, Expect::default()).unwrap();
+    let generator = Generator::new(robot.clone(), config.motion).unwrap();
+    let shared = Arc::new(Shared::default());
+    let home = robot.joints_to_pulses(&robot.home());
+    for (c, p) in shared.commanded.iter().zip(home) {
+        c.store(p, std::sync::atomic::Ordering::Release);
+    }
+    shared
+        .homed
+        .store(true, std::sync::atomic::Ordering::Release);
+    let orders = Arc::new(MessageQueue::new(32));
+    let done = Arc::new(MessageQueue::new(64));
+    let network = Arc::new(MessageQueue::new(4096));
+    let links = StoreLinks::new();
+    let mut ci = CommandInterpreter::new(
+        robot.clone(),
+        board,
+        generator,
+        shared.clone(),
+        Arc::new(MessageQueue::new(16)),
+        Arc::new(MessageQueue::new(16)),
+        Arc::new(Semaphore::new(0)),
+        orders.clone(),
+        done.clone(),
+        Outputs {
+            network: network.clone(),
+            serial: Arc::new(MessageQueue::new(16)),
+        },
+        Arc::new(AtomicBool::new(false)),
+        links.clone(),
+    );
+    let stations = wrc_cell::Stations::embedded_demo();
+    let lp1 = stations.get("LP1").unwrap();
+    let from = SourceId::new(SourceId::TCP, 0, 1);
+    let to = ReplyTo {
+        id: Some(7),
+        checksum: false,
+    };
+    let mut job = CellJob::new(from, to, JobKind::Get, lp1.name);
+    job.slot = 1;
+    job.wafer = 1;
+    for step in wrc_cell::plan_get(lp1, 1).unwrap() {
+        assert!(job.push(JobStep::Transfer(step)));
+    }
+    let mut now = 1_000_000_000u64;
+    ci.step(now); // warm-up
+    links.jobs.try_send(JobOffer::Start(job)).ok().unwrap();
+
+    let mut lines = Vec::with_capacity(256);
+    let mut motions = 0;
+    let mut allocations = 0;
+    for _ in 0..400 {
+        let before = count();
+        ci.step(now);
+        allocations += count() - before;
+        while let Ok(order) = orders.try_recv() {
+            motions += 1;
+            let _ = done.try_send(MoveDone {
+                ticket: order.ticket,
+                outcome: MoveOutcome::Completed,
+            });
+        }
+        // The I/O Monitor's part: apply the outputs; the board's period.
+        io.write_outputs(
+            0,
+            shared.outputs[0].load(std::sync::atomic::Ordering::Acquire),
+        );
+        sim.step();
+        while let Ok(line) = network.try_recv() {
+            lines.push(String::from_utf8_lossy(line.bytes()).trim_end().to_string());
+        }
+        if lines
+            .iter()
+            .any(|l| l.starts_with("ABS 7") || l.starts_with("INF 7"))
+        {
+            break;
+        }
+        now += 50_000_000;
+    }
+    // The job's own motions are not answered on the wire: only its ACK and INF are.
+    let replies: Vec<&String> = lines.iter().filter(|l| !l.starts_with("EVT")).collect();
+    assert_eq!(replies, ["ACK 7", "INF 7 W1"], "{lines:?}");
+    assert_eq!(motions, 4, "PTP, line in, Z up, line out: {lines:?}");
+    assert_eq!(links.cell_events.try_recv().ok(), Some(CellEvent::Commit));
+    assert_eq!(
+        links.cell_events.try_recv().ok(),
+        Some(CellEvent::Ended {
+            kind: JobKind::Get,
+            started: true,
+            code: None,
+            sensed: true,
+        })
+    );
+    assert_eq!(
+        shared.speed_pct.load(std::sync::atomic::Ordering::Acquire),
+        100,
+        "the speed near the station was restored"
+    );
+    assert_eq!(
+        allocations, 0,
+        "allocations or frees in Command Interpreter cycles running a job"
+    );
 }

@@ -213,7 +213,12 @@ fn the_examples_compile_and_run_on_the_simulated_robot() {
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|e| e == "wrl"))
         // The wafer programs move all 25 wafers: wafer_cycle.rs runs them.
-        .filter(|p| !p.file_name().unwrap().to_string_lossy().starts_with("wafer_"))
+        .filter(|p| {
+            !p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("wafer_")
+        })
         .collect();
     files.sort();
     for path in files {

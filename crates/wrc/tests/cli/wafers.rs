@@ -175,3 +175,65 @@ GET \"LP1\", 1
         "{map}"
     );
 }
+
+#[test]
+fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_leaves_the_map() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3 LP1 1"));
+    assert_eq!(host.motion(4, "GET LP1 1"), "INF 4 W1");
+    host.seen.clear();
+    // Carrying the wafer somewhere, the vacuum sensor drops.
+    assert_eq!(host.ask("5 MOVP 0 -300 100 -90"), "ACK 5");
+    inject(&c, "sensor-flip 0 on");
+    let end = host.reply();
+    assert!(end.starts_with("ABS 5 213 "), "{end}");
+    while !host.seen.iter().any(|l| l.starts_with("EVT ERROR 213 ")) {
+        host.line();
+    }
+    assert!(host.status().contains("state=ERROR"));
+    // The wafer left the map with the hand's vacuum: the map does not invent where it is.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+    loop {
+        let map = host.ask("6 WAFERS");
+        if map.starts_with("ACK 6 hand=- LP1=-,W2..W25 ") {
+            break;
+        }
+        assert!(std::time::Instant::now() < deadline, "{map}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn mapping_reports_absent_double_and_cross_slotted_wafers_and_get_refuses_them() {
+    let scratch = tempfile::tempdir().unwrap();
+    let demo = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/stations.toml"),
+    )
+    .unwrap();
+    // LP2 holds a wafer, a double, a cross-slotted one, then nothing.
+    let cell = demo.replacen(
+        "wafers = \"00000 00000 00000 00000 00000\"",
+        "wafers = \"12X00 00000 00000 00000 00000\"",
+        1,
+    );
+    assert_ne!(cell, demo);
+    let stations = scratch.path().join("cell.toml");
+    std::fs::write(&stations, cell).unwrap();
+    let c = Controller::start(&["--stations", stations.to_str().unwrap()]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert_eq!(
+        host.motion(3, "MAP LP2"),
+        "INF 3 LP2 12X0000000000000000000000"
+    );
+    let map = host.ask("4 WAFERS");
+    assert!(map.contains(" LP2=W1,D,X,-x22 "), "{map}");
+    expect_nak(&mut host, 5, "GET LP2 2", 136);
+    expect_nak(&mut host, 6, "GET LP2 3", 136);
+    expect_nak(&mut host, 7, "GET LP2 4", 131);
+    assert_eq!(host.motion(8, "GET LP2 1"), "INF 8 W1");
+}

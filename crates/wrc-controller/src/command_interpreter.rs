@@ -934,6 +934,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some(p) = self.program.take() else {
             return;
         };
+        // A GET, PUT or MAP of the program's (ABORT, a refusal) ends with it and stops.
+        if self.job.is_some_and(|j| j.from() == SourceId::PROGRAM) {
+            self.end_job(Some(
+                failure.unwrap_or((Code::Stopped, "the program that asked for it ended")),
+            ));
+        }
         let line_no = line
             .or_else(|| self.vm.position(&p.program).map(|pos| pos.line))
             .unwrap_or(0);

@@ -237,3 +237,44 @@ fn mapping_reports_absent_double_and_cross_slotted_wafers_and_get_refuses_them()
     expect_nak(&mut host, 7, "GET LP2 4", 131);
     assert_eq!(host.motion(8, "GET LP2 1"), "INF 8 W1");
 }
+
+#[test]
+fn abort_during_a_programs_get_stops_it_and_the_map_settles_from_the_sensor() {
+    let c = Controller::start(&[]);
+    let world = c.dir_path().join("world.toml");
+    let mut host = c.client();
+    // Nobody holds control: the program (and its GET) act for whoever started it.
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    host.send_raw(b"3 UPLOAD one\nMAP \"LP1\"\nGET \"LP1\", 1\nPRINT \"never\"\n.\n");
+    assert!(host.reply().starts_with("ACK 3 name=one "));
+    host.seen.clear();
+    assert_eq!(host.ask("4 RUN one"), "ACK 4");
+    // The GET has started once its pending transfer is announced.
+    while !host
+        .seen
+        .iter()
+        .any(|l| l.starts_with("EVT WAFER pending=get:LP1.1:"))
+    {
+        host.line();
+    }
+    assert_eq!(host.ask("5 ABORT"), "ACK 5");
+    let end = host.reply();
+    assert!(end.starts_with("ABS 4 200 one line 2: "), "{end}");
+    assert!(!host.seen.iter().any(|l| l.contains("never")));
+    // The robot comes to rest, and the map agrees with the cell.
+    assert!(host.motion(6, "WAIT").starts_with("INF 6"));
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+    let map = loop {
+        let map = host.ask("7 WAFERS");
+        if !map.contains("pending=") {
+            break map;
+        }
+        assert!(std::time::Instant::now() < deadline, "{map}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    // The ABORT came seconds before the hand could reach the wafer: the GET stopped with the
+    // program, so the wafer is still in its slot, in the cell and in the map.
+    assert!(truth(&world).contains("hand -"), "{}", truth(&world));
+    assert_eq!(truth_codes(&world, "LP1"), "1".repeat(25));
+    assert!(map.starts_with("ACK 7 hand=- LP1=W1..W25 "), "{map}");
+}

@@ -1038,10 +1038,20 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// through: `Ok` with the ticket of a queued motion, `Err` with the refusal's code (its
     /// text is in `self.refusal`).
     fn program_request(&mut self, command: Command) -> Result<Option<u32>, Code> {
+        self.internal_request(SourceId::PROGRAM, command)
+    }
+
+    /// A request of the controller's own (`source`: the program or a wafer job) through the
+    /// checks every connection's request goes through (see [`Self::program_request`]).
+    fn internal_request(
+        &mut self,
+        source: SourceId,
+        command: Command,
+    ) -> Result<Option<u32>, Code> {
         self.refusal.code = None;
         let next = self.next_ticket;
         self.handle_request(
-            SourceId::PROGRAM,
+            source,
             Request {
                 id: None,
                 command,
@@ -1055,7 +1065,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             .tickets
             .iter()
             .flatten()
-            .find(|t| t.from == SourceId::PROGRAM && t.ticket >= next)
+            .find(|t| t.from == source && t.ticket >= next)
             .map(|t| t.ticket))
     }
 

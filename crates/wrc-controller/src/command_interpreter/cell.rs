@@ -12,7 +12,7 @@ use std::sync::atomic::Ordering;
 
 use wrc_board::MotionBoard;
 use wrc_cell::Step;
-use wrc_protocol::{Code, Command, Request};
+use wrc_protocol::{Code, Command};
 
 use super::{deliver, CommandInterpreter, ProgramWait};
 use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
@@ -234,25 +234,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// Issue one motion of the job through the checks every motion goes through.
     fn job_motion(&mut self, command: Command) -> Result<Option<u32>, Code> {
-        self.refusal.code = None;
-        let next = self.next_ticket;
-        self.handle_request(
-            SourceId::CELL,
-            Request {
-                id: None,
-                command,
-                checksum: false,
-            },
-        );
-        if let Some(code) = self.refusal.code {
-            return Err(code);
-        }
-        Ok(self
-            .tickets
-            .iter()
-            .flatten()
-            .find(|t| t.from == SourceId::CELL && t.ticket >= next)
-            .map(|t| t.ticket))
+        self.internal_request(SourceId::CELL, command)
     }
 
     /// Carry the running job on: check what it waits for, then do steps until one waits.

@@ -88,5 +88,5 @@ fn pick_place_switches_the_vacuum_and_waits_for_its_sensor() {
     assert_eq!(io.len(), 12);
     assert_eq!(&io[..4], ["out0=1", "in0=1", "out0=0", "in0=0"]);
     assert_eq!(r.printed.len(), 3);
-    assert_eq!(r.printed[2], "wafer 3 placed at POSE(250, 150, 70, 90)");
+    assert_eq!(r.printed[2], "wafer 3 placed in LP2 slot 3");
 }

@@ -125,10 +125,7 @@ pub struct JobRefusal {
 impl JobRefusal {
     /// A refusal with `text` (cut at 200 bytes, on a character boundary).
     pub fn new(code: Code, text: &str) -> JobRefusal {
-        let mut len = text.len().min(200);
-        while !text.is_char_boundary(len) {
-            len -= 1;
-        }
+        let len = crate::command_interpreter::floor_char_boundary(text, 200);
         let mut buf = [0u8; 200];
         buf[..len].copy_from_slice(&text.as_bytes()[..len]);
         JobRefusal {

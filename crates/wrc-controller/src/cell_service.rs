@@ -289,7 +289,7 @@ impl CellService {
         if let Some((code, text)) = self.state_refusal(from, true) {
             return Err((code, text));
         }
-        if self.busy.is_some() || self.wafers.pending().is_some() && self.reconciled {
+        if self.busy.is_some() || (self.reconciled && self.wafers.pending().is_some()) {
             return Err((
                 Code::TransferBusy,
                 "a transfer or mapping is in progress".to_string(),

@@ -83,6 +83,7 @@ impl UrgentPath {
 
 /// The refusal of the running program's last request (its requests go through the same
 /// checks as a connection's; a refusal is kept here instead of sent as a NAK).
+#[derive(Clone, Copy)]
 struct Refusal {
     code: Option<Code>,
     text: [u8; 400],
@@ -96,15 +97,32 @@ impl Refusal {
         self.len = n;
         self.code = Some(code);
     }
+
+    /// The recorded text.
+    fn text(&self) -> &str {
+        std::str::from_utf8(&self.text[..self.len]).unwrap_or("refused")
+    }
 }
 
 /// The largest index ≤ `max` that is a character boundary of `text`.
-fn floor_char_boundary(text: &str, max: usize) -> usize {
+pub(crate) fn floor_char_boundary(text: &str, max: usize) -> usize {
     let mut n = text.len().min(max);
     while !text.is_char_boundary(n) {
         n -= 1;
     }
     n
+}
+
+/// How a motion's end ends the program or job that waited for it: `None` when it completed.
+fn motion_failure(outcome: MoveOutcome) -> Option<(Code, &'static str)> {
+    match outcome {
+        MoveOutcome::Completed => None,
+        MoveOutcome::Stopped => Some((Code::Stopped, "stopped")),
+        MoveOutcome::Refused(number) => {
+            let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+            Some((code, code.text()))
+        }
+    }
 }
 
 /// Send `line` to `to`; replies to the running program need not be sent (its refusals are
@@ -1021,16 +1039,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if p.wait != ProgramWait::Motion(ticket) {
             return;
         }
-        match outcome {
-            MoveOutcome::Completed => {
+        match motion_failure(outcome) {
+            None => {
                 p.wait = ProgramWait::Nothing;
                 self.vm.resume(Resume::Ok);
             }
-            MoveOutcome::Stopped => self.end_program(Some((Code::Stopped, "stopped"))),
-            MoveOutcome::Refused(number) => {
-                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
-                self.end_program(Some((code, code.text())));
-            }
+            failure => self.end_program(failure),
         }
     }
 
@@ -1236,11 +1250,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Err(code) => {
                 // The text is copied out: ending the program writes replies.
-                let mut text = [0u8; 400];
-                let n = self.refusal.len;
-                text[..n].copy_from_slice(&self.refusal.text[..n]);
-                let text = std::str::from_utf8(&text[..n]).unwrap_or("refused");
-                self.end_program(Some((code, text)));
+                let refusal = self.refusal;
+                self.end_program(Some((code, refusal.text())));
                 false
             }
         }

@@ -212,23 +212,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// A motion of the running job finished.
     pub(super) fn job_motion_done(&mut self, ticket: u32, outcome: crate::shared::MoveOutcome) {
-        use crate::shared::MoveOutcome;
-        let Some(j) = self.job.as_mut() else {
-            return;
-        };
-        if j.wait != JobWait::Motion(ticket) {
+        if !self.job.is_some_and(|j| j.wait == JobWait::Motion(ticket)) {
             return;
         }
-        match outcome {
-            MoveOutcome::Completed => {
-                j.wait = JobWait::Nothing;
-                j.next += 1;
-            }
-            MoveOutcome::Stopped => self.end_job(Some((Code::Stopped, "stopped"))),
-            MoveOutcome::Refused(number) => {
-                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
-                self.end_job(Some((code, code.text())));
-            }
+        match super::motion_failure(outcome) {
+            None => self.job_advance(),
+            failure => self.end_job(failure),
         }
     }
 
@@ -239,20 +228,20 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// Carry the running job on: check what it waits for, then do steps until one waits.
     pub(super) fn run_job(&mut self) {
-        let Some(mut j) = self.job else {
+        let Some(j) = self.job else {
             return;
         };
         // The wafer on the hand is watched during every motion of the job.
         if j.holding && matches!(j.wait, JobWait::Motion(_)) {
-            if self.vacuum_sensed() {
-                j.dropped = 0;
+            let dropped = if self.vacuum_sensed() {
+                0
             } else {
-                j.dropped += 1;
-            }
+                j.dropped + 1
+            };
             if let Some(r) = self.job.as_mut() {
-                r.dropped = j.dropped;
+                r.dropped = dropped;
             }
-            if j.dropped >= LOST_CYCLES {
+            if dropped >= LOST_CYCLES {
                 return self.job_fault(
                     Code::WaferLost,
                     "the vacuum sensor lost the wafer while the hand carried it",
@@ -309,7 +298,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         };
                         let len = 160 - w.len();
                         let text = std::str::from_utf8(&text[..len]).unwrap_or("wafer not sensed");
-                        return self.job_fault_text(Code::WaferNotSensed, text);
+                        return self.job_fault(Code::WaferNotSensed, text);
                     } else {
                         return;
                     }
@@ -438,11 +427,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             Ok(Some(ticket)) => self.job_wait(JobWait::Motion(ticket)),
             Ok(None) => self.job_advance(),
             Err(code) => {
-                let mut text = [0u8; 400];
-                let n = self.refusal.len;
-                text[..n].copy_from_slice(&self.refusal.text[..n]);
-                let text = std::str::from_utf8(&text[..n]).unwrap_or("refused");
-                self.end_job(Some((code, text)));
+                let refusal = self.refusal;
+                self.end_job(Some((code, refusal.text())));
             }
         }
     }
@@ -499,10 +485,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// A wafer fault: end the job with `code` and stop the robot like an alarm.
     fn job_fault(&mut self, code: Code, text: &str) {
-        self.job_fault_text(code, text);
-    }
-
-    fn job_fault_text(&mut self, code: Code, text: &str) {
         self.end_job(Some((code, text)));
         self.shared.request_stop();
         self.handle_urgent(Urgent::Fault(code.number()));

@@ -22,7 +22,7 @@ pub(crate) fn temp_path(path: &Path) -> io::Result<PathBuf> {
 /// Replace `path` with `bytes` atomically (see the module docs). A leftover `FILE.tmp` from
 /// an earlier crash is simply overwritten. One writer per file: two processes saving the
 /// same file at once would share the temporary name.
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let tmp = temp_path(path)?;
     let result = (|| {
         let mut file = OpenOptions::new()

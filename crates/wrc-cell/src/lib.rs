@@ -63,6 +63,7 @@ pub mod transfer;
 pub mod wafer_map;
 pub mod world;
 
+pub use atomic::write_atomic;
 pub use mapping::{parse_slot_codes, slot_codes_string, SlotCode, SlotCodesError};
 pub use station::{
     parse_station_name, PoseKind, Station, StationError, StationKind, StationName, StationSim,

@@ -5,8 +5,8 @@
 //! prints what happened to the wafers. The board's stepping loop only hands it text; it never
 //! touches the file.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, Write};
+use std::fs;
+use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
@@ -91,47 +91,13 @@ pub fn load(path: &Path, stations: &Stations) -> Result<World, WorldFileError> {
 }
 
 /// Replace `path` with `text` atomically: `FILE.tmp` in the same directory, fsync, rename
-/// over `path`, fsync the directory. A crash leaves the old file or the new one.
+/// over `path`, fsync the directory (`wrc_cell::write_atomic`, the same write as the wafer
+/// map's). A crash leaves the old file or the new one.
 pub fn save_atomic(path: &Path, text: &str) -> Result<(), WorldFileError> {
-    let error = |error| WorldFileError::Write {
+    wrc_cell::write_atomic(path, text.as_bytes()).map_err(|error| WorldFileError::Write {
         path: path.to_path_buf(),
         error,
-    };
-    let name = path.file_name().ok_or_else(|| {
-        error(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "the path names a directory, not a file",
-        ))
-    })?;
-    let mut tmp_name = name.to_os_string();
-    tmp_name.push(".tmp");
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| {
-        let mut file = OpenOptions::new()
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .open(&tmp)?;
-        file.write_all(text.as_bytes())?;
-        file.sync_all()?;
-        drop(file);
-        fs::rename(&tmp, path)?;
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        match File::open(dir).and_then(|d| d.sync_all()) {
-            // Some file systems cannot fsync a directory; the rename is then as durable as
-            // that file system makes it.
-            Err(e) if e.kind() == io::ErrorKind::InvalidInput => Ok(()),
-            other => other,
-        }
-    })();
-    if result.is_err() {
-        // Best effort: the temporary file is never read.
-        let _ = fs::remove_file(&tmp);
-    }
-    result.map_err(error)
+    })
 }
 
 /// One line on what happened to a wafer; faults start with `FAULT`.

@@ -3,8 +3,7 @@
 //! watchdog, commands and the mapping latch on the host side and the board's step, with and
 //! without the simulated cell.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+use wrc_alloc_count::{heap_calls, CountingAllocator};
 
 use wrc_board::driver::Mapping;
 use wrc_board::sim::cell::SimCell;
@@ -14,34 +13,12 @@ use wrc_board::{DpramBoard, Expect, Feedback, MappingScan, MotionBoard, MultiBoa
 use wrc_config::Config;
 use wrc_robot::{Pose, Posture, Robot, MAX_AXES};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator unchanged; only counts calls.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCATIONS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn host_calls_and_board_step_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
     let config = Config::embedded_default();
     let settings = wrc_board::sim::SimSettings::from_config(&config, &config.boards[0]);
     let map = Mapping::anonymous().unwrap();
@@ -50,7 +27,7 @@ fn host_calls_and_board_step_allocate_nothing() {
     let mut multi = MultiBoard::new(vec![host], &[(0, 0), (0, 1), (0, 2), (0, 3)]).unwrap();
     let mut feedback = Feedback::default();
     let mut increments = [0i64; 16];
-    let before = allocations();
+    let before = heap_calls().allocations;
     for k in 0..1_000i64 {
         increments[0] = (k % 7) - 3;
         multi.refresh_watchdog();
@@ -63,7 +40,7 @@ fn host_calls_and_board_step_allocate_nothing() {
             let _ = multi.clear_alarms(0b1111);
         }
     }
-    assert_eq!(allocations() - before, 0);
+    assert_eq!(heap_calls().allocations - before, 0);
     assert_eq!(feedback.axes[0].alarm, 0);
 }
 
@@ -98,6 +75,7 @@ fn plan(
 
 #[test]
 fn a_step_with_the_cell_simulated_allocates_nothing() {
+    wrc_alloc_count::assert_installed();
     let config = Config::embedded_default();
     let board = &config.boards[0];
     let settings = SimSettings::from_config(&config, board);
@@ -162,7 +140,7 @@ fn a_step_with_the_cell_simulated_allocates_nothing() {
     let mut feedback = Feedback::default();
     let mut scan = MappingScan::default();
     let mut events = 0;
-    let before = allocations();
+    let before = heap_calls().allocations;
     for &(increments, outputs, clear) in &periods {
         if clear {
             multi.clear_mapping();
@@ -175,7 +153,7 @@ fn a_step_with_the_cell_simulated_allocates_nothing() {
         multi.read_feedback(&mut feedback).unwrap();
         multi.read_mapping(&mut scan).unwrap();
     }
-    assert_eq!(allocations() - before, 0);
+    assert_eq!(heap_calls().allocations - before, 0);
 
     // The paths that could allocate were taken: a scan, a pick, the vacuum sensor.
     assert!(scan.cleared);

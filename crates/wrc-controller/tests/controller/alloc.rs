@@ -1,10 +1,9 @@
 //! Counting allocator: a Command Interpreter cycle allocates and frees nothing, also while
 //! it runs a robot-language program (motions, PRINT, OUT, WAIT IN, DELAY, SUB calls).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use wrc_alloc_count::{heap_calls, CountingAllocator};
 
 use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
@@ -16,38 +15,8 @@ use wrc_motion::VelocityGenerator as Generator;
 use wrc_protocol::{ProgramName, ReplyTo};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: delegates to the system allocator; the thread-local counter is const-initialised,
-// so touching it never allocates or recurses into the allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        COUNT.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn count() -> u64 {
-    COUNT.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 const PROGRAM: &str = "\
 HOME
@@ -67,6 +36,7 @@ ENDSUB
 
 #[test]
 fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
+    wrc_alloc_count::assert_installed();
     let config = Config::embedded_default();
     let robot = config.robot.clone();
     let settings = SimSettings::from_config(&config, &config.boards[0]);
@@ -127,9 +97,9 @@ fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
     let mut motions = 0;
     let mut allocations = 0;
     for _ in 0..400 {
-        let before = count();
+        let before = heap_calls().total();
         ci.step(now);
-        allocations += count() - before;
+        allocations += heap_calls().total() - before;
         // The Velocity and Pulse Generators' part: every order completes at once.
         while let Ok(order) = orders.try_recv() {
             motions += 1;
@@ -173,6 +143,7 @@ fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
 /// allocation.
 #[test]
 fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing() {
+    wrc_alloc_count::assert_installed();
     use wrc_controller::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep};
     let config = Config::embedded_default();
     let robot = config.robot.clone();
@@ -233,9 +204,9 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
     let mut motions = 0;
     let mut allocations = 0;
     for _ in 0..400 {
-        let before = count();
+        let before = heap_calls().total();
         ci.step(now);
-        allocations += count() - before;
+        allocations += heap_calls().total() - before;
         while let Ok(order) = orders.try_recv() {
             motions += 1;
             let _ = done.try_send(MoveDone {

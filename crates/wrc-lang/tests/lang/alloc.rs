@@ -2,45 +2,14 @@
 //! loops, SUB calls, pose arithmetic, PRINT and every kind of request, and over wafer
 //! transfers that succeed, fail at the host, and fail on a bad slot or station name.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
+use wrc_alloc_count::{heap_calls, CountingAllocator};
 use wrc_lang::{Request, Resume, RuntimeErrorKind, Step, Vm, VmLimits};
 use wrc_robot::Pose;
 
 use crate::common::{program, Io};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: delegates to the system allocator; the thread-local counter is const-initialised,
-// so touching it never allocates or recurses into the allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as our caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCATIONS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 const PROGRAM: &str = "\
 SPEED 50
@@ -86,6 +55,7 @@ ENDSUB
 
 #[test]
 fn load_run_and_resume_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
     let program = program(PROGRAM);
     let mut vm = Vm::new(VmLimits::default());
     let mut io = Io {
@@ -101,7 +71,7 @@ fn load_run_and_resume_allocate_nothing() {
     let mut requests = 0;
     let mut transfers = 0;
     let mut print_bytes = 0;
-    let before = allocations();
+    let before = heap_calls().allocations;
     for _round in 0..3 {
         vm.load(&program).unwrap();
         loop {
@@ -126,7 +96,7 @@ fn load_run_and_resume_allocate_nothing() {
             }
         }
     }
-    let after = allocations();
+    let after = heap_calls().allocations;
     assert_eq!(after - before, 0, "load, run and resume allocated");
     // The run did the work the program describes.
     // Per round: 5 grips, slots 4 and 5, slot 3 (HERE), done.
@@ -158,6 +128,7 @@ ENDIF
 
 #[test]
 fn wafer_transfers_and_their_failures_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
     let good = program(TRANSFERS);
     let bad_slot = program(&format!("{TRANSFERS}GET SRC, LAST\n"));
     let bad_name = program(&format!("{TRANSFERS}MAP BAD\n"));
@@ -166,7 +137,7 @@ fn wafer_transfers_and_their_failures_allocate_nothing() {
     let mut transfers = 0;
     let mut faults = Vec::with_capacity(4); // pushing must not allocate below
     let mut printed = 0;
-    let before = allocations();
+    let before = heap_calls().allocations;
     for (round, p) in [&good, &good, &bad_slot, &bad_name].into_iter().enumerate() {
         vm.load(p).unwrap();
         let mut gets = 0;
@@ -202,7 +173,7 @@ fn wafer_transfers_and_their_failures_allocate_nothing() {
             }
         }
     }
-    let after = allocations();
+    let after = heap_calls().allocations;
     assert_eq!(after - before, 0, "wafer transfers allocated");
     // Round 1: 2 maps + 12 transfers; round 2 stops at the 4th GET (2 + 3 * 2 + 1);
     // rounds 3 and 4 run everything, then fault.

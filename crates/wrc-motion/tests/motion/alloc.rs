@@ -1,47 +1,17 @@
 //! Counting allocator: planning and producing periods allocate nothing.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
+use wrc_alloc_count::{heap_calls, CountingAllocator};
 use wrc_motion::{Period, Profile, Status};
 use wrc_robot::{Pose, Posture};
 
 use crate::common::generator;
 
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: delegates to the system allocator; the thread-local counter is const-initialised,
-// so touching it never allocates or recurses into the allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as our caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCATIONS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 #[test]
 fn planning_and_periods_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
     for profile in [Profile::Fir, Profile::Paper { mask_len: 20 }] {
         for period in [0.01, 0.001] {
             let mut vg = generator(profile, period, 100.0);
@@ -61,7 +31,7 @@ fn planning_and_periods_allocate_nothing() {
             vg.set_position_pulses(&vg.robot().joints_to_pulses(&start))
                 .unwrap();
             let mut out = Period::default();
-            let before = allocations();
+            let before = heap_calls().allocations;
             // A straight line, stopped half-way, then a PTP and a jog to the end.
             vg.plan_line(&Pose {
                 x: 300.0,
@@ -89,7 +59,7 @@ fn planning_and_periods_allocate_nothing() {
             }
             vg.next_period(&mut out);
             assert_eq!(
-                allocations() - before,
+                heap_calls().allocations - before,
                 0,
                 "{profile:?} at {period} s allocated"
             );

@@ -1,46 +1,15 @@
 //! Counting allocator: the real-time path (frame, parse, reply, encode, decode) allocates
 //! nothing.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
+use wrc_alloc_count::{heap_calls, CountingAllocator};
 use wrc_protocol::sim_stream::{self, SimFrame, MAX_DATAGRAM_LEN};
 use wrc_protocol::{
     Code, Command, Event, HelpBody, IoBody, LineReader, Parser, Pose, ReplyBuf, State, StatusBody,
     WhereBody,
 };
 
-struct Counting;
-
-thread_local! {
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: delegates to the system allocator; the thread-local counter is const-initialised,
-// so touching it never allocates or recurses into the allocator.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as our caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|c| c.set(c.get() + 1));
-        // SAFETY: same contract as our caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCATIONS.with(|c| c.get())
-}
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 /// Requests covering every verb, every error kind, checksums and garbage.
 const STREAM: &[u8] = b"1 STATUS\r\n2 where\n3 HOME\n4 MOVJ 10 -20.5 3 4e1\n\
@@ -52,6 +21,7 @@ const STREAM: &[u8] = b"1 STATUS\r\n2 where\n3 HOME\n4 MOVJ 10 -20.5 3 4e1\n\
 
 #[test]
 fn framing_parsing_replying_and_encoding_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
     let serial = Parser::new(4).with_checksum(true);
     let tcp = Parser::new(4);
     let mut reader = LineReader::new();
@@ -66,7 +36,7 @@ fn framing_parsing_replying_and_encoding_allocate_nothing() {
     let mut lines = 0;
     let mut bytes_out = 0;
 
-    let before = allocations();
+    let before = heap_calls().allocations;
     for round in 0..3 {
         // Split the stream at a different size each round, and add an over-long line.
         let step = [1, 7, 4096][round];
@@ -143,7 +113,7 @@ fn framing_parsing_replying_and_encoding_allocate_nothing() {
         let back = sim_stream::decode(&datagram[..len]).unwrap();
         assert_eq!(back.sequence, frame.sequence);
     }
-    let allocated = allocations() - before;
+    let allocated = heap_calls().allocations - before;
 
     assert_eq!(lines, 3 * 34, "every line and the over-long one came out");
     assert!(bytes_out > 3 * 34 * 6);
@@ -151,13 +121,4 @@ fn framing_parsing_replying_and_encoding_allocate_nothing() {
         allocated, 0,
         "the real-time path allocated {allocated} times"
     );
-}
-
-/// The counter works: a test that could not fail would prove nothing.
-#[test]
-fn the_counter_sees_allocations() {
-    let before = allocations();
-    let v = std::hint::black_box(vec![1u8; 64]);
-    assert!(allocations() > before);
-    drop(v);
 }

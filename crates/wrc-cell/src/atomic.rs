@@ -19,8 +19,10 @@ pub(crate) fn temp_path(path: &Path) -> io::Result<PathBuf> {
     Ok(path.with_file_name(tmp))
 }
 
-/// Replace `path` with `bytes` atomically (see the module docs). A leftover `FILE.tmp` from
-/// an earlier crash is simply overwritten. One writer per file: two processes saving the
+/// Replace `path` with `bytes` atomically: write `FILE.tmp` in the same directory, fsync it,
+/// rename it over `FILE`, fsync the directory. A reader, or a restart after `kill -9` or a
+/// power cut, sees the old file or the new one, never a mix. A leftover `FILE.tmp` from an
+/// earlier crash is simply overwritten. One writer per file: two processes saving the
 /// same file at once would share the temporary name.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let tmp = temp_path(path)?;

@@ -517,15 +517,10 @@ async function run() {
       await page.waitForSelector(`${tid('state')}[data-state="MOVING"]`, { timeout: STEP_MS });
       await sleep(300);
       await page.click(tid('estop'));
-      await page.waitForFunction(
-        () => {
-          const s = document.querySelector('[data-testid="state"]')?.getAttribute('data-state');
-          return s === 'ESTOP' || s === 'ERROR';
-        },
-        null,
-        { timeout: STEP_MS },
-      );
+      // The controller's fault state for an E-stop is ESTOP (RESET leaves it, as ERROR).
+      await page.waitForSelector(`${tid('state')}[data-state="ESTOP"]`, { timeout: STEP_MS });
       stopState = (await page.locator(tid('state')).getAttribute('data-state')) ?? '';
+      await page.waitForSelector(`${tid('header-error')}:has-text("201 emergency stop")`, { timeout: STEP_MS });
       await page.waitForFunction(
         () => /ABS MOVJ: 201/.test(document.querySelector('[data-testid="command-log"]')?.textContent ?? ''),
         null,

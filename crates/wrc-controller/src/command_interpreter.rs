@@ -943,6 +943,28 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// End the running program: `INF` to its starter, or `ABS` with `code`, the program's
     /// name, its source line and `text`; stop its motion if one is under way.
+    /// A program or wafer job (`owner`) ends abnormally: if the motion it waits for
+    /// (`waiting`) is still in flight, stop the robot in a controlled way, and forget every
+    /// ticket of `owner`, whose replies nobody awaits any more.
+    fn abandon_motion(&mut self, waiting: Option<u32>, owner: SourceId) {
+        let in_flight = waiting.is_some_and(|ticket| {
+            self.tickets
+                .iter()
+                .any(|t| t.is_some_and(|t| t.ticket == ticket))
+        });
+        if in_flight {
+            self.shared.request_stop();
+            if self.shared.state() == RobotState::Moving {
+                self.set_state(RobotState::Stopping);
+            }
+        }
+        for t in self.tickets.iter_mut() {
+            if t.is_some_and(|t| t.from == owner) {
+                *t = None;
+            }
+        }
+    }
+
     fn end_program(&mut self, failure: Option<(Code, &str)>) {
         self.end_program_at(failure, None);
     }
@@ -968,23 +990,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 deliver(&self.out, p.from, line);
             }
             Some((code, text)) => {
-                if let ProgramWait::Motion(ticket) = p.wait {
-                    if self
-                        .tickets
-                        .iter()
-                        .any(|t| t.is_some_and(|t| t.ticket == ticket))
-                    {
-                        self.shared.request_stop();
-                        if self.shared.state() == RobotState::Moving {
-                            self.set_state(RobotState::Stopping);
-                        }
-                        for t in self.tickets.iter_mut() {
-                            if t.is_some_and(|t| t.from == SourceId::PROGRAM) {
-                                *t = None;
-                            }
-                        }
-                    }
-                }
+                let waiting = match p.wait {
+                    ProgramWait::Motion(ticket) => Some(ticket),
+                    _ => None,
+                };
+                self.abandon_motion(waiting, SourceId::PROGRAM);
                 let mut body = [0u8; 400];
                 let mut w: &mut [u8] = &mut body[..];
                 let _ = write!(w, "{} line {line_no}: {text}", p.name);

@@ -499,23 +499,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.restore_job_speed();
         self.job = None;
         if failure.is_some() {
-            if let JobWait::Motion(ticket) = j.wait {
-                if self
-                    .tickets
-                    .iter()
-                    .any(|t| t.is_some_and(|t| t.ticket == ticket))
-                {
-                    self.shared.request_stop();
-                    if self.shared.state() == RobotState::Moving {
-                        self.set_state(RobotState::Stopping);
-                    }
-                }
-            }
-            for t in self.tickets.iter_mut() {
-                if t.is_some_and(|t| t.from == SourceId::CELL) {
-                    *t = None;
-                }
-            }
+            let waiting = match j.wait {
+                JobWait::Motion(ticket) => Some(ticket),
+                _ => None,
+            };
+            self.abandon_motion(waiting, SourceId::CELL);
         }
         // The mapping sensor is only on during a scan.
         if j.job.kind == JobKind::Map {

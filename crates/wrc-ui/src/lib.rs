@@ -14,7 +14,7 @@
 //! use wrc_ui::{Endpoint, Options, Ui};
 //! let ui = Ui::start(Options {
 //!     listen: "127.0.0.1:8080".parse().unwrap(),
-//!     controller: Endpoint::parse("/tmp/wrc/wrc.sock"),
+//!     controller: Endpoint::parse("/tmp/wrc/wrc.sock").expect("a socket path"),
 //!     sim_addr: Some("127.0.0.1:7200".parse().unwrap()),
 //!     token: None,
 //!     web_dir: None,
@@ -39,7 +39,7 @@ use std::time::Duration;
 
 pub use assets::Assets;
 use session::Datagram;
-pub use session::Endpoint;
+pub use session::{Endpoint, EndpointError};
 
 /// Simulator datagrams queued per browser before newer ones are dropped.
 const SIM_QUEUE: usize = 64;
@@ -445,10 +445,32 @@ mod tests {
     }
 
     #[test]
+    fn a_controller_address_is_a_socket_path_or_host_and_port() {
+        assert!(matches!(
+            Endpoint::parse("/tmp/wrc/wrc.sock"),
+            Ok(Endpoint::Unix(_))
+        ));
+        for good in ["127.0.0.1:7100", "robot-1:7100", "[::1]:7100"] {
+            assert_eq!(
+                Endpoint::parse(good),
+                Ok(Endpoint::Tcp(good.into())),
+                "{good}"
+            );
+        }
+        for bad in ["nonsense:port", "7100", ":7100", "host:0", "host:70000", ""] {
+            let e = Endpoint::parse(bad).unwrap_err().to_string();
+            assert!(
+                e.contains("HOST:PORT") && e.contains(&format!("{bad:?}")),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
     fn off_loopback_needs_a_token() {
         let options = Options {
             listen: "0.0.0.0:0".parse().unwrap(),
-            controller: Endpoint::parse("127.0.0.1:1"),
+            controller: Endpoint::parse("127.0.0.1:1").unwrap(),
             sim_addr: None,
             token: None,
             web_dir: None,

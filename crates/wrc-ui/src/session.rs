@@ -35,13 +35,26 @@ pub enum Endpoint {
     Tcp(String),
 }
 
+/// The controller's address given to `wrc ui` is neither a socket path nor `HOST:PORT`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "the controller address {0:?} is neither the path of its Unix socket (with a `/`) nor \
+     HOST:PORT with a port 1..65535 (e.g. 192.168.1.10:7100)"
+)]
+pub struct EndpointError(pub String);
+
 impl Endpoint {
-    /// `HOST:PORT` is TCP; anything with a `/` is the path of a Unix socket.
-    pub fn parse(text: &str) -> Endpoint {
+    /// `HOST:PORT` is TCP (the host is resolved when connecting); anything with a `/` is the
+    /// path of a Unix socket.
+    pub fn parse(text: &str) -> Result<Endpoint, EndpointError> {
         if text.contains('/') {
-            Endpoint::Unix(PathBuf::from(text))
-        } else {
-            Endpoint::Tcp(text.to_string())
+            return Ok(Endpoint::Unix(PathBuf::from(text)));
+        }
+        let bad = || EndpointError(text.to_string());
+        let (host, port) = text.rsplit_once(':').ok_or_else(bad)?;
+        match port.parse::<u16>() {
+            Ok(p) if p != 0 && !host.is_empty() => Ok(Endpoint::Tcp(text.to_string())),
+            _ => Err(bad()),
         }
     }
 

@@ -49,9 +49,10 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
         libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
     }
     let listen = SocketAddr::new(args.listen, args.ui_port);
+    let controller = Endpoint::parse(&args.controller)?;
     let ui = Ui::start(Options {
         listen,
-        controller: Endpoint::parse(&args.controller),
+        controller: controller.clone(),
         sim_addr: (!args.no_sim).then_some(args.sim_addr),
         token: args.token.clone(),
         web_dir: args.web_dir.clone(),
@@ -70,7 +71,7 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
     };
     println!("wrc ui: GUI on http://{host}:{}{query}", addr.port());
     println!("wrc ui: app {}", ui.assets().describe());
-    println!("wrc ui: controller {}", Endpoint::parse(&args.controller));
+    println!("wrc ui: controller {controller}");
     match ui.sim_addr() {
         Some(a) => println!("wrc ui: simulator datagrams from udp {a}"),
         None => println!("wrc ui: no simulator stream (--no-sim)"),

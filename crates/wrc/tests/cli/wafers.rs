@@ -43,6 +43,29 @@ fn inject(c: &Controller, fault: &str) {
     assert!(out.status.success(), "{:?}", text(&out));
 }
 
+/// Wait until the controller's I/O Monitor reports input `n` as `on` (`IO`): an injected
+/// sensor change reaches the controller only at the I/O Monitor's next period, later under
+/// load. Regression: a PUT sent right after `sensor-flip 14 off` was refused with 135 in a
+/// loaded CI run, because the controller still saw the interlock closed.
+fn wait_input(host: &mut Client, n: u32, on: bool) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        let r = host.ask("IO");
+        let word = r
+            .split_whitespace()
+            .find_map(|f| f.strip_prefix("in="))
+            .and_then(|h| u32::from_str_radix(h, 16).ok());
+        if word.is_some_and(|w| (w >> n) & 1 == u32::from(on)) {
+            return;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "input {n} never became {on} at the controller: {r}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
 #[test]
 fn map_get_put_with_every_refusal_and_the_map_matches_the_cell() {
     let c = Controller::start(&[]);
@@ -90,9 +113,11 @@ fn map_get_put_with_every_refusal_and_the_map_matches_the_cell() {
     expect_nak(&mut host, 22, "PUT LP1 4", 132);
     // The interlock (input 14, held by the board) closed: refused before anything moves.
     inject(&c, "sensor-flip 14 on");
+    wait_input(&mut host, 14, false);
     let r = expect_nak(&mut host, 23, "PUT LP2 1", 135);
     assert!(r.contains("interlock"), "{r}");
     inject(&c, "sensor-flip 14 off");
+    wait_input(&mut host, 14, true);
 
     // PUT: into LP2 slot 1.
     assert_eq!(host.motion(24, "PUT LP2 1"), "INF 24 W3");

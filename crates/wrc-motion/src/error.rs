@@ -1,6 +1,6 @@
 //! Errors of the velocity generator: bad settings and moves that cannot be planned.
 
-use wrc_robot::{AxisName, KinematicsError};
+use wrc_robot::{AxisName, KinematicsError, Pose, Unit};
 
 /// A setting of the velocity generator that cannot be used; `key` names it as the
 /// configuration file does.
@@ -30,21 +30,33 @@ pub enum PlanError {
     /// The start or target pose cannot be reached, or a point along the path cannot.
     #[error(transparent)]
     Kinematics(#[from] KinematicsError),
-    /// A straight line whose wrist path comes too close to a singularity or leaves the
-    /// workspace somewhere between its ends.
+    /// A straight line that leaves the workspace somewhere between its ends: its wrist
+    /// point comes within the singularity margin of the stretched or folded arm, or a joint
+    /// would leave its limits (joints are followed continuously along the line, never
+    /// wrapped a turn).
     #[error(
-        "the straight line leaves the workspace at {fraction_pct:.1} % of its length \
-         (x={x:.3} y={y:.3} mm): {reason}"
+        "the straight line {problem} from {fraction_pct:.1} % of its length on \
+         (x={x:.3} y={y:.3} z={z:.3} yaw={yaw:.3})",
+        x = pose.x, y = pose.y, z = pose.z, yaw = pose.yaw
     )]
     PathLeavesWorkspace {
-        /// Where along the line, 0-100 [%].
+        /// Where along the line the problem starts, 0-100 [%] of the path parameter (the
+        /// TCP's distance, or the hand's turn for a pure rotation).
         fraction_pct: f64,
-        /// TCP x there [mm].
-        x: f64,
-        /// TCP y there [mm].
-        y: f64,
+        /// The TCP pose there [mm, mm, mm, deg].
+        pose: Pose,
         /// What happens there.
-        reason: PathProblem,
+        problem: PathProblem,
+    },
+    /// A straight line that the timing law cannot take to its end within the limits (a
+    /// geometry so close to a singular spot that no motion keeps every limit there).
+    #[error(
+        "the straight line cannot be timed within the joint limits beyond {fraction_pct:.1} % \
+         of its length; move in two steps or use MOVP"
+    )]
+    Untimed {
+        /// How far the law got [%].
+        fraction_pct: f64,
     },
     /// A straight line would need the elbow to flip between the two postures.
     #[error("the straight line needs the elbow to change posture on the way; move in two steps or use MOVP")]
@@ -87,16 +99,46 @@ pub enum PlanError {
 }
 
 /// Why a straight path is refused at some point.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PathProblem {
     /// The wrist point comes within the singularity margin of the stretched arm.
-    #[error("the arm would be (nearly) stretched")]
-    Stretched,
+    #[error(
+        "comes too close to the stretched arm (the wrist point {r_mm:.3} mm from the \
+         shoulder, at most {limit_mm:.3} mm allowed)"
+    )]
+    Stretched {
+        /// Distance of the wrist point from the shoulder there [mm].
+        r_mm: f64,
+        /// Largest allowed distance: L1 + L2 minus the singularity margin [mm].
+        limit_mm: f64,
+    },
     /// The wrist point comes within the singularity margin of the folded arm.
-    #[error("the arm would be (nearly) folded")]
-    Folded,
+    #[error(
+        "comes too close to the folded arm (the wrist point {r_mm:.3} mm from the \
+         shoulder, at least {limit_mm:.3} mm needed)"
+    )]
+    Folded {
+        /// Distance of the wrist point from the shoulder there [mm].
+        r_mm: f64,
+        /// Smallest allowed distance: |L1 − L2| plus the singularity margin [mm].
+        limit_mm: f64,
+    },
     /// A joint would leave its limits.
-    #[error("a joint would leave its limits")]
-    JointLimit,
+    #[error(
+        "needs axis {axis} beyond its limits [{min}, {max}] (it would reach {extreme:.3} {unit})",
+        unit = unit.as_str()
+    )]
+    JointLimit {
+        /// The axis.
+        axis: AxisName,
+        /// Its unit.
+        unit: Unit,
+        /// The farthest value the line would take it to (beyond `min` or `max`) [unit].
+        extreme: f64,
+        /// Lower soft limit [unit].
+        min: f64,
+        /// Upper soft limit [unit].
+        max: f64,
+    },
 }

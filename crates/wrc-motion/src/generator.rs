@@ -7,13 +7,15 @@
 //! so all of it can run in the real-time Velocity Generator task. The commanded position is
 //! by definition the sum of the pulses emitted; no pulse is ever lost or invented.
 
-use wrc_robot::{IkCheck, Joints, Pose, Posture, Robot, MAX_AXES};
+use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
 use crate::double_s::DoubleS;
 use crate::error::{PlanError, SettingsError};
+use crate::line_profile::{Bounds, LineProfile};
 use crate::paper::PaperChannel;
-use crate::path::LinePath;
+use crate::path::{line_path, DerivTable, Derivs, LineAxes, LinePath};
 use crate::settings::{check_speed_pct, MotionSettings, Profile};
+use crate::solutions::ptp_target;
 
 /// Path-parameter resolution of a straight line under the paper profile [counts per line].
 const LINE_COUNTS: i64 = 1 << 40;
@@ -89,6 +91,26 @@ enum Law {
     Paper([PaperChannel; MAX_AXES]),
 }
 
+/// Timing law of a straight line.
+#[derive(Debug, Clone, Copy)]
+enum LineLaw {
+    /// The default profile: the path parameter's time-optimal jerk-limited law, planned at
+    /// 100 % and played at `scale` × real time.
+    Timed {
+        profile: LineProfile,
+        bounds: Bounds,
+        /// Speed override as a fraction: plan time = scale × time.
+        scale: f64,
+        /// The derivative table this law was planned with ([`DerivTable::id`]); another
+        /// generator computes the derivatives on the spot instead.
+        table: u64,
+    },
+    /// The paper profile on u, with limits constant along the line.
+    Paper(PaperChannel),
+}
+
+/// The move under way (fixed-size on purpose, as [`Law`]).
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
 enum Active {
     Idle,
@@ -99,7 +121,7 @@ enum Active {
     },
     Line {
         path: LinePath,
-        law: Law,
+        law: LineLaw,
         target: [i64; MAX_AXES],
         last: Joints,
     },
@@ -139,6 +161,10 @@ pub struct VelocityGenerator {
     /// Periods done in the active move.
     k: u64,
     stopped: bool,
+    /// The axes a straight line moves.
+    line_axes: LineAxes,
+    /// Derivatives of the last line planned (preallocated: planning does not allocate).
+    table: DerivTable,
 }
 
 impl VelocityGenerator {
@@ -146,6 +172,7 @@ impl VelocityGenerator {
     pub fn new(robot: Robot, settings: MotionSettings) -> Result<VelocityGenerator, SettingsError> {
         settings.validate()?;
         let position = robot.joints_to_pulses(&robot.home());
+        let line_axes = LineAxes::of(&robot);
         Ok(VelocityGenerator {
             robot,
             settings,
@@ -153,6 +180,8 @@ impl VelocityGenerator {
             active: Active::Idle,
             k: 0,
             stopped: false,
+            line_axes,
+            table: DerivTable::new(),
         })
     }
 
@@ -263,7 +292,9 @@ impl VelocityGenerator {
     }
 
     /// Plan a PTP move to a Cartesian pose with the given elbow posture, or the current one
-    /// when `None` (right-handed if the arm is exactly straight).
+    /// when `None` (right-handed if the arm is exactly straight). Where the joint ranges
+    /// allow several solutions (the shoulder or the hand a turn apart), the move goes to the
+    /// one it reaches soonest ([`crate::ptp_target`]).
     pub fn plan_ptp_pose(
         &mut self,
         target: &Pose,
@@ -274,7 +305,7 @@ impl VelocityGenerator {
         let posture = posture
             .or_else(|| Posture::of(&self.robot, &current))
             .unwrap_or(Posture::Right);
-        let joints = self.robot.inverse(target, posture, Some(&current))?;
+        let joints = ptp_target(&self.robot, &current, target, posture)?;
         self.plan_ptp(&joints)
     }
 
@@ -304,57 +335,70 @@ impl VelocityGenerator {
     }
 
     /// Plan a straight line of the TCP from the current pose to `target`, keeping the current
-    /// elbow posture. Refused before any pulse when any point of the line is out of reach,
-    /// too close to a singularity, or needs a joint beyond its limits.
+    /// elbow posture and following every joint continuously. Refused before any pulse when
+    /// any point of the line is out of reach, too close to a singularity, or needs a joint
+    /// beyond its limits (the error names the axis, where along the line and the pose).
+    ///
+    /// Under the default profile the line is timed by the time-optimal jerk-limited law of
+    /// [`crate::line_profile`](self#straight-lines); planning checks the whole line and runs
+    /// the law once to its end (for the duration), which takes some hundreds of
+    /// microseconds to a few milliseconds (docs/motion.md), without allocating.
     pub fn plan_line(&mut self, target: &Pose) -> Result<MoveInfo, PlanError> {
         self.ensure_idle()?;
         let current = self.joints();
-        let posture = Posture::of(&self.robot, &current).ok_or(PlanError::PathLeavesWorkspace {
-            fraction_pct: 0.0,
-            x: self.pose().x,
-            y: self.pose().y,
-            reason: crate::error::PathProblem::Stretched,
-        })?;
-        // The target itself, with a clear message if only the other posture reaches it.
-        if let Err(err) = self.robot.inverse(target, posture, Some(&current)) {
-            let other = match posture {
-                Posture::Right => Posture::Left,
-                Posture::Left => Posture::Right,
-            };
-            return Err(match self.robot.inverse(target, other, Some(&current)) {
-                Ok(_) => PlanError::PostureChange,
-                Err(_) => PlanError::Kinematics(err),
-            });
-        }
-        let start = self.robot.forward(&current);
-        let path = LinePath::new(&self.robot, start, *target, posture);
-        let (limits, end_joints) =
-            path.plan(&self.robot, &current, &self.settings.line, self.scale())?;
-        let target_pulses = self.robot.joints_to_pulses(&end_joints);
-        if limits.v <= 0.0
-            || target_pulses[..self.robot.axis_count()] == self.position[..self.robot.axis_count()]
-        {
+        let (path, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
+        let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
+        let n = self.robot.axis_count();
+        if target_pulses[..n] == self.position[..n] {
             return Ok(self.nothing_to_do());
         }
-        let mut rest = [DoubleS::REST; MAX_AXES];
+        let ts = self.settings.period_s;
+        let length = path.length_mm();
         let (law, info) = match self.settings.profile {
             Profile::Fir => {
-                rest[0] = DoubleS::time_optimal(1.0, limits.v, limits.a, limits.j);
-                (Law::Fir(rest), self.fir_info(&rest, Sync::Single))
-            }
-            Profile::Paper { mask_len } => {
-                let half = (mask_len / 2) as u64;
-                let ts = self.settings.period_s;
-                let rate = paper_rate(limits.v, limits.a, limits.j, half, ts) * ts; // u per period
-                let periods = ((1.0 / rate).ceil() as u64).max(2 * half);
-                let mut ch = [PaperChannel::new(0, 1, half); MAX_AXES];
-                ch[0] = PaperChannel::new(LINE_COUNTS, periods, half);
+                let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length);
+                let table = &self.table;
+                let derivs = |u: f64| table.at(u);
+                let profile = LineProfile::start(&bounds, &derivs);
+                // Run the law to its end once: the duration, and proof that it gets there.
+                let mut dry = profile;
+                let end_t = dry.run_to_end(&bounds, &derivs);
+                if !dry.completed() {
+                    return Err(PlanError::Untimed {
+                        fraction_pct: 100.0 * dry.at(&bounds, &derivs, end_t),
+                    });
+                }
+                let scale = self.scale();
+                let duration = end_t / scale;
+                let law = LineLaw::Timed {
+                    profile,
+                    bounds,
+                    scale,
+                    table: self.table.id,
+                };
                 let info = MoveInfo {
-                    duration_s: ch[0].total_periods() as f64 * ts,
-                    periods: ch[0].total_periods(),
+                    duration_s: duration,
+                    periods: periods_for(duration, ts),
                     sync: Sync::Single,
                 };
-                (Law::Paper(ch), info)
+                (law, info)
+            }
+            Profile::Paper { mask_len } => {
+                let limits =
+                    check.constant_limits(&self.robot, length, &self.settings.line, self.scale());
+                if limits.v <= 0.0 {
+                    return Ok(self.nothing_to_do());
+                }
+                let half = (mask_len / 2) as u64;
+                let rate = paper_rate(limits.v, limits.a, limits.j, half, ts) * ts; // u per period
+                let periods = ((1.0 / rate).ceil() as u64).max(2 * half);
+                let ch = PaperChannel::new(LINE_COUNTS, periods, half);
+                let info = MoveInfo {
+                    duration_s: ch.total_periods() as f64 * ts,
+                    periods: ch.total_periods(),
+                    sync: Sync::Single,
+                };
+                (LineLaw::Paper(ch), info)
             }
         };
         self.active = Active::Line {
@@ -487,24 +531,31 @@ impl VelocityGenerator {
     /// [`MoveEnd::Stopped`] unless it was already decelerating to its target.
     pub fn stop(&mut self) {
         let now = self.k as f64 * self.settings.period_s;
-        let law = match &mut self.active {
-            Active::Idle => return,
-            Active::Joint { law, .. } | Active::Line { law, .. } => law,
-        };
         let mut cut_short = false;
-        match law {
-            Law::Fir(profiles) => {
-                for p in profiles.iter_mut().filter(|p| p.t0 > 0.0) {
-                    p.stop_at(now);
-                    cut_short |= p.cut < p.t0;
+        match &mut self.active {
+            Active::Idle => return,
+            Active::Joint { law, .. } => match law {
+                Law::Fir(profiles) => {
+                    for p in profiles.iter_mut().filter(|p| p.t0 > 0.0) {
+                        p.stop_at(now);
+                        cut_short |= p.cut < p.t0;
+                    }
                 }
-            }
-            Law::Paper(channels) => {
-                for ch in channels.iter_mut() {
+                Law::Paper(channels) => {
+                    for ch in channels.iter_mut() {
+                        ch.stop();
+                        cut_short |= ch.final_pulses() != ch.distance();
+                    }
+                }
+            },
+            // Whether the brake ends short of the target is known when it has stopped.
+            Active::Line { law, .. } => match law {
+                LineLaw::Timed { profile, .. } => profile.stop(),
+                LineLaw::Paper(ch) => {
                     ch.stop();
                     cut_short |= ch.final_pulses() != ch.distance();
                 }
-            }
+            },
         }
         self.stopped |= cut_short;
     }
@@ -577,33 +628,43 @@ impl VelocityGenerator {
                 self.k += 1;
                 let t = self.k as f64 * self.settings.period_s;
                 let (u, done, complete) = match law {
-                    Law::Fir(p) => {
-                        let done = t >= p[0].end_time();
-                        let f = if done {
-                            p[0].final_fraction()
+                    LineLaw::Timed {
+                        profile,
+                        bounds,
+                        scale,
+                        table,
+                    } => {
+                        let u = if *table == self.table.id {
+                            let tab = &self.table;
+                            profile.at(bounds, &|u: f64| tab.at(u), t * *scale)
                         } else {
-                            p[0].fraction(t)
+                            // Another generator's plan (e.g. restored to stop it): the
+                            // derivatives from the kinematics, exactly.
+                            let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
+                            let derivs = |u: f64| {
+                                path.jets_at(robot, u, &reference)
+                                    .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
+                            };
+                            profile.at(bounds, &derivs, t * *scale)
                         };
-                        (f, done, done && f == 1.0)
+                        let done = profile.done();
+                        let complete = profile.completed();
+                        self.stopped |= done && !complete;
+                        (u, done, complete)
                     }
-                    Law::Paper(ch) => {
-                        ch[0].next_pulses();
-                        let done = ch[0].done();
+                    LineLaw::Paper(ch) => {
+                        ch.next_pulses();
+                        let done = ch.done();
                         (
-                            ch[0].emitted() as f64 / LINE_COUNTS as f64,
+                            ch.emitted() as f64 / LINE_COUNTS as f64,
                             done,
-                            done && ch[0].emitted() == LINE_COUNTS,
+                            done && ch.emitted() == LINE_COUNTS,
                         )
                     }
                 };
-                // Points between planning samples were checked within half the singularity
-                // margin; follow the path without re-applying margin and soft limits.
-                if let Ok(q) = self.robot.inverse_checked(
-                    &path.pose_at(u),
-                    path.posture,
-                    Some(last),
-                    IkCheck::CONTINUE,
-                ) {
+                // Every point of the line was checked when it was planned: follow it,
+                // continuing each joint from the last period's.
+                if let Some(q) = path.joints_at(&self.robot, u, last) {
                     *last = q;
                 }
                 out.exact = *last;

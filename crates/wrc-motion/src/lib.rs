@@ -33,16 +33,21 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod bench;
 mod double_s;
 mod error;
 mod generator;
+pub mod line_profile;
 mod paper;
 mod path;
+pub mod reference;
 mod settings;
+mod solutions;
 
 pub use double_s::DoubleS;
 pub use error::{PathProblem, PlanError, SettingsError};
 pub use generator::{MotionState, MoveEnd, MoveInfo, Period, Status, Sync, VelocityGenerator};
 pub use paper::PaperChannel;
-pub use path::{LinePath, PathLimits};
+pub use path::{check_line, LinePath, PathCheck, PathLimits};
 pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};
+pub use solutions::ptp_target;

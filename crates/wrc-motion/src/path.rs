@@ -1,23 +1,42 @@
 //! Straight-line paths (the paper's Table 2): the TCP moves on the segment from a start pose
 //! to a target pose, parametrised by u in [0, 1]; the hand's yaw and the Z height change
-//! linearly with u. Planning checks the whole segment against the workspace and the joint
-//! limits and derives velocity, acceleration and jerk limits for u such that no joint exceeds
-//! its own limits anywhere on the segment.
+//! linearly with u. This module holds the geometry: the pose and the joints at any u, the
+//! check of every point of a line against the workspace and the joint limits, and the
+//! joints' derivatives along it, which the timing law needs.
 //!
-//! Joint speeds along a line are q̇ = q'(u)·u̇, and near the stretched or folded arm |q'(u)|
-//! grows like 1/sin θ2. With m1, m2, m3 the maxima of |q'|, |q''|, |q'''| over the segment:
-//!   q̇ <= m1·V_u,  q̈ <= m1·A_u + m2·V_u²,  q⃛ <= m1·J_u + 3·m2·V_u·A_u + m3·V_u³,
-//! so V_u, A_u, J_u are chosen to keep each sum within the joint's limit. The limits are
-//! constant along the segment (conservative near singular spots, exact elsewhere). Planning
-//! samples the segment (no allocation: a rolling window of five IK solutions).
+//! Joints are followed *continuously* along a line (the inverse kinematics on
+//! [`wrc_robot::Jet`]s continues each angle from the previous point, never wrapping a turn),
+//! so a line on which the shoulder would pass ±180° either stays in a joint range wider
+//! than 360° or is refused, with the axis, where along the line and the pose there.
+//!
+//! The check samples the line densely and finds, between samples, every crossing of a
+//! limit and every extremum of a joint or of the wrist radius exactly (by bisection and
+//! Newton steps on the exact derivatives), so a limit passed between two samples is found
+//! too. Planning and the check do not allocate; the derivative table is preallocated.
 
-use wrc_robot::{Joints, KinematicsError, Pose, Posture, Robot};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use wrc_robot::{JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES};
 
 use crate::error::{PathProblem, PlanError};
 use crate::settings::LineLimits;
 
-/// Safety factor on sampled derivative maxima (the true maximum may fall between samples).
+/// Spacing of the samples that check a line and tabulate its derivatives: along the TCP
+/// path [mm] (and the Z travel).
+pub const SAMPLE_MM: f64 = 0.5;
+/// Spacing of the samples of the hand's turn [deg].
+pub const SAMPLE_DEG: f64 = 0.25;
+/// Fewest sample intervals along a line.
+pub const MIN_INTERVALS: usize = 64;
+/// Most sample intervals along a line (a longer line is sampled more coarsely).
+pub const MAX_INTERVALS: usize = 2048;
+
+/// Safety factor on sampled derivative maxima (the true maximum may fall between samples),
+/// for the constant limits of the paper profile.
 const DERIVATIVE_MARGIN: f64 = 1.05;
+
+/// Most moving axes of a line: shoulder, elbow, wrist, Z.
+pub(crate) const LINE_AXES: usize = 4;
 
 /// A straight segment in Cartesian space.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,8 +49,8 @@ pub struct LinePath {
     pub posture: Posture,
 }
 
-/// Limits of the path parameter u derived from the joints and the Cartesian limits
-/// [1/s, 1/s², 1/s³].
+/// Limits of the path parameter u derived from the joints and the Cartesian limits, constant
+/// along a line [1/s, 1/s², 1/s³] (the paper profile's: see [`PathCheck::constant_limits`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathLimits {
     /// Velocity of u [1/s].
@@ -42,13 +61,190 @@ pub struct PathLimits {
     pub j: f64,
 }
 
-fn wrap180(deg: f64) -> f64 {
+/// What the check of a whole line found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathCheck {
+    /// Joints at u = 1, continued along the line from the start.
+    pub end_joints: Joints,
+    /// Largest |q'|, |q''|, |q'''| of every axis over the samples [unit per u, u², u³].
+    pub max_derivatives: [[f64; 3]; MAX_AXES],
+}
+
+/// The axes a line moves (shoulder, elbow, then wrist and Z if the robot has them): their
+/// indices among the robot's axes, and how many there are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct LineAxes {
+    pub idx: [usize; LINE_AXES],
+    pub n: usize,
+}
+
+impl LineAxes {
+    pub(crate) fn of(robot: &Robot) -> LineAxes {
+        let arm = robot.arm();
+        let mut idx = [arm.shoulder, arm.elbow, 0, 0];
+        let mut n = 2;
+        for i in [arm.wrist, arm.z].into_iter().flatten() {
+            idx[n] = i;
+            n += 1;
+        }
+        LineAxes { idx, n }
+    }
+}
+
+/// The derivatives of the moving axes ([`LineAxes`] order) at one point of a line:
+/// q', q'', q''' [unit per u, u², u³].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Derivs {
+    pub d1: [f64; LINE_AXES],
+    pub d2: [f64; LINE_AXES],
+    pub d3: [f64; LINE_AXES],
+}
+
+impl Derivs {
+    pub(crate) fn of(jets: &JointJets, axes: &LineAxes) -> Derivs {
+        let mut d = Derivs::default();
+        for k in 0..axes.n {
+            let j = jets.joints[axes.idx[k]].d;
+            d.d1[k] = j[1];
+            d.d2[k] = j[2];
+            d.d3[k] = j[3];
+        }
+        d
+    }
+}
+
+/// Identity of the next derivative table filled (0 means none), unique in the process.
+static NEXT_TABLE_ID: AtomicU64 = AtomicU64::new(1);
+
+/// The derivatives of a line's axes tabulated at evenly spaced u, interpolated between
+/// (cubic Hermite for q' and q'', whose derivatives are tabulated too; linear for q''').
+/// Preallocated once; filling it for a new line does not allocate.
+#[derive(Clone)]
+pub(crate) struct DerivTable {
+    /// Which plan the table holds (0: none).
+    pub id: u64,
+    intervals: usize,
+    points: Box<[Derivs]>,
+}
+
+impl DerivTable {
+    pub(crate) fn new() -> DerivTable {
+        DerivTable {
+            id: 0,
+            intervals: 0,
+            points: vec![Derivs::default(); MAX_INTERVALS + 1].into_boxed_slice(),
+        }
+    }
+
+    /// The derivatives at `u` in [0, 1].
+    #[inline]
+    pub(crate) fn at(&self, u: f64) -> Derivs {
+        let n = self.intervals;
+        let x = u.clamp(0.0, 1.0) * n as f64;
+        let i = (x as usize).min(n.saturating_sub(1));
+        let f = x - i as f64;
+        let (p, q) = (&self.points[i], &self.points[i + 1]);
+        let du = 1.0 / n as f64;
+        // Cubic Hermite basis on [0, 1].
+        let (f2, f3) = (f * f, f * f * f);
+        let h00 = 2.0 * f3 - 3.0 * f2 + 1.0;
+        let h10 = f3 - 2.0 * f2 + f;
+        let h01 = -2.0 * f3 + 3.0 * f2;
+        let h11 = f3 - f2;
+        let mut d = Derivs::default();
+        for k in 0..LINE_AXES {
+            d.d1[k] = h00 * p.d1[k] + h10 * du * p.d2[k] + h01 * q.d1[k] + h11 * du * q.d2[k];
+            d.d2[k] = h00 * p.d2[k] + h10 * du * p.d3[k] + h01 * q.d2[k] + h11 * du * q.d3[k];
+            d.d3[k] = p.d3[k] + f * (q.d3[k] - p.d3[k]);
+        }
+        d
+    }
+}
+
+impl std::fmt::Debug for DerivTable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DerivTable")
+            .field("id", &self.id)
+            .field("intervals", &self.intervals)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The straight line of the TCP from the pose of the joints `start` to `target`, keeping
+/// the elbow posture of `start`, checked at every point ([`LinePath::check`]): what
+/// [`crate::VelocityGenerator::plan_line`] checks before planning, for callers that need
+/// the verdict (or the end joints) without planning the motion.
+pub fn check_line(
+    robot: &Robot,
+    start: &Joints,
+    target: &Pose,
+) -> Result<(LinePath, PathCheck), PlanError> {
+    line_path(robot, start, target, None)
+}
+
+/// [`check_line`], tabulating the derivatives into `table`.
+pub(crate) fn line_path(
+    robot: &Robot,
+    start: &Joints,
+    target: &Pose,
+    table: Option<&mut DerivTable>,
+) -> Result<(LinePath, PathCheck), PlanError> {
+    let from = robot.forward(start);
+    let Some(posture) = Posture::of(robot, start) else {
+        // The elbow is exactly straight or folded: no posture to keep.
+        let r = robot.wrist_radius(&from);
+        let arm = robot.arm();
+        let stretched = robot.axes()[arm.elbow].min <= 0.0 && start[arm.elbow].abs() < 90.0;
+        let problem = if stretched {
+            PathProblem::Stretched {
+                r_mm: r,
+                limit_mm: arm.link1_mm + arm.link2_mm - arm.singularity_margin_mm,
+            }
+        } else {
+            PathProblem::Folded {
+                r_mm: r,
+                limit_mm: (arm.link1_mm - arm.link2_mm).abs() + arm.singularity_margin_mm,
+            }
+        };
+        return Err(PlanError::PathLeavesWorkspace {
+            fraction_pct: 0.0,
+            pose: from,
+            problem,
+        });
+    };
+    // The target itself, with a clear message if only the other posture reaches it.
+    if let Err(err) = robot.inverse(target, posture, Some(start)) {
+        let other = match posture {
+            Posture::Right => Posture::Left,
+            Posture::Left => Posture::Right,
+        };
+        return Err(match robot.inverse(target, other, Some(start)) {
+            Ok(_) => PlanError::PostureChange,
+            Err(_) => PlanError::Kinematics(err),
+        });
+    }
+    let path = LinePath::new(robot, from, *target, posture);
+    let check = path.scan(robot, start, table)?;
+    Ok((path, check))
+}
+
+/// Wrap an angle into (-180, 180] [deg].
+pub(crate) fn wrap180(deg: f64) -> f64 {
     let w = deg.rem_euclid(360.0);
     if w > 180.0 {
         w - 360.0
     } else {
         w
     }
+}
+
+/// What the scan of a line tracks between two samples of one quantity (a joint or the wrist
+/// radius): its value and slope at the previous sample.
+#[derive(Clone, Copy)]
+struct Sample {
+    u: f64,
+    value: f64,
+    slope: f64,
 }
 
 impl LinePath {
@@ -89,102 +285,363 @@ impl LinePath {
         }
     }
 
-    /// Joints at parameter `u`, continuing from `reference` (the previous point's joints).
+    /// The pose at `u` with its derivatives with respect to u.
     #[inline]
-    pub fn joints_at(
+    pub fn pose_jet(&self, u: f64) -> PoseJet {
+        let p = self.pose_at(u);
+        PoseJet {
+            x: wrc_robot::Jet::variable(p.x, self.delta.x),
+            y: wrc_robot::Jet::variable(p.y, self.delta.y),
+            z: wrc_robot::Jet::variable(p.z, self.delta.z),
+            yaw: wrc_robot::Jet::variable(p.yaw, self.delta.yaw),
+        }
+    }
+
+    /// The joints at `u` and their derivatives along the line, continued from `reference`
+    /// (the joints at a nearby point of the line).
+    #[inline]
+    pub fn jets_at(
         &self,
         robot: &Robot,
         u: f64,
         reference: &Joints,
-    ) -> Result<Joints, KinematicsError> {
-        robot.inverse(&self.pose_at(u), self.posture, Some(reference))
+    ) -> Result<JointJets, KinematicsError> {
+        robot.inverse_jet(&self.pose_jet(u), self.posture, reference)
     }
 
-    /// Check every point of the segment and derive the limits of u. `start_joints` are the
-    /// joints at u = 0; `scale` is the speed override as a fraction (0, 1]. Returns the
-    /// limits and the joints at u = 1.
-    pub fn plan(
+    /// The joints at `u` continued from `reference`, with no check of limits or margin
+    /// (for points of a line that [`LinePath::check`] accepted).
+    #[inline]
+    pub fn joints_at(&self, robot: &Robot, u: f64, reference: &Joints) -> Option<Joints> {
+        let jets = self.jets_at(robot, u, reference).ok()?;
+        let mut q = *reference;
+        for (q, j) in q.iter_mut().zip(&jets.joints).take(robot.axis_count()) {
+            *q = j.value();
+        }
+        Some(q)
+    }
+
+    /// Number of sample intervals used to check and tabulate this line.
+    pub fn intervals(&self) -> usize {
+        let n = (self.length_mm() / SAMPLE_MM)
+            .max(self.delta.yaw.abs() / SAMPLE_DEG)
+            .ceil();
+        if n.is_finite() {
+            (n as usize).clamp(MIN_INTERVALS, MAX_INTERVALS)
+        } else {
+            MAX_INTERVALS
+        }
+    }
+
+    /// Check every point of the line, following the joints continuously from
+    /// `start_joints` (the joints at u = 0): the wrist point stays more than the singularity
+    /// margin away from the stretched and folded arm, and every joint within its limits.
+    /// Limits crossed and extrema reached between samples are found exactly. On success
+    /// returns the joints at u = 1 and the derivative maxima.
+    pub fn check(&self, robot: &Robot, start_joints: &Joints) -> Result<PathCheck, PlanError> {
+        self.scan(robot, start_joints, None)
+    }
+
+    /// [`LinePath::check`], tabulating the derivatives into `table` for the timing law.
+    pub(crate) fn scan(
         &self,
         robot: &Robot,
         start_joints: &Joints,
-        line: &LineLimits,
-        scale: f64,
-    ) -> Result<(PathLimits, Joints), PlanError> {
-        let length = self.length_mm();
-        let margin = robot.arm().singularity_margin_mm;
-        let step_mm = if margin > 0.0 { 0.5 * margin } else { 0.05 };
-        let samples = ((length / step_mm).ceil() as usize).clamp(1000, 20000);
-        let h = 1.0 / samples as f64;
-        let n = robot.axis_count();
-
-        let fail = |u: f64, err: KinematicsError, path: &LinePath| -> PlanError {
-            let p = path.pose_at(u);
-            let reason = match err {
-                KinematicsError::TooFar { .. } => PathProblem::Stretched,
-                KinematicsError::TooClose { .. } => PathProblem::Folded,
-                KinematicsError::JointLimit { .. } => PathProblem::JointLimit,
-                other => return PlanError::Kinematics(other),
+        mut table: Option<&mut DerivTable>,
+    ) -> Result<PathCheck, PlanError> {
+        let axes = LineAxes::of(robot);
+        let n = self.intervals();
+        let arm = robot.arm();
+        let margin = arm.singularity_margin_mm;
+        let r_lo = (arm.link1_mm - arm.link2_mm).abs() + margin;
+        let r_hi = arm.link1_mm + arm.link2_mm - margin;
+        let mut max_derivatives = [[0.0; 3]; MAX_AXES];
+        let mut reference = *start_joints;
+        let mut prev_r: Option<Sample> = None;
+        let mut prev_q = [None::<Sample>; LINE_AXES];
+        for i in 0..=n {
+            let u = i as f64 / n as f64;
+            let jets = match self.jets_at(robot, u, &reference) {
+                Ok(j) => j,
+                Err(KinematicsError::NotFinite { what }) => {
+                    return Err(PlanError::NotFinite { what });
+                }
+                Err(_) => {
+                    // Beyond the stretched or folded arm: the margin was crossed since the
+                    // last sample (or the line starts there).
+                    let from = prev_r.map_or(0.0, |s| s.u);
+                    return Err(self.radius_refusal(robot, from, u, r_lo, r_hi));
+                }
             };
-            PlanError::PathLeavesWorkspace {
-                fraction_pct: 100.0 * u,
-                x: p.x,
-                y: p.y,
-                reason,
+            // The wrist radius, between the last sample and this one, then here.
+            let r = Sample {
+                u,
+                value: jets.wrist_radius.d[0],
+                slope: jets.wrist_radius.d[1],
+            };
+            if let Some(p) = prev_r {
+                if let Some(bad) = self.radius_between(robot, &p, &r, r_lo, r_hi, &reference) {
+                    return Err(bad);
+                }
+            }
+            if r.value <= r_lo || r.value >= r_hi {
+                let from = prev_r.map_or(0.0, |s| s.u);
+                return Err(self.radius_refusal(robot, from, u, r_lo, r_hi));
+            }
+            prev_r = Some(r);
+            // Every moving joint, between the samples and here.
+            for (&ax, prev) in axes.idx[..axes.n].iter().zip(prev_q.iter_mut()) {
+                let jet = jets.joints[ax].d;
+                let s = Sample {
+                    u,
+                    value: jet[0],
+                    slope: jet[1],
+                };
+                let axis = &robot.axes()[ax];
+                let extremum =
+                    prev.and_then(|p| self.extremum_between(robot, &p, &s, ax, &reference));
+                let worst = extremum.map_or(s, |e| if axis.within_limits(e.value) { s } else { e });
+                if !axis.within_limits(worst.value) {
+                    let from = prev.map_or(0.0, |p| p.u);
+                    return Err(self.joint_refusal(robot, ax, from, worst.u, &reference));
+                }
+                *prev = Some(s);
+                let m: &mut [f64; 3] = &mut max_derivatives[ax];
+                for (o, d) in m.iter_mut().zip(&jet[1..]) {
+                    *o = o.max(d.abs());
+                }
+            }
+            for (q, j) in reference
+                .iter_mut()
+                .zip(&jets.joints)
+                .take(robot.axis_count())
+            {
+                *q = j.value();
+            }
+            if let Some(t) = table.as_deref_mut() {
+                t.points[i] = Derivs::of(&jets, &axes);
+            }
+        }
+        if let Some(t) = table {
+            t.intervals = n;
+            t.id = NEXT_TABLE_ID.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(PathCheck {
+            end_joints: reference,
+            max_derivatives,
+        })
+    }
+
+    /// Between two samples of the wrist radius: a crossing of the allowed band, or an
+    /// interior extremum outside it.
+    fn radius_between(
+        &self,
+        robot: &Robot,
+        a: &Sample,
+        b: &Sample,
+        lo: f64,
+        hi: f64,
+        reference: &Joints,
+    ) -> Option<PlanError> {
+        // An interior extremum exists when the slope changes sign.
+        if a.slope * b.slope >= 0.0 {
+            return None;
+        }
+        let radius = |u: f64| {
+            self.jets_at(robot, u, reference)
+                .map(|j| (j.wrist_radius.d[0], j.wrist_radius.d[1]))
+                .ok()
+        };
+        let e = find_extremum(a, b, |u| radius(u).map(|(_, s)| s));
+        let value = radius(e).map_or(f64::NAN, |(v, _)| v);
+        if value.is_nan() || value <= lo || value >= hi {
+            Some(self.radius_refusal(robot, a.u, e, lo, hi))
+        } else {
+            None
+        }
+    }
+
+    /// The refusal for a wrist radius that leaves (lo, hi) somewhere in (`from`, `to`]: the
+    /// first point where it does, found by bisection.
+    fn radius_refusal(&self, robot: &Robot, from: f64, to: f64, lo: f64, hi: f64) -> PlanError {
+        let r_at = |u: f64| robot.wrist_radius(&self.pose_at(u));
+        let inside = |u: f64| {
+            let r = r_at(u);
+            r > lo && r < hi
+        };
+        let u = if inside(from) {
+            first_failure(from, to, |u| !inside(u))
+        } else {
+            from
+        };
+        let r = r_at(u);
+        let problem = if (r - hi).abs() < (r - lo).abs() {
+            PathProblem::Stretched {
+                r_mm: r,
+                limit_mm: hi,
+            }
+        } else {
+            PathProblem::Folded {
+                r_mm: r,
+                limit_mm: lo,
             }
         };
-
-        // Rolling window of joint vectors at u = (i-4..=i)·h; derivatives at its centre.
-        let mut window: [Joints; 5] = [*start_joints; 5];
-        let (mut m1, mut m2, mut m3) = (
-            [0.0f64; wrc_robot::MAX_AXES],
-            [0.0f64; wrc_robot::MAX_AXES],
-            [0.0f64; wrc_robot::MAX_AXES],
-        );
-        let mut last = *start_joints;
-        for i in 1..=samples {
-            let u = i as f64 * h;
-            let q = self
-                .joints_at(robot, u, &last)
-                .map_err(|e| fail(u, e, self))?;
-            last = q;
-            window.rotate_left(1);
-            window[4] = q;
-            if i >= 2 {
-                // centre of the last three: first and second derivatives
-                for ax in 0..n {
-                    let (a, b, c) = (window[2][ax], window[3][ax], window[4][ax]);
-                    m1[ax] = m1[ax].max(((c - a) / (2.0 * h)).abs());
-                    m2[ax] = m2[ax].max(((c - 2.0 * b + a) / (h * h)).abs());
-                }
-            }
-            if i >= 4 {
-                for ax in 0..n {
-                    let w = &window;
-                    let d3 =
-                        (w[4][ax] - 2.0 * w[3][ax] + 2.0 * w[1][ax] - w[0][ax]) / (2.0 * h * h * h);
-                    m3[ax] = m3[ax].max(d3.abs());
-                }
-            }
+        PlanError::PathLeavesWorkspace {
+            fraction_pct: 100.0 * u,
+            pose: self.pose_at(u),
+            problem,
         }
-        if samples < 2 {
-            // Never reached: samples >= 1000.
-            return Err(PlanError::TooLong("no samples"));
-        }
+    }
 
-        // Limits of u, as in the module doc.
+    /// Between two samples of joint `ax`: the interior extremum when its slope changes sign.
+    fn extremum_between(
+        &self,
+        robot: &Robot,
+        a: &Sample,
+        b: &Sample,
+        ax: usize,
+        reference: &Joints,
+    ) -> Option<Sample> {
+        if a.slope * b.slope >= 0.0 {
+            return None;
+        }
+        let joint = |u: f64| {
+            self.jets_at(robot, u, reference)
+                .map(|j| (j.joints[ax].d[0], j.joints[ax].d[1]))
+                .ok()
+        };
+        let e = find_extremum(a, b, |u| joint(u).map(|(_, s)| s));
+        joint(e).map(|(value, slope)| Sample { u: e, value, slope })
+    }
+
+    /// The refusal for joint `ax` leaving its limits somewhere in (`from`, `to`]: the first
+    /// point where it does, and the farthest value the rest of the line takes it to.
+    fn joint_refusal(
+        &self,
+        robot: &Robot,
+        ax: usize,
+        from: f64,
+        to: f64,
+        reference: &Joints,
+    ) -> PlanError {
+        let axis = &robot.axes()[ax];
+        let value = |u: f64, r: &Joints| self.jets_at(robot, u, r).ok().map(|j| j.joints[ax].d[0]);
+        let outside = |u: f64| value(u, reference).is_some_and(|v| !axis.within_limits(v));
+        let u = if outside(from) {
+            from
+        } else {
+            first_failure(from, to, outside)
+        };
+        // The farthest value: follow the rest of the line (continuously) while it is
+        // reachable at all.
+        let above = value(u, reference).is_some_and(|v| v > axis.max);
+        let mut extreme = value(u, reference).unwrap_or(if above { axis.max } else { axis.min });
+        let n = self.intervals();
+        let mut r = *reference;
+        let start = (u * n as f64).floor() as usize;
+        for i in start..=n {
+            let ui = (i as f64 / n as f64).max(u);
+            let Ok(jets) = self.jets_at(robot, ui, &r) else {
+                break;
+            };
+            for (q, j) in r.iter_mut().zip(&jets.joints).take(robot.axis_count()) {
+                *q = j.value();
+            }
+            let v = jets.joints[ax].d[0];
+            extreme = if above {
+                extreme.max(v)
+            } else {
+                extreme.min(v)
+            };
+        }
+        PlanError::PathLeavesWorkspace {
+            fraction_pct: 100.0 * u,
+            pose: self.pose_at(u),
+            problem: PathProblem::JointLimit {
+                axis: axis.name,
+                unit: axis.unit,
+                extreme,
+                min: axis.min,
+                max: axis.max,
+            },
+        }
+    }
+}
+
+/// The u in (a.u, b.u) where a slope that changes sign between two samples is zero:
+/// Newton steps on the slope's secant, kept inside a shrinking bracket (bisection when a
+/// step would leave it). `slope(u)` is `None` where the line cannot be evaluated.
+fn find_extremum(a: &Sample, b: &Sample, slope: impl Fn(f64) -> Option<f64>) -> f64 {
+    let (mut lo, mut hi) = (a.u, b.u);
+    let (mut s_lo, mut s_hi) = (a.slope, b.slope);
+    let mut u = 0.5 * (lo + hi);
+    for _ in 0..60 {
+        // Regula falsi with bisection as the fallback.
+        let guess = lo - s_lo * (hi - lo) / (s_hi - s_lo);
+        u = if guess.is_finite() && guess > lo && guess < hi {
+            guess
+        } else {
+            0.5 * (lo + hi)
+        };
+        let Some(s) = slope(u) else {
+            return u;
+        };
+        if s == 0.0 || hi - lo <= 1e-13 {
+            break;
+        }
+        if s.signum() == s_lo.signum() {
+            // Move the bracket; halve the stale end's weight (Illinois) to keep converging.
+            lo = u;
+            s_lo = s;
+            s_hi *= 0.5;
+        } else {
+            hi = u;
+            s_hi = s;
+            s_lo *= 0.5;
+        }
+    }
+    u
+}
+
+/// The first u in (from, to] where `fails(u)` holds, given that it holds at `to` and not at
+/// `from`, to 1e-12 in u.
+fn first_failure(from: f64, to: f64, fails: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (from, to);
+    while hi - lo > 1e-12 {
+        let mid = 0.5 * (lo + hi);
+        if fails(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+impl PathCheck {
+    /// The paper profile's limits of u, constant along the line: with m1, m2, m3 the maxima
+    /// of |q'|, |q''|, |q'''| over the line (plus 5 %), every joint keeps
+    /// q̇ ≤ m1·V_u, q̈ ≤ m1·A_u + m2·V_u², q⃛ ≤ m1·J_u + 3·m2·V_u·A_u + m3·V_u³
+    /// within its limits, and the TCP keeps the Cartesian ones. `scale` is the speed
+    /// override as a fraction (0, 1]. All zero when nothing moves.
+    pub fn constant_limits(
+        &self,
+        robot: &Robot,
+        length_mm: f64,
+        line: &LineLimits,
+        scale: f64,
+    ) -> PathLimits {
         let (s2, s3) = (scale * scale, scale * scale * scale);
-        let mut v = f64::INFINITY;
-        if length > 0.0 {
-            v = v.min(line.max_speed_mm_s * scale / length);
-        }
+        let n = robot.axis_count();
         let axes = robot.axes();
-        for ax in 0..n {
-            let (d1, d2, d3) = (
-                m1[ax] * DERIVATIVE_MARGIN,
-                m2[ax] * DERIVATIVE_MARGIN,
-                m3[ax] * DERIVATIVE_MARGIN,
-            );
-            let l = &axes[ax].limits;
+        let m = |ax: usize, k: usize| self.max_derivatives[ax][k] * DERIVATIVE_MARGIN;
+        let mut v = f64::INFINITY;
+        if length_mm > 0.0 {
+            v = v.min(line.max_speed_mm_s * scale / length_mm);
+        }
+        for (ax, axis) in axes.iter().enumerate().take(n) {
+            let l = &axis.limits;
+            let (d1, d2, d3) = (m(ax, 0), m(ax, 1), m(ax, 2));
             if d1 > 0.0 {
                 v = v.min(l.max_velocity * scale / d1);
             }
@@ -196,12 +653,12 @@ impl LinePath {
             }
         }
         let mut a = f64::INFINITY;
-        if length > 0.0 {
-            a = a.min(line.max_accel_mm_s2 * s2 / length);
+        if length_mm > 0.0 {
+            a = a.min(line.max_accel_mm_s2 * s2 / length_mm);
         }
-        for ax in 0..n {
-            let (d1, d2) = (m1[ax] * DERIVATIVE_MARGIN, m2[ax] * DERIVATIVE_MARGIN);
-            let l = &axes[ax].limits;
+        for (ax, axis) in axes.iter().enumerate().take(n) {
+            let l = &axis.limits;
+            let (d1, d2) = (m(ax, 0), m(ax, 1));
             if d1 > 0.0 {
                 a = a.min((l.max_acceleration * s2 - d2 * v * v) / d1);
             }
@@ -210,31 +667,69 @@ impl LinePath {
             }
         }
         let mut j = f64::INFINITY;
-        if length > 0.0 {
-            j = j.min(line.max_jerk_mm_s3 * s3 / length);
+        if length_mm > 0.0 {
+            j = j.min(line.max_jerk_mm_s3 * s3 / length_mm);
         }
-        for ax in 0..n {
-            let (d1, d2, d3) = (
-                m1[ax] * DERIVATIVE_MARGIN,
-                m2[ax] * DERIVATIVE_MARGIN,
-                m3[ax] * DERIVATIVE_MARGIN,
-            );
-            let l = &axes[ax].limits;
+        for (ax, axis) in axes.iter().enumerate().take(n) {
+            let l = &axis.limits;
+            let (d1, d2, d3) = (m(ax, 0), m(ax, 1), m(ax, 2));
             if d1 > 0.0 {
                 j = j.min((l.max_jerk * s3 - 3.0 * d2 * v * a - d3 * v * v * v) / d1);
             }
         }
         if !(v.is_finite() && a.is_finite() && j.is_finite()) || v <= 0.0 || a <= 0.0 || j <= 0.0 {
-            // Nothing moves (zero-length segment without rotation): no limits needed.
-            return Ok((
-                PathLimits {
-                    v: 0.0,
-                    a: 0.0,
-                    j: 0.0,
-                },
-                last,
-            ));
+            return PathLimits {
+                v: 0.0,
+                a: 0.0,
+                j: 0.0,
+            };
         }
-        Ok((PathLimits { v, a, j }, last))
+        PathLimits { v, a, j }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_interpolates_the_exact_derivatives() {
+        let robot = Robot::paper_default();
+        let a = Pose {
+            x: 120.0,
+            y: -250.0,
+            z: 10.0,
+            yaw: -20.0,
+        };
+        let b = Pose {
+            x: 200.0,
+            y: 260.0,
+            z: 60.0,
+            yaw: 80.0,
+        };
+        let path = LinePath::new(&robot, a, b, Posture::Right);
+        let start = robot.inverse(&a, Posture::Right, None).unwrap();
+        let mut table = DerivTable::new();
+        path.scan(&robot, &start, Some(&mut table)).unwrap();
+        let axes = LineAxes::of(&robot);
+        let mut reference = start;
+        for i in 0..=997 {
+            let u = i as f64 / 997.0;
+            let jets = path.jets_at(&robot, u, &reference).unwrap();
+            for (q, j) in reference.iter_mut().zip(&jets.joints).take(4) {
+                *q = j.value();
+            }
+            let exact = Derivs::of(&jets, &axes);
+            let t = table.at(u);
+            for k in 0..axes.n {
+                let rel = |x: f64, y: f64, s: f64| (x - y).abs() / s.max(1e-9);
+                let s1 = exact.d1[k].abs().max(1.0);
+                assert!(rel(t.d1[k], exact.d1[k], s1) < 1e-6, "u {u} axis {k} d1");
+                let s2 = exact.d2[k].abs().max(10.0);
+                assert!(rel(t.d2[k], exact.d2[k], s2) < 1e-4, "u {u} axis {k} d2");
+                let s3 = exact.d3[k].abs().max(100.0);
+                assert!(rel(t.d3[k], exact.d3[k], s3) < 1e-2, "u {u} axis {k} d3");
+            }
+        }
     }
 }

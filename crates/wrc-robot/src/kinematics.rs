@@ -6,6 +6,7 @@
 //! the hand from the J3 axis. No allocation, no I/O: safe in a real-time cycle.
 
 use crate::error::KinematicsError;
+use crate::jet::Jet;
 use crate::robot::{Joints, Robot, MAX_AXES};
 
 /// A Cartesian pose of the tool centre point.
@@ -19,6 +20,43 @@ pub struct Pose {
     pub z: f64,
     /// Hand direction, counter-clockwise from the base x axis [deg].
     pub yaw: f64,
+}
+
+/// A pose whose coordinates are [`Jet`]s along a path parameter u: x, y, z [mm] and yaw
+/// [deg], each with its derivatives with respect to u.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PoseJet {
+    /// x [mm] and its derivatives.
+    pub x: Jet,
+    /// y [mm] and its derivatives.
+    pub y: Jet,
+    /// z [mm] and its derivatives.
+    pub z: Jet,
+    /// yaw [deg] and its derivatives.
+    pub yaw: Jet,
+}
+
+impl PoseJet {
+    /// The pose at the jet's point.
+    pub fn value(&self) -> Pose {
+        Pose {
+            x: self.x.value(),
+            y: self.y.value(),
+            z: self.z.value(),
+            yaw: self.yaw.value(),
+        }
+    }
+}
+
+/// The inverse kinematics along a path at one point: every joint as a [`Jet`] (value and
+/// derivatives along the path), and the wrist point's distance from the shoulder axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointJets {
+    /// Joint values [deg or mm] and their derivatives; axes that the arm does not move
+    /// (auxiliary axes) are constants.
+    pub joints: [Jet; MAX_AXES],
+    /// Distance of the wrist (J3) point from the shoulder axis [mm], with its derivatives.
+    pub wrist_radius: Jet,
 }
 
 /// How strictly [`Robot::inverse_checked`] checks a target.
@@ -235,6 +273,86 @@ impl Robot {
         Ok(joints)
     }
 
+    /// Inverse kinematics on jets: the joints at a point of a path and their exact
+    /// derivatives along it. Angles are continued from `reference` (the nearest 360° turn,
+    /// *without* the soft limits: a path that needs a joint beyond its limits shows it,
+    /// instead of jumping a turn), so consecutive points of a path give continuous joints.
+    /// Neither the singularity margin nor the joint limits are checked; the wrist point must
+    /// lie strictly between the folded and stretched arm, where the derivatives are finite.
+    pub fn inverse_jet(
+        &self,
+        pose: &PoseJet,
+        posture: Posture,
+        reference: &Joints,
+    ) -> Result<JointJets, KinematicsError> {
+        let p = pose.value();
+        for (what, v) in [("x", p.x), ("y", p.y), ("z", p.z), ("yaw", p.yaw)] {
+            if !v.is_finite() {
+                return Err(KinematicsError::NotFinite { what });
+            }
+        }
+        let arm = self.arm();
+        let (l1, l2) = (arm.link1_mm, arm.link2_mm);
+        let (wx, wy) = if arm.hand_mm > 0.0 {
+            let yaw = pose.yaw.scale(std::f64::consts::PI / 180.0);
+            (
+                pose.x - yaw.cos().scale(arm.hand_mm),
+                pose.y - yaw.sin().scale(arm.hand_mm),
+            )
+        } else {
+            (pose.x, pose.y)
+        };
+        let r2 = wx * wx + wy * wy;
+        let r = r2.value().sqrt();
+        if r >= l1 + l2 {
+            return Err(KinematicsError::TooFar {
+                x: p.x,
+                y: p.y,
+                r,
+                max: l1 + l2,
+                margin: 0.0,
+            });
+        }
+        if r <= (l1 - l2).abs() || r <= 0.0 {
+            return Err(KinematicsError::TooClose {
+                x: p.x,
+                y: p.y,
+                r,
+                min: (l1 - l2).abs(),
+                margin: 0.0,
+            });
+        }
+        let c2 = r2.offset(-(l1 * l1 + l2 * l2)).scale(1.0 / (2.0 * l1 * l2));
+        let t2 = match posture {
+            Posture::Right => c2.acos(),
+            Posture::Left => -c2.acos(),
+        };
+        let beta = t2.sin().scale(l2).atan2(t2.cos().scale(l2).offset(l1));
+        let deg = 180.0 / std::f64::consts::PI;
+        let t1 = (wy.atan2(wx) - beta).scale(deg);
+        let t2 = t2.scale(deg);
+        let mut joints = [Jet::default(); MAX_AXES];
+        for (j, &r) in joints.iter_mut().zip(reference).take(self.axis_count()) {
+            *j = Jet::constant(r);
+        }
+        let turn = |j: Jet, near: f64| j.offset(360.0 * ((near - j.value()) / 360.0).round());
+        joints[arm.shoulder] = turn(t1, reference[arm.shoulder]);
+        joints[arm.elbow] = turn(t2, reference[arm.elbow]);
+        if let Some(w) = arm.wrist {
+            let t3 = pose.yaw - joints[arm.shoulder] - joints[arm.elbow];
+            joints[w] = turn(t3, reference[w]);
+        }
+        match arm.z {
+            Some(z) => joints[z] = pose.z,
+            None if p.z != 0.0 => return Err(KinematicsError::NoZAxis { z: p.z }),
+            None => {}
+        }
+        Ok(JointJets {
+            joints,
+            wrist_radius: r2.sqrt(),
+        })
+    }
+
     /// Among `angle + k·360°` within the axis limits (or anywhere, without `limits`), the
     /// one nearest `near`.
     fn nearest_turn(
@@ -356,6 +474,105 @@ mod tests {
             assert!(close(p.x, pose.x, 1e-9) && close(p.y, pose.y, 1e-9));
             assert!(close(p.yaw, pose.yaw, 1e-9) && close(p.z, pose.z, 1e-12));
         }
+    }
+
+    /// The pose jet of the straight segment a→b at parameter u (yaw linear too).
+    fn segment(a: Pose, b: Pose, u: f64) -> PoseJet {
+        let lin = |p: f64, q: f64| Jet::variable(p + u * (q - p), q - p);
+        PoseJet {
+            x: lin(a.x, b.x),
+            y: lin(a.y, b.y),
+            z: lin(a.z, b.z),
+            yaw: lin(a.yaw, b.yaw),
+        }
+    }
+
+    #[test]
+    fn joint_jets_are_the_derivatives_of_the_inverse_kinematics() {
+        let paper = Robot::paper_default();
+        let hand = Robot::new("hand", paper.axes().to_vec(), 200.0, 200.0, 120.0, 2.0).unwrap();
+        let a = Pose {
+            x: 150.0,
+            y: -120.0,
+            z: 10.0,
+            yaw: -40.0,
+        };
+        let b = Pose {
+            x: 60.0,
+            y: 230.0,
+            z: 90.0,
+            yaw: 70.0,
+        };
+        for robot in [paper, hand] {
+            for posture in [Posture::Right, Posture::Left] {
+                let q = |u: f64| {
+                    let p = segment(a, b, u).value();
+                    robot
+                        .inverse_checked(&p, posture, None, IkCheck::CONTINUE)
+                        .unwrap()
+                };
+                let q0 = q(0.0);
+                for u in [0.1, 0.45, 0.8] {
+                    let jets = robot
+                        .inverse_jet(&segment(a, b, u), posture, &q(u))
+                        .unwrap();
+                    for ax in 0..4 {
+                        // Steps for each order: finite differences lose digits as 1/h^k.
+                        let h = 2e-4;
+                        let f = |k: f64| {
+                            let mut v = q(u + k * h)[ax];
+                            // Continue across ±180°.
+                            v += 360.0 * ((q(u)[ax] - v) / 360.0).round();
+                            v
+                        };
+                        let d1 = (f(1.0) - f(-1.0)) / (2.0 * h);
+                        let d2 = (f(1.0) - 2.0 * f(0.0) + f(-1.0)) / (h * h);
+                        let d3 =
+                            (f(2.0) - 2.0 * f(1.0) + 2.0 * f(-1.0) - f(-2.0)) / (2.0 * h * h * h);
+                        let j = jets.joints[ax].d;
+                        assert!(close(j[0], f(0.0), 1e-9), "axis {ax} value");
+                        assert!(
+                            close(j[1], d1, 1e-4 * d1.abs().max(1.0)),
+                            "axis {ax} d1 {} {d1}",
+                            j[1]
+                        );
+                        assert!(
+                            close(j[2], d2, 1e-3 * d2.abs().max(1.0)),
+                            "axis {ax} d2 {} {d2}",
+                            j[2]
+                        );
+                        assert!(
+                            close(j[3], d3, 1e-2 * d3.abs().max(10.0)),
+                            "axis {ax} d3 {} {d3}",
+                            j[3]
+                        );
+                    }
+                    let r = robot.wrist_radius(&segment(a, b, u).value());
+                    assert!(close(jets.wrist_radius.value(), r, 1e-9));
+                }
+                let _ = q0;
+            }
+        }
+    }
+
+    #[test]
+    fn joint_jets_continue_past_the_soft_limits() {
+        // J1 near +180°: the reference decides the turn, the limits do not.
+        let robot = Robot::paper_default();
+        let pose = Pose {
+            x: -300.0,
+            y: 10.0,
+            z: 0.0,
+            yaw: 180.0,
+        };
+        let strict = robot.inverse(&pose, Posture::Left, None).unwrap();
+        let mut reference = strict;
+        reference[0] += 360.0;
+        let jets = robot
+            .inverse_jet(&segment(pose, pose, 0.0), Posture::Left, &reference)
+            .unwrap();
+        assert!(close(jets.joints[0].value(), strict[0] + 360.0, 1e-9));
+        assert!(jets.joints[0].value() > 180.0);
     }
 
     proptest! {

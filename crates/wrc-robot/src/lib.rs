@@ -18,10 +18,12 @@
 
 mod axis;
 mod error;
+mod jet;
 mod kinematics;
 mod robot;
 
 pub use axis::{Axis, AxisName, AxisRole, InlineName, Limits, Unit};
 pub use error::{KinematicsError, ModelError};
-pub use kinematics::{IkCheck, Pose, Posture};
+pub use jet::Jet;
+pub use kinematics::{IkCheck, JointJets, Pose, PoseJet, Posture};
 pub use robot::{Arm, Joints, Robot, MAX_AXES};

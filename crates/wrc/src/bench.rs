@@ -30,6 +30,9 @@ enum BenchWhat {
     /// ESTOP-to-deceleration latencies, and the Pulse Generator's jitter while many TCP
     /// clients poll STATUS.
     Controller(crate::bench_controller::ControllerArgs),
+    /// Straight lines against the time-optimal lower bound: random reachable lines planned
+    /// and run; durations, limits used, accuracy and planning time.
+    Motion(crate::bench_motion::MotionArgs),
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
     Ui(crate::bench_ui::UiBenchArgs),
@@ -66,6 +69,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Rt(args) => run_rt(args),
         BenchWhat::Controller(args) => crate::bench_controller::run(args),
         BenchWhat::Ui(args) => crate::bench_ui::run(args),
+        BenchWhat::Motion(args) => crate::bench_motion::run(args),
     }
 }
 

@@ -114,3 +114,57 @@ fn a_stop_can_restart_from_an_earlier_state() {
     assert_eq!(pulse_sums(&a), pulse_sums(&b));
     assert_eq!(ahead.position_pulses(), reference.position_pulses());
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    // The controller's Pulse Generator stops a line from the state of the period it has
+    // reached, in a generator of its own (which computes the line's derivatives itself):
+    // the stop keeps every limit, stays on the line, ends short of the target, and lands
+    // within a pulse of where the planning generator's own stop lands.
+    #[test]
+    fn a_line_stopped_by_another_generator_keeps_its_limits(
+        stop_at in 1usize..120, pct in 10.0f64..100.0, fast in any::<bool>(),
+    ) {
+        let ts = if fast { 0.001 } else { 0.01 };
+        let stop_at = if fast { stop_at * 10 } else { stop_at };
+        let mut planner = generator(Profile::Fir, ts, pct);
+        let start = planner.robot().inverse(&Pose { x: 320.0, y: -180.0, z: 20.0, yaw: -30.0 }, Posture::Right, None).unwrap();
+        planner.set_position_pulses(&planner.robot().joints_to_pulses(&start)).unwrap();
+        let a = planner.pose();
+        let target = Pose { x: 80.0, y: 250.0, z: 120.0, yaw: 60.0 };
+        let info = planner.plan_line(&target).unwrap();
+        prop_assume!((stop_at as u64) < info.periods.saturating_sub(2));
+        let first = planner.joints();
+        let mut before = Vec::new();
+        for _ in 0..stop_at {
+            let mut p = wrc_motion::Period::default();
+            planner.next_period(&mut p);
+            before.push(p);
+        }
+        let state = planner.state();
+        let mut stopper = generator(Profile::Fir, ts, pct);
+        stopper.restore(&state);
+        stopper.stop();
+        planner.stop();
+        let own = run(&mut planner);
+        let other = run(&mut stopper);
+        prop_assert_eq!(other.end, MoveEnd::Stopped);
+        prop_assert_eq!(own.end, MoveEnd::Stopped);
+        // The whole motion, from rest to rest: the periods before the stop, then the stop's.
+        let whole = Run {
+            periods: before.iter().chain(&other.periods).copied().collect(),
+            end: other.end,
+            start: first,
+        };
+        assert_within_limits(&stopper, &whole, 1e-6, 0.0);
+        for (x, y) in stopper.position_pulses().iter().zip(planner.position_pulses()).take(4) {
+            prop_assert!((x - y).abs() <= 1, "{:?} vs {:?}", stopper.position_pulses(), planner.position_pulses());
+        }
+        let end = stopper.pose();
+        let (dx, dy) = (target.x - a.x, target.y - a.y);
+        let cross = ((end.x - a.x) * dy - (end.y - a.y) * dx).abs() / dx.hypot(dy);
+        prop_assert!(cross < 0.01, "{} mm off the line", cross);
+        prop_assert!(other.periods.len() < (info.periods as usize - stop_at) + 2);
+    }
+}

@@ -1,0 +1,769 @@
+//! The timing law of a straight line under the default (`fir`) profile: how the path
+//! parameter u goes from 0 to 1, as fast as every joint's velocity, acceleration and jerk
+//! limits and the Cartesian line limits allow *at each point of the line*.
+//!
+//! # How
+//!
+//! Along a line the joints move as q(u), so q̇ = q′u̇, q̈ = q′ü + q″u̇², q⃛ = q′u⃛ + 3q″u̇ü +
+//! q‴u̇³, with q′, q″, q‴ the exact derivatives of the inverse kinematics ([`crate::path`]).
+//! At a state (u, u̇, ü) every limit is linear in the jerk u⃛, so the admissible jerks are an
+//! interval, and the admissible decelerations too.
+//!
+//! The law is built forward in time, in steps of [`STEP_S`] with a constant jerk per step.
+//! Each step takes the **largest jerk whose next state is safe**: a state is *safe* when a
+//! brake from it — the [brake policy](brake_step): decelerate at a fraction κ of what the
+//! limits allow there, then release so that ü and u̇ reach 0 together — keeps every limit at
+//! every step and stops before u = 1. The brake is simulated to the stop to decide; κ is
+//! tried from strong to gentle ([`BRAKES`]). Because the brake is a feedback law of the state
+//! alone, the state it reaches after one step is safe again; so from every state of a plan a
+//! controlled stop along the line is known to keep every limit, and following the brake
+//! from the last safe state is always possible. Near the end the largest safe jerk is the
+//! one whose brake stops exactly at u = 1 (found to 1e-10 in u): the line's deceleration
+//! *is* that brake.
+//!
+//! This is a greedy (bang-bang where it can, riding the boundary of the safe set where it
+//! must) approximation of the time-optimal jerk-limited path parameterisation; docs/motion.md
+//! gives its measured distance from the time-optimal lower bound.
+//!
+//! # Time and speed override
+//!
+//! The law is planned at 100 % in *plan time*. A speed override p scales velocity by p,
+//! acceleration by p² and jerk by p³ — exactly what playing the same law at plan time p·t
+//! does — so one plan serves every override and stays within the scaled limits.
+//!
+//! Real-time promise: every function here is arithmetic on `Copy` values; no allocation, no
+//! I/O. The state ([`LineProfile`]) is small and `Copy`: a stop needs only the state and the
+//! line's derivatives, which can be computed on the spot.
+
+use crate::path::{Derivs, LineAxes, LINE_AXES};
+use crate::settings::LineLimits;
+use wrc_robot::Robot;
+
+/// Step of the timing law in plan time [s]: u⃛ is constant over each step.
+pub const STEP_S: f64 = 0.004;
+
+/// Fraction of every limit the planner uses; the rest absorbs the interpolation of the
+/// derivative table and the variation of the bounds within a step.
+pub const LIMIT_MARGIN: f64 = 0.995;
+
+/// The brakes tried, strongest first: each decelerates at this fraction κ of the
+/// deceleration the limits allow where it is, and releases with κ of the jerk they allow.
+pub const BRAKES: [f64; 4] = [0.97, 0.8, 0.6, 0.4];
+
+/// How close to u = 1 the search for the last brake of a line tries to bring its stop
+/// (the generator stretches the law onto u = 1 from there).
+const LAND_TOL: f64 = 1e-6;
+
+/// How far past u = 1 a brake may stop and still count as stopping at the end (rounding).
+const END_TOL: f64 = 1e-12;
+
+/// Bisection steps on the jerk when the largest admissible jerk is not safe.
+const BISECTIONS: usize = 6;
+
+/// Most steps of the search for the jerk whose brake stops on u = 1.
+const LANDING_STEPS: usize = 30;
+
+/// Most steps a brake may take before it counts as failed [steps] (60 s of plan time).
+const MAX_BRAKE_STEPS: usize = 15_000;
+
+/// How close above the release curve a brake starts its release (relative) [-].
+const RELEASE_BAND: f64 = 1e-3;
+
+/// A speed this small counts as standing still [1/s].
+const REST_V: f64 = 1e-12;
+
+/// The limits of a line's axes and of its TCP, as bounds on u's derivatives, at 100 % and
+/// times [`LIMIT_MARGIN`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Bounds {
+    n: usize,
+    v: [f64; LINE_AXES],
+    a: [f64; LINE_AXES],
+    j: [f64; LINE_AXES],
+    /// Cartesian limits in u units (∞ for a line of no length) [1/s, 1/s², 1/s³].
+    cv: f64,
+    ca: f64,
+    cj: f64,
+}
+
+impl Bounds {
+    pub(crate) fn new(robot: &Robot, axes: &LineAxes, line: &LineLimits, length_mm: f64) -> Self {
+        let mut b = Bounds {
+            n: axes.n,
+            v: [0.0; LINE_AXES],
+            a: [0.0; LINE_AXES],
+            j: [0.0; LINE_AXES],
+            cv: f64::INFINITY,
+            ca: f64::INFINITY,
+            cj: f64::INFINITY,
+        };
+        for k in 0..axes.n {
+            let l = &robot.axes()[axes.idx[k]].limits;
+            b.v[k] = l.max_velocity * LIMIT_MARGIN;
+            b.a[k] = l.max_acceleration * LIMIT_MARGIN;
+            b.j[k] = l.max_jerk * LIMIT_MARGIN;
+        }
+        if length_mm > 0.0 {
+            b.cv = line.max_speed_mm_s * LIMIT_MARGIN / length_mm;
+            b.ca = line.max_accel_mm_s2 * LIMIT_MARGIN / length_mm;
+            b.cj = line.max_jerk_mm_s3 * LIMIT_MARGIN / length_mm;
+        }
+        b
+    }
+
+    /// Whether the state (v = u̇ ≥ 0, a = ü) with jerk j = u⃛ keeps every limit.
+    #[inline]
+    fn ok(&self, d: &Derivs, v: f64, a: f64, j: f64) -> bool {
+        if v > self.cv || a.abs() > self.ca || j.abs() > self.cj {
+            return false;
+        }
+        let v2 = v * v;
+        for k in 0..self.n {
+            let (d1, d2, d3) = (d.d1[k], d.d2[k], d.d3[k]);
+            if d1.abs() * v > self.v[k]
+                || (d1 * a + d2 * v2).abs() > self.a[k]
+                || (d1 * j + 3.0 * d2 * v * a + d3 * v2 * v).abs() > self.j[k]
+            {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The admissible jerks u⃛ at (v, a): an interval, empty when lo > hi.
+    #[inline]
+    fn jerk_range(&self, d: &Derivs, v: f64, a: f64) -> (f64, f64) {
+        let (mut lo, mut hi) = (-self.cj, self.cj);
+        let v2 = v * v;
+        for k in 0..self.n {
+            let c = 3.0 * d.d2[k] * v * a + d.d3[k] * v2 * v;
+            let d1 = d.d1[k];
+            if d1.abs() < 1e-9 {
+                if c.abs() > self.j[k] {
+                    return (1.0, -1.0);
+                }
+                continue;
+            }
+            let (l, h) = ((-self.j[k] - c) / d1, (self.j[k] - c) / d1);
+            let (l, h) = if l <= h { (l, h) } else { (h, l) };
+            lo = lo.max(l);
+            hi = hi.min(h);
+        }
+        (lo, hi)
+    }
+
+    /// The largest deceleration −ü the limits admit at speed v (negative: the state must
+    /// accelerate).
+    #[inline]
+    fn decel(&self, d: &Derivs, v: f64) -> f64 {
+        let mut lo = -self.ca;
+        let v2 = v * v;
+        for k in 0..self.n {
+            let d1 = d.d1[k];
+            if d1.abs() < 1e-9 {
+                continue;
+            }
+            let c = d.d2[k] * v2;
+            let (l, h) = ((-self.a[k] - c) / d1, (self.a[k] - c) / d1);
+            lo = lo.max(l.min(h));
+        }
+        -lo
+    }
+}
+
+/// Position, velocity and acceleration of u after `dt` [s] at constant jerk `j`.
+#[inline]
+fn advance(u: f64, v: f64, a: f64, j: f64, dt: f64) -> (f64, f64, f64) {
+    (
+        u + dt * (v + dt * (0.5 * a + dt * j / 6.0)),
+        v + dt * (a + 0.5 * dt * j),
+        a + dt * j,
+    )
+}
+
+/// One step of the brake policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum BrakeStep {
+    /// Standing still.
+    Rest,
+    /// Apply this jerk for `dt` (≤ one step; shorter when the release starts within it).
+    Jerk { jerk: f64, dt: f64 },
+    /// Apply this jerk for `dt` (≤ one step): ü and u̇ reach 0 together.
+    Land { jerk: f64, dt: f64 },
+    /// The brake cannot keep the limits from this state.
+    Fail,
+}
+
+/// The brake policy with strength `kappa` at (v, a), the derivatives `d` where it is: track
+/// the deceleration −κ·decel(u, v) with a jerk within κ of the admissible range, and release
+/// — a constant jerk a²/2v that brings ü and u̇ to 0 together — from the instant u̇ reaches
+/// ü²/(2·κ·j_max) (the release curve). The release may start within a step, which then ends
+/// there, so where the brake stops depends continuously on where it starts.
+#[inline]
+fn brake_step(b: &Bounds, d: &Derivs, v: f64, a: f64, kappa: f64, h: f64) -> BrakeStep {
+    if v <= REST_V && a.abs() <= 1e-9 {
+        return BrakeStep::Rest;
+    }
+    let (lo, hi) = b.jerk_range(d, v, a);
+    if lo > hi || hi <= 0.0 {
+        return BrakeStep::Fail;
+    }
+    // The release's jerk is constant while the admissible range moves from its value here
+    // to its value at rest: keep within both.
+    let cap = kappa * hi.min(b.jerk_range(d, 0.0, 0.0).1);
+    // On (or below) the release curve: release now. The curve moves a little with the
+    // state (cap does), so "on" means within 0.1 %: the release jerk is then at most cap
+    // plus 0.1 %, still inside the admissible range.
+    if a < 0.0 && v <= a * a / (2.0 * cap) * (1.0 + RELEASE_BAND) {
+        if v <= 0.0 {
+            return BrakeStep::Fail;
+        }
+        let jr = a * a / (2.0 * v);
+        if jr > hi {
+            return BrakeStep::Fail;
+        }
+        let t = -a / jr;
+        return if t <= h {
+            BrakeStep::Land { jerk: jr, dt: t }
+        } else {
+            BrakeStep::Jerk { jerk: jr, dt: h }
+        };
+    }
+    let decel = b.decel(d, v);
+    if decel <= 0.0 {
+        return BrakeStep::Fail;
+    }
+    let jt = ((-kappa * decel - a) / h).clamp(kappa * lo.min(0.0), cap);
+    // Does the tracking step reach the release curve, g(τ) = u̇(τ) − ü(τ)²/2cap = 0 with
+    // ü(τ) < 0, within the step? g is a quadratic in τ.
+    let (qa, qb, qc) = (
+        0.5 * jt - jt * jt / (2.0 * cap),
+        a - a * jt / cap,
+        v - a * a / (2.0 * cap),
+    );
+    let mut hit = f64::INFINITY;
+    let mut consider = |tau: f64| {
+        if tau > 0.0 && tau <= h && a + jt * tau < 0.0 {
+            hit = hit.min(tau);
+        }
+    };
+    // Both roots without cancellation (q = −(b + sign(b)·√disc)/2; roots q/a and c/q), so a
+    // nearly constant deceleration (a ≈ 0) still finds the linear root.
+    let disc = qb * qb - 4.0 * qa * qc;
+    if disc >= 0.0 {
+        let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+        if q != 0.0 {
+            consider(qc / q);
+        }
+        if qa != 0.0 {
+            consider(q / qa);
+        }
+    }
+    BrakeStep::Jerk {
+        jerk: jt,
+        dt: if hit.is_finite() { hit } else { h },
+    }
+}
+
+/// Why a state is not safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Unsafe {
+    /// The brake would stop beyond u = 1, at this u (the path continued straight on).
+    Overshoot(f64),
+    /// A limit would be exceeded.
+    Limit,
+}
+
+/// How far a brake is simulated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Horizon {
+    /// To its stop: the verdict on the state.
+    Full,
+    /// Until its speed has been falling for a few steps: catches what the next moments
+    /// decide (an acceleration or speed limit, a jerk too large to come back from), cheaply.
+    Short,
+}
+
+/// Steps a short probe goes on after the brake's speed has started to fall.
+const SHORT_AFTER_PEAK: usize = 3;
+
+/// Simulate the brake `kappa` from (u, v, a), checking every limit at every step: to its
+/// stop (`Some(where)`), or for a short horizon (`None` when nothing failed in it).
+fn brake_stop(
+    b: &Bounds,
+    derivs: &impl Fn(f64) -> Derivs,
+    (mut u, mut v, mut a): (f64, f64, f64),
+    kappa: f64,
+    horizon: Horizon,
+) -> Result<Option<f64>, Unsafe> {
+    let mut d = derivs(u);
+    let mut falling = 0;
+    let mut beyond = false;
+    for _ in 0..MAX_BRAKE_STEPS {
+        let (j, dt, last) = match brake_step(b, &d, v, a, kappa, STEP_S) {
+            BrakeStep::Rest => break,
+            BrakeStep::Fail => return Err(Unsafe::Limit),
+            BrakeStep::Jerk { jerk, dt } => (jerk, dt, false),
+            BrakeStep::Land { jerk, dt } => (jerk, dt, true),
+        };
+        // The jerk changes at the knot: it must be admissible there too.
+        if !b.ok(&d, v, a, j) {
+            return Err(Unsafe::Limit);
+        }
+        let (un, vn, an) = step_to(u, v, a, j, dt);
+        // Past the end the brake is followed on (the derivatives of the end) only to learn
+        // where it would stop.
+        beyond |= un > 1.0 + END_TOL;
+        if vn < -1e-9 {
+            return Err(Unsafe::Limit);
+        }
+        d = derivs(un);
+        if !b.ok(&d, vn, an, j) {
+            return Err(Unsafe::Limit);
+        }
+        (u, v, a) = (un, vn.max(0.0), an);
+        if last {
+            break;
+        }
+        if horizon == Horizon::Short && a < 0.0 && !beyond {
+            falling += 1;
+            if falling > SHORT_AFTER_PEAK {
+                return Ok(None);
+            }
+        }
+    }
+    if beyond {
+        Err(Unsafe::Overshoot(u))
+    } else if v <= REST_V {
+        Ok(Some(u))
+    } else {
+        Err(Unsafe::Limit)
+    }
+}
+
+/// The state after a step of `dt` [s] at jerk `j`, as both the plan and its brakes compute
+/// it (so that a brake followed reproduces the one verified, bit for bit).
+#[inline]
+fn step_to(u: f64, v: f64, a: f64, j: f64, dt: f64) -> (f64, f64, f64) {
+    advance(u, v, a, j, dt)
+}
+
+/// Whether (u, v, a) is safe: a brake of [`BRAKES`] (those from index `brakes.0` to
+/// `brakes.1`, strongest first) that keeps every limit to its stop (or over a short
+/// horizon), and where it stops. A brake that overshoots u = 1 ends the search, since a
+/// weaker one stops later still.
+fn safe(
+    b: &Bounds,
+    derivs: &impl Fn(f64) -> Derivs,
+    state: (f64, f64, f64),
+    brakes: (usize, usize),
+    horizon: Horizon,
+) -> Result<(u8, Option<f64>), Unsafe> {
+    for (i, &kappa) in BRAKES.iter().enumerate().take(brakes.1 + 1).skip(brakes.0) {
+        match brake_stop(b, derivs, state, kappa, horizon) {
+            Ok(stop) => return Ok((i as u8, stop)),
+            Err(Unsafe::Overshoot(at)) => return Err(Unsafe::Overshoot(at)),
+            Err(Unsafe::Limit) => {}
+        }
+    }
+    Err(Unsafe::Limit)
+}
+
+/// The bisection for the largest jerk that passes a probe: passes at `lo`, not at `hi`.
+struct JerkSearch {
+    lo: f64,
+    hi: f64,
+    /// The largest jerk that passed, its brake and where that brake stops (if simulated to
+    /// the stop).
+    best: Option<(f64, u8, Option<f64>)>,
+    /// Every jerk refused so far was refused only for overshooting u = 1.
+    overshoot_only: bool,
+}
+
+impl JerkSearch {
+    fn new(lo: f64, hi: f64) -> JerkSearch {
+        JerkSearch {
+            lo,
+            hi,
+            best: None,
+            overshoot_only: true,
+        }
+    }
+
+    fn probe(&mut self, j: f64, probe: &impl Fn(f64) -> Result<(u8, Option<f64>), Unsafe>) {
+        match probe(j) {
+            Ok((k, stop)) => {
+                self.lo = j;
+                self.best = Some((j, k, stop));
+            }
+            Err(why) => {
+                self.hi = j;
+                self.overshoot_only &= matches!(why, Unsafe::Overshoot(_));
+            }
+        }
+    }
+
+    fn bisect(&mut self, probe: &impl Fn(f64) -> Result<(u8, Option<f64>), Unsafe>) {
+        self.probe(0.5 * (self.lo + self.hi), probe);
+    }
+}
+
+/// What the timing law is doing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    /// Following the plan.
+    Forward,
+    /// A stop was requested: from the next knot on, the brake.
+    Stopping,
+    /// At rest for good at `u`.
+    Done,
+}
+
+/// The state of a line's timing law: the last knot (plan time t, u, u̇, ü), the jerk and
+/// length of the step from it, the brake that the next knot was verified with and where
+/// that brake stops, the final landing, and the mode. `Copy` and small, so a real-time task
+/// can keep one per period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LineProfile {
+    t: f64,
+    u: f64,
+    v: f64,
+    a: f64,
+    jerk: f64,
+    dt: f64,
+    /// Index into [`BRAKES`] of the brake verified from the knot at t + dt.
+    brake: u8,
+    /// Where that brake stops.
+    brake_stop: f64,
+    /// The step from this knot ends the motion (a brake lands).
+    ends: bool,
+    /// The final landing, once the line follows its last brake: from u = `land.0` on, u is
+    /// played stretched so that this brake's stop `land.1` (within [`LAND_TOL`] of 1) falls
+    /// exactly on 1.
+    land: Option<(f64, f64)>,
+    mode: Mode,
+}
+
+impl LineProfile {
+    /// A law at rest at u = 0, planned from there.
+    pub(crate) fn start(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> LineProfile {
+        let mut p = LineProfile {
+            t: 0.0,
+            u: 0.0,
+            v: 0.0,
+            a: 0.0,
+            jerk: 0.0,
+            dt: STEP_S,
+            brake: 0,
+            brake_stop: 0.0,
+            ends: false,
+            land: None,
+            mode: Mode::Forward,
+        };
+        p.choose(b, derivs);
+        p
+    }
+
+    /// Whether the motion has come to rest for good.
+    pub(crate) fn done(&self) -> bool {
+        self.mode == Mode::Done
+    }
+
+    /// Whether it came to rest at u = 1 (not stopped short).
+    pub(crate) fn completed(&self) -> bool {
+        self.mode == Mode::Done && self.land.is_some_and(|(_, stop)| self.u >= stop)
+    }
+
+    /// u at plan time `t` [s] (≥ the last knot's), moving the knots forward as needed.
+    pub(crate) fn at(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs, t: f64) -> f64 {
+        while self.mode != Mode::Done && t >= self.t + self.dt {
+            self.next_knot(b, derivs);
+        }
+        let u = if self.mode == Mode::Done {
+            self.u
+        } else {
+            step_to(self.u, self.v, self.a, self.jerk, t - self.t).0
+        };
+        match self.land {
+            // u + (1 − stop)·x⁴ with x the fraction of the last brake done: the brake ends on
+            // u = 1, and u, u̇ and ü stay continuous where the stretch begins (the added
+            // derivatives are of the order of 1 − stop ≤ LAND_TOL relative).
+            Some((from, stop)) if u > from && stop > from => {
+                let x = ((u - from) / (stop - from)).min(1.0);
+                (u + (1.0 - stop) * x * x * x * x).min(1.0)
+            }
+            _ => u,
+        }
+    }
+
+    /// Run the law to its end; returns the plan time at which it comes to rest [s].
+    pub(crate) fn run_to_end(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
+        while self.mode != Mode::Done {
+            self.next_knot(b, derivs);
+        }
+        self.t
+    }
+
+    /// Request a controlled stop: the current step ends at its knot, then the brake that was
+    /// verified from that knot takes the line to rest (on the line, within every limit).
+    pub(crate) fn stop(&mut self) {
+        if self.mode == Mode::Forward {
+            self.mode = Mode::Stopping;
+        }
+    }
+
+    fn next_knot(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
+        let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, self.dt);
+        self.t += self.dt;
+        self.u = u;
+        self.v = v.max(0.0);
+        self.a = a;
+        if self.ends {
+            self.v = 0.0;
+            self.a = 0.0;
+            self.mode = Mode::Done;
+            return;
+        }
+        self.choose(b, derivs);
+    }
+
+    fn set_step(&mut self, jerk: f64, brake: u8, stop: f64) {
+        self.jerk = jerk;
+        self.dt = STEP_S;
+        self.brake = brake;
+        self.brake_stop = stop;
+        self.ends = false;
+    }
+
+    /// Choose the step from the current knot, which is safe with the brake `self.brake`
+    /// (stopping at `self.brake_stop`).
+    fn choose(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
+        let (u, v, a) = (self.u, self.v, self.a);
+        let last = self.jerk;
+        let d = derivs(u);
+        let brake = self.brake;
+        let fallback = brake_step(b, &d, v, a, BRAKES[brake as usize], STEP_S);
+        // At rest (nothing safe to start with) or from a state the brake cannot hold (never
+        // from a verified state), the motion ends where it is.
+        let (jb, dtb, lands) = match fallback {
+            BrakeStep::Rest | BrakeStep::Fail => (0.0, 0.0, true),
+            BrakeStep::Jerk { jerk, dt } => (jerk, dt, false),
+            BrakeStep::Land { jerk, dt } => (jerk, dt, true),
+        };
+        // Following the brake keeps its verdict: the next knot is on the verified brake.
+        self.jerk = jb;
+        self.dt = dtb;
+        self.ends = lands;
+        if self.mode == Mode::Stopping || self.land.is_some() {
+            return;
+        }
+        if u > 0.0 && self.brake_stop >= 1.0 - LAND_TOL {
+            // The last brake: it ends the line; stretch it onto u = 1.
+            self.land = Some((u, self.brake_stop));
+            return;
+        }
+        let (_, hi) = b.jerk_range(&d, v, a);
+        if hi <= jb {
+            return;
+        }
+        // The brakes a probe tries first: the current one's neighbours (every one near a
+        // stop).
+        let every = (0, BRAKES.len() - 1);
+        let brakes = if matches!(fallback, BrakeStep::Jerk { .. }) {
+            (
+                brake.saturating_sub(1) as usize,
+                (brake as usize + 1).min(BRAKES.len() - 1),
+            )
+        } else {
+            every
+        };
+        // A jerk's step must keep the limits, and its end state must be safe.
+        let probe = |j: f64, horizon: Horizon| -> Result<(u8, Option<f64>), Unsafe> {
+            if !b.ok(&d, v, a, j) {
+                return Err(Unsafe::Limit);
+            }
+            let (un, vn, an) = step_to(u, v, a, j, STEP_S);
+            if vn < -1e-9 || !b.ok(&derivs(un), vn.max(0.0), an, j) {
+                return Err(Unsafe::Limit);
+            }
+            if un > 1.0 + END_TOL {
+                return Err(Unsafe::Overshoot(un));
+            }
+            let state = (un, vn.max(0.0), an);
+            match safe(b, derivs, state, brakes, horizon) {
+                // A limit the nearby brakes cannot keep: a full probe tries every brake.
+                Err(Unsafe::Limit) if horizon == Horizon::Full && brakes != every => {
+                    safe(b, derivs, state, every, horizon)
+                }
+                verdict => verdict,
+            }
+        };
+        let full = |j: f64| probe(j, Horizon::Full);
+        // The current brake only, to the stop: where it stops is continuous in the jerk.
+        let with_brake = |j: f64| -> Result<(u8, Option<f64>), Unsafe> {
+            if !b.ok(&d, v, a, j) {
+                return Err(Unsafe::Limit);
+            }
+            let (un, vn, an) = step_to(u, v, a, j, STEP_S);
+            if vn < -1e-9 || !b.ok(&derivs(un), vn.max(0.0), an, j) {
+                return Err(Unsafe::Limit);
+            }
+            let k = brake as usize;
+            safe(b, derivs, (un, vn.max(0.0), an), (k, k), Horizon::Full)
+        };
+        let short = |j: f64| probe(j, Horizon::Short);
+        // The largest jerk that passes a short probe (the largest admissible one, or found
+        // by bisection from the last step's: it changes little from step to step), then
+        // verified to the stop before it is taken.
+        let candidate = if short(hi).is_ok() {
+            hi
+        } else {
+            let mut search = JerkSearch::new(jb, hi);
+            if last > jb && last < hi {
+                search.probe(last, &short);
+            }
+            for _ in 0..BISECTIONS {
+                search.bisect(&short);
+            }
+            match search.best {
+                Some((j, _, _)) => j,
+                None => return,
+            }
+        };
+        match full(candidate) {
+            Ok((k, Some(stop))) => self.set_step(candidate, k, stop),
+            Ok((_, None)) => {}
+            Err(Unsafe::Overshoot(_)) => {
+                // Only the end limits this step: the jerk whose brake stops on it, by
+                // regula falsi on where the brake stops (continuous in the jerk).
+                let over = match with_brake(candidate) {
+                    Err(Unsafe::Overshoot(at)) => Some(at),
+                    _ => None,
+                };
+                let landed = over
+                    .and_then(|over| land(&with_brake, (jb, self.brake_stop), (candidate, over)));
+                if let Some((j, k, stop)) = landed {
+                    self.set_step(j, k, stop);
+                }
+            }
+            // Limited further ahead: the largest jerk that a full brake verifies; while
+            // already decelerating, the brake itself.
+            Err(Unsafe::Limit) if a < 0.0 && matches!(fallback, BrakeStep::Jerk { .. }) => {}
+            Err(Unsafe::Limit) => {
+                let mut search = JerkSearch::new(jb, candidate);
+                for _ in 0..BISECTIONS {
+                    search.bisect(&full);
+                }
+                if let Some((j, k, Some(stop))) = search.best {
+                    self.set_step(j, k, stop);
+                }
+            }
+        }
+    }
+}
+
+/// The jerk in (lo.0, hi.0) whose verified brake stops within [`LAND_TOL`] of u = 1, given
+/// where the brakes of `lo.0` and `hi.0` stop (before and beyond 1): the Illinois variant
+/// of regula falsi on the stop point. The best safe jerk found if it runs out of steps or a
+/// probe fails on a limit.
+fn land(
+    full: &impl Fn(f64) -> Result<(u8, Option<f64>), Unsafe>,
+    lo: (f64, f64),
+    hi: (f64, f64),
+) -> Option<(f64, u8, f64)> {
+    let ((mut jl, mut sl), (mut jh, mut sh)) = (lo, hi);
+    let mut best = None;
+    let mut side = 0i8;
+    for _ in 0..LANDING_STEPS {
+        let (gl, gh) = (sl - 1.0, sh - 1.0);
+        let mut j = jl - gl * (jh - jl) / (gh - gl);
+        if !(j > jl && j < jh) {
+            j = 0.5 * (jl + jh);
+        }
+        match full(j) {
+            Ok((k, Some(stop))) => {
+                best = Some((j, k, stop));
+                if stop >= 1.0 - LAND_TOL {
+                    break;
+                }
+                (jl, sl) = (j, stop);
+                if side == -1 {
+                    sh = 1.0 + 0.5 * (sh - 1.0);
+                }
+                side = -1;
+            }
+            Err(Unsafe::Overshoot(stop)) => {
+                (jh, sh) = (j, stop);
+                if side == 1 {
+                    sl = 1.0 + 0.5 * (sl - 1.0);
+                }
+                side = 1;
+            }
+            Ok((_, None)) | Err(Unsafe::Limit) => break,
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::double_s::DoubleS;
+    use crate::path::{DerivTable, LinePath};
+    use wrc_robot::{Pose, Posture};
+
+    fn plan(a: Pose, b: Pose) -> (f64, Vec<(f64, f64)>) {
+        let robot = Robot::paper_default();
+        let path = LinePath::new(&robot, a, b, Posture::Right);
+        let start = robot.inverse(&a, Posture::Right, None).unwrap();
+        let mut table = DerivTable::new();
+        path.scan(&robot, &start, Some(&mut table)).unwrap();
+        let line = crate::settings::MotionSettings::default().line;
+        let bounds = Bounds::new(&robot, &LineAxes::of(&robot), &line, path.length_mm());
+        let derivs = |u: f64| table.at(u);
+        let mut p = LineProfile::start(&bounds, &derivs);
+        let mut out = Vec::new();
+        let mut t = 0.0;
+        while !p.done() {
+            t += 0.001;
+            out.push((t, p.at(&bounds, &derivs, t)));
+            assert!(t < 100.0);
+        }
+        (t, out)
+    }
+
+    #[test]
+    fn a_line_far_from_every_joint_limit_is_the_one_dimensional_optimum() {
+        // A short radial line at mid reach: only the Cartesian limits bind (checked by the
+        // joint speeds staying far below theirs), so the law must take the time of the
+        // one-dimensional jerk-limited optimum with the Cartesian limits.
+        let a = Pose {
+            x: 250.0,
+            y: 0.0,
+            z: 0.0,
+            yaw: 0.0,
+        };
+        let b = Pose {
+            x: 250.0,
+            y: 20.0,
+            z: 0.0,
+            yaw: 0.0,
+        };
+        let (t, out) = plan(a, b);
+        let line = crate::settings::MotionSettings::default().line;
+        let opt = DoubleS::time_optimal(
+            20.0,
+            line.max_speed_mm_s * LIMIT_MARGIN,
+            line.max_accel_mm_s2 * LIMIT_MARGIN,
+            line.max_jerk_mm_s3 * LIMIT_MARGIN,
+        )
+        .duration();
+        assert!(
+            t >= opt - 0.002 && t <= opt * 1.02 + 0.002,
+            "{t} s vs optimum {opt} s"
+        );
+        assert!((out.last().unwrap().1 - 1.0).abs() < 1e-9);
+        // Monotone: never backwards.
+        assert!(out.windows(2).all(|w| w[1].1 >= w[0].1 - 1e-12));
+    }
+}

@@ -1,0 +1,260 @@
+//! `wrc bench motion`: straight lines against the time-optimal lower bound. Random reachable
+//! lines of the configured robot (fixed seed, printed) are planned and run as the controller
+//! runs them; the bench prints their durations over the lower bound, the limits they used
+//! (from the output pulses), their accuracy and the planning time (wrc-motion measures; this
+//! module parses, prints and writes JSON).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+use serde_json::json;
+use wrc_motion::bench::{median_max, run_line, LineRun, Lines};
+use wrc_motion::{DoubleS, Profile};
+
+/// Arguments of `wrc bench motion`.
+#[derive(Debug, Args)]
+pub struct MotionArgs {
+    /// Random lines to run.
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    lines: u32,
+    /// Seed of the random lines (the same seed gives the same lines on every machine).
+    #[arg(long, default_value_t = 2026)]
+    seed: u64,
+    /// Speed overrides to run every line at [%], comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "100,30")]
+    speed: Vec<f64>,
+    /// Pulse period [ms]; default from the configuration.
+    #[arg(long, value_name = "MS")]
+    period_ms: Option<f64>,
+    /// Robot and limits from this config file instead of the embedded default.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Write every figure as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+/// Run `wrc bench motion`.
+pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
+    let config = wrc_config::Config::load(args.config.as_deref())?;
+    let robot = config.robot.clone();
+    let mut settings = config.motion;
+    settings.profile = Profile::Fir;
+    if let Some(ms) = args.period_ms {
+        settings.period_s = ms / 1000.0;
+    }
+    settings
+        .validate()
+        .map_err(|e| anyhow::anyhow!("{}: {}", e.key, e.reason))?;
+    for &pct in &args.speed {
+        wrc_motion::check_speed_pct(pct).map_err(|e| anyhow::anyhow!("--speed: {}", e.reason))?;
+    }
+    println!(
+        "wrc bench motion: {} random reachable lines of {} (seed {}), period {} ms, speeds {:?} %",
+        args.lines,
+        robot.name,
+        args.seed,
+        settings.period_s * 1000.0,
+        args.speed
+    );
+    // The lines: uniform ends over the reachable disc, Z range and every yaw; candidates the
+    // planner refuses are counted by reason.
+    let mut lines = Lines::new(args.seed);
+    let mut refused = std::collections::BTreeMap::<String, u32>::new();
+    let cases: Vec<_> = (0..args.lines)
+        .map(|_| {
+            lines.next_line(&robot, |e| {
+                *refused.entry(refusal_kind(e).to_string()).or_default() += 1;
+            })
+        })
+        .collect();
+    println!(
+        "  candidates refused by the planner (an end out of reach, or a point of the line): {}",
+        refused
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let mut report = Vec::new();
+    for &pct in &args.speed {
+        let mut s = settings;
+        s.speed_pct = pct;
+        let mut runs = Vec::with_capacity(cases.len());
+        for case in &cases {
+            let run = run_line(&robot, &s, case).with_context(|| format!("planning {case:?}"))?;
+            runs.push(run);
+        }
+        let figures = summarise(&runs, &robot, &s);
+        print_figures(pct, &figures);
+        if let Some(worst) = runs.iter().max_by(|a, b| a.ratio().total_cmp(&b.ratio())) {
+            let p = |p: &wrc_robot::Pose| format!("{},{},{},{}", p.x, p.y, p.z, p.yaw);
+            println!(
+                "  slowest line: wrc plan line --from={} --to={} --posture {} --speed {pct}  ({:.3} s, {:.3}x)",
+                p(&worst.case.start),
+                p(&worst.case.target),
+                match worst.case.posture {
+                    wrc_robot::Posture::Right => "right",
+                    wrc_robot::Posture::Left => "left",
+                },
+                worst.duration_s,
+                worst.ratio()
+            );
+        }
+        report.push(json!({ "speed_pct": pct, "figures": figures }));
+    }
+    if let Some(path) = &args.json {
+        let doc = json!({
+            "robot": robot.name,
+            "seed": args.seed,
+            "lines": args.lines,
+            "period_ms": settings.period_s * 1000.0,
+            "refused_candidates": refused,
+            "runs": report,
+        });
+        std::fs::write(path, serde_json::to_string_pretty(&doc)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("  JSON written to {}", path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn refusal_kind(e: &wrc_motion::PlanError) -> &'static str {
+    use wrc_motion::{PathProblem, PlanError};
+    match e {
+        PlanError::PathLeavesWorkspace { problem, .. } => match problem {
+            PathProblem::JointLimit { .. } => "joint limit on the line",
+            PathProblem::Stretched { .. } | PathProblem::Folded { .. } => "singularity on the line",
+            _ => "other path problem",
+        },
+        PlanError::PostureChange => "posture change",
+        PlanError::Kinematics(_) => "end out of reach",
+        _ => "other",
+    }
+}
+
+/// Every figure of one speed, as JSON.
+fn summarise(
+    runs: &[LineRun],
+    robot: &wrc_robot::Robot,
+    s: &wrc_motion::MotionSettings,
+) -> serde_json::Value {
+    let ratios: Vec<f64> = runs.iter().map(LineRun::ratio).collect();
+    let ratios_joints: Vec<f64> = runs
+        .iter()
+        .map(|r| r.duration_s / r.bound.with_joints_s())
+        .collect();
+    // The planner this replaces: the same line at limits constant along it (the worst
+    // point's), one double-S in u.
+    let before: Vec<f64> = runs
+        .iter()
+        .filter_map(|r| {
+            let start = robot.inverse(&r.case.start, r.case.posture, None).ok()?;
+            let from = robot.pulses_to_joints(&robot.joints_to_pulses(&start));
+            let (path, check) = wrc_motion::check_line(robot, &from, &r.case.target).ok()?;
+            let l = check.constant_limits(robot, path.length_mm(), &s.line, s.speed_pct / 100.0);
+            (l.v > 0.0).then(|| {
+                DoubleS::time_optimal(1.0, l.v, l.a, l.j).duration() / r.bound.lower_bound_s()
+            })
+        })
+        .collect();
+    let plan_ms: Vec<f64> = runs.iter().map(|r| r.plan_s * 1e3).collect();
+    let long: Vec<f64> = runs
+        .iter()
+        .filter(|r| r.length_mm > 400.0)
+        .map(|r| r.plan_s * 1e3)
+        .collect();
+    let over_limit = runs.iter().filter(|r| !r.limits.within(1e-6)).count();
+    let max_use = |k: usize, pulses: bool| {
+        runs.iter()
+            .map(|r| {
+                if pulses {
+                    r.limits.pulses[k]
+                } else {
+                    r.limits.exact[k]
+                }
+            })
+            .fold(0.0f64, f64::max)
+    };
+    let (rm, rx) = median_max(&ratios);
+    let (jm, jx) = median_max(&ratios_joints);
+    let (bm, bx) = median_max(&before);
+    let (pm, px) = median_max(&plan_ms);
+    let (lm, lx) = median_max(&long);
+    let lengths: Vec<f64> = runs.iter().map(|r| r.length_mm).collect();
+    let (len_m, len_x) = median_max(&lengths);
+    json!({
+        "lines": runs.len(),
+        "length_mm": { "median": len_m, "max": len_x },
+        "ratio_to_lower_bound": { "median": rm, "max": rx },
+        "ratio_to_lower_bound_with_joint_jerk": { "median": jm, "max": jx },
+        "ratio_before_constant_limits": { "median": bm, "max": bx },
+        "lines_over_a_limit": over_limit,
+        "limit_use_exact": { "v": max_use(0, false), "a": max_use(1, false), "j": max_use(2, false) },
+        "limit_use_pulses": { "v": max_use(0, true), "a": max_use(1, true), "j": max_use(2, true) },
+        "max_deviation_mm": runs.iter().map(|r| r.deviation_mm).fold(0.0f64, f64::max),
+        "exact_end": runs.iter().filter(|r| r.exact_end).count(),
+        "plan_ms": { "median": pm, "max": px },
+        "plan_ms_lines_over_400mm": { "count": long.len(), "median": lm, "max": lx },
+    })
+}
+
+fn print_figures(pct: f64, f: &serde_json::Value) {
+    let g = |path: &[&str]| {
+        let mut v = f;
+        for p in path {
+            v = &v[*p];
+        }
+        v.as_f64().unwrap_or(f64::NAN)
+    };
+    println!(
+        "\nspeed {pct} %: {} lines, length median {:.0} mm, max {:.0} mm",
+        f["lines"],
+        g(&["length_mm", "median"]),
+        g(&["length_mm", "max"])
+    );
+    println!(
+        "  duration / lower bound (TOPP-RA v/a; TCP 1-D jerk):  median {:.3}  worst {:.3}",
+        g(&["ratio_to_lower_bound", "median"]),
+        g(&["ratio_to_lower_bound", "max"])
+    );
+    println!(
+        "  … with each joint's 1-D jerk-limited time too:        median {:.3}  worst {:.3}",
+        g(&["ratio_to_lower_bound_with_joint_jerk", "median"]),
+        g(&["ratio_to_lower_bound_with_joint_jerk", "max"])
+    );
+    println!(
+        "  the previous planner (limits constant along a line):  median {:.3}  worst {:.3}",
+        g(&["ratio_before_constant_limits", "median"]),
+        g(&["ratio_before_constant_limits", "max"])
+    );
+    println!(
+        "  limit use, exact positions (v a j):   {:.4} {:.4} {:.4}",
+        g(&["limit_use_exact", "v"]),
+        g(&["limit_use_exact", "a"]),
+        g(&["limit_use_exact", "j"])
+    );
+    println!(
+        "  limit use, output pulses less rounding: {:.4} {:.4} {:.4}   lines over a limit: {}",
+        g(&["limit_use_pulses", "v"]),
+        g(&["limit_use_pulses", "a"]),
+        g(&["limit_use_pulses", "j"]),
+        f["lines_over_a_limit"]
+    );
+    println!(
+        "  TCP off the line (from the pulses): max {:.4} mm; ends exactly on the target pulses: {} of {}",
+        g(&["max_deviation_mm"]),
+        f["exact_end"],
+        f["lines"]
+    );
+    println!(
+        "  planning time per line [ms]: median {:.3}  max {:.3}   (lines over 400 mm: {} lines, median {:.3}, max {:.3})",
+        g(&["plan_ms", "median"]),
+        g(&["plan_ms", "max"]),
+        f["plan_ms_lines_over_400mm"]["count"],
+        g(&["plan_ms_lines_over_400mm", "median"]),
+        g(&["plan_ms_lines_over_400mm", "max"])
+    );
+}

@@ -50,7 +50,7 @@
 //! }
 //! assert_eq!(map.hand(), Some(transfer.wafer));
 //! assert!(world.hand().is_some() && world.map_station("LP1").unwrap()[2] == SlotCode::Absent);
-//! assert_eq!(map.wafers_line(), "hand=W3 LP1=W1,W2,-,W4..W25 LP2=?x25 AL=? PM1=? PM2=?");
+//! assert_eq!(map.wafers_line(), "hand=W3 LP1=W1,W2,-,W4..W25 LP2=?x25 AL=? PM1=? PM2=? BF1=?x5");
 //! ```
 #![deny(missing_docs)]
 

@@ -40,6 +40,7 @@
 
 use std::fmt;
 
+use wrc_motion::{check_line, ptp_cost, solutions, sooner, PlanError};
 use wrc_robot::{IkCheck, InlineName, Joints, KinematicsError, Pose, Posture, Robot};
 
 use crate::mapping::SlotCode;
@@ -53,14 +54,6 @@ pub const MAX_SLOTS: u16 = 50;
 
 /// Highest digital input number an interlock may name.
 pub const MAX_INPUT: u8 = 31;
-
-/// Largest joint change between two samples of a straight line that is still continuous
-/// \[deg\]: a larger step means the inverse kinematics jumped to another turn (a joint hit its
-/// limit and wrapped), which the motion planner would refuse.
-const MAX_SAMPLE_STEP_DEG: f64 = 30.0;
-
-/// Sample spacing along a straight approach line \[mm\].
-const SAMPLE_STEP_MM: f64 = 0.5;
 
 /// What kind of station it is. Only informative for now (shown by `STN`); motions are the
 /// same for every kind.
@@ -230,13 +223,13 @@ pub enum StationError {
         /// Why the kinematics refuse it.
         source: KinematicsError,
     },
-    /// The straight line between a slot's approach and seated poses leaves the workspace.
+    /// The straight line between a slot's approach and seated poses leaves the workspace or
+    /// a joint's range, from every approach solution the station allows.
     #[error(
-        "station {station} slot {slot}: the straight {} line from the approach pose into the \
-         station leaves the workspace with the {} elbow at x={} y={} ({}% of the way): \
-         {reason}; re-teach the station, shorten approach_mm{}",
-        if *lifted { "lifted" } else { "lowered" }, posture_word(*posture), fmt_num(*x),
-        fmt_num(*y), fmt_num(*fraction_pct), posture_hint(*fixed)
+        "station {station} slot {slot}: the straight {} line into the station, with the {} \
+         elbow: {source}; re-teach the station, shorten approach_mm{}",
+        if *lifted { "lifted" } else { "lowered" }, posture_word(*posture),
+        posture_hint(*fixed)
     )]
     PathLeavesWorkspace {
         /// The station.
@@ -245,18 +238,12 @@ pub enum StationError {
         slot: u16,
         /// `true`: the lifted line, `false`: the lowered one.
         lifted: bool,
-        /// The elbow posture tried.
+        /// The elbow posture of the solution reported (the first tried).
         posture: Posture,
         /// Whether the station fixes its posture.
         fixed: bool,
-        /// Where the line fails, x \[mm\].
-        x: f64,
-        /// Where the line fails, y \[mm\].
-        y: f64,
-        /// How far along the line, from the approach pose [%].
-        fraction_pct: f64,
-        /// Why (out of reach, too close to a singularity, a joint limit).
-        reason: String,
+        /// Why the planner refuses the line: where and what.
+        source: PlanError,
     },
 }
 
@@ -465,95 +452,103 @@ impl Station {
         }
     }
 
-    /// Check the station against `robot`: for every slot, lifted and lowered, and every
-    /// posture a transfer may use ([`Station::postures`]), the approach and seated poses are
-    /// reachable with the singularity margin and within the joint limits
-    /// ([`IkCheck::STRICT`], as the motion planner checks targets), and the straight line
-    /// between them stays so all along (sampled every 0.5 mm, joints continuous). The
-    /// vertical Z strokes only change z, so their end poses cover them.
+    /// Check the station against `robot`: for every slot, lifted and lowered, the approach
+    /// and seated poses are reachable with the singularity margin and within the joint limits
+    /// (as the motion planner checks targets), and from at least one approach solution the
+    /// straight line into the station keeps every joint within its range and away from the
+    /// singularities at every point ([`Station::approach_joints`]). The vertical Z strokes
+    /// only change z, so their end poses cover them.
     pub fn validate(&self, robot: &Robot) -> Result<(), StationError> {
         self.check()?;
+        let home = robot.home();
         for slot in 1..=self.slots {
             for lifted in [false, true] {
-                let approach = self.approach_pose(slot, lifted)?;
-                let seated = self.seated_pose(slot, lifted)?;
-                for &posture in self.postures() {
-                    let reach = |pose: &Pose, what: PoseKind| {
-                        robot
-                            .inverse_checked(pose, posture, None, IkCheck::STRICT)
-                            .map_err(|source| StationError::Unreachable {
-                                station: self.name,
-                                slot,
-                                what,
-                                pose: *pose,
-                                posture,
-                                source,
-                            })
-                    };
-                    let start = reach(&approach, PoseKind::Approach { lifted })?;
-                    reach(&seated, PoseKind::Seated { lifted })?;
-                    self.check_line(robot, slot, lifted, posture, &approach, &seated, start)?;
-                }
+                self.approach_joints(robot, slot, lifted, &home)?;
             }
         }
         Ok(())
     }
 
-    /// Sample the straight line `from` → `to` (same z and yaw) as the planner would follow it.
-    #[allow(clippy::too_many_arguments)]
-    fn check_line(
+    /// The joints a transfer at `slot` moves to (PTP) at the approach pose, `lifted` or not,
+    /// before its straight line into the station: among the solutions within the joint
+    /// limits — each posture [`Station::postures`] allows, each turn of the shoulder and the
+    /// hand the ranges allow — those from which that line keeps every limit at every point
+    /// ([`wrc_motion::check_line`]; the line out is the same path), and of those the one
+    /// reached soonest from `from` ([`wrc_motion::ptp_target`]'s rule). An error says why
+    /// the first solution tried cannot be used.
+    pub fn approach_joints(
         &self,
         robot: &Robot,
         slot: u16,
         lifted: bool,
-        posture: Posture,
-        from: &Pose,
-        to: &Pose,
-        start: Joints,
-    ) -> Result<(), StationError> {
-        let (dx, dy) = (to.x - from.x, to.y - from.y);
-        let length = dx.hypot(dy);
-        // approach_mm is checked finite, so the count is bounded; cap it anyway.
-        let samples = ((length / SAMPLE_STEP_MM).ceil() as usize).clamp(1, 100_000);
-        let arm = robot.arm();
-        let mut axes = vec![arm.shoulder, arm.elbow];
-        axes.extend(arm.wrist);
-        let mut previous = start;
-        for i in 1..=samples {
-            let u = i as f64 / samples as f64;
-            let pose = Pose {
-                x: from.x + u * dx,
-                y: from.y + u * dy,
-                ..*from
+        from: &Joints,
+    ) -> Result<Joints, StationError> {
+        let approach = self.approach_pose(slot, lifted)?;
+        let seated = self.seated_pose(slot, lifted)?;
+        let mut best: Option<(Joints, (f64, f64))> = None;
+        let mut first_error = None;
+        for &posture in self.postures() {
+            let unreachable =
+                |pose: &Pose, what: PoseKind, source: KinematicsError| StationError::Unreachable {
+                    station: self.name,
+                    slot,
+                    what,
+                    pose: *pose,
+                    posture,
+                    source,
+                };
+            let all = match solutions(robot, &approach, posture, from) {
+                Ok(all) => all,
+                Err(e) => {
+                    let source = match e {
+                        PlanError::Kinematics(k) => k,
+                        _ => KinematicsError::NotFinite { what: "pose" },
+                    };
+                    first_error.get_or_insert(unreachable(
+                        &approach,
+                        PoseKind::Approach { lifted },
+                        source,
+                    ));
+                    continue;
+                }
             };
-            let fail = |reason: String| StationError::PathLeavesWorkspace {
+            if let Err(e) = robot.inverse_checked(&seated, posture, None, IkCheck::STRICT) {
+                first_error.get_or_insert(unreachable(&seated, PoseKind::Seated { lifted }, e));
+                continue;
+            }
+            for q in all.as_slice() {
+                match check_line(robot, q, &seated) {
+                    Ok(_) => {
+                        let cost = ptp_cost(robot, from, q);
+                        if best.is_none_or(|(_, b)| sooner(cost, b)) {
+                            best = Some((*q, cost));
+                        }
+                    }
+                    Err(source) => {
+                        first_error.get_or_insert(StationError::PathLeavesWorkspace {
+                            station: self.name,
+                            slot,
+                            lifted,
+                            posture,
+                            fixed: self.posture.is_some(),
+                            source,
+                        });
+                    }
+                }
+            }
+        }
+        match (best, first_error) {
+            (Some((q, _)), _) => Ok(q),
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(StationError::PathLeavesWorkspace {
                 station: self.name,
                 slot,
                 lifted,
-                posture,
+                posture: Posture::Right,
                 fixed: self.posture.is_some(),
-                x: pose.x,
-                y: pose.y,
-                fraction_pct: 100.0 * u,
-                reason,
-            };
-            let joints = robot
-                .inverse_checked(&pose, posture, Some(&previous), IkCheck::STRICT)
-                .map_err(|e| fail(e.to_string()))?;
-            for &a in &axes {
-                if (joints[a] - previous[a]).abs() > MAX_SAMPLE_STEP_DEG {
-                    let name = robot.axes()[a].name;
-                    return Err(fail(format!(
-                        "axis {name} would jump from {} to {} deg (it reaches its limit and \
-                         would have to turn the other way round)",
-                        fmt_num(previous[a]),
-                        fmt_num(joints[a])
-                    )));
-                }
-            }
-            previous = joints;
+                source: PlanError::PostureChange,
+            }),
         }
-        Ok(())
     }
 
     /// The station with a new taught pose (yaw wrapped into (-180, 180]).
@@ -831,10 +826,12 @@ mod tests {
     }
 
     #[test]
-    fn a_line_where_the_shoulder_would_wrap_is_refused_for_that_posture_only() {
+    fn a_station_where_one_elbow_would_pass_the_shoulders_limit_uses_the_other() {
         let robot = Robot::paper_default();
         // A radial station at 130 deg: with the left elbow J1 runs from 130 + 72.6 to
-        // 130 + 31.8 deg and crosses its +180 deg limit on the way in; the right elbow is fine.
+        // 130 + 31.8 deg and passes its +180 deg limit on the way in; the right elbow is
+        // fine, so a station that allows either posture validates and its transfers use the
+        // right one.
         let phi = 130f64.to_radians();
         let s = Station {
             slots: 1,
@@ -848,30 +845,31 @@ mod tests {
             },
             ..cassette()
         };
-        let e = s.validate(&robot).unwrap_err();
+        s.validate(&robot).unwrap();
+        let q = s.approach_joints(&robot, 1, false, &robot.home()).unwrap();
+        assert_eq!(Posture::of(&robot, &q), Some(Posture::Right));
+        let left = Station {
+            posture: Some(Posture::Left),
+            ..s.clone()
+        };
+        let e = left.validate(&robot).unwrap_err();
         assert!(
             matches!(
                 e,
                 StationError::PathLeavesWorkspace {
                     posture: Posture::Left,
+                    fixed: true,
                     ..
                 }
             ),
             "{e}"
         );
-        assert!(e.to_string().contains("axis j1 would jump"), "{e}");
-        Station {
-            posture: Some(Posture::Right),
-            ..s.clone()
-        }
-        .validate(&robot)
-        .unwrap();
-        assert!(Station {
-            posture: Some(Posture::Left),
-            ..s
-        }
-        .validate(&robot)
-        .is_err());
+        let msg = e.to_string();
+        assert!(
+            msg.contains("station LP1 slot 1")
+                && msg.contains("axis j1 would go beyond its limits"),
+            "{msg}"
+        );
     }
 
     #[test]

@@ -480,7 +480,7 @@ mod tests {
     fn the_demo_cell_parses_and_every_slot_is_reachable() {
         let stations = Stations::embedded_demo();
         let names: Vec<&str> = stations.iter().map(|s| s.name.as_str()).collect();
-        assert_eq!(names, ["LP1", "LP2", "AL", "PM1", "PM2"]);
+        assert_eq!(names, ["LP1", "LP2", "AL", "PM1", "PM2", "BF1"]);
         let robot = Robot::paper_default();
         stations.validate(&robot).unwrap();
 
@@ -507,6 +507,29 @@ mod tests {
             stations.get("PM2").unwrap().kind,
             StationKind::ProcessModule
         );
+        let bf1 = stations.get("BF1").unwrap();
+        assert_eq!((bf1.kind, bf1.slots), (StationKind::Buffer, 5));
+        assert_eq!(bf1.sim.as_ref().unwrap().wafers, vec![SlotCode::Absent; 5]);
+        // BF1 faces -145 deg, where only the left elbow takes the line in without passing
+        // the shoulder's -180 deg: its transfers use it, from the home posture (right) too.
+        let q = bf1
+            .approach_joints(&robot, 1, false, &robot.home())
+            .unwrap();
+        assert_eq!(Posture::of(&robot, &q), Some(Posture::Left));
+        assert!(Station {
+            posture: Some(Posture::Right),
+            ..bf1.clone()
+        }
+        .validate(&robot)
+        .is_err());
+        // Neighbouring wafer centres at least 320 mm apart, as the file says.
+        let all: Vec<&Station> = stations.iter().collect();
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[i + 1..] {
+                let d = (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y);
+                assert!(d >= 320.0, "{} and {} are {d} mm apart", a.name, b.name);
+            }
+        }
 
         // The margins promised in the file's comments: seated poses within 360 mm of the
         // base, approach poses at least 60 mm from it, the top slot lifted within the Z lift.
@@ -758,7 +781,7 @@ speed_pct = 40.0
         );
         let line = stn_line(stations.get("PM1").unwrap());
         assert!(
-            line.starts_with("PM1 kind=process_module x=-340 y=0 "),
+            line.starts_with("PM1 kind=process_module x=-308.145 y=143.69 "),
             "{line}"
         );
         assert!(line.ends_with(" interlock=none posture=any"), "{line}");

@@ -266,9 +266,9 @@ mod tests {
     #[test]
     fn put_enters_high_releases_and_leaves_low() {
         let stations = Stations::embedded_demo();
-        let pm1 = stations.get("PM1").unwrap();
-        let steps = plan_put(pm1, 1).unwrap();
-        // PM1 has no interlock: no RequireInput.
+        let pm2 = stations.get("PM2").unwrap();
+        let steps = plan_put(pm2, 1).unwrap();
+        // PM2 has no interlock: no RequireInput.
         assert!(!steps.iter().any(|s| matches!(s, Step::RequireInput(_))));
         assert_eq!(steps[0], Step::CheckVacuum { expect: true });
         let vac = steps
@@ -279,24 +279,24 @@ mod tests {
         assert_eq!(steps[vac + 2], Step::CheckVacuum { expect: false });
         assert_eq!(steps[vac + 3], Step::CommitMap);
         let p = poses(&steps);
-        // Support at 100 mm, stroke 10 mm; approach 220 mm back from (-340, 0) along yaw 180.
+        // Support at 100 mm, stroke 10 mm; approach 220 mm back from (0, -340) along yaw -90.
         let inside = |z| Pose {
-            x: -340.0,
-            y: 0.0,
+            x: 0.0,
+            y: -340.0,
             z,
-            yaw: 180.0,
+            yaw: -90.0,
         };
         let back = |z| Pose {
-            x: -120.0,
-            y: 0.0,
+            x: 0.0,
+            y: -120.0,
             z,
-            yaw: 180.0,
+            yaw: -90.0,
         };
         assert!(close(&p[0], &back(105.0)), "{:?}", p[0]);
         assert!(close(&p[1], &inside(105.0)));
         assert!(close(&p[2], &inside(95.0)));
         assert!(close(&p[3], &back(95.0)), "{:?}", p[3]);
-        assert_eq!(plan(TransferKind::Put, pm1, 1).unwrap(), steps);
+        assert_eq!(plan(TransferKind::Put, pm2, 1).unwrap(), steps);
     }
 
     #[test]

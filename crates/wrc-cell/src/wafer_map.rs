@@ -62,8 +62,8 @@
 //! more wafers with ids rising by one in successive slots as `W<a>..W<b>`, and a token
 //! repeated n ≥ 2 times as `<tok>x<n>` (a lower-case x: in the protocol `*` only ever starts a checksum). With D the number of digits of the largest id, the
 //! line is at most `6 + D` bytes for the hand, `1 + len(name) + slots · (D + 2)` per station
-//! and `19 + len(name) + D` for a pending transfer: with the demo cell (53 places) and ids
-//! below 100 000 (D = 5), at most 427 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
+//! and `19 + len(name) + D` for a pending transfer: with the demo cell (58 places) and ids
+//! below 100 000 (D = 5), at most 461 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
 //! same content as one line per place group (the hand, each station, the pending transfer),
 //! for one `EVT WAFER` line each.
 

@@ -48,6 +48,9 @@ impl JobKind {
 pub enum JobStep {
     /// A step of a transfer ([`wrc_cell::plan`]).
     Transfer(Step),
+    /// A PTP move to these joints [deg or mm per axis]: the transfer's move to the approach
+    /// pose, with the solution the cell service chose ([`wrc_cell::Station::approach_joints`]).
+    Joints(wrc_robot::Joints),
     /// Clear the board's mapping latch and wait until it has.
     MapClear,
     /// Switch the mapping sensor on or off.

@@ -322,7 +322,8 @@ impl CellService {
         job.station_index = index as u32;
         if kind == JobKind::Map {
             job.slot = station.slots;
-            for step in map_steps(&station).map_err(|e| (Code::OutOfReach, e))? {
+            let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+            for step in map_steps(&station, &self.robot, &from)? {
                 job.push(step);
             }
             return Ok(job);
@@ -357,8 +358,18 @@ impl CellService {
             }
         }
         let steps = plan(tkind, &station, slot).map_err(|e| (Code::OutOfReach, e.to_string()))?;
+        // The move to the approach pose goes to the joint solution from which the straight
+        // line into the station keeps every limit: checked here, before anything moves.
+        let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        let approach = station
+            .approach_joints(&self.robot, slot, tkind == TransferKind::Put, &from)
+            .map_err(|e| (station_code(&e), format!("{e}; nothing moved")))?;
         for step in steps {
-            if !job.push(JobStep::Transfer(step)) {
+            let step = match step {
+                wrc_cell::Step::Ptp(..) => JobStep::Joints(approach),
+                other => JobStep::Transfer(other),
+            };
+            if !job.push(step) {
                 return Err((Code::Internal, "the transfer has too many steps".into()));
             }
         }
@@ -506,21 +517,37 @@ fn map_error_code(e: &WaferMapError) -> Code {
     }
 }
 
-/// The steps of `MAP`: the mapping sensor on at the approach pose below slot 1, a straight
-/// Z sweep up past the last slot, the sensor off, the latch read.
-fn map_steps(station: &wrc_cell::Station) -> Result<Vec<JobStep>, String> {
+/// The protocol code of a station that cannot be used for a transfer.
+fn station_code(e: &wrc_cell::StationError) -> Code {
+    match e {
+        wrc_cell::StationError::PathLeavesWorkspace { .. } => Code::PathLeavesWorkspace,
+        _ => Code::OutOfReach,
+    }
+}
+
+/// The steps of `MAP`: the mapping sensor on at the approach pose below slot 1 (the solution
+/// a transfer there would use), a straight Z sweep up past the last slot, the sensor off,
+/// the latch read.
+fn map_steps(
+    station: &wrc_cell::Station,
+    robot: &Robot,
+    from: &wrc_robot::Joints,
+) -> Result<Vec<JobStep>, (Code, String)> {
     use wrc_cell::Step;
-    let first = station.approach_pose(1, false).map_err(|e| e.to_string())?;
+    let refused = |e: wrc_cell::StationError| (station_code(&e), format!("{e}; nothing moved"));
+    let first = station
+        .approach_joints(robot, 1, false, from)
+        .map_err(refused)?;
     let last = station
         .approach_pose(station.slots, true)
-        .map_err(|e| e.to_string())?;
+        .map_err(refused)?;
     let mut steps = Vec::with_capacity(9);
     steps.extend(
         station
             .interlock_input
             .map(|n| JobStep::Transfer(Step::RequireInput(n))),
     );
-    steps.push(JobStep::Transfer(Step::Ptp(first, station.posture)));
+    steps.push(JobStep::Joints(first));
     steps.push(JobStep::Transfer(Step::Speed(station.speed_pct)));
     steps.push(JobStep::MapClear);
     steps.push(JobStep::MapSensor(true));

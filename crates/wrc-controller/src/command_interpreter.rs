@@ -20,7 +20,6 @@ use std::time::Duration;
 use wrc_board::layout::board_status;
 use wrc_board::MotionBoard;
 use wrc_lang::{Motion, Program, Resume, RuntimeErrorKind, Step, Vm, VmIo, VmLimits};
-use wrc_motion::{MotionState, VelocityGenerator as Generator};
 use wrc_protocol::{
     AxisArg, Code, Command, Event, HelpBody, IoBody, ProgramName, ReplyBuf, ReplyTo, Request,
     StatusBody, Verb, WhereBody,
@@ -228,8 +227,6 @@ pub struct CommandInterpreter<B: MotionBoard> {
     next_ticket: u32,
     /// Joints where the last accepted move ends (validation reference).
     planned_end: Joints,
-    scratch: Generator,
-    scratch_idle: MotionState,
     buf: ReplyBuf,
     feedback: wrc_board::Feedback,
     /// A RESET the board has not yet carried out: who asked, and cycles left before it is
@@ -254,13 +251,11 @@ pub struct CommandInterpreter<B: MotionBoard> {
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
-    /// A Command Interpreter; `generator` is a generator for the same robot and settings
-    /// (used only to check straight lines before accepting them).
+    /// A Command Interpreter for `robot` on `board`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         robot: Robot,
         board: B,
-        generator: Generator,
         shared: Arc<Shared>,
         incoming: Arc<MessageQueue<Incoming>>,
         urgent: Arc<MessageQueue<Urgent>>,
@@ -272,7 +267,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         links: StoreLinks,
     ) -> Self {
         let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
-        let scratch_idle = generator.state();
         CommandInterpreter {
             robot,
             board,
@@ -288,8 +282,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             waiters: [None; MAX_WAITERS],
             next_ticket: 1,
             planned_end,
-            scratch: generator,
-            scratch_idle,
             buf: ReplyBuf::new(),
             feedback: wrc_board::Feedback::default(),
             reset_pending: None,
@@ -590,35 +582,27 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let posture = posture
                     .or_else(|| Posture::of(&self.robot, &self.planned_end))
                     .unwrap_or(Posture::Right);
-                match self.robot.inverse(&pose, posture, Some(&self.planned_end)) {
+                // The joint solution the Velocity Generator will go to (the one it reaches
+                // soonest where the ranges allow several).
+                match wrc_motion::ptp_target(&self.robot, &self.planned_end, &pose, posture) {
                     Ok(end) => {
                         self.motion(from, to, MoveKind::Pose(pose, Some(posture)), end, false)
                     }
-                    Err(e) => self.refuse(from, to, &wrc_motion::PlanError::Kinematics(e)),
+                    Err(e) => self.refuse(from, to, &e),
                 }
             }
             Command::MovL { pose } => {
-                // Check the whole line from where the previous motion ends.
-                self.scratch.restore(&self.scratch_idle);
-                let start = self.robot.joints_to_pulses(&self.planned_end);
-                let checked = self
-                    .scratch
-                    .set_position_pulses(&start)
-                    .and_then(|()| self.scratch.plan_line(&pose));
-                match checked {
-                    Ok(_) => {
-                        let end = match Posture::of(&self.robot, &self.planned_end) {
-                            Some(p) => self
-                                .robot
-                                .inverse(&pose, p, Some(&self.planned_end))
-                                .unwrap_or(self.planned_end),
-                            None => self.planned_end,
-                        };
-                        self.motion(from, to, MoveKind::Line(pose), end, false)
+                // Check every point of the line from where the previous motion ends, as the
+                // Velocity Generator will follow it (joints continuous).
+                let start = self
+                    .robot
+                    .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
+                match wrc_motion::check_line(&self.robot, &start, &pose) {
+                    Ok((_, check)) => {
+                        self.motion(from, to, MoveKind::Line(pose), check.end_joints, false)
                     }
                     Err(e) => self.refuse(from, to, &e),
                 }
-                self.scratch.restore(&self.scratch_idle);
             }
             Command::Jog { axis, pulses } => {
                 let Some(index) = axis.resolve(&self.robot) else {

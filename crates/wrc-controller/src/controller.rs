@@ -380,7 +380,6 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let mut interpreter = CommandInterpreter::new(
         robot.clone(),
         ci_board,
-        generator,
         shared.clone(),
         incoming,
         urgent,

@@ -5,7 +5,9 @@
 //! Pulse Generator brought to rest.
 //!
 //! Real-time promise: planning and producing periods do not allocate (`wrc-motion`
-//! guarantees it); the cycle does not block or print.
+//! guarantees it); the cycle does not block or print. A straight line costs its check
+//! before the first pulse and its timing law as the periods are produced (docs/motion.md
+//! gives both budgets, measured by `wrc bench motion`).
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -37,7 +39,9 @@ pub fn refusal_code(err: &PlanError) -> u16 {
         PlanError::Kinematics(KinematicsError::JointLimit { .. })
         | PlanError::JogBeyondLimit { .. } => refusal::JOINT_LIMIT,
         PlanError::Kinematics(_) => refusal::OUT_OF_REACH,
-        PlanError::PathLeavesWorkspace { .. } | PlanError::PostureChange => refusal::PATH,
+        PlanError::PathLeavesWorkspace { .. }
+        | PlanError::PostureChange
+        | PlanError::Untimed { .. } => refusal::PATH,
         _ => refusal::OTHER,
     }
 }
@@ -102,17 +106,23 @@ impl VelocityGenerator {
                 return false;
             }
             let g = &mut self.generator;
+            // Whether anything moves. A line's timing law is computed as its periods are
+            // produced (wrc-motion's start_line), not all before the first one.
             let planned = g
                 .set_speed_pct(order.speed_pct)
                 .and_then(|()| match order.kind {
-                    MoveKind::Joints(j) => g.plan_ptp(&j),
-                    MoveKind::Pose(p, posture) => g.plan_ptp_pose(&p, posture),
-                    MoveKind::Line(p) => g.plan_line(&p),
-                    MoveKind::Jog { axis, pulses } => g.plan_jog(axis, pulses),
+                    MoveKind::Joints(j) => g.plan_ptp(&j).map(|i| i.periods > 0),
+                    MoveKind::Pose(p, posture) => {
+                        g.plan_ptp_pose(&p, posture).map(|i| i.periods > 0)
+                    }
+                    MoveKind::Line(p) => g.start_line(&p),
+                    MoveKind::Jog { axis, pulses } => {
+                        g.plan_jog(axis, pulses).map(|i| i.periods > 0)
+                    }
                 });
             match planned {
-                Ok(info) if info.periods == 0 => self.report(order.ticket, MoveOutcome::Completed),
-                Ok(_) => {
+                Ok(false) => self.report(order.ticket, MoveOutcome::Completed),
+                Ok(true) => {
                     self.ticket = order.ticket;
                     return true;
                 }

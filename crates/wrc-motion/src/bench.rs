@@ -135,8 +135,16 @@ pub struct LineRun {
     pub duration_s: f64,
     /// Periods it took.
     pub periods: u64,
-    /// Wall time of `plan_line` [s].
+    /// Wall time of `plan_line`, which checks the line and runs its timing law to the end
+    /// (what `wrc plan` does) [s].
     pub plan_s: f64,
+    /// Wall time of `start_line`, what the controller's Velocity Generator pays before the
+    /// first pulse: the check of every point and the derivative table [s].
+    pub start_s: f64,
+    /// The longest `next_period` of the run (the law advancing as it runs) [s].
+    pub period_max_s: f64,
+    /// All `next_period` calls of the run together [s].
+    pub periods_total_s: f64,
     /// Lower bounds at the same speed [s] (scaled by the override).
     pub bound: LineBound,
     /// Limits used.
@@ -169,9 +177,15 @@ pub fn run_line(
     // The line as the generator sees it: from the pulse-exact start.
     let from: Joints = robot.pulses_to_joints(&start_pulses);
     let a = robot.forward(&from);
+    // Planned ahead (for the duration), on a copy; then started and run as the controller
+    // does, timing each period.
+    let mut ahead = vg.clone();
     let began = Instant::now();
-    let info = vg.plan_line(&case.target)?;
+    let info = ahead.plan_line(&case.target)?;
     let plan_s = began.elapsed().as_secs_f64();
+    let began = Instant::now();
+    vg.start_line(&case.target)?;
+    let start_s = began.elapsed().as_secs_f64();
     let bound = line_bound(robot, &settings.line, &from, &case.target)?;
     let s = settings.speed_pct / 100.0;
     let bound = LineBound {
@@ -186,8 +200,13 @@ pub fn run_line(
     let mut period = Period::default();
     let mut position = start_pulses;
     let mut end = MoveEnd::Completed;
+    let (mut period_max_s, mut periods_total_s) = (0.0f64, 0.0);
     while vg.is_moving() {
+        let began = Instant::now();
         let status = vg.next_period(&mut period);
+        let took = began.elapsed().as_secs_f64();
+        period_max_s = period_max_s.max(took);
+        periods_total_s += took;
         for (p, d) in position.iter_mut().zip(&period.pulses).take(n) {
             *p += d;
         }
@@ -199,8 +218,12 @@ pub fn run_line(
             end = e;
         }
     }
-    let target = robot.joints_to_pulses(&vg.joints());
-    let exact_end = end == MoveEnd::Completed && position == target;
+    // The run took the planned number of periods.
+    let ran = (pulses.len() - 1) as u64;
+    // The target's pulses: the line's end joints, followed continuously from the start.
+    let (_, check) = check_line(robot, &from, &case.target)?;
+    let target = robot.joints_to_pulses(&check.end_joints);
+    let exact_end = end == MoveEnd::Completed && position == target && ran == info.periods;
     let limits = limit_use(robot, settings, &exact, &pulses);
     Ok(LineRun {
         case: *case,
@@ -211,6 +234,9 @@ pub fn run_line(
         duration_s: info.duration_s,
         periods: info.periods,
         plan_s,
+        start_s,
+        period_max_s,
+        periods_total_s,
         bound,
         limits,
         deviation_mm: deviation,

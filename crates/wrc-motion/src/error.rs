@@ -35,8 +35,8 @@ pub enum PlanError {
     /// would leave its limits (joints are followed continuously along the line, never
     /// wrapped a turn).
     #[error(
-        "the straight line {problem} from {fraction_pct:.1} % of its length on \
-         (x={x:.3} y={y:.3} z={z:.3} yaw={yaw:.3})",
+        "the straight line leaves the workspace from {fraction_pct:.1} % of its length on \
+         (x={x:.3} y={y:.3} z={z:.3} yaw={yaw:.3}): {problem}",
         x = pose.x, y = pose.y, z = pose.z, yaw = pose.yaw
     )]
     PathLeavesWorkspace {
@@ -104,8 +104,8 @@ pub enum PlanError {
 pub enum PathProblem {
     /// The wrist point comes within the singularity margin of the stretched arm.
     #[error(
-        "comes too close to the stretched arm (the wrist point {r_mm:.3} mm from the \
-         shoulder, at most {limit_mm:.3} mm allowed)"
+        "the arm would come too close to the stretched arm (the wrist point {r_mm:.3} mm \
+         from the shoulder, at most {limit_mm:.3} mm allowed)"
     )]
     Stretched {
         /// Distance of the wrist point from the shoulder there [mm].
@@ -115,8 +115,8 @@ pub enum PathProblem {
     },
     /// The wrist point comes within the singularity margin of the folded arm.
     #[error(
-        "comes too close to the folded arm (the wrist point {r_mm:.3} mm from the \
-         shoulder, at least {limit_mm:.3} mm needed)"
+        "the arm would come too close to the folded arm (the wrist point {r_mm:.3} mm from \
+         the shoulder, at least {limit_mm:.3} mm needed)"
     )]
     Folded {
         /// Distance of the wrist point from the shoulder there [mm].
@@ -126,7 +126,7 @@ pub enum PathProblem {
     },
     /// A joint would leave its limits.
     #[error(
-        "needs axis {axis} beyond its limits [{min}, {max}] (it would reach {extreme:.3} {unit})",
+        "axis {axis} would go beyond its limits [{min}, {max}] (to {extreme:.3} {unit})",
         unit = unit.as_str()
     )]
     JointLimit {

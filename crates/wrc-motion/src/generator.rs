@@ -339,11 +339,26 @@ impl VelocityGenerator {
     /// any point of the line is out of reach, too close to a singularity, or needs a joint
     /// beyond its limits (the error names the axis, where along the line and the pose).
     ///
-    /// Under the default profile the line is timed by the time-optimal jerk-limited law of
-    /// [`crate::line_profile`](self#straight-lines); planning checks the whole line and runs
-    /// the law once to its end (for the duration), which takes some hundreds of
-    /// microseconds to a few milliseconds (docs/motion.md), without allocating.
+    /// Under the default profile the line is timed by the time-optimal jerk-limited law
+    /// (docs/motion.md); this runs the law once to its end, for the duration in the
+    /// [`MoveInfo`] — some milliseconds, without allocating. A real-time task that does not
+    /// need the duration beforehand calls [`VelocityGenerator::start_line`] instead.
     pub fn plan_line(&mut self, target: &Pose) -> Result<MoveInfo, PlanError> {
+        self.begin_line(target, true)
+    }
+
+    /// Start a straight line as [`VelocityGenerator::plan_line`] does, without running its
+    /// timing law ahead: before the first pulse only the line's check (and its derivative
+    /// table) is computed; the law advances as periods are produced (docs/motion.md gives
+    /// both costs). Returns whether anything moves. The law cannot stall short of the target:
+    /// from any state of it, either speeding up is safe or its verified brake moves on.
+    pub fn start_line(&mut self, target: &Pose) -> Result<bool, PlanError> {
+        self.begin_line(target, false).map(|info| info.periods > 0)
+    }
+
+    /// Plan a line; with `run_ahead`, run the law to its end for the duration (else the
+    /// [`MoveInfo`] has `periods` 1 for a motion, 0 for none, and no duration).
+    fn begin_line(&mut self, target: &Pose, run_ahead: bool) -> Result<MoveInfo, PlanError> {
         self.ensure_idle()?;
         let current = self.joints();
         let (path, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
@@ -360,16 +375,20 @@ impl VelocityGenerator {
                 let table = &self.table;
                 let derivs = |u: f64| table.at(u);
                 let profile = LineProfile::start(&bounds, &derivs);
-                // Run the law to its end once: the duration, and proof that it gets there.
-                let mut dry = profile;
-                let end_t = dry.run_to_end(&bounds, &derivs);
-                if !dry.completed() {
-                    return Err(PlanError::Untimed {
-                        fraction_pct: 100.0 * dry.at(&bounds, &derivs, end_t),
-                    });
-                }
                 let scale = self.scale();
-                let duration = end_t / scale;
+                // Run the law to its end once: the duration, and proof that it gets there.
+                let (duration, periods) = if run_ahead {
+                    let mut dry = profile;
+                    let end_t = dry.run_to_end(&bounds, &derivs);
+                    if !dry.completed() {
+                        return Err(PlanError::Untimed {
+                            fraction_pct: 100.0 * dry.at(&bounds, &derivs, end_t),
+                        });
+                    }
+                    (end_t / scale, periods_for(end_t / scale, ts))
+                } else {
+                    (f64::NAN, 1)
+                };
                 let law = LineLaw::Timed {
                     profile,
                     bounds,
@@ -378,7 +397,7 @@ impl VelocityGenerator {
                 };
                 let info = MoveInfo {
                     duration_s: duration,
-                    periods: periods_for(duration, ts),
+                    periods,
                     sync: Sync::Single,
                 };
                 (law, info)

@@ -50,4 +50,4 @@ pub use generator::{MotionState, MoveEnd, MoveInfo, Period, Status, Sync, Veloci
 pub use paper::PaperChannel;
 pub use path::{check_line, LinePath, PathCheck, PathLimits};
 pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};
-pub use solutions::ptp_target;
+pub use solutions::{ptp_cost, ptp_target, solutions, sooner, Solutions, MAX_SOLUTIONS};

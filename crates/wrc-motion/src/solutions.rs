@@ -14,35 +14,40 @@ use crate::error::PlanError;
 /// Most turns either way an axis is tried at [turns].
 const TURNS: i32 = 2;
 
-/// The joints a PTP move from `from` to `pose` (with `posture`) goes to: among the solutions
-/// within every axis's limits, the one reached soonest (see the module docs). Errors as
-/// [`Robot::inverse`] when no solution lies within the limits.
-pub fn ptp_target(
+/// Most joint solutions of one pose with one posture (the shoulder and the hand at up to
+/// [`TURNS`] turns either way).
+pub const MAX_SOLUTIONS: usize = ((2 * TURNS + 1) * (2 * TURNS + 1)) as usize;
+
+/// The joint solutions of a pose with one elbow posture that lie within every axis's
+/// limits, the one [`Robot::inverse`] picks (nearest the reference) first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solutions {
+    list: [Joints; MAX_SOLUTIONS],
+    len: usize,
+}
+
+impl Solutions {
+    /// The solutions.
+    pub fn as_slice(&self) -> &[Joints] {
+        &self.list[..self.len]
+    }
+}
+
+/// The solutions of `pose` with `posture` within the limits; auxiliary axes as in
+/// `reference`. Errors as [`Robot::inverse`] when there is none.
+pub fn solutions(
     robot: &Robot,
-    from: &Joints,
     pose: &Pose,
     posture: Posture,
-) -> Result<Joints, PlanError> {
-    let base = robot.inverse(pose, posture, Some(from))?;
+    reference: &Joints,
+) -> Result<Solutions, PlanError> {
+    let base = robot.inverse(pose, posture, Some(reference))?;
     let arm = robot.arm();
     let axes = robot.axes();
-    let duration = |q: &Joints| {
-        let mut worst = 0.0f64;
-        let mut travel = 0.0;
-        for (i, axis) in axes.iter().enumerate() {
-            let d = (q[i] - from[i]).abs();
-            travel += d;
-            if d > 0.0 {
-                let l = &axis.limits;
-                let t = DoubleS::time_optimal(d, l.max_velocity, l.max_acceleration, l.max_jerk)
-                    .duration();
-                worst = worst.max(t);
-            }
-        }
-        (worst, travel)
+    let mut out = Solutions {
+        list: [base; MAX_SOLUTIONS],
+        len: 1,
     };
-    let mut best = base;
-    let mut best_cost = duration(&base);
     for k1 in -TURNS..=TURNS {
         let mut q = base;
         q[arm.shoulder] = base[arm.shoulder] + 360.0 * f64::from(k1);
@@ -59,13 +64,55 @@ pub fn ptp_target(
                     continue;
                 }
             }
-            let cost = duration(&q);
-            let better = cost.0 < best_cost.0 - 1e-9
-                || (cost.0 <= best_cost.0 + 1e-9 && cost.1 < best_cost.1 - 1e-9);
-            if better {
-                best = q;
-                best_cost = cost;
+            if (k1, k3) != (0, 0) && out.len < MAX_SOLUTIONS {
+                out.list[out.len] = q;
+                out.len += 1;
             }
+        }
+    }
+    Ok(out)
+}
+
+/// How soon a PTP move from `from` reaches `to`: the slowest axis's time-optimal
+/// jerk-limited duration at 100 % [s], then the total joint travel (for ties).
+pub fn ptp_cost(robot: &Robot, from: &Joints, to: &Joints) -> (f64, f64) {
+    let mut worst = 0.0f64;
+    let mut travel = 0.0;
+    for (i, axis) in robot.axes().iter().enumerate() {
+        let d = (to[i] - from[i]).abs();
+        travel += d;
+        if d > 0.0 {
+            let l = &axis.limits;
+            let t =
+                DoubleS::time_optimal(d, l.max_velocity, l.max_acceleration, l.max_jerk).duration();
+            worst = worst.max(t);
+        }
+    }
+    (worst, travel)
+}
+
+/// Whether cost `a` ([`ptp_cost`]) is better than `b`: sooner, or as soon with less travel.
+pub fn sooner(a: (f64, f64), b: (f64, f64)) -> bool {
+    a.0 < b.0 - 1e-9 || (a.0 <= b.0 + 1e-9 && a.1 < b.1 - 1e-9)
+}
+
+/// The joints a PTP move from `from` to `pose` (with `posture`) goes to: among the solutions
+/// within every axis's limits, the one reached soonest (see the module docs). Errors as
+/// [`Robot::inverse`] when no solution lies within the limits.
+pub fn ptp_target(
+    robot: &Robot,
+    from: &Joints,
+    pose: &Pose,
+    posture: Posture,
+) -> Result<Joints, PlanError> {
+    let all = solutions(robot, pose, posture, from)?;
+    let mut best = all.as_slice()[0];
+    let mut best_cost = ptp_cost(robot, from, &best);
+    for q in &all.as_slice()[1..] {
+        let cost = ptp_cost(robot, from, q);
+        if sooner(cost, best_cost) {
+            best = *q;
+            best_cost = cost;
         }
     }
     Ok(best)

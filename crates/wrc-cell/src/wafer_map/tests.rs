@@ -58,7 +58,7 @@ fn a_new_map_knows_nothing_and_refuses_transfers() {
     assert!(map.prepare(TransferKind::Put, "PM1", 1).is_err());
     assert_eq!(
         map.wafers_line(),
-        "hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=?"
+        "hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=? BF1=?x5"
     );
 }
 
@@ -138,7 +138,7 @@ fn get_then_put_moves_the_wafer_in_two_phases() {
     assert_eq!(map.hand(), None);
     assert_eq!(
         map.wafers_line(),
-        "hand=- LP1=W1..W4,-,W6..W25 LP2=-x25 AL=- PM1=- PM2=W5"
+        "hand=- LP1=W1..W4,-,W6..W25 LP2=-x25 AL=- PM1=- PM2=W5 BF1=?x5"
     );
     map.verify().unwrap();
 }
@@ -537,26 +537,26 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
     );
 
     // Worst case for the demo cell: every place full, no run compresses, 5-digit ids, plus
-    // the longest pending transfer: within the documented 427 bytes.
+    // the longest pending transfer: within the documented 461 bytes.
     let mut map = WaferMap::new(&demo());
     let mut next = 10_000u32;
-    for st in ["LP1", "LP2", "AL", "PM1", "PM2"] {
+    for st in ["LP1", "LP2", "AL", "PM1", "PM2", "BF1"] {
         for slot in 1..=map.slots(st).unwrap().len() as u16 {
             map.place(at(st, slot), WaferId(next)).unwrap();
             next += 2;
         }
     }
     let full = map.wafers_line();
-    assert!(full.len() <= 427 - 26, "{} bytes: {full}", full.len());
+    assert!(full.len() <= 461 - 26, "{} bytes: {full}", full.len());
     map.remove(at("LP2", 25)).unwrap();
     map.place(Location::Hand, WaferId(99_999)).unwrap();
     let put = map.prepare(TransferKind::Put, "LP2", 25).unwrap();
     map.begin(put).unwrap();
     let line = map.wafers_line();
-    assert!(line.len() <= 427, "{} bytes: {line}", line.len());
+    assert!(line.len() <= 461, "{} bytes: {line}", line.len());
     assert!(line.ends_with(" pending=put:LP2.25:W99999"), "{line}");
     let lines = map.wafers_lines();
-    assert_eq!(lines.len(), 7);
+    assert_eq!(lines.len(), 8);
     assert_eq!(lines.join(" "), line);
 }
 

@@ -409,6 +409,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.job_advance();
                 }
             },
+            JobStep::Joints(joints) => self.job_move(Command::MovJ {
+                joints,
+                count: self.robot.axis_count(),
+            }),
             JobStep::MapClear => {
                 self.board.clear_mapping();
                 let deadline = self.now_ns.saturating_add(BOARD_ACK_NS);

@@ -13,7 +13,6 @@ use wrc_controller::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep};
 use wrc_controller::command_interpreter::{CommandInterpreter, Outputs};
 use wrc_controller::program_store::{ProgramStart, StoreLinks};
 use wrc_controller::shared::{MoveDone, MoveOrder, MoveOutcome, OutLine, Shared, SourceId};
-use wrc_motion::VelocityGenerator as Generator;
 use wrc_protocol::{ProgramName, ReplyTo};
 use wrc_robot::Robot;
 use wrc_rt::ipc::{MessageQueue, Semaphore};
@@ -71,7 +70,6 @@ impl Rig {
         sim.step();
         let board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
         let io = DpramBoard::attach(mapping, Expect::default()).unwrap();
-        let generator = Generator::new(robot.clone(), config.motion).unwrap();
         let shared = Arc::new(Shared::default());
         let home = robot.joints_to_pulses(&robot.home());
         for (c, p) in shared.commanded.iter().zip(home) {
@@ -85,7 +83,6 @@ impl Rig {
         let ci = CommandInterpreter::new(
             robot.clone(),
             board,
-            generator,
             shared.clone(),
             Arc::new(MessageQueue::new(16)),
             Arc::new(MessageQueue::new(16)),

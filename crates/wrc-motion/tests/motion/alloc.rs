@@ -31,6 +31,7 @@ fn planning_and_periods_allocate_nothing() {
             vg.set_position_pulses(&vg.robot().joints_to_pulses(&start))
                 .unwrap();
             let mut out = Period::default();
+            let mut stopper = generator(profile, period, 100.0);
             let before = heap_calls().allocations;
             // A straight line, stopped half-way, then a PTP and a jog to the end.
             vg.plan_line(&Pose {
@@ -47,6 +48,31 @@ fn planning_and_periods_allocate_nothing() {
                     vg.stop();
                 }
             }
+            // A line started the real-time way (its law computed as it runs), stopped
+            // half-way by another generator from the state reached (as the controller's
+            // Pulse Generator does, with derivatives computed on the spot).
+            let before_line = heap_calls().allocations;
+            vg.start_line(&Pose {
+                x: 250.0,
+                y: -150.0,
+                z: 10.0,
+                yaw: -20.0,
+            })
+            .unwrap();
+            for _ in 0..30 {
+                vg.next_period(&mut out);
+            }
+            stopper.restore(&vg.state());
+            stopper.stop();
+            while stopper.is_moving() {
+                stopper.next_period(&mut out);
+            }
+            let line_allocations = heap_calls().allocations - before_line;
+            assert_eq!(
+                line_allocations, 0,
+                "{profile:?} at {period} s: a started line allocated"
+            );
+            vg.restore(&stopper.state());
             let mut t = vg.joints();
             t[0] += 30.0;
             vg.plan_ptp(&t).unwrap();

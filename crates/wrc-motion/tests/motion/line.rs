@@ -229,7 +229,7 @@ fn a_line_across_the_shoulders_limit_is_refused_with_axis_place_and_pose() {
     assert!(fraction_pct > 0.0 && fraction_pct < 100.0);
     let msg = err.to_string();
     assert!(
-        msg.contains("axis j1 beyond its limits [-180, 180]")
+        msg.contains("axis j1 would go beyond its limits [-180, 180]")
             && msg.contains("% of its length")
             && msg.contains("yaw="),
         "{msg}"

@@ -17,13 +17,13 @@ fn stations_are_listed_taught_saved_and_kept_across_a_restart() {
     let c = Controller::start(&[]);
     let mut host = c.client();
     host.seen.clear();
-    assert_eq!(host.ask("1 STN"), "ACK 1 stations=5");
+    assert_eq!(host.ask("1 STN"), "ACK 1 stations=6");
     let stations: Vec<&String> = host
         .seen
         .iter()
         .filter(|l| l.starts_with("EVT STATION "))
         .collect();
-    assert_eq!(stations.len(), 5, "{:?}", host.seen);
+    assert_eq!(stations.len(), 6, "{:?}", host.seen);
     assert!(
         stations[0].starts_with("EVT STATION LP1 kind=load_port "),
         "{stations:?}"
@@ -34,7 +34,7 @@ fn stations_are_listed_taught_saved_and_kept_across_a_restart() {
     // Nothing mapped yet: every slot is unknown.
     assert_eq!(
         host.ask("2 WAFERS"),
-        "ACK 2 hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=?"
+        "ACK 2 hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=? BF1=?x5"
     );
 
     // Teaching needs a homed robot at rest, a known station and a valid name.
@@ -63,7 +63,7 @@ fn stations_are_listed_taught_saved_and_kept_across_a_restart() {
     let c = c.restart();
     let mut host = c.client();
     host.seen.clear();
-    assert_eq!(host.ask("11 STN"), "ACK 11 stations=5");
+    assert_eq!(host.ask("11 STN"), "ACK 11 stations=6");
     let lp1 = host
         .seen
         .iter()

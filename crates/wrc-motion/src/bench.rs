@@ -73,6 +73,61 @@ impl Lines {
         }
     }
 
+    /// The next random *long* line, of 700 mm or more: a chord of the reachable disc passing
+    /// 55 to 100 mm from the shoulder, in a random direction, with a random Z and yaw at
+    /// each end and a random posture; one the planner accepts.
+    pub fn next_long_line(
+        &mut self,
+        robot: &Robot,
+        mut refused: impl FnMut(&PlanError),
+    ) -> LineCase {
+        let arm = robot.arm();
+        let reach = arm.link1_mm + arm.link2_mm - arm.singularity_margin_mm - 1.0;
+        let (zlo, zhi) = arm
+            .z
+            .map_or((0.0, 0.0), |z| (robot.axes()[z].min, robot.axes()[z].max));
+        loop {
+            let d = self.uniform(55.0, 100.0);
+            let theta = self.uniform(-180.0f64, 180.0).to_radians();
+            let half = (reach * reach - d * d).sqrt();
+            let (nx, ny) = (theta.cos(), theta.sin());
+            let end = |s: f64, z: f64, yaw: f64| Pose {
+                x: d * nx - s * ny,
+                y: d * ny + s * nx,
+                z,
+                yaw,
+            };
+            let mut z = || {
+                if zhi > zlo {
+                    self.uniform(zlo, zhi)
+                } else {
+                    zlo
+                }
+            };
+            let (z0, z1) = (z(), z());
+            let start = end(-half, z0, self.uniform(-180.0, 180.0));
+            let target = end(half, z1, self.uniform(-180.0, 180.0));
+            let posture = if self.next_u64() & 1 == 0 {
+                Posture::Right
+            } else {
+                Posture::Left
+            };
+            let Ok(joints) = robot.inverse(&start, posture, None) else {
+                continue;
+            };
+            match check_line(robot, &joints, &target) {
+                Ok(_) => {
+                    return LineCase {
+                        start,
+                        posture,
+                        target,
+                    }
+                }
+                Err(e) => refused(&e),
+            }
+        }
+    }
+
     /// The next random line: both ends uniform (see [`Lines::pose`]), a random posture.
     /// `refused` is called with every candidate the planner refuses (an end out of reach or
     /// a point of the line beyond a limit); the line returned is one it accepts.

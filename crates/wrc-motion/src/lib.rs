@@ -37,7 +37,7 @@ pub mod bench;
 mod double_s;
 mod error;
 mod generator;
-pub mod line_profile;
+mod line_profile;
 mod paper;
 mod path;
 pub mod reference;

@@ -130,6 +130,31 @@ impl Bounds {
         true
     }
 
+    /// Whether jerk `j` keeps every jerk limit at (v, a) (the velocity and acceleration
+    /// there already checked).
+    #[inline]
+    fn jerk_ok(&self, d: &Derivs, v: f64, a: f64, j: f64) -> bool {
+        if j.abs() > self.cj {
+            return false;
+        }
+        let v2 = v * v;
+        (0..self.n)
+            .all(|k| (d.d1[k] * j + 3.0 * d.d2[k] * v * a + d.d3[k] * v2 * v).abs() <= self.j[k])
+    }
+
+    /// The largest admissible jerk at rest (u̇ = ü = 0) where the derivatives are `d`.
+    #[inline]
+    fn jerk_hi_at_rest(&self, d: &Derivs) -> f64 {
+        let mut hi = self.cj;
+        for k in 0..self.n {
+            let d1 = d.d1[k].abs();
+            if d1 >= 1e-9 {
+                hi = hi.min(self.j[k] / d1);
+            }
+        }
+        hi
+    }
+
     /// The admissible jerks u⃛ at (v, a): an interval, empty when lo > hi.
     #[inline]
     fn jerk_range(&self, d: &Derivs, v: f64, a: f64) -> (f64, f64) {
@@ -210,7 +235,7 @@ fn brake_step(b: &Bounds, d: &Derivs, v: f64, a: f64, kappa: f64, h: f64) -> Bra
     }
     // The release's jerk is constant while the admissible range moves from its value here
     // to its value at rest: keep within both.
-    let cap = kappa * hi.min(b.jerk_range(d, 0.0, 0.0).1);
+    let cap = kappa * hi.min(b.jerk_hi_at_rest(d));
     // On (or below) the release curve: release now. The curve moves a little with the
     // state (cap does), so "on" means within 0.1 %: the release jerk is then at most cap
     // plus 0.1 %, still inside the admissible range.
@@ -298,7 +323,7 @@ fn brake_stop(
 ) -> Result<Option<f64>, Unsafe> {
     let mut d = derivs(u);
     let mut falling = 0;
-    let mut beyond = false;
+    let mut beyond = u > 1.0 + END_TOL;
     for _ in 0..MAX_BRAKE_STEPS {
         let (j, dt, last) = match brake_step(b, &d, v, a, kappa, STEP_S) {
             BrakeStep::Rest => break,
@@ -307,7 +332,7 @@ fn brake_stop(
             BrakeStep::Land { jerk, dt } => (jerk, dt, true),
         };
         // The jerk changes at the knot: it must be admissible there too.
-        if !b.ok(&d, v, a, j) {
+        if !b.jerk_ok(&d, v, a, j) {
             return Err(Unsafe::Limit);
         }
         let (un, vn, an) = step_to(u, v, a, j, dt);
@@ -566,10 +591,9 @@ impl LineProfile {
         if hi <= jb {
             return;
         }
-        // The brakes a probe tries first: the current one's neighbours (every one near a
-        // stop).
+        // The brakes a probe tries: the current one's neighbours (every one near a stop).
         let every = (0, BRAKES.len() - 1);
-        let brakes = if matches!(fallback, BrakeStep::Jerk { .. }) {
+        let near = if matches!(fallback, BrakeStep::Jerk { .. }) {
             (
                 brake.saturating_sub(1) as usize,
                 (brake as usize + 1).min(BRAKES.len() - 1),
@@ -577,41 +601,23 @@ impl LineProfile {
         } else {
             every
         };
-        // A jerk's step must keep the limits, and its end state must be safe.
-        let probe = |j: f64, horizon: Horizon| -> Result<(u8, Option<f64>), Unsafe> {
-            if !b.ok(&d, v, a, j) {
+        // A jerk's step must keep the limits (at the knot only the jerk changes), and its
+        // end state must be safe with one of `brakes`.
+        let probe = |j: f64, horizon: Horizon, brakes: (usize, usize)| {
+            if !b.jerk_ok(&d, v, a, j) {
                 return Err(Unsafe::Limit);
             }
             let (un, vn, an) = step_to(u, v, a, j, STEP_S);
             if vn < -1e-9 || !b.ok(&derivs(un), vn.max(0.0), an, j) {
                 return Err(Unsafe::Limit);
             }
-            if un > 1.0 + END_TOL {
-                return Err(Unsafe::Overshoot(un));
-            }
-            let state = (un, vn.max(0.0), an);
-            match safe(b, derivs, state, brakes, horizon) {
-                // A limit the nearby brakes cannot keep: a full probe tries every brake.
-                Err(Unsafe::Limit) if horizon == Horizon::Full && brakes != every => {
-                    safe(b, derivs, state, every, horizon)
-                }
-                verdict => verdict,
-            }
+            safe(b, derivs, (un, vn.max(0.0), an), brakes, horizon)
         };
-        let full = |j: f64| probe(j, Horizon::Full);
+        let short = |j: f64| probe(j, Horizon::Short, near);
+        let full = |j: f64| probe(j, Horizon::Full, near);
         // The current brake only, to the stop: where it stops is continuous in the jerk.
-        let with_brake = |j: f64| -> Result<(u8, Option<f64>), Unsafe> {
-            if !b.ok(&d, v, a, j) {
-                return Err(Unsafe::Limit);
-            }
-            let (un, vn, an) = step_to(u, v, a, j, STEP_S);
-            if vn < -1e-9 || !b.ok(&derivs(un), vn.max(0.0), an, j) {
-                return Err(Unsafe::Limit);
-            }
-            let k = brake as usize;
-            safe(b, derivs, (un, vn.max(0.0), an), (k, k), Horizon::Full)
-        };
-        let short = |j: f64| probe(j, Horizon::Short);
+        let k = brake as usize;
+        let with_brake = |j: f64| probe(j, Horizon::Full, (k, k));
         // The largest jerk that passes a short probe (the largest admissible one, or found
         // by bisection from the last step's: it changes little from step to step), then
         // verified to the stop before it is taken.
@@ -630,7 +636,12 @@ impl LineProfile {
                 None => return,
             }
         };
-        match full(candidate) {
+        let verdict = match full(candidate) {
+            // A limit the nearby brakes cannot keep: every brake is tried.
+            Err(Unsafe::Limit) if near != every => probe(candidate, Horizon::Full, every),
+            verdict => verdict,
+        };
+        match verdict {
             Ok((k, Some(stop))) => self.set_step(candidate, k, stop),
             Ok((_, None)) => {}
             Err(Unsafe::Overshoot(_)) => {

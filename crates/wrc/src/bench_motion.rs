@@ -19,6 +19,10 @@ pub struct MotionArgs {
     /// Random lines to run.
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     lines: u32,
+    /// Random long lines (700 mm and more) to run besides, for the planning costs of the
+    /// longest lines.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    long_lines: u32,
     /// Seed of the random lines (the same seed gives the same lines on every machine).
     #[arg(long, default_value_t = 2026)]
     seed: u64,
@@ -52,8 +56,9 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
         wrc_motion::check_speed_pct(pct).map_err(|e| anyhow::anyhow!("--speed: {}", e.reason))?;
     }
     println!(
-        "wrc bench motion: {} random reachable lines of {} (seed {}), period {} ms, speeds {:?} %",
+        "wrc bench motion: {} random reachable lines and {} long ones of {} (seed {}), period {} ms, speeds {:?} %",
         args.lines,
+        args.long_lines,
         robot.name,
         args.seed,
         settings.period_s * 1000.0,
@@ -63,12 +68,14 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     // planner refuses are counted by reason.
     let mut lines = Lines::new(args.seed);
     let mut refused = std::collections::BTreeMap::<String, u32>::new();
+    let mut count = |e: &wrc_motion::PlanError| {
+        *refused.entry(refusal_kind(e).to_string()).or_default() += 1;
+    };
     let cases: Vec<_> = (0..args.lines)
-        .map(|_| {
-            lines.next_line(&robot, |e| {
-                *refused.entry(refusal_kind(e).to_string()).or_default() += 1;
-            })
-        })
+        .map(|_| lines.next_line(&robot, &mut count))
+        .collect();
+    let long: Vec<_> = (0..args.long_lines)
+        .map(|_| lines.next_long_line(&robot, &mut count))
         .collect();
     println!(
         "  candidates refused by the planner (an end out of reach, or a point of the line): {}",
@@ -82,13 +89,22 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     for &pct in &args.speed {
         let mut s = settings;
         s.speed_pct = pct;
-        let mut runs = Vec::with_capacity(cases.len());
-        for case in &cases {
-            let run = run_line(&robot, &s, case).with_context(|| format!("planning {case:?}"))?;
-            runs.push(run);
-        }
+        let run_all = |cases: &[wrc_motion::bench::LineCase]| -> anyhow::Result<Vec<LineRun>> {
+            cases
+                .iter()
+                .map(|case| {
+                    run_line(&robot, &s, case).with_context(|| format!("planning {case:?}"))
+                })
+                .collect()
+        };
+        let runs = run_all(&cases)?;
         let figures = summarise(&runs, &robot, &s);
-        print_figures(pct, &figures);
+        print_figures(pct, "random lines", &figures);
+        let long_runs = run_all(&long)?;
+        let long_figures = (!long_runs.is_empty()).then(|| summarise(&long_runs, &robot, &s));
+        if let Some(f) = &long_figures {
+            print_figures(pct, "long lines", f);
+        }
         if let Some(worst) = runs.iter().max_by(|a, b| a.ratio().total_cmp(&b.ratio())) {
             let p = |p: &wrc_robot::Pose| format!("{},{},{},{}", p.x, p.y, p.z, p.yaw);
             println!(
@@ -103,7 +119,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
                 worst.ratio()
             );
         }
-        report.push(json!({ "speed_pct": pct, "figures": figures }));
+        report.push(json!({ "speed_pct": pct, "figures": figures, "long_lines": long_figures }));
     }
     if let Some(path) = &args.json {
         let doc = json!({
@@ -208,7 +224,7 @@ fn summarise(
     })
 }
 
-fn print_figures(pct: f64, f: &serde_json::Value) {
+fn print_figures(pct: f64, what: &str, f: &serde_json::Value) {
     let g = |path: &[&str]| {
         let mut v = f;
         for p in path {
@@ -217,7 +233,7 @@ fn print_figures(pct: f64, f: &serde_json::Value) {
         v.as_f64().unwrap_or(f64::NAN)
     };
     println!(
-        "\nspeed {pct} %: {} lines, length median {:.0} mm, max {:.0} mm",
+        "\nspeed {pct} %, {what}: {} lines, length median {:.0} mm, max {:.0} mm",
         f["lines"],
         g(&["length_mm", "median"]),
         g(&["length_mm", "max"])

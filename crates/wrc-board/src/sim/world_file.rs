@@ -283,7 +283,8 @@ mod tests {
         assert_eq!(lines[0], "LP1 11111 11111 11111 11111 11111");
         assert_eq!(lines[1], "LP2 00000 00000 00000 00000 00000");
         assert_eq!(lines[2], "AL 0");
-        assert_eq!(&lines[5..], ["hand - (vacuum off)", "lost -", "faults 0"]);
+        assert_eq!(lines[5], "BF1 00000");
+        assert_eq!(&lines[6..], ["hand - (vacuum off)", "lost -", "faults 0"]);
         assert!(text.is_ascii());
         assert_eq!(
             World::new(&stations).map_station("LP1").unwrap()[0],

@@ -382,7 +382,7 @@ fn the_cell_needs_every_axis_on_its_board_and_reachable_stations() {
         "{e}"
     );
 
-    let far = DEMO_TOML.replacen("x_mm = -340.0", "x_mm = -900.0", 1);
+    let far = DEMO_TOML.replacen("x_mm = -308.145", "x_mm = -900.0", 1);
     let stations = Stations::parse(&far, DEMO_NAME).unwrap();
     let e = SimCell::new(&config, &config.boards[0], stations)
         .unwrap_err()

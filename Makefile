@@ -10,7 +10,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui demo clean
+.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -94,6 +94,13 @@ bench-rt: build
 bench-controller: build
 	@mkdir -p $(OUT)
 	$(WRC) bench controller --json $(OUT)/bench-controller.json
+
+# Straight lines against the time-optimal lower bound: 200 random reachable lines and 20 long
+# ones (fixed seed), planned and run as the controller does; durations over the bound, limits
+# used from the output pulses, accuracy, and what planning costs the Velocity Generator.
+bench-motion: build
+	@mkdir -p $(OUT)
+	$(WRC) bench motion --json $(OUT)/bench-motion.json
 
 # The GUI must not disturb control: the Pulse Generator's wake-up latency with no GUI, with
 # wrc ui and browsers-worth of WebSocket clients attached, and after kill -9 of wrc ui.

@@ -11,15 +11,18 @@
 //!
 //! The law is built forward in time, in steps of [`STEP_S`] with a constant jerk per step.
 //! Each step takes the **largest jerk whose next state is safe**: a state is *safe* when a
-//! brake from it — the [brake policy](brake_step): decelerate at a fraction κ of what the
-//! limits allow there, then release so that ü and u̇ reach 0 together — keeps every limit at
-//! every step and stops before u = 1. The brake is simulated to the stop to decide; κ is
-//! tried from strong to gentle ([`BRAKES`]). Because the brake is a feedback law of the state
-//! alone, the state it reaches after one step is safe again; so from every state of a plan a
-//! controlled stop along the line is known to keep every limit, and following the brake
-//! from the last safe state is always possible. Near the end the largest safe jerk is the
-//! one whose brake stops exactly at u = 1 (found to 1e-10 in u): the line's deceleration
-//! *is* that brake.
+//! brake from it (`brake_step`: decelerate at a fraction κ of what the limits allow there,
+//! then release so that ü and u̇ reach 0 together) keeps every limit at every step and stops
+//! before u = 1. The brake is simulated to the stop to decide; κ is tried from strong to
+//! gentle ([`BRAKES`]). Because the brake is a feedback law of the state alone, the state it
+//! reaches after one step is safe again; so from every state of a plan a controlled stop
+//! along the line is known to keep every limit, and following the brake from the last safe
+//! state is always possible. The largest safe jerk is looked for with short brake probes
+//! (bisection, from the last step's jerk), then verified with one brake to the stop; where
+//! a limit further ahead binds while the line already decelerates, the line follows its
+//! verified brake. Near the end, the jerk whose brake stops on u = 1 is found by regula falsi
+//! on where the brake stops (to [`LAND_TOL`]); that last brake is the line's deceleration,
+//! stretched to end exactly on u = 1.
 //!
 //! This is a greedy (bang-bang where it can, riding the boundary of the safe set where it
 //! must) approximation of the time-optimal jerk-limited path parameterisation; docs/motion.md
@@ -50,8 +53,8 @@ pub const LIMIT_MARGIN: f64 = 0.995;
 /// deceleration the limits allow where it is, and releases with κ of the jerk they allow.
 pub const BRAKES: [f64; 4] = [0.97, 0.8, 0.6, 0.4];
 
-/// How close to u = 1 the search for the last brake of a line tries to bring its stop
-/// (the generator stretches the law onto u = 1 from there).
+/// How close to u = 1 the search for the last brake of a line brings its stop; the law then
+/// stretches that brake onto u = 1 (by at most this fraction).
 const LAND_TOL: f64 = 1e-6;
 
 /// How far past u = 1 a brake may stop and still count as stopping at the end (rounding).
@@ -401,8 +404,6 @@ struct JerkSearch {
     /// The largest jerk that passed, its brake and where that brake stops (if simulated to
     /// the stop).
     best: Option<(f64, u8, Option<f64>)>,
-    /// Every jerk refused so far was refused only for overshooting u = 1.
-    overshoot_only: bool,
 }
 
 impl JerkSearch {
@@ -411,7 +412,6 @@ impl JerkSearch {
             lo,
             hi,
             best: None,
-            overshoot_only: true,
         }
     }
 
@@ -421,10 +421,7 @@ impl JerkSearch {
                 self.lo = j;
                 self.best = Some((j, k, stop));
             }
-            Err(why) => {
-                self.hi = j;
-                self.overshoot_only &= matches!(why, Unsafe::Overshoot(_));
-            }
+            Err(_) => self.hi = j,
         }
     }
 

@@ -408,11 +408,7 @@ struct JerkSearch {
 
 impl JerkSearch {
     fn new(lo: f64, hi: f64) -> JerkSearch {
-        JerkSearch {
-            lo,
-            hi,
-            best: None,
-        }
+        JerkSearch { lo, hi, best: None }
     }
 
     fn probe(&mut self, j: f64, probe: &impl Fn(f64) -> Result<(u8, Option<f64>), Unsafe>) {

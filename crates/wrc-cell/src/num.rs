@@ -17,15 +17,7 @@ pub(crate) fn fmt_num(v: f64) -> String {
     s
 }
 
-/// Wrap an angle into (-180, 180] \[deg\].
-pub(crate) fn wrap180(deg: f64) -> f64 {
-    let w = deg.rem_euclid(360.0);
-    if w > 180.0 {
-        w - 360.0
-    } else {
-        w
-    }
-}
+pub(crate) use wrc_robot::wrap180;
 
 #[cfg(test)]
 mod tests {

@@ -9,6 +9,14 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use wrc_motion::{MotionSettings, Period, Profile, VelocityGenerator};
 use wrc_robot::{Pose, Posture, Robot};
 
+/// Where the 250 mm line of these benchmarks ends.
+const LINE_END: Pose = Pose {
+    x: 300.0,
+    y: 150.0,
+    z: 50.0,
+    yaw: 30.0,
+};
+
 /// A generator in the middle of a 250 mm straight line (so every period does real work).
 fn mid_line(period_s: f64, profile: Profile) -> VelocityGenerator {
     let settings = MotionSettings {
@@ -32,14 +40,7 @@ fn mid_line(period_s: f64, profile: Profile) -> VelocityGenerator {
         .unwrap();
     vg.set_position_pulses(&vg.robot().joints_to_pulses(&start))
         .unwrap();
-    let info = vg
-        .plan_line(&Pose {
-            x: 300.0,
-            y: 150.0,
-            z: 50.0,
-            yaw: 30.0,
-        })
-        .unwrap();
+    let info = vg.plan_line(&LINE_END).unwrap();
     let mut p = Period::default();
     for _ in 0..info.periods / 3 {
         vg.next_period(&mut p);
@@ -130,17 +131,7 @@ fn cycle(c: &mut Criterion) {
     c.bench_function("start_line_250mm", |b| {
         b.iter_batched_ref(
             || fresh.clone(),
-            |vg| {
-                black_box(
-                    vg.start_line(&Pose {
-                        x: 300.0,
-                        y: 150.0,
-                        z: 50.0,
-                        yaw: 30.0,
-                    })
-                    .unwrap(),
-                )
-            },
+            |vg| black_box(vg.start_line(&LINE_END).unwrap()),
             BatchSize::SmallInput,
         )
     });
@@ -148,17 +139,7 @@ fn cycle(c: &mut Criterion) {
     c.bench_function("plan_line_250mm", |b| {
         b.iter_batched_ref(
             || fresh.clone(),
-            |vg| {
-                black_box(
-                    vg.plan_line(&Pose {
-                        x: 300.0,
-                        y: 150.0,
-                        z: 50.0,
-                        yaw: 30.0,
-                    })
-                    .unwrap(),
-                )
-            },
+            |vg| black_box(vg.plan_line(&LINE_END).unwrap()),
             BatchSize::SmallInput,
         )
     });

@@ -107,23 +107,9 @@ impl Lines {
             let (z0, z1) = (z(), z());
             let start = end(-half, z0, self.uniform(-180.0, 180.0));
             let target = end(half, z1, self.uniform(-180.0, 180.0));
-            let posture = if self.next_u64() & 1 == 0 {
-                Posture::Right
-            } else {
-                Posture::Left
-            };
-            let Ok(joints) = robot.inverse(&start, posture, None) else {
-                continue;
-            };
-            match check_line(robot, &joints, &target) {
-                Ok(_) => {
-                    return LineCase {
-                        start,
-                        posture,
-                        target,
-                    }
-                }
-                Err(e) => refused(&e),
+            let posture = self.posture();
+            if let Some(case) = accept(robot, start, posture, target, &mut refused) {
+                return case;
             }
         }
     }
@@ -133,26 +119,44 @@ impl Lines {
     /// a point of the line beyond a limit); the line returned is one it accepts.
     pub fn next_line(&mut self, robot: &Robot, mut refused: impl FnMut(&PlanError)) -> LineCase {
         loop {
-            let posture = if self.next_u64() & 1 == 0 {
-                Posture::Right
-            } else {
-                Posture::Left
-            };
+            let posture = self.posture();
             let start = self.pose(robot);
             let target = self.pose(robot);
-            let Ok(joints) = robot.inverse(&start, posture, None) else {
-                continue;
-            };
-            match check_line(robot, &joints, &target) {
-                Ok(_) => {
-                    return LineCase {
-                        start,
-                        posture,
-                        target,
-                    }
-                }
-                Err(e) => refused(&e),
+            if let Some(case) = accept(robot, start, posture, target, &mut refused) {
+                return case;
             }
+        }
+    }
+
+    /// A posture, either with even odds.
+    fn posture(&mut self) -> Posture {
+        if self.next_u64() & 1 == 0 {
+            Posture::Right
+        } else {
+            Posture::Left
+        }
+    }
+}
+
+/// The line from `start` (with `posture`) to `target` if the planner accepts it; `refused`
+/// is told why it does not (nothing when the start itself is out of reach).
+fn accept(
+    robot: &Robot,
+    start: Pose,
+    posture: Posture,
+    target: Pose,
+    refused: &mut impl FnMut(&PlanError),
+) -> Option<LineCase> {
+    let joints = robot.inverse(&start, posture, None).ok()?;
+    match check_line(robot, &joints, &target) {
+        Ok(_) => Some(LineCase {
+            start,
+            posture,
+            target,
+        }),
+        Err(e) => {
+            refused(&e);
+            None
         }
     }
 }

@@ -16,7 +16,9 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use wrc_robot::{JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES};
+use wrc_robot::{
+    wrap180, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES,
+};
 
 use crate::error::{PathProblem, PlanError};
 use crate::settings::LineLimits;
@@ -226,16 +228,6 @@ pub(crate) fn line_path(
     let path = LinePath::new(robot, from, *target, posture);
     let check = path.scan(robot, start, table)?;
     Ok((path, check))
-}
-
-/// Wrap an angle into (-180, 180] [deg].
-pub(crate) fn wrap180(deg: f64) -> f64 {
-    let w = deg.rem_euclid(360.0);
-    if w > 180.0 {
-        w - 360.0
-    } else {
-        w
-    }
 }
 
 /// What the scan of a line tracks between two samples of one quantity (a joint or the wrist

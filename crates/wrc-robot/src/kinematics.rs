@@ -116,7 +116,12 @@ impl Posture {
 }
 
 /// Wrap an angle into (-180, 180] [deg].
-pub(crate) fn wrap180(deg: f64) -> f64 {
+///
+/// ```
+/// assert_eq!(wrc_robot::wrap180(190.0), -170.0);
+/// assert_eq!(wrc_robot::wrap180(-180.0), 180.0);
+/// ```
+pub fn wrap180(deg: f64) -> f64 {
     let w = deg.rem_euclid(360.0);
     if w > 180.0 {
         w - 360.0

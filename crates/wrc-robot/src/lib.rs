@@ -25,5 +25,5 @@ mod robot;
 pub use axis::{Axis, AxisName, AxisRole, InlineName, Limits, Unit};
 pub use error::{KinematicsError, ModelError};
 pub use jet::Jet;
-pub use kinematics::{IkCheck, JointJets, Pose, PoseJet, Posture};
+pub use kinematics::{wrap180, IkCheck, JointJets, Pose, PoseJet, Posture};
 pub use robot::{Arm, Joints, Robot, MAX_AXES};

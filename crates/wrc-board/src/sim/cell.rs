@@ -18,7 +18,7 @@ use wrc_cell::{
     SEAT_TOLERANCE_MM,
 };
 use wrc_config::{BoardConfig, Config, HandConfig};
-use wrc_robot::{Pose, Robot, MAX_AXES};
+use wrc_robot::{wrap180, Pose, Robot, MAX_AXES};
 
 use crate::dpram::MappingRecord;
 use crate::layout::{mapping, slot_code, AXES_PER_BOARD};
@@ -69,16 +69,6 @@ impl Face {
     fn faced_by(&self, pose: &Pose) -> bool {
         (pose.x - self.x).hypot(pose.y - self.y) <= SEAT_TOLERANCE_MM
             && wrap180(pose.yaw - self.yaw).abs() <= SEAT_TOLERANCE_DEG
-    }
-}
-
-/// Wrap an angle into (-180, 180] \[deg\].
-fn wrap180(deg: f64) -> f64 {
-    let w = deg.rem_euclid(360.0);
-    if w > 180.0 {
-        w - 360.0
-    } else {
-        w
     }
 }
 

@@ -17,7 +17,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use wrc_robot::{
-    wrap180, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES,
+    wrap180, IkCheck, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES,
 };
 
 use crate::error::{PathProblem, PlanError};
@@ -301,16 +301,18 @@ impl LinePath {
         robot.inverse_jet(&self.pose_jet(u), self.posture, reference)
     }
 
-    /// The joints at `u` continued from `reference`, with no check of limits or margin
-    /// (for points of a line that [`LinePath::check`] accepted).
+    /// The joints at `u` continued from `reference` (each angle the turn nearest it), with no
+    /// check of limits or margin (for points of a line that [`LinePath::check`] accepted).
     #[inline]
     pub fn joints_at(&self, robot: &Robot, u: f64, reference: &Joints) -> Option<Joints> {
-        let jets = self.jets_at(robot, u, reference).ok()?;
-        let mut q = *reference;
-        for (q, j) in q.iter_mut().zip(&jets.joints).take(robot.axis_count()) {
-            *q = j.value();
-        }
-        Some(q)
+        robot
+            .inverse_checked(
+                &self.pose_at(u),
+                self.posture,
+                Some(reference),
+                IkCheck::CONTINUE,
+            )
+            .ok()
     }
 
     /// Number of sample intervals used to check and tabulate this line.

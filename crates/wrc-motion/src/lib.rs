@@ -8,6 +8,14 @@
 //! - [`Profile::Paper`]: the paper's triangular mask (eq. 1) convolved with the input pulses
 //!   (eq. 2), normalised so that no pulse is lost ([`PaperChannel`]).
 //!
+//! A straight line is checked at every point, each joint followed continuously
+//! ([`check_line`]; a line that leaves the workspace or a joint's range is refused with the
+//! axis, where and the pose), and under the default profile timed by a time-optimal
+//! jerk-limited path parameterisation whose every state is known to stop along the line
+//! within the limits (`line_profile.rs`). A PTP move to a pose goes to the joint solution
+//! it reaches soonest ([`ptp_target`]). Not for the controller: [`reference`] (lower bounds
+//! of a line's duration, TOPP-RA) and [`bench`] (`wrc bench motion`), which allocate.
+//!
 //! Guarantees: the pulses emitted for a completed move sum exactly to the target; velocity,
 //! acceleration and jerk stay within every axis's limits (scaled by the speed override);
 //! straight lines keep the TCP on the segment; planning and every period run without heap

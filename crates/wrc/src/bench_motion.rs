@@ -69,7 +69,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let mut lines = Lines::new(args.seed);
     let mut refused = std::collections::BTreeMap::<String, u32>::new();
     let mut count = |e: &wrc_motion::PlanError| {
-        *refused.entry(refusal_kind(e).to_string()).or_default() += 1;
+        *refused.entry(refusal_kind(e)).or_default() += 1;
     };
     let cases: Vec<_> = (0..args.lines)
         .map(|_| lines.next_line(&robot, &mut count))
@@ -137,17 +137,19 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn refusal_kind(e: &wrc_motion::PlanError) -> &'static str {
+fn refusal_kind(e: &wrc_motion::PlanError) -> String {
     use wrc_motion::{PathProblem, PlanError};
     match e {
         PlanError::PathLeavesWorkspace { problem, .. } => match problem {
-            PathProblem::JointLimit { .. } => "joint limit on the line",
-            PathProblem::Stretched { .. } | PathProblem::Folded { .. } => "singularity on the line",
-            _ => "other path problem",
+            PathProblem::JointLimit { axis, .. } => format!("{axis} beyond its limits on the line"),
+            PathProblem::Stretched { .. } | PathProblem::Folded { .. } => {
+                "singularity on the line".into()
+            }
+            _ => "other path problem".into(),
         },
-        PlanError::PostureChange => "posture change",
-        PlanError::Kinematics(_) => "end out of reach",
-        _ => "other",
+        PlanError::PostureChange => "posture change".into(),
+        PlanError::Kinematics(_) => "end out of reach".into(),
+        _ => "other".into(),
     }
 }
 

@@ -17,7 +17,8 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use wrc_robot::{
-    wrap180, IkCheck, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES,
+    wrap180, IkCheck, Jet, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot,
+    MAX_AXES,
 };
 
 use crate::error::{PathProblem, PlanError};
@@ -282,10 +283,10 @@ impl LinePath {
     pub fn pose_jet(&self, u: f64) -> PoseJet {
         let p = self.pose_at(u);
         PoseJet {
-            x: wrc_robot::Jet::variable(p.x, self.delta.x),
-            y: wrc_robot::Jet::variable(p.y, self.delta.y),
-            z: wrc_robot::Jet::variable(p.z, self.delta.z),
-            yaw: wrc_robot::Jet::variable(p.yaw, self.delta.yaw),
+            x: Jet::variable(p.x, self.delta.x),
+            y: Jet::variable(p.y, self.delta.y),
+            z: Jet::variable(p.z, self.delta.z),
+            yaw: Jet::variable(p.yaw, self.delta.yaw),
         }
     }
 
@@ -367,37 +368,29 @@ impl LinePath {
                     return Err(self.radius_refusal(robot, from, u, r_lo, r_hi));
                 }
             };
-            // The wrist radius, between the last sample and this one, then here.
-            let r = Sample {
+            // The wrist radius and every moving joint, between the last sample and here.
+            let sample = |jet: Jet| Sample {
                 u,
-                value: jets.wrist_radius.d[0],
-                slope: jets.wrist_radius.d[1],
+                value: jet.d[0],
+                slope: jet.d[1],
             };
-            if let Some(p) = prev_r {
-                if let Some(bad) = self.radius_between(robot, &p, &r, r_lo, r_hi, &reference) {
-                    return Err(bad);
-                }
-            }
-            if r.value <= r_lo || r.value >= r_hi {
+            let r = sample(jets.wrist_radius);
+            let band = |v: f64| v > r_lo && v < r_hi;
+            let radius = |j: &JointJets| j.wrist_radius;
+            if let Some(at) = self.outside_at(robot, prev_r, r, &reference, radius, band) {
                 let from = prev_r.map_or(0.0, |s| s.u);
-                return Err(self.radius_refusal(robot, from, u, r_lo, r_hi));
+                return Err(self.radius_refusal(robot, from, at, r_lo, r_hi));
             }
             prev_r = Some(r);
-            // Every moving joint, between the samples and here.
             for (&ax, prev) in axes.idx[..axes.n].iter().zip(prev_q.iter_mut()) {
                 let jet = jets.joints[ax].d;
-                let s = Sample {
-                    u,
-                    value: jet[0],
-                    slope: jet[1],
-                };
+                let s = sample(jets.joints[ax]);
                 let axis = &robot.axes()[ax];
-                let extremum =
-                    prev.and_then(|p| self.extremum_between(robot, &p, &s, ax, &reference));
-                let worst = extremum.map_or(s, |e| if axis.within_limits(e.value) { s } else { e });
-                if !axis.within_limits(worst.value) {
+                let joint = |j: &JointJets| j.joints[ax];
+                let within = |v: f64| axis.within_limits(v);
+                if let Some(at) = self.outside_at(robot, *prev, s, &reference, joint, within) {
                     let from = prev.map_or(0.0, |p| p.u);
-                    return Err(self.joint_refusal(robot, ax, from, worst.u, &reference));
+                    return Err(self.joint_refusal(robot, ax, from, at, &reference));
                 }
                 *prev = Some(s);
                 let m: &mut [f64; 3] = &mut max_derivatives[ax];
@@ -426,33 +419,27 @@ impl LinePath {
         })
     }
 
-    /// Between two samples of the wrist radius: a crossing of the allowed band, or an
-    /// interior extremum outside it.
-    fn radius_between(
+    /// Where a quantity of the line (`pick` of its joint jets) is outside its allowed range
+    /// (`inside` false) from the sample `prev` (if any) to the sample `s`: the extremum
+    /// between them when the slope changes sign there and it is outside, otherwise `s` when
+    /// it is outside; `None` when it stays inside. `reference`: the joints at `prev`.
+    fn outside_at(
         &self,
         robot: &Robot,
-        a: &Sample,
-        b: &Sample,
-        lo: f64,
-        hi: f64,
+        prev: Option<Sample>,
+        s: Sample,
         reference: &Joints,
-    ) -> Option<PlanError> {
-        // An interior extremum exists when the slope changes sign.
-        if a.slope * b.slope >= 0.0 {
-            return None;
+        pick: impl Fn(&JointJets) -> Jet,
+        inside: impl Fn(f64) -> bool,
+    ) -> Option<f64> {
+        if let Some(p) = prev.filter(|p| p.slope * s.slope < 0.0) {
+            let at = |u: f64| self.jets_at(robot, u, reference).ok().map(|j| pick(&j).d);
+            let e = find_extremum(&p, &s, |u| at(u).map(|d| d[1]));
+            if at(e).is_none_or(|d| !inside(d[0])) {
+                return Some(e);
+            }
         }
-        let radius = |u: f64| {
-            self.jets_at(robot, u, reference)
-                .map(|j| (j.wrist_radius.d[0], j.wrist_radius.d[1]))
-                .ok()
-        };
-        let e = find_extremum(a, b, |u| radius(u).map(|(_, s)| s));
-        let value = radius(e).map_or(f64::NAN, |(v, _)| v);
-        if value.is_nan() || value <= lo || value >= hi {
-            Some(self.radius_refusal(robot, a.u, e, lo, hi))
-        } else {
-            None
-        }
+        (!inside(s.value)).then_some(s.u)
     }
 
     /// The refusal for a wrist radius that leaves (lo, hi) somewhere in (`from`, `to`]: the
@@ -485,27 +472,6 @@ impl LinePath {
             pose: self.pose_at(u),
             problem,
         }
-    }
-
-    /// Between two samples of joint `ax`: the interior extremum when its slope changes sign.
-    fn extremum_between(
-        &self,
-        robot: &Robot,
-        a: &Sample,
-        b: &Sample,
-        ax: usize,
-        reference: &Joints,
-    ) -> Option<Sample> {
-        if a.slope * b.slope >= 0.0 {
-            return None;
-        }
-        let joint = |u: f64| {
-            self.jets_at(robot, u, reference)
-                .map(|j| (j.joints[ax].d[0], j.joints[ax].d[1]))
-                .ok()
-        };
-        let e = find_extremum(a, b, |u| joint(u).map(|(_, s)| s));
-        joint(e).map(|(value, slope)| Sample { u: e, value, slope })
     }
 
     /// The refusal for joint `ax` leaving its limits somewhere in (`from`, `to`]: the first

@@ -222,14 +222,11 @@ impl LineRun {
     }
 }
 
-/// Plan and run `case` with `settings` on `robot`; `None` if the planner refuses it.
-pub fn run_line(
-    robot: &Robot,
-    settings: &MotionSettings,
-    case: &LineCase,
-) -> Result<LineRun, PlanError> {
-    let mut vg = VelocityGenerator::new(robot.clone(), *settings)
-        .map_err(|_| PlanError::SpeedOverride(settings.speed_pct))?;
+/// Plan and run `case` with a copy of `generator` (its robot and settings, any state); the
+/// planner's error if it refuses the line.
+pub fn run_line(generator: &VelocityGenerator, case: &LineCase) -> Result<LineRun, PlanError> {
+    let mut vg = generator.clone();
+    let (robot, settings) = (generator.robot(), generator.settings());
     let start = robot.inverse(&case.start, case.posture, None)?;
     let start_pulses = robot.joints_to_pulses(&start);
     vg.set_position_pulses(&start_pulses)?;

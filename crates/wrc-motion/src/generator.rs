@@ -344,7 +344,49 @@ impl VelocityGenerator {
     /// [`MoveInfo`] — some milliseconds, without allocating. A real-time task that does not
     /// need the duration beforehand calls [`VelocityGenerator::start_line`] instead.
     pub fn plan_line(&mut self, target: &Pose) -> Result<MoveInfo, PlanError> {
-        self.begin_line(target, true)
+        if !self.start_line(target)? {
+            return Ok(self.nothing_to_do());
+        }
+        let ts = self.settings.period_s;
+        let info = match &self.active {
+            Active::Line {
+                law:
+                    LineLaw::Timed {
+                        profile,
+                        bounds,
+                        scale,
+                        ..
+                    },
+                ..
+            } => {
+                // Run the law to its end once: the duration, and proof that it gets there.
+                let table = &self.table;
+                let derivs = |u: f64| table.at(u);
+                let mut dry = *profile;
+                let end_t = dry.run_to_end(bounds, &derivs);
+                if !dry.completed() {
+                    let fraction_pct = 100.0 * dry.at(bounds, &derivs, end_t);
+                    self.nothing_to_do();
+                    return Err(PlanError::Untimed { fraction_pct });
+                }
+                let duration_s = end_t / scale;
+                MoveInfo {
+                    duration_s,
+                    periods: periods_for(duration_s, ts),
+                    sync: Sync::Single,
+                }
+            }
+            Active::Line {
+                law: LineLaw::Paper(ch),
+                ..
+            } => MoveInfo {
+                duration_s: ch.total_periods() as f64 * ts,
+                periods: ch.total_periods(),
+                sync: Sync::Single,
+            },
+            Active::Idle | Active::Joint { .. } => return Ok(self.nothing_to_do()),
+        };
+        Ok(info)
     }
 
     /// Start a straight line as [`VelocityGenerator::plan_line`] does, without running its
@@ -353,71 +395,39 @@ impl VelocityGenerator {
     /// both costs). Returns whether anything moves. The law cannot stall short of the target:
     /// from any state of it, either speeding up is safe or its verified brake moves on.
     pub fn start_line(&mut self, target: &Pose) -> Result<bool, PlanError> {
-        self.begin_line(target, false).map(|info| info.periods > 0)
-    }
-
-    /// Plan a line; with `run_ahead`, run the law to its end for the duration (else the
-    /// [`MoveInfo`] has `periods` 1 for a motion, 0 for none, and no duration).
-    fn begin_line(&mut self, target: &Pose, run_ahead: bool) -> Result<MoveInfo, PlanError> {
         self.ensure_idle()?;
         let current = self.joints();
         let (path, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
         let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
         let n = self.robot.axis_count();
         if target_pulses[..n] == self.position[..n] {
-            return Ok(self.nothing_to_do());
+            self.nothing_to_do();
+            return Ok(false);
         }
         let ts = self.settings.period_s;
         let length = path.length_mm();
-        let (law, info) = match self.settings.profile {
+        let law = match self.settings.profile {
             Profile::Fir => {
                 let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length);
                 let table = &self.table;
-                let derivs = |u: f64| table.at(u);
-                let profile = LineProfile::start(&bounds, &derivs);
-                let scale = self.scale();
-                // Run the law to its end once: the duration, and proof that it gets there.
-                let (duration, periods) = if run_ahead {
-                    let mut dry = profile;
-                    let end_t = dry.run_to_end(&bounds, &derivs);
-                    if !dry.completed() {
-                        return Err(PlanError::Untimed {
-                            fraction_pct: 100.0 * dry.at(&bounds, &derivs, end_t),
-                        });
-                    }
-                    (end_t / scale, periods_for(end_t / scale, ts))
-                } else {
-                    (f64::NAN, 1)
-                };
-                let law = LineLaw::Timed {
-                    profile,
+                LineLaw::Timed {
+                    profile: LineProfile::start(&bounds, &|u: f64| table.at(u)),
                     bounds,
-                    scale,
-                    table: self.table.id,
-                };
-                let info = MoveInfo {
-                    duration_s: duration,
-                    periods,
-                    sync: Sync::Single,
-                };
-                (law, info)
+                    scale: self.scale(),
+                    table: table.id,
+                }
             }
             Profile::Paper { mask_len } => {
                 let limits =
                     check.constant_limits(&self.robot, length, &self.settings.line, self.scale());
                 if limits.v <= 0.0 {
-                    return Ok(self.nothing_to_do());
+                    self.nothing_to_do();
+                    return Ok(false);
                 }
                 let half = (mask_len / 2) as u64;
                 let rate = paper_rate(limits.v, limits.a, limits.j, half, ts) * ts; // u per period
                 let periods = ((1.0 / rate).ceil() as u64).max(2 * half);
-                let ch = PaperChannel::new(LINE_COUNTS, periods, half);
-                let info = MoveInfo {
-                    duration_s: ch.total_periods() as f64 * ts,
-                    periods: ch.total_periods(),
-                    sync: Sync::Single,
-                };
-                (LineLaw::Paper(ch), info)
+                LineLaw::Paper(PaperChannel::new(LINE_COUNTS, periods, half))
             }
         };
         self.active = Active::Line {
@@ -428,7 +438,7 @@ impl VelocityGenerator {
         };
         self.k = 0;
         self.stopped = false;
-        Ok(info)
+        Ok(true)
     }
 
     fn nothing_to_do(&mut self) -> MoveInfo {

@@ -89,11 +89,13 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     for &pct in &args.speed {
         let mut s = settings;
         s.speed_pct = pct;
+        let generator = wrc_motion::VelocityGenerator::new(robot.clone(), s)
+            .map_err(|e| anyhow::anyhow!("{}: {}", e.key, e.reason))?;
         let run_all = |cases: &[wrc_motion::bench::LineCase]| -> anyhow::Result<Vec<LineRun>> {
             cases
                 .iter()
                 .map(|case| {
-                    run_line(&robot, &s, case).with_context(|| format!("planning {case:?}"))
+                    run_line(&generator, case).with_context(|| format!("planning {case:?}"))
                 })
                 .collect()
         };

@@ -423,12 +423,12 @@ fn lines_are_close_to_the_time_optimal_lower_bound() {
     // (TOPP-RA with joint and Cartesian v/a, the TCP's and every joint's 1-D jerk-limited
     // time; reference.rs). The README's figures come from `wrc bench motion`, on 200 lines.
     let robot = Robot::paper_default();
-    let settings = MotionSettings::default();
+    let generator = VelocityGenerator::new(robot.clone(), MotionSettings::default()).unwrap();
     let mut lines = Lines::new(7);
     let cases: Vec<LineCase> = (0..40).map(|_| lines.next_line(&robot, |_| {})).collect();
     let mut ratios = Vec::new();
     for case in &cases {
-        let run = run_line(&robot, &settings, case).unwrap();
+        let run = run_line(&generator, case).unwrap();
         assert!(run.limits.within(1e-6), "{case:?}: {:?}", run.limits);
         assert!(run.deviation_mm <= 0.01 && run.exact_end, "{case:?}");
         ratios.push(run.duration_s / run.bound.with_joints_s());

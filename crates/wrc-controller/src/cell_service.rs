@@ -15,12 +15,12 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use wrc_cell::{plan, Reconciled, SlotCode, Stations, TransferKind, WaferMap, WaferMapError};
+use wrc_cell::{Reconciled, SlotCode, Stations, TransferKind, WaferMap, WaferMapError};
 use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
 use wrc_robot::Robot;
 
-use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
+use crate::cell_job::{transfer_steps, CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
 use crate::command_interpreter::Outputs;
 use crate::program_store::StoreLinks;
 use crate::shared::{RobotState, Shared, SourceId};
@@ -357,18 +357,10 @@ impl CellService {
                 ));
             }
         }
-        let steps = plan(tkind, &station, slot).map_err(|e| (Code::OutOfReach, e.to_string()))?;
-        // The move to the approach pose goes to the joint solution from which the straight
-        // line into the station keeps every limit: checked here, before anything moves.
         let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
-        let approach = station
-            .approach_joints(&self.robot, slot, tkind == TransferKind::Put, &from)
+        let steps = transfer_steps(tkind, &station, slot, &self.robot, &from)
             .map_err(|e| (station_code(&e), format!("{e}; nothing moved")))?;
         for step in steps {
-            let step = match step {
-                wrc_cell::Step::Ptp(..) => JobStep::Joints(approach),
-                other => JobStep::Transfer(other),
-            };
             if !job.push(step) {
                 return Err((Code::Internal, "the transfer has too many steps".into()));
             }

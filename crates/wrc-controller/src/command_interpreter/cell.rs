@@ -374,7 +374,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     }
                     self.job_advance();
                 }
-                Step::Ptp(pose, posture) => self.job_move(Command::MovP { pose, posture }),
+                // A job's move to the approach pose comes as joints (`transfer_steps`), so
+                // that the straight line in is known to stay in range; a bare pose is a
+                // job built without that check.
+                Step::Ptp(..) => self.end_job(Some((
+                    Code::Internal,
+                    "a transfer's approach came without its checked joint solution; nothing moved",
+                ))),
                 Step::Line(pose) | Step::Z(pose) => self.job_move(Command::MovL { pose }),
                 Step::Speed(pct) => {
                     let now = self.shared.speed_pct.load(Ordering::Acquire);

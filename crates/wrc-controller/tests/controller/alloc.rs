@@ -8,8 +8,9 @@ use wrc_alloc_count::{heap_calls, CountingAllocator};
 
 use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
+use wrc_cell::TransferKind;
 use wrc_config::Config;
-use wrc_controller::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep};
+use wrc_controller::cell_job::{transfer_steps, CellEvent, CellJob, JobKind, JobOffer};
 use wrc_controller::command_interpreter::{CommandInterpreter, Outputs};
 use wrc_controller::program_store::{ProgramStart, StoreLinks};
 use wrc_controller::shared::{MoveDone, MoveOrder, MoveOutcome, OutLine, Shared, SourceId};
@@ -216,8 +217,9 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
     let mut job = CellJob::new(from, to, JobKind::Get, lp1.name);
     job.slot = 1;
     job.wafer = 1;
-    for step in wrc_cell::plan_get(lp1, 1).unwrap() {
-        assert!(job.push(JobStep::Transfer(step)));
+    let robot = Robot::paper_default();
+    for step in transfer_steps(TransferKind::Get, lp1, 1, &robot, &robot.home()).unwrap() {
+        assert!(job.push(step));
     }
     rig.run_until(
         1_000_000_000,

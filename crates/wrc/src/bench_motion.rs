@@ -242,55 +242,56 @@ fn print_figures(pct: f64, what: &str, f: &serde_json::Value) {
         g(&["length_mm", "median"]),
         g(&["length_mm", "max"])
     );
+    let median_max_rows = [
+        (
+            "duration / lower bound (TOPP-RA v/a; TCP 1-D jerk)",
+            "ratio_to_lower_bound",
+        ),
+        (
+            "… with each joint's 1-D jerk-limited time too",
+            "ratio_to_lower_bound_with_joint_jerk",
+        ),
+        (
+            "the previous planner (limits constant along a line)",
+            "ratio_before_constant_limits",
+        ),
+        (
+            "start of a line (check of every point, derivative table) [ms]",
+            "start_ms",
+        ),
+        (
+            "timing law as it runs, per 10 ms of motion [ms]",
+            "law_ms_per_10ms_of_motion",
+        ),
+        ("the longest single period [ms]", "period_max_ms"),
+        (
+            "the whole law run ahead (wrc plan; for the duration) [ms]",
+            "plan_ahead_ms",
+        ),
+    ];
+    for (label, key) in median_max_rows {
+        println!(
+            "  {label}: median {:.3}  max {:.3}",
+            g(&[key, "median"]),
+            g(&[key, "max"])
+        );
+    }
+    for (label, key) in [
+        ("exact positions", "limit_use_exact"),
+        ("output pulses less rounding", "limit_use_pulses"),
+    ] {
+        println!(
+            "  limit use (v a j), {label}: {:.4} {:.4} {:.4}",
+            g(&[key, "v"]),
+            g(&[key, "a"]),
+            g(&[key, "j"])
+        );
+    }
     println!(
-        "  duration / lower bound (TOPP-RA v/a; TCP 1-D jerk):  median {:.3}  worst {:.3}",
-        g(&["ratio_to_lower_bound", "median"]),
-        g(&["ratio_to_lower_bound", "max"])
-    );
-    println!(
-        "  … with each joint's 1-D jerk-limited time too:        median {:.3}  worst {:.3}",
-        g(&["ratio_to_lower_bound_with_joint_jerk", "median"]),
-        g(&["ratio_to_lower_bound_with_joint_jerk", "max"])
-    );
-    println!(
-        "  the previous planner (limits constant along a line):  median {:.3}  worst {:.3}",
-        g(&["ratio_before_constant_limits", "median"]),
-        g(&["ratio_before_constant_limits", "max"])
-    );
-    println!(
-        "  limit use, exact positions (v a j):   {:.4} {:.4} {:.4}",
-        g(&["limit_use_exact", "v"]),
-        g(&["limit_use_exact", "a"]),
-        g(&["limit_use_exact", "j"])
-    );
-    println!(
-        "  limit use, output pulses less rounding: {:.4} {:.4} {:.4}   lines over a limit: {}",
-        g(&["limit_use_pulses", "v"]),
-        g(&["limit_use_pulses", "a"]),
-        g(&["limit_use_pulses", "j"]),
-        f["lines_over_a_limit"]
-    );
-    println!(
-        "  TCP off the line (from the pulses): max {:.4} mm; ends exactly on the target pulses: {} of {}",
+        "  lines over a limit: {}; TCP off the line (from the pulses): max {:.4} mm; ends exactly on the target pulses: {} of {}",
+        f["lines_over_a_limit"],
         g(&["max_deviation_mm"]),
         f["exact_end"],
         f["lines"]
-    );
-    println!(
-        "  start of a line (check of every point, derivative table) [ms]: median {:.3}  max {:.3}",
-        g(&["start_ms", "median"]),
-        g(&["start_ms", "max"])
-    );
-    println!(
-        "  timing law as it runs, per 10 ms of motion [ms]: median {:.3}  max {:.3}; longest period: median {:.3}  max {:.3}",
-        g(&["law_ms_per_10ms_of_motion", "median"]),
-        g(&["law_ms_per_10ms_of_motion", "max"]),
-        g(&["period_max_ms", "median"]),
-        g(&["period_max_ms", "max"])
-    );
-    println!(
-        "  the whole law run ahead (wrc plan; for the duration) [ms]: median {:.3}  max {:.3}",
-        g(&["plan_ahead_ms", "median"]),
-        g(&["plan_ahead_ms", "max"])
     );
 }

@@ -49,9 +49,14 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     if let Some(ms) = args.period_ms {
         settings.period_s = ms / 1000.0;
     }
-    settings
-        .validate()
-        .map_err(|e| anyhow::anyhow!("{}: {}", e.key, e.reason))?;
+    settings.validate().map_err(|e| {
+        // Name the option that set it, when an option did.
+        let key = match e.key.as_str() {
+            "motion.period_ms" if args.period_ms.is_some() => "--period-ms",
+            other => other,
+        };
+        anyhow::anyhow!("{key}: {}", e.reason)
+    })?;
     for &pct in &args.speed {
         wrc_motion::check_speed_pct(pct).map_err(|e| anyhow::anyhow!("--speed: {}", e.reason))?;
     }

@@ -496,6 +496,77 @@ async function run() {
       await shot(page, '#panel-wafers', 'wafers.png');
     });
 
+    await step('HOLD during a long move, RESUME to its target', async () => {
+      await page.click(tid('tab-simulator'));
+      // The speed slider sends SPEED when released.
+      await page.locator(tid('speed-slider')).evaluate((el) => {
+        el.value = '20';
+        el.dispatchEvent(new Event('input', { bubbles: true }));
+        el.dispatchEvent(new Event('change', { bubbles: true }));
+      });
+      await page.waitForSelector(`${tid('current-speed')}:has-text("20 %")`, { timeout: STEP_MS });
+      const logText = async () => (await page.locator(tid('command-log')).textContent()) ?? '';
+      const count = (text, re) => (text.match(re) ?? []).length;
+      const before = await logText();
+      const endsBefore = count(before, /INF MOVJ|ABS MOVJ/g);
+      const absBefore = count(before, /ABS MOVJ/g);
+      if (!(await page.locator(tid('resume')).isDisabled())) throw new Error('RESUME is enabled while nothing is held');
+
+      const robotAxes = await page.locator('[data-testid^="dest-j"]').count();
+      const target = [-120, 120, -150, 200, 0, 0, 0, 0].slice(0, robotAxes);
+      await setDestination(page, 'joint', Object.fromEntries(target.map((v, i) => [`j${i + 1}`, v])));
+      await page.click(tid('go'));
+      await page.waitForSelector(`${tid('state')}[data-state="MOVING"]`, { timeout: STEP_MS });
+      await sleep(300);
+      await page.click(tid('hold'));
+      // HELD, or the controller's refusal of HOLD, whichever comes first.
+      const held = await page.waitForFunction(
+        () => {
+          const state = document.querySelector('[data-testid="state"]')?.getAttribute('data-state');
+          if (state === 'HELD') return 'HELD';
+          const log = document.querySelector('[data-testid="command-log"]')?.textContent ?? '';
+          const nak = /NAK HOLD: [^\n]*?(?=\d\d:\d\d:\d\d|$)/.exec(log);
+          return nak ? nak[0] : false;
+        },
+        null,
+        { timeout: STEP_MS },
+      );
+      const heldWhy = await held.jsonValue();
+      if (heldWhy !== 'HELD') throw new Error(`HOLD was refused: ${heldWhy}`);
+      await page.waitForSelector(`${tid('command-log')}:has-text("ACK HOLD")`, { timeout: STEP_MS });
+      // The held motion keeps its request open: no INF/ABS for the MOVJ yet.
+      if (count(await logText(), /INF MOVJ|ABS MOVJ/g) !== endsBefore) throw new Error('the held MOVJ already ended (INF/ABS)');
+      const heldAt = await num(page, 'current-axis-1');
+      if (Math.abs(heldAt - target[0]) < 1) throw new Error(`axis 1 is already at its target (${heldAt}) when held`);
+      await page.waitForSelector(`${tid('resume')}:not([disabled])`, { timeout: STEP_MS });
+      await shot(page, '#panel-control', 'held.png');
+
+      await page.click(tid('resume'));
+      await page.waitForSelector(`${tid('command-log')}:has-text("ACK RESUME")`, { timeout: STEP_MS });
+      await page.waitForSelector(`${tid('state')}[data-state="MOVING"], ${tid('state')}[data-state="IDLE"]`, {
+        timeout: STEP_MS,
+      });
+      // The same request ends with INF, at the same target.
+      await page.waitForFunction(
+        (n) => ((document.querySelector('[data-testid="command-log"]')?.textContent ?? '').match(/INF MOVJ|ABS MOVJ/g) ?? []).length > n,
+        endsBefore,
+        { timeout: STEP_MS },
+      );
+      const end = await logText();
+      if (count(end, /ABS MOVJ/g) !== absBefore) throw new Error(`the resumed MOVJ was aborted: ${end.slice(-300)}`);
+      await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+      // The last datagrams may trail the state by a period or two.
+      const deadline = Date.now() + STEP_MS;
+      for (;;) {
+        const at = [];
+        for (let i = 0; i < robotAxes; i++) at.push(await num(page, `current-axis-${i + 1}`));
+        if (at.every((v, i) => Math.abs(v - target[i]) <= 0.01)) break;
+        if (Date.now() > deadline) throw new Error(`the axes ended at ${at.join(' ')}, not ${target.join(' ')}`);
+        await sleep(100);
+      }
+      if (!(await page.locator(tid('resume')).isDisabled())) throw new Error('RESUME stays enabled after the motion ended');
+    });
+
     let stopState = '';
     await step('E-STOP during a long move', async () => {
       await page.click(tid('tab-simulator'));

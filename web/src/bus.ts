@@ -38,8 +38,11 @@ export interface RobotInfo {
   axes: AxisInfo[];
 }
 
-/** Controller states, as in `STATUS` and the simulator stream. */
-export type RobotState = 'IDLE' | 'MOVING' | 'STOPPING' | 'ERROR' | 'ESTOP';
+/**
+ * Controller states, as in `STATUS` and the simulator stream. `HELD`: a motion braked by
+ * `HOLD` waits on its path for `RESUME`.
+ */
+export type RobotState = 'IDLE' | 'MOVING' | 'STOPPING' | 'HELD' | 'ERROR' | 'ESTOP';
 
 /** One decoded simulator datagram (docs/simulator-stream.md, version 1). */
 export interface SimSample {

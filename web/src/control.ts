@@ -1,6 +1,7 @@
 // The Control panel (the paper's Fig. 6) and the controller model the header shares:
-// current position, destination (PTP / Straight / Joint), jog, signals, control lock,
-// and the command log that shows each request's ACK/NAK and INF/ABS.
+// current position, destination (PTP / Straight / Joint) with Go, Home, Stop, Hold and Resume,
+// jog, signals, control lock, and the command log that shows each request's ACK/NAK and
+// INF/ABS.
 
 import type { Bus, FinalReply, FirstReply, RobotInfo, RobotState, SimSample, Unsubscribe } from './bus';
 import {
@@ -210,7 +211,8 @@ export class ControllerModel {
   private status(fields: string | Record<string, string>): void {
     const st = parseStatus(fields);
     const v = this.v;
-    const fresh = performance.now() - v.lastSample < 300; // samples are newer and faster
+    // Samples are newer and faster; lastSample 0 means none has come yet.
+    const fresh = v.lastSample > 0 && performance.now() - v.lastSample < 300;
     if (st.state && !fresh) v.state = st.state;
     if (st.homed !== undefined && !fresh) v.homed = st.homed;
     if (st.speed !== undefined) v.speed = st.speed;
@@ -269,6 +271,26 @@ export class ControllerModel {
     }
     this.notify();
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// HOLD and RESUME
+
+/** Tooltip of the HOLD button. */
+export const HOLD_TITLE = 'HOLD: brake on the path and keep the motion (RESUME continues it)';
+/** Tooltip of the RESUME button (a reason is added while it is disabled). */
+export const RESUME_TITLE = 'RESUME: continue the held motion on its path';
+
+/**
+ * Why the RESUME button is disabled, or '' when it is enabled: only a `HELD` motion can be
+ * continued, and RESUME needs control like a motion. The controller checks again
+ * (`NAK 129 no motion is held`).
+ */
+export function resumeRefusal(v: Pick<ControllerView, 'connected' | 'state' | 'owner'>, mayCommand: boolean): string {
+  if (!v.connected) return 'not connected';
+  if (v.state !== 'HELD') return `no motion is held (state ${v.state ?? 'unknown'})`;
+  if (!mayCommand) return `control is held by ${v.owner}`;
+  return '';
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -447,6 +469,12 @@ export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Comma
   const goBtn = h('button', { class: 'btn primary', 'data-testid': 'go', onclick: () => void go() }, 'Go');
   const homeBtn = h('button', { class: 'btn', 'data-testid': 'home', onclick: () => void cmd.send('HOME') }, 'Home');
   const stopBtn = h('button', { class: 'btn warn', 'data-testid': 'stop', onclick: () => void cmd.send('STOP') }, 'Stop');
+  const holdBtn = h('button', { class: 'btn hold', 'data-testid': 'hold', title: HOLD_TITLE, onclick: () => void cmd.send('HOLD') }, 'Hold');
+  const resumeBtn = h(
+    'button',
+    { class: 'btn resume', 'data-testid': 'resume', title: RESUME_TITLE, disabled: true, onclick: () => void cmd.send('RESUME') },
+    'Resume',
+  );
   const copyBtn = h('button', { class: 'btn small', 'data-testid': 'dest-copy', onclick: () => copyCurrent(), title: 'Fill the destination from the current position' }, 'Copy current');
 
   const speed = h('input', { type: 'range', min: '1', max: '100', step: '1', value: '100', 'data-testid': 'speed-slider', 'aria-label': 'Speed override' });
@@ -466,7 +494,7 @@ export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Comma
     poseFields,
     jointFields,
     destError,
-    h('div', { class: 'btn-row' }, goBtn, homeBtn, stopBtn),
+    h('div', { class: 'btn-row' }, goBtn, homeBtn, stopBtn, holdBtn, resumeBtn),
     h('div', { class: 'speed-row' }, h('span', { class: 'field-label' }, 'Speed'), speed, speedVal),
   );
 
@@ -693,7 +721,12 @@ export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Comma
     setText(ownerEl, v.owner === 'none' ? 'nobody' : v.owner + (v.me === v.owner ? ' (this page)' : ''));
     const may = model.mayCommand();
     for (const b of motionButtons()) b.disabled = !may;
+    // STOP and HOLD are accepted from every source, with or without control.
     stopBtn.disabled = !v.connected;
+    holdBtn.disabled = !v.connected;
+    const whyNotResume = resumeRefusal(v, may);
+    resumeBtn.disabled = whyNotResume !== '';
+    setAttr(resumeBtn, 'title', whyNotResume ? `${RESUME_TITLE} (${whyNotResume})` : RESUME_TITLE);
     setText(
       lockHint,
       !v.connected

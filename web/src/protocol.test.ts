@@ -17,6 +17,7 @@ import {
   parseLine,
   parseProgramEvent,
   parsePrograms,
+  parseState,
   parseStatus,
   programAbsLine,
   replyRest,
@@ -67,6 +68,7 @@ describe('parseLine', () => {
 
   it('parses events with upper-case names and the rest as body', () => {
     expect(parseLine('EVT STATE MOVING')).toEqual({ kind: 'EVT', name: 'STATE', body: 'MOVING', line: 'EVT STATE MOVING' });
+    expect(parseLine('EVT STATE HELD')).toEqual({ kind: 'EVT', name: 'STATE', body: 'HELD', line: 'EVT STATE HELD' });
     expect(parseLine('EVT PRINT  two  spaces kept')).toMatchObject({ name: 'PRINT', body: 'two  spaces kept' });
     expect(parseLine('EVT UI CONNECTED /tmp/wrc/wrc.sock')).toMatchObject({ name: 'UI', body: 'CONNECTED /tmp/wrc/wrc.sock' });
     expect(parseLine('EVT CONTROL')).toMatchObject({ name: 'CONTROL', body: '' });
@@ -104,6 +106,22 @@ describe('fields, status, io', () => {
       z: 5,
       yaw: 10,
     });
+  });
+
+  it('knows all six states, HELD among them', () => {
+    for (const st of ['IDLE', 'MOVING', 'STOPPING', 'HELD', 'ERROR', 'ESTOP']) {
+      expect(parseState(st), st).toBe(st);
+    }
+    expect(parseState(' held ')).toBe('HELD');
+    expect(parseState('HOLD')).toBeNull();
+    expect(parseState(undefined)).toBeNull();
+  });
+
+  it('parses a STATUS reply of a held motion', () => {
+    const l = parseLine('ACK 9 state=HELD homed=1 speed=40 owner=gui0 err=0');
+    if (l.kind !== 'ACK') throw new Error('not an ACK');
+    expect(parseStatus(l.fields)).toEqual({ state: 'HELD', homed: true, speed: 40, owner: 'gui0', err: 0 });
+    expect(parseStatus('state=HELD homed=1 speed=40 owner=none err=0').state).toBe('HELD');
   });
 
   it('parses WHERE fields and ignores an unknown state', () => {
@@ -227,7 +245,8 @@ describe('requests', () => {
     for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'MAP LP1']) {
       expect(completesLater(v), v).toBe(true);
     }
-    for (const v of ['STATUS', 'STOP', 'ESTOP', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL', 'WAFERS', 'STN', 'TEACH LP1']) {
+    // HOLD and RESUME answer ACK only: the held motion's own request ends with INF/ABS.
+    for (const v of ['STATUS', 'STOP', 'ESTOP', 'HOLD', 'RESUME', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL', 'WAFERS', 'STN', 'TEACH LP1']) {
       expect(completesLater(v), v).toBe(false);
     }
   });

@@ -130,9 +130,9 @@ export function robotFromReply(fields: Record<string, string>, events: string[])
   };
 }
 
-const STATES: readonly RobotState[] = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP'];
+const STATES: readonly RobotState[] = ['IDLE', 'MOVING', 'STOPPING', 'HELD', 'ERROR', 'ESTOP'];
 
-/** A controller state name, or null when it is none of the five. */
+/** A controller state name, or null when it is none of the six. */
 export function parseState(s: string | undefined): RobotState | null {
   const u = (s ?? '').trim().toUpperCase();
   return (STATES as readonly string[]).includes(u) ? (u as RobotState) : null;

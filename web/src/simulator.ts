@@ -92,7 +92,7 @@ const STYLE = `
 .sim-overlay .sim-k { color: #7d8894; }
 .sim-state { font-weight: 700; letter-spacing: 0.04em; }
 .sim-state-IDLE { color: #9fb3c8; } .sim-state-MOVING { color: #5fd07a; } .sim-state-STOPPING { color: #f0b23c; }
-.sim-state-ERROR { color: #ff5a4e; } .sim-state-ESTOP { color: #ff3b30; }
+.sim-state-HELD { color: #6cb8ff; } .sim-state-ERROR { color: #ff5a4e; } .sim-state-ESTOP { color: #ff3b30; }
 .sim-warn { color: #f0b23c; }
 .sim-buttons { position: absolute; right: 8px; bottom: 8px; display: flex; gap: 6px; }
 .sim-buttons button { background: #232930; color: #c8d0d8; border: 1px solid #3a434d; border-radius: 3px;
@@ -179,6 +179,8 @@ const TINTS: Record<RobotState, Tint> = {
   IDLE: { color: new THREE.Color('#ffffff'), amount: 0, emissive: new THREE.Color('#000000') },
   MOVING: { color: new THREE.Color('#ffffff'), amount: 0, emissive: new THREE.Color('#000000') },
   STOPPING: { color: new THREE.Color('#f0a020'), amount: 0.35, emissive: new THREE.Color('#1a1000') },
+  // Held on its path: blue, apart from STOPPING's amber, so a kept motion reads as paused.
+  HELD: { color: new THREE.Color('#4a9ae8'), amount: 0.35, emissive: new THREE.Color('#0a1420') },
   ERROR: { color: new THREE.Color('#ff3020'), amount: 0.55, emissive: new THREE.Color('#300600') },
   ESTOP: { color: new THREE.Color('#ff2010'), amount: 0.7, emissive: new THREE.Color('#4a0800') },
 };
@@ -187,6 +189,7 @@ const JOINT_COLOR: Record<RobotState, string> = {
   IDLE: '#2a2f35',
   MOVING: '#2fa84f',
   STOPPING: '#c88a1a',
+  HELD: '#3f8fd8',
   ERROR: '#b8281e',
   ESTOP: '#d01e14',
 };

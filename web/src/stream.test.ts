@@ -80,7 +80,8 @@ describe('decodeSample', () => {
   });
 
   it('decodes every state, homed 0, one axis and sixteen axes', () => {
-    const states = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP'] as const;
+    // docs/simulator-stream.md: 0 IDLE, 1 MOVING, 2 STOPPING, 3 ERROR, 4 ESTOP, 5 HELD.
+    const states = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP', 'HELD'] as const;
     states.forEach((st, k) => {
       expect(decodeSample(withByte(handMade(), 7, k))?.state).toBe(st);
     });
@@ -91,6 +92,14 @@ describe('decodeSample', () => {
       expect(buf.byteLength).toBe(72 + 16 * n);
       expect(decodeSample(buf)).toEqual(s);
     }
+  });
+
+  it('decodes state byte 5 as HELD and encodes HELD as 5', () => {
+    expect(decodeSample(withByte(handMade(), 7, 5))?.state).toBe('HELD');
+    const held: SimSample = { ...sample(42, 43, [1000, -2000, 3000, 4000]), state: 'HELD' };
+    const buf = encodeSample(held);
+    expect(new DataView(buf).getUint8(7)).toBe(5);
+    expect(decodeSample(buf)).toEqual(held);
   });
 
   it('keeps u64 and i64 values exact up to 2^53 and rounds beyond like JSON.parse', () => {
@@ -144,7 +153,7 @@ describe('decodeSample', () => {
       ['17 axes', withByte(good, 6, 17)],
       ['3 axes (length mismatch)', withByte(good, 6, 3)],
       ['5 axes (length mismatch)', withByte(good, 6, 5)],
-      ['state 5', withByte(good, 7, 5)],
+      ['state 6', withByte(good, 7, 6)],
       ['state 255', withByte(good, 7, 255)],
       ['homed 2', withByte(good, 24, 2)],
     ];

@@ -13,14 +13,14 @@ export const SIM_HEADER_LEN = 72;
 export const SIM_AXIS_LEN = 16;
 export const SIM_MAX_AXES = 16;
 
-/** State numbers of the stream, as in `STATUS`. */
-export const SIM_STATES: readonly RobotState[] = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP'];
+/** The stream's state byte: index 0 to 5 (`HELD` is 5, after `ESTOP`; names as in `STATUS`). */
+export const SIM_STATES: readonly RobotState[] = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP', 'HELD'];
 
 const TWO_32 = 4294967296;
 
 /**
  * Decode one version 1 datagram. Returns null for anything that is not exactly a valid
- * version 1 datagram (magic, version, axis count 1-16, exact length, state 0-4, homed 0/1,
+ * version 1 datagram (magic, version, axis count 1-16, exact length, state 0-5, homed 0/1,
  * reserved bytes zero); never throws.
  *
  * The u64 sequence and timestamp and the i64 pulse counts become JS numbers: exact up to

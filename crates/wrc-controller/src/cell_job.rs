@@ -14,7 +14,7 @@ use wrc_cell::{Station, StationError, Step, TransferKind};
 use wrc_protocol::{Code, ReplyTo, StationName};
 use wrc_robot::{Joints, Robot};
 
-use crate::shared::SourceId;
+use crate::messages::{floor_char_boundary, SourceId};
 
 /// Most steps in one job.
 pub const MAX_JOB_STEPS: usize = 24;
@@ -151,7 +151,7 @@ pub struct JobRefusal {
 impl JobRefusal {
     /// A refusal with `text` (cut at 200 bytes, on a character boundary).
     pub fn new(code: Code, text: &str) -> JobRefusal {
-        let len = crate::command_interpreter::floor_char_boundary(text, 200);
+        let len = floor_char_boundary(text, 200);
         let mut buf = [0u8; 200];
         buf[..len].copy_from_slice(&text.as_bytes()[..len]);
         JobRefusal {

@@ -21,9 +21,8 @@ use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
 use wrc_robot::Robot;
 
 use crate::cell_job::{transfer_steps, CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
-use crate::command_interpreter::Outputs;
-use crate::program_store::StoreLinks;
-use crate::shared::{RobotState, Shared, SourceId};
+use crate::messages::{Outputs, SourceId, StoreLinks};
+use crate::shared::{RobotState, Shared};
 
 /// Why the wafer cell could not be opened.
 #[derive(Debug, thiserror::Error)]

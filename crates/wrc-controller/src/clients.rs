@@ -2,11 +2,22 @@
 //! framing, parsing, routing requests to the Command Interpreter (STOP and ESTOP through its
 //! urgent path: queue + semaphore), fixed output buffers, and the status stream.
 //!
+//! With an [`FdRegistry`] ([`ClientSet::set_registry`]) every connected stream is watched by
+//! its task's [`wrc_rt::wake::FdWake`] under its own token, so input releases the task at
+//! once; [`ClientSet::read_ready`] then reads only the clients that have input.
+//!
+//! Fairness: one cycle reads at most [`READ_BUDGET`] bytes from each client (one `read`);
+//! what is left stays in the socket, and the level-triggered waiter releases the task again
+//! at once, so many clients flooding requests are served round-robin, a bounded amount each
+//! per cycle, and none waits behind another's backlog.
+//!
 //! Real-time promise: every buffer is allocated when the set is made; a cycle makes only
-//! non-blocking socket calls (the I/O the task exists for), never allocates or prints.
+//! non-blocking socket calls (the I/O the task exists for) and, when a client comes or goes,
+//! one `epoll_ctl`; it never allocates or prints.
 
 use std::io::{self, Read, Write};
 use std::net::TcpStream;
+use std::os::fd::{AsFd, BorrowedFd};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -16,22 +27,18 @@ use wrc_protocol::{
 };
 use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::wake::{FdRegistry, Token};
 
 use crate::cell_job::JobKind;
-use crate::program_store::StoreRequest;
-use crate::shared::{OutLine, Shared, SourceId, Urgent};
+use crate::messages::{Incoming, OutLine, SourceId, StoreRequest, Urgent};
+use crate::shared::Shared;
 
 /// Bytes of output kept per client before it counts as not reading.
 pub const OUT_CAP: usize = 64 * 1024;
 
-/// A request or a disconnection, for the Command Interpreter.
-#[derive(Debug, Clone, Copy)]
-pub enum Incoming {
-    /// A parsed request from a source.
-    Request(SourceId, Request),
-    /// A source went away.
-    Disconnected(SourceId),
-}
+/// The most bytes read from one client in one cycle of a task with a waiter [bytes]: one
+/// line of the longest length ([`wrc_protocol::MAX_LINE`]), or about 36 `STATUS` lines.
+pub const READ_BUDGET: usize = wrc_protocol::MAX_LINE;
 
 /// A byte stream a client talks over.
 #[derive(Debug)]
@@ -50,6 +57,16 @@ impl Read for Stream {
             Stream::Tcp(s) => s.read(buf),
             Stream::Unix(s) => s.read(buf),
             Stream::Serial(s) => s.read(buf),
+        }
+    }
+}
+
+impl AsFd for Stream {
+    fn as_fd(&self) -> BorrowedFd<'_> {
+        match self {
+            Stream::Tcp(s) => s.as_fd(),
+            Stream::Unix(s) => s.as_fd(),
+            Stream::Serial(s) => s.as_fd(),
         }
     }
 }
@@ -90,6 +107,9 @@ struct Slot {
     checksum: bool,
     /// Inside `UPLOAD`: lines are program text until a line `.`.
     uploading: bool,
+    /// The last write left output behind (the client does not read): retried on the
+    /// period only.
+    backed_up: bool,
     generation: u32,
 }
 
@@ -103,6 +123,8 @@ pub struct ClientSet {
     robot: Robot,
     buf: ReplyBuf,
     read_buf: Box<[u8; 4096]>,
+    /// The waiter's registry and the token of slot 0 (slot `i` has `first + i`).
+    poll: Option<(FdRegistry, Token)>,
     /// Clients dropped because they stopped reading their replies.
     pub dropped_slow: u64,
 }
@@ -128,6 +150,7 @@ impl ClientSet {
                 subscribed: false,
                 checksum: false,
                 uploading: false,
+                backed_up: false,
                 generation: 0,
             })
             .collect();
@@ -140,8 +163,34 @@ impl ClientSet {
             robot,
             buf: ReplyBuf::new(),
             read_buf: Box::new([0; 4096]),
+            poll: None,
             dropped_slow: 0,
         }
+    }
+
+    /// Watch every client of this set with the task's waiter: slot `i` under token
+    /// `first_token + i` (tokens `first_token .. first_token + capacity` must be below
+    /// [`FdRegistry::tokens`]). Clients already connected are registered now; later ones when
+    /// they are added, and each is deregistered when it is closed. Fails when a token is out
+    /// of range or the kernel refuses a registration.
+    pub fn set_registry(&mut self, registry: FdRegistry, first_token: Token) -> io::Result<()> {
+        if first_token + self.slots.len() > registry.tokens() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "{} clients from token {first_token} do not fit a waiter with {} tokens",
+                    self.slots.len(),
+                    registry.tokens()
+                ),
+            ));
+        }
+        for (i, slot) in self.slots.iter().enumerate() {
+            if let Some(stream) = &slot.stream {
+                registry.register(stream, first_token + i)?;
+            }
+        }
+        self.poll = Some((registry, first_token));
+        Ok(())
     }
 
     /// Take a new client; `false` (and the stream is closed) when every slot is in use.
@@ -155,6 +204,13 @@ impl ClientSet {
         else {
             return false;
         };
+        if let Some((registry, first)) = &self.poll {
+            if registry.register(&stream, first + i).is_err() {
+                // The kernel would not watch it (out of memory or watches): refuse it rather
+                // than keep a client whose input would wait for the period.
+                return false;
+            }
+        }
         slot.generation = slot.generation.wrapping_add(1);
         slot.source = SourceId::new(kind, i as u32, slot.generation);
         slot.stream = Some(stream);
@@ -163,12 +219,18 @@ impl ClientSet {
         slot.subscribed = false;
         slot.checksum = false;
         slot.uploading = false;
+        slot.backed_up = false;
         true
     }
 
     /// Clients connected now.
     pub fn connected(&self) -> usize {
         self.slots.iter().filter(|s| s.stream.is_some()).count()
+    }
+
+    /// Clients it has room for.
+    pub fn capacity(&self) -> usize {
+        self.slots.len()
     }
 
     fn push_out(slot: &mut Slot, bytes: &[u8]) -> bool {
@@ -182,7 +244,11 @@ impl ClientSet {
 
     fn close(&mut self, i: usize) {
         let slot = &mut self.slots[i];
-        if slot.stream.take().is_some() {
+        if let Some(stream) = slot.stream.take() {
+            if let Some((registry, _)) = &self.poll {
+                let _ = registry.deregister(&stream);
+            }
+            drop(stream);
             let _ = self
                 .routes
                 .incoming
@@ -197,24 +263,55 @@ impl ClientSet {
         slot.out_len = 0;
         slot.subscribed = false;
         slot.uploading = false;
+        slot.backed_up = false;
     }
 
-    /// Read every client, parse complete lines and route them.
+    /// Read every client, parse complete lines and route them: with a registry at most
+    /// [`READ_BUDGET`] bytes each (the waiter releases the task again for the rest), without
+    /// one everything each has sent.
     pub fn poll_reads(&mut self) {
         for i in 0..self.slots.len() {
-            while let Some(stream) = self.slots[i].stream.as_mut() {
-                match stream.read(&mut self.read_buf[..]) {
-                    Ok(0) => {
-                        self.close(i);
+            self.read_client(i);
+        }
+    }
+
+    /// Read the clients the waiter saw readable since the last cycle, at most
+    /// [`READ_BUDGET`] bytes each; without a registry, every client ([`ClientSet::poll_reads`]).
+    pub fn read_ready(&mut self) {
+        let Some((registry, first)) = &self.poll else {
+            return self.poll_reads();
+        };
+        let (registry, first) = (registry.clone(), *first);
+        for i in 0..self.slots.len() {
+            if registry.take_ready(first + i) {
+                self.read_client(i);
+            }
+        }
+    }
+
+    fn read_client(&mut self, i: usize) {
+        let budget = if self.poll.is_some() {
+            READ_BUDGET
+        } else {
+            self.read_buf.len()
+        };
+        while let Some(stream) = self.slots[i].stream.as_mut() {
+            match stream.read(&mut self.read_buf[..budget]) {
+                Ok(0) => {
+                    self.close(i);
+                    break;
+                }
+                Ok(n) => {
+                    self.handle_bytes(i, n);
+                    if self.poll.is_some() {
                         break;
                     }
-                    Ok(n) => self.handle_bytes(i, n),
-                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                    Err(_) => {
-                        self.close(i);
-                        break;
-                    }
+                }
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(_) => {
+                    self.close(i);
+                    break;
                 }
             }
         }
@@ -330,8 +427,22 @@ impl ClientSet {
 
     /// Write what is queued for each client, without blocking.
     pub fn flush(&mut self) {
+        self.write_out(true);
+    }
+
+    /// Write what is queued for the clients whose last write took everything; a client
+    /// that is backed up (it does not read) waits for [`ClientSet::flush`] on the period, so
+    /// event cycles make no write calls that are bound to fail.
+    pub fn flush_new(&mut self) {
+        self.write_out(false);
+    }
+
+    fn write_out(&mut self, backed_up_too: bool) {
         for i in 0..self.slots.len() {
             let slot = &mut self.slots[i];
+            if slot.out_len == 0 || (slot.backed_up && !backed_up_too) {
+                continue;
+            }
             let Some(stream) = slot.stream.as_mut() else {
                 continue;
             };
@@ -355,6 +466,7 @@ impl ClientSet {
             }
             slot.out.copy_within(sent..slot.out_len, 0);
             slot.out_len -= sent;
+            slot.backed_up = slot.out_len > 0;
         }
     }
 }

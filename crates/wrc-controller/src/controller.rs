@@ -18,14 +18,17 @@ use wrc_rt::ipc::{mailbox, spsc, MessageQueue, Semaphore};
 use wrc_rt::{RealtimeMode, RunningRuntime, Runtime, RuntimeOptions, SchedReport, StopReport};
 
 use crate::clients::{ClientSet, Routes};
-use crate::command_interpreter::{CommandInterpreter, Outputs, UrgentPath};
+use wrc_rt::wake::Wake;
+
+use crate::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use crate::error_check::{ErrorCheck, Limits};
 use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
-use crate::program_store::{ProgramStore, StoreLinks};
+use crate::messages::{Outputs, SourceId, StoreLinks};
+use crate::program_store::ProgramStore;
 use crate::pulse_generator::PulseGenerator;
 use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
-use crate::shared::{Shared, SourceId};
+use crate::shared::{Shared, StopKind};
 use crate::simulator_manager::SimulatorManager;
 use crate::velocity_generator::VelocityGenerator;
 
@@ -99,6 +102,15 @@ pub enum StartError {
     /// The runtime could not start a task.
     #[error("{0}")]
     Runtime(#[from] wrc_rt::RuntimeError),
+    /// A task's event waiter (epoll over its sockets or tty and its reply queue) could not
+    /// be set up.
+    #[error("task {task}: cannot watch its connections and reply queue (epoll): {reason}")]
+    Waiter {
+        /// The task.
+        task: &'static str,
+        /// Why.
+        reason: std::io::Error,
+    },
     /// The stations file or the wafer map is unusable.
     #[error("wafer cell: {0}")]
     Cell(#[from] crate::cell_service::CellError),
@@ -172,7 +184,7 @@ impl Running {
     /// Controlled shutdown: stop any motion (waiting up to `timeout` for the robot to come
     /// to rest), then end every task after its current cycle.
     pub fn shutdown(mut self, timeout: Duration) -> Option<StopReport> {
-        self.shared.request_stop();
+        self.shared.request_stop(StopKind::Stop);
         let deadline = Instant::now() + timeout;
         while Instant::now() < deadline {
             let stopped = self.shared.stopped_epoch.load(Ordering::Acquire)
@@ -274,19 +286,38 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     // Queues (the paper's Table 5 kinds) between the tasks.
     let (ring_tx, ring_rx) = spsc::channel(16);
     let (resume_tx, resume_rx) = mailbox(generator.state());
-    let orders = Arc::new(MessageQueue::new(crate::command_interpreter::MAX_TICKETS));
-    let done = Arc::new(MessageQueue::new(
-        4 * crate::command_interpreter::MAX_TICKETS,
+    // The Command Interpreter, the Velocity Generator and the service thread are released
+    // by their messages as well as by their periods (the queues notify their consumer); the
+    // Pulse Generator by every stop request.
+    let ci_wake = Wake::new();
+    let vg_wake = Wake::new();
+    let pg_wake = Wake::new();
+    let service_wake = Wake::new();
+    shared.notify_stops(pg_wake.notifier());
+    let orders = Arc::new(MessageQueue::with_notify(
+        crate::command_interpreter::MAX_TICKETS,
+        vg_wake.notifier(),
     ));
-    let incoming = Arc::new(MessageQueue::new(1024));
+    let done = Arc::new(MessageQueue::with_notify(
+        4 * crate::command_interpreter::MAX_TICKETS,
+        ci_wake.notifier(),
+    ));
+    let incoming = Arc::new(MessageQueue::with_notify(1024, ci_wake.notifier()));
     let urgent = Arc::new(MessageQueue::new(64));
     let wake = Arc::new(Semaphore::new(0));
-    let network_out = Arc::new(MessageQueue::new(4096));
-    let serial_out = Arc::new(MessageQueue::new(256));
+    // The Ethernet and RS232C tasks are released by their sockets or tty and by every line
+    // pushed into their reply queues, as well as by their periods.
+    let waiter = |task: &'static str, tokens| {
+        wrc_rt::wake::FdWake::new(tokens).map_err(|reason| StartError::Waiter { task, reason })
+    };
+    let ethernet_wake = waiter("ethernet", Ethernet::tokens(MAX_HOSTS, MAX_GUIS))?;
+    let rs232c_wake = waiter("rs232c", Rs232c::TOKENS)?;
+    let network_out = Arc::new(MessageQueue::with_notify(4096, ethernet_wake.notifier()));
+    let serial_out = Arc::new(MessageQueue::with_notify(256, rs232c_wake.notifier()));
     let owner_lost = Arc::new(AtomicBool::new(false));
     let stats = Arc::new(OnceLock::new());
     let task_cells: crate::queries::TaskCells = Arc::new(OnceLock::new());
-    let links = StoreLinks::new();
+    let links = StoreLinks::notifying(service_wake.notifier(), ci_wake.notifier());
     let outputs = Outputs {
         network: network_out.clone(),
         serial: serial_out.clone(),
@@ -345,7 +376,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             stats.clone(),
         ),
     );
-    runtime.add(
+    runtime.add_released(
         spec("pulse_generator"),
         PulseGenerator::new(
             pg_board,
@@ -355,6 +386,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             resume_tx,
             generator.clone(),
         ),
+        pg_wake,
     );
     runtime.add(
         spec("simulator_manager"),
@@ -366,7 +398,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             options.sim_addr,
         ),
     );
-    runtime.add(
+    runtime.add_released(
         spec("velocity_generator"),
         VelocityGenerator::new(
             generator.clone(),
@@ -376,23 +408,30 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             done.clone(),
             resume_rx,
         ),
+        vg_wake,
     );
+    let forwarded = Arc::new(MessageQueue::with_notify(
+        urgent.capacity(),
+        ci_wake.notifier(),
+    ));
     let mut interpreter = CommandInterpreter::new(
         robot.clone(),
         ci_board,
         shared.clone(),
-        incoming,
-        urgent,
-        wake.clone(),
-        orders,
-        done,
-        outputs,
-        owner_lost,
-        links,
+        CommandLinks {
+            incoming,
+            urgent: urgent.clone(),
+            forwarded: forwarded.clone(),
+            orders,
+            done,
+            out: outputs,
+            owner_lost,
+            store: links,
+        },
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
-    runtime.add(spec("command_interpreter"), interpreter);
+    runtime.add_released(spec("command_interpreter"), interpreter, ci_wake);
     runtime.add(
         spec("io_monitor"),
         IoMonitor::new(
@@ -417,10 +456,13 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         shared.clone(),
         routes.clone(),
     );
-    runtime.add(
-        spec("ethernet"),
-        Ethernet::new(tcp, unix, hosts, guis, network_out),
-    );
+    let ethernet = Ethernet::new(tcp, unix, hosts, guis, network_out)
+        .released_by(ethernet_wake.registry())
+        .map_err(|reason| StartError::Waiter {
+            task: "ethernet",
+            reason,
+        })?;
+    runtime.add_released(spec("ethernet"), ethernet, ethernet_wake);
     let pendant = ClientSet::new(
         SourceId::PENDANT,
         1,
@@ -429,7 +471,13 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         shared.clone(),
         routes,
     );
-    runtime.add(spec("rs232c"), Rs232c::new(serial, pendant, serial_out));
+    let rs232c = Rs232c::new(serial, pendant, serial_out)
+        .released_by(rs232c_wake.registry())
+        .map_err(|reason| StartError::Waiter {
+            task: "rs232c",
+            reason,
+        })?;
+    runtime.add_released(spec("rs232c"), rs232c, rs232c_wake);
 
     let running = runtime.start()?;
     if running.scheduling().is_realtime() {
@@ -452,6 +500,8 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let quit = Arc::new(AtomicBool::new(false));
     let path = UrgentPath {
         wake,
+        urgent,
+        forwarded,
         shared: shared.clone(),
         quit: quit.clone(),
     };
@@ -472,7 +522,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let store_quit = quit.clone();
     let store_thread = std::thread::Builder::new()
         .name("wrc-programs".into())
-        .spawn(move || store.run(store_quit))
+        .spawn(move || store.run(store_quit, service_wake))
         .ok();
     Ok(Running {
         runtime: Some(running),

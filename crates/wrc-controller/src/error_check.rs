@@ -17,7 +17,8 @@ use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::{CycleContext, StatsCell, Task, TaskStats};
 
-use crate::shared::{RobotState, Shared, Urgent};
+use crate::messages::Urgent;
+use crate::shared::{RobotState, Shared};
 
 /// Limits Error Check enforces.
 #[derive(Debug, Clone, Copy)]

@@ -1,22 +1,39 @@
 //! Ethernet task (Table 1: priority 45, 100 ms): the host protocol on TCP (default
-//! `127.0.0.1:7100`) and on the local GUI's Unix socket. Each cycle accepts new clients,
-//! reads and parses their lines, routes requests to the Command Interpreter (STOP and ESTOP
-//! through its urgent path), writes replies and events, and feeds the status stream.
+//! `127.0.0.1:7100`) and on the local GUI's Unix socket. It accepts new clients, reads and
+//! parses their lines, routes requests to the Command Interpreter (STOP and ESTOP through
+//! its urgent path), writes replies and events, and feeds the status stream.
 //!
-//! Real-time promise: non-blocking socket calls only; every buffer exists before the first
-//! cycle (see [`crate::clients`]).
+//! Released by its period or by an event, whichever comes first ([`Ethernet::released_by`]
+//! with the task's [`FdWake`](wrc_rt::wake::FdWake)): a listener with a connection waiting, a client's input, or
+//! a line pushed into its reply queue (made with `MessageQueue::with_notify` and the
+//! waiter's notifier). An **event** cycle accepts on a ready listener, reads the clients
+//! that have input (a bounded amount each, see [`crate::clients`]), routes their requests,
+//! and writes every reply waiting in the queue — so a request is routed, and its reply
+//! written, the moment each arrives. The **periodic** cycle also sends the status stream to
+//! subscribers, retries the output of clients that are backed up, and reads every client.
+//!
+//! Real-time promise: non-blocking socket calls only (plus one `epoll_ctl` when a client
+//! comes or goes); every buffer exists before the first cycle (see [`crate::clients`]).
 
 use std::io;
 use std::net::TcpListener;
 use std::os::unix::net::UnixListener;
 use std::sync::Arc;
 
-use wrc_rt::{CycleContext, Task};
+use wrc_rt::wake::{FdRegistry, Token};
+use wrc_rt::{CycleContext, Release, Task};
 
 use wrc_rt::ipc::MessageQueue;
 
 use crate::clients::{ClientSet, Stream};
-use crate::shared::OutLine;
+use crate::messages::OutLine;
+
+/// The waiter's token of the TCP listener.
+const TCP_LISTENER: Token = 0;
+/// The waiter's token of the Unix-socket listener.
+const UNIX_LISTENER: Token = 1;
+/// The waiter's token of host slot 0 (GUI slots follow the host slots).
+const FIRST_CLIENT: Token = 2;
 
 /// The Ethernet task.
 pub struct Ethernet {
@@ -25,6 +42,7 @@ pub struct Ethernet {
     hosts: ClientSet,
     guis: ClientSet,
     replies: Arc<MessageQueue<OutLine>>,
+    registry: Option<FdRegistry>,
     /// Connections refused because every slot was taken.
     pub refused: u64,
 }
@@ -45,8 +63,34 @@ impl Ethernet {
             hosts,
             guis,
             replies,
+            registry: None,
             refused: 0,
         }
+    }
+
+    /// Tokens the task's [`FdWake`](wrc_rt::wake::FdWake) needs for `hosts` TCP clients and
+    /// `guis` GUI clients (and the two listeners).
+    pub fn tokens(hosts: usize, guis: usize) -> usize {
+        FIRST_CLIENT + hosts + guis
+    }
+
+    /// The task released by events as well as its period: its listeners and every client
+    /// are registered with `registry` (from the [`FdWake`](wrc_rt::wake::FdWake) the task is
+    /// added with, sized with [`Ethernet::tokens`]); its reply queue should notify that
+    /// waiter. Fails when the waiter has too few tokens or the kernel refuses a registration.
+    pub fn released_by(mut self, registry: FdRegistry) -> io::Result<Ethernet> {
+        if let Some(l) = &self.tcp {
+            registry.register(l, TCP_LISTENER)?;
+        }
+        if let Some(l) = &self.unix {
+            registry.register(l, UNIX_LISTENER)?;
+        }
+        let hosts = self.hosts.capacity();
+        self.hosts.set_registry(registry.clone(), FIRST_CLIENT)?;
+        self.guis
+            .set_registry(registry.clone(), FIRST_CLIENT + hosts)?;
+        self.registry = Some(registry);
+        Ok(self)
     }
 
     fn accept(&mut self) {
@@ -81,24 +125,43 @@ impl Ethernet {
         }
     }
 
-    /// One cycle (public for tests that step the task by hand).
-    pub fn step(&mut self) {
-        self.accept();
-        self.hosts.poll_reads();
-        self.guis.poll_reads();
+    /// One cycle, released by `release` (public for tests that step the task by hand).
+    pub fn step(&mut self, release: Release) {
+        let period = release == Release::Period;
+        let listener_ready = match &self.registry {
+            // Take both marks (no short circuit): a stale one would cost an empty accept.
+            Some(r) => r.take_ready(TCP_LISTENER) | r.take_ready(UNIX_LISTENER),
+            None => false,
+        };
+        if period || listener_ready {
+            self.accept();
+        }
+        for set in [&mut self.hosts, &mut self.guis] {
+            if period {
+                set.poll_reads();
+            } else {
+                set.read_ready();
+            }
+        }
+        // The whole queue each cycle: the notification that released this cycle may stand
+        // for several lines (see `MessageQueue::with_notify`).
         while let Ok(line) = self.replies.try_recv() {
             self.hosts.deliver(&line);
             self.guis.deliver(&line);
         }
         for set in [&mut self.hosts, &mut self.guis] {
-            set.status_stream();
-            set.flush();
+            if period {
+                set.status_stream();
+                set.flush();
+            } else {
+                set.flush_new();
+            }
         }
     }
 }
 
 impl Task for Ethernet {
-    fn cycle(&mut self, _ctx: &CycleContext) {
-        self.step();
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self.step(ctx.release);
     }
 }

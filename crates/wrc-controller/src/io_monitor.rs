@@ -13,7 +13,8 @@ use wrc_board::MotionBoard;
 use wrc_rt::ipc::MessageQueue;
 use wrc_rt::{CycleContext, Task};
 
-use crate::shared::{OutLine, Shared, SourceId};
+use crate::messages::{OutLine, SourceId};
+use crate::shared::Shared;
 
 /// The I/O Monitor.
 pub struct IoMonitor<B: MotionBoard> {

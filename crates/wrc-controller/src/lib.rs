@@ -16,6 +16,7 @@ pub mod controller;
 pub mod error_check;
 pub mod ethernet;
 pub mod io_monitor;
+pub mod messages;
 pub mod program_store;
 pub mod pulse_generator;
 pub mod queries;

@@ -14,194 +14,23 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 use wrc_lang::{Program, Severity};
-use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo, MAX_LINE};
+use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo};
 use wrc_robot::Robot;
-use wrc_rt::ipc::MessageQueue;
+use wrc_rt::clock::monotonic_now_ns;
+use wrc_rt::wake::Wake;
+use wrc_rt::Waiter;
 
 use crate::cell_service::CellService;
-use crate::command_interpreter::Outputs;
+use crate::messages::{Outputs, ProgramStart, SourceId, StoreLinks, StoreRequest};
 use crate::queries::TaskCells;
-use crate::shared::SourceId;
-use wrc_protocol::StationName;
+
+/// The service thread's longest wait between two looks at its queues [ns].
+const POLL_NS: u64 = 50_000_000;
 
 /// Most lines in an uploaded program.
 pub const MAX_PROGRAM_LINES: usize = 10_000;
-
-/// A request for the program store, fixed-size so real-time tasks send it without
-/// allocating.
-// The line variant is large on purpose: boxing it would allocate in the real-time sender.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy)]
-pub enum StoreRequest {
-    /// `UPLOAD <name>`: the lines that follow from `from` are program text.
-    Begin {
-        /// The uploading connection.
-        from: SourceId,
-        /// Where the final reply goes.
-        to: ReplyTo,
-        /// The program's name.
-        name: ProgramName,
-    },
-    /// One line of program text (without its line end).
-    Line {
-        /// The uploading connection.
-        from: SourceId,
-        /// Bytes used in `text`.
-        len: u16,
-        /// The line.
-        text: [u8; MAX_LINE],
-    },
-    /// The line `.`: compile and store.
-    End {
-        /// The uploading connection.
-        from: SourceId,
-    },
-    /// The upload from `from` ended without `.` (the connection went away, or a line was
-    /// refused): forget it.
-    Cancel {
-        /// The uploading connection.
-        from: SourceId,
-    },
-    /// `PROGRAMS`.
-    List {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the reply goes.
-        to: ReplyTo,
-    },
-    /// `DELETE <name>`.
-    Delete {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the reply goes.
-        to: ReplyTo,
-        /// The program.
-        name: ProgramName,
-    },
-    /// `ROBOT`: the robot's geometry and axes.
-    Robot {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-    },
-    /// `TASKS`: every real-time task's measured timing.
-    Tasks {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-    },
-    /// `STN`: list the stations.
-    Stn {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-    },
-    /// `TEACH <station>`: the current pose becomes the station's taught pose.
-    Teach {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the reply goes.
-        to: ReplyTo,
-        /// The station.
-        name: StationName,
-    },
-    /// `WAFERS`: where every wafer is.
-    Wafers {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-    },
-    /// `GET`, `PUT` or `MAP` (from a connection, or from the running program with
-    /// [`SourceId::PROGRAM`]).
-    Job {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-        /// Which.
-        kind: crate::cell_job::JobKind,
-        /// The station.
-        station: StationName,
-        /// GET/PUT: the slot.
-        slot: u16,
-    },
-    /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
-    Run {
-        /// The requesting connection.
-        from: SourceId,
-        /// Where the replies go.
-        to: ReplyTo,
-        /// The program.
-        name: ProgramName,
-    },
-}
-
-impl StoreRequest {
-    /// A [`StoreRequest::Line`] with `text` (cut at [`MAX_LINE`] bytes).
-    pub fn line(from: SourceId, text: &[u8]) -> StoreRequest {
-        let mut line = [0u8; MAX_LINE];
-        let n = text.len().min(MAX_LINE);
-        line[..n].copy_from_slice(&text[..n]);
-        StoreRequest::Line {
-            from,
-            len: n as u16,
-            text: line,
-        }
-    }
-}
-
-/// A compiled program on its way to the Command Interpreter.
-pub struct ProgramStart {
-    /// The requesting connection (gets the ACK and the final INF/ABS).
-    pub from: SourceId,
-    /// Where the replies go.
-    pub to: ReplyTo,
-    /// The program's name.
-    pub name: ProgramName,
-    /// The compiled program.
-    pub program: Box<Program>,
-}
-
-/// The queues between the store and the real-time tasks.
-#[derive(Clone)]
-pub struct StoreLinks {
-    /// Requests from the Ethernet and RS232C tasks.
-    pub requests: Arc<MessageQueue<StoreRequest>>,
-    /// Compiled programs for the Command Interpreter.
-    pub starts: Arc<MessageQueue<ProgramStart>>,
-    /// Programs the Command Interpreter is done with (freed by the store).
-    pub retired: Arc<MessageQueue<Box<Program>>>,
-    /// Wafer jobs (and refusals of a program's) for the Command Interpreter.
-    pub jobs: Arc<MessageQueue<crate::cell_job::JobOffer>>,
-    /// What the Command Interpreter reports of the wafer jobs.
-    pub cell_events: Arc<MessageQueue<crate::cell_job::CellEvent>>,
-}
-
-impl StoreLinks {
-    /// Queues of sensible sizes.
-    pub fn new() -> StoreLinks {
-        StoreLinks {
-            requests: Arc::new(MessageQueue::new(4096)),
-            starts: Arc::new(MessageQueue::new(4)),
-            retired: Arc::new(MessageQueue::new(16)),
-            jobs: Arc::new(MessageQueue::new(4)),
-            cell_events: Arc::new(MessageQueue::new(64)),
-        }
-    }
-}
-
-impl Default for StoreLinks {
-    fn default() -> Self {
-        StoreLinks::new()
-    }
-}
 
 struct Upload {
     from: SourceId,
@@ -262,13 +91,12 @@ impl ProgramStore {
         self
     }
 
-    /// Serve requests until `quit`.
-    pub fn run(mut self, quit: Arc<AtomicBool>) {
+    /// Serve requests until `quit`, released by `wake` (notified by the request and event
+    /// queues of [`StoreLinks::notifying`]) or every 50 ms at the latest.
+    pub fn run(mut self, quit: Arc<AtomicBool>, mut wake: Wake) {
         while !quit.load(Ordering::Acquire) {
-            if let Ok(request) = self.links.requests.recv_timeout(Duration::from_millis(50)) {
-                self.handle(request);
-            }
             self.step();
+            let _ = wake.wait_until_ns(monotonic_now_ns() + POLL_NS);
         }
     }
 

@@ -3,7 +3,9 @@
 //! number of periods ahead, and streams zero batches at rest (a motion card expects one
 //! entry per period; a missing one is an underrun). A stop request takes effect here, from
 //! the period actually reached: the queued plan is discarded and the generator state of the
-//! last pushed period is decelerated within the limits.
+//! last pushed period brakes time-optimally on its path from its velocity and acceleration
+//! (STOP and HOLD at the move's override limits, ESTOP and faults at the axes' full limits);
+//! a HOLD's move is reported held, not stopped, so the Command Interpreter can resume it.
 //!
 //! Real-time promise: the cycle does not allocate, block or print; the board calls are
 //! atomic memory operations on the mapped DPRAM.
@@ -12,14 +14,15 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_board::{Feedback, MotionBoard};
-use wrc_motion::{MotionState, Period, Status, VelocityGenerator};
+use wrc_motion::{BrakeLimits, MotionState, MoveEnd, Period, Status, VelocityGenerator};
 use wrc_robot::MAX_AXES;
 use wrc_rt::ipc::mailbox::MailboxWriter;
 use wrc_rt::ipc::queue::MessageQueue;
 use wrc_rt::ipc::spsc::SpscReceiver;
-use wrc_rt::{CycleContext, Task};
+use wrc_rt::{CycleContext, Release, Task};
 
-use crate::shared::{Batch, MoveDone, MoveOutcome, Shared};
+use crate::messages::{Batch, MoveDone, MoveOutcome};
+use crate::shared::{Shared, StopKind};
 
 /// Periods kept queued in the board FIFO ahead of the board: a late wake-up of up to this
 /// many periods does not starve an axis, and a stop reaches the motors at most this many
@@ -38,6 +41,11 @@ pub struct PulseGenerator<B: MotionBoard> {
     ticket: u32,
     epoch_seen: u32,
     stopping: bool,
+    /// What the stop under way was asked for (decides the report: held or stopped).
+    stop_kind: StopKind,
+    /// The first braking period of the stop under way is not pushed yet (its push time is
+    /// the benchmark's "first decelerating pulse").
+    decel_pending: bool,
     pending: Option<Batch>,
     fifo_depth: usize,
     /// A completed move reported once the board has executed its last period: (ticket,
@@ -71,6 +79,8 @@ impl<B: MotionBoard> PulseGenerator<B> {
             ticket: 0,
             epoch_seen,
             stopping: false,
+            stop_kind: StopKind::Stop,
+            decel_pending: false,
             pending: None,
             fifo_depth,
             completing: None,
@@ -103,19 +113,34 @@ impl<B: MotionBoard> PulseGenerator<B> {
 
     /// One period (public for tests that step the task by hand).
     pub fn step(&mut self) {
+        self.step_released(Release::Period);
+    }
+
+    /// One cycle, released by the period or by a stop request (`Release::Event`): a stop
+    /// starts its brake at once and pushes its first braking period even when the FIFO
+    /// already holds its lead, so it follows the periods already queued without waiting
+    /// for the next period of this task.
+    pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
+        let mut braking_now = false;
         let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
         if epoch != self.epoch_seen {
             self.epoch_seen = epoch;
+            let kind = self.shared.take_stop_kind();
             self.pending = None;
             while self.ring.try_recv().is_some() {}
             if self.last.is_moving() {
+                // From the state of the last period pushed (mid-brake too, when a stronger
+                // stop overtakes a HOLD or a STOP): ESTOP brakes with the full limits.
                 self.stopper.restore(&self.last);
-                self.stopper.stop();
+                self.stopper.stop(match kind {
+                    StopKind::Estop => BrakeLimits::Full,
+                    StopKind::Hold | StopKind::Stop => BrakeLimits::Override,
+                });
+                self.stop_kind = kind;
                 self.stopping = true;
-                self.shared
-                    .decel_ns
-                    .store(Shared::now_ns(), Ordering::Release);
+                self.decel_pending = true;
+                braking_now = true;
             } else {
                 // At rest: take the board's own position (after a RESET the board may have
                 // stopped by itself, e.g. on a watchdog trip or E-stop).
@@ -141,17 +166,37 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 self.shared.stopped_epoch.store(epoch, Ordering::Release);
             }
         }
+        let lead = if braking_now && release == Release::Event {
+            FIFO_LEAD + 1
+        } else {
+            FIFO_LEAD
+        };
+        if release == Release::Event && !braking_now {
+            return; // nothing to do between periods but a new stop
+        }
         let mut period = Period::default();
-        while self.queued() < FIFO_LEAD {
+        while self.queued() < lead {
             if self.stopping {
                 let status = self.stopper.next_period(&mut period);
                 if !self.emit(&period.pulses) {
                     break;
                 }
+                if self.decel_pending {
+                    self.decel_pending = false;
+                    self.shared
+                        .decel_ns
+                        .store(Shared::now_ns(), Ordering::Release);
+                }
                 self.last = self.stopper.state();
                 if !matches!(status, Status::Working) {
                     self.stopping = false;
-                    self.report(self.ticket, MoveOutcome::Stopped);
+                    let outcome = match (status, self.stop_kind) {
+                        // The brake ended on the target (it was decelerating to it anyway).
+                        (Status::Finished(MoveEnd::Completed), _) => MoveOutcome::Completed,
+                        (_, StopKind::Hold) => MoveOutcome::Held,
+                        (_, StopKind::Stop | StopKind::Estop) => MoveOutcome::Stopped,
+                    };
+                    self.report(self.ticket, outcome);
                     self.ticket = 0;
                     self.resume.write(self.last);
                     self.shared
@@ -210,7 +255,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
 }
 
 impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
-    fn cycle(&mut self, _ctx: &CycleContext) {
-        self.step();
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self.step_released(ctx.release);
     }
 }

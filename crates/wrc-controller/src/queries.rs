@@ -53,15 +53,17 @@ pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
     (axes, ack)
 }
 
-/// The `EVT TASK` body of one task (the paper's Tables 3 and 4 plus a latency histogram).
+/// The `EVT TASK` body of one task (the paper's Tables 3 and 4 plus a latency histogram, for
+/// its periodic cycles; then the count and execution times of its event-released cycles).
 pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
     let period = Summary::of(&stats.period);
     let exec = Summary::of(&stats.exec);
     let latency = Summary::of(&stats.latency);
+    let event_exec = Summary::of(&stats.event_exec);
     let mut line = format!(
         "{} prio={} period_ms={} cycles={} overruns={} missed={} per_avg_us={} per_min_us={} \
          per_max_us={} exec_avg_us={} exec_max_us={} lat_avg_us={} lat_p99_us={} lat_max_us={} \
-         lat_hist=",
+         ev_cycles={} ev_exec_avg_us={} ev_exec_max_us={} lat_hist=",
         spec.name,
         spec.priority,
         Num(spec.period_us as f64 / 1000.0),
@@ -76,6 +78,9 @@ pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
         Num(latency.avg_us),
         Num(latency.p99_us),
         Num(latency.max_us),
+        stats.event_cycles,
+        Num(event_exec.avg_us),
+        Num(event_exec.max_us),
     );
     let mut first = true;
     for (upper_us, count) in power_of_two_bins(&stats.latency) {
@@ -147,6 +152,22 @@ mod tests {
             line.starts_with("pulse_generator prio=20 period_ms=10 cycles=0"),
             "{line}"
         );
-        assert!(line.ends_with("lat_hist="), "{line}");
+        assert!(
+            line.ends_with("ev_cycles=0 ev_exec_avg_us=0 ev_exec_max_us=0 lat_hist="),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn task_line_shows_event_cycles_apart_from_periodic_ones() {
+        let cell = StatsCell::new();
+        cell.record_event(12_000);
+        cell.record_event(4_000);
+        let line = task_line(&TaskSpec::new("ethernet", 45, 100_000), &cell.snapshot());
+        assert!(line.contains(" cycles=0 "), "{line}");
+        assert!(
+            line.contains(" ev_cycles=2 ev_exec_avg_us=8 ev_exec_max_us=12 "),
+            "{line}"
+        );
     }
 }

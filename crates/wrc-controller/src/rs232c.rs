@@ -2,19 +2,27 @@
 //! same protocol as the Ethernet task, plus the optional `*HH` checksum; a request that
 //! carries one gets replies that carry one. Without `--serial` the task idles.
 //!
+//! Released by its period or by an event, whichever comes first ([`Rs232c::released_by`]
+//! with the task's [`FdWake`](wrc_rt::wake::FdWake)): input on the tty, or a line pushed
+//! into its reply queue (made with `MessageQueue::with_notify` and the waiter's notifier).
+//! An event cycle reads the line that came and writes the replies waiting; the periodic
+//! cycle also retries output the line could not take.
+//!
 //! Real-time promise: non-blocking reads and writes on the tty only; no allocation.
 
 use std::fs::{File, OpenOptions};
+use std::io;
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::io::AsRawFd;
 use std::path::Path;
 use std::sync::Arc;
 
 use wrc_rt::ipc::MessageQueue;
-use wrc_rt::{CycleContext, Task};
+use wrc_rt::wake::FdRegistry;
+use wrc_rt::{CycleContext, Release, Task};
 
 use crate::clients::{ClientSet, Stream};
-use crate::shared::OutLine;
+use crate::messages::OutLine;
 
 /// Parity of the serial line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -126,18 +134,150 @@ impl Rs232c {
         Rs232c { pendant, replies }
     }
 
-    /// One cycle (public for tests that step the task by hand).
-    pub fn step(&mut self) {
-        self.pendant.poll_reads();
+    /// Tokens the task's [`FdWake`](wrc_rt::wake::FdWake) needs (the pendant's line).
+    pub const TOKENS: usize = 1;
+
+    /// The task released by events as well as its period: the serial line is registered
+    /// with `registry` (from the [`FdWake`](wrc_rt::wake::FdWake) the task is added with,
+    /// sized [`Rs232c::TOKENS`]); its reply queue should notify that waiter.
+    pub fn released_by(mut self, registry: FdRegistry) -> io::Result<Rs232c> {
+        self.pendant.set_registry(registry, 0)?;
+        Ok(self)
+    }
+
+    /// One cycle, released by `release` (public for tests that step the task by hand).
+    pub fn step(&mut self, release: Release) {
+        let period = release == Release::Period;
+        if period {
+            self.pendant.poll_reads();
+        } else {
+            self.pendant.read_ready();
+        }
+        // The whole queue each cycle (one notification may stand for several lines).
         while let Ok(line) = self.replies.try_recv() {
             self.pendant.deliver(&line);
         }
-        self.pendant.flush();
+        if period {
+            self.pendant.flush();
+        } else {
+            self.pendant.flush_new();
+        }
     }
 }
 
 impl Task for Rs232c {
-    fn cycle(&mut self, _ctx: &CycleContext) {
-        self.step();
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self.step(ctx.release);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Read, Write};
+    use std::os::fd::AsRawFd;
+
+    use wrc_config::Config;
+    use wrc_rt::ipc::Semaphore;
+    use wrc_rt::wake::{FdWake, Waiter};
+    use wrc_rt::{Clock, MonotonicClock};
+
+    use crate::clients::Routes;
+    use crate::messages::{Incoming, SourceId};
+    use crate::shared::Shared;
+
+    /// A pseudo-terminal: the master end (the pendant's side) and the slave's path.
+    fn pty() -> (File, std::path::PathBuf) {
+        let master = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(libc::O_NOCTTY)
+            .open("/dev/ptmx")
+            .unwrap();
+        let mut name = [0 as libc::c_char; 128];
+        // SAFETY: `master` is an open pty master; `name` is a writable buffer of the length
+        // given, which ptsname_r fills with a NUL-terminated path.
+        unsafe {
+            assert_eq!(libc::grantpt(master.as_raw_fd()), 0);
+            assert_eq!(libc::unlockpt(master.as_raw_fd()), 0);
+            assert_eq!(
+                libc::ptsname_r(master.as_raw_fd(), name.as_mut_ptr(), name.len()),
+                0
+            );
+        }
+        // SAFETY: ptsname_r wrote a NUL-terminated string into `name`.
+        let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) };
+        (master, path.to_str().unwrap().into())
+    }
+
+    /// Read one line from the master, waiting at most 5 s (a failure bound) for each byte.
+    fn read_line(master: &mut File) -> String {
+        let mut line = Vec::new();
+        let mut byte = [0u8; 1];
+        while !line.ends_with(b"\n") {
+            let mut fds = libc::pollfd {
+                fd: master.as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            // SAFETY: one valid pollfd that lives across the call.
+            assert_eq!(unsafe { libc::poll(&mut fds, 1, 5_000) }, 1, "no reply");
+            assert_eq!(master.read(&mut byte).unwrap(), 1);
+            line.push(byte[0]);
+        }
+        String::from_utf8(line).unwrap().trim_end().to_string()
+    }
+
+    #[test]
+    fn a_pendant_line_is_routed_and_its_reply_written_in_event_cycles() {
+        let far = || MonotonicClock.now_ns() + 20_000_000_000;
+        let (mut master, path) = pty();
+        let port = open_serial(&path, 115_200, Parity::None).unwrap();
+        let config = Config::embedded_default();
+        let incoming = Arc::new(MessageQueue::new(8));
+        let routes = Routes {
+            incoming: incoming.clone(),
+            urgent: Arc::new(MessageQueue::new(8)),
+            wake: Arc::new(Semaphore::new(0)),
+            store: Arc::new(MessageQueue::new(8)),
+        };
+        let pendant = ClientSet::new(
+            SourceId::PENDANT,
+            1,
+            true,
+            config.robot.clone(),
+            Arc::new(Shared::default()),
+            routes,
+        );
+        let mut wake = FdWake::new(Rs232c::TOKENS).unwrap();
+        let replies = Arc::new(MessageQueue::with_notify(8, wake.notifier()));
+        let mut task = Rs232c::new(Some(port), pendant, replies.clone())
+            .released_by(wake.registry())
+            .unwrap();
+
+        master.write_all(b"4 STATUS\n").unwrap();
+        // The tty layer may hand the line over in pieces: an event cycle per piece.
+        let mut routed = None;
+        for _ in 0..9 {
+            assert!(
+                wake.wait_until_ns(far()),
+                "the line did not release the task"
+            );
+            task.step(Release::Event);
+            if let Ok(Incoming::Request(from, request)) = incoming.try_recv() {
+                routed = Some((from, request));
+                break;
+            }
+        }
+        let (from, request) = routed.expect("the line was routed");
+        assert_eq!((from.kind(), request.id), (SourceId::PENDANT, Some(4)));
+
+        replies.try_send(OutLine::new(from, b"ACK 4\n")).unwrap();
+        assert!(
+            wake.wait_until_ns(far()),
+            "the reply did not release the task"
+        );
+        task.step(Release::Event);
+        assert_eq!(read_line(&mut master), "ACK 4");
     }
 }

@@ -1,19 +1,20 @@
 //! State shared by the controller's tasks: atomics only, so any task reads or writes it
-//! without a lock, and the messages that flow between the tasks.
+//! without a lock (the messages between the tasks are in [`crate::messages`]).
 
 use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU32, AtomicU64, AtomicU8, Ordering};
+use std::sync::{Arc, OnceLock};
 
-use wrc_motion::MotionState;
+use wrc_rt::Notify;
+
 pub use wrc_protocol::State as RobotState;
-use wrc_robot::{Joints, Pose, Posture, MAX_AXES};
+use wrc_robot::MAX_AXES;
 
 /// Everything the tasks share, as atomics.
-#[derive(Debug)]
 pub struct Shared {
     state: AtomicU8,
     /// The robot has been homed since start-up.
     pub homed: AtomicBool,
-    /// The source holding control ([`SourceId`] bits; 0 = nobody).
+    /// The source holding control ([`crate::messages::SourceId`] bits; 0 = nobody).
     pub owner: AtomicU32,
     /// Speed override for the next moves [%].
     pub speed_pct: AtomicU32,
@@ -24,6 +25,9 @@ pub struct Shared {
     pub stop_epoch: AtomicU32,
     /// The last stop epoch the Pulse Generator has brought to rest.
     pub stopped_epoch: AtomicU32,
+    /// The strongest [`StopKind`] requested since the Pulse Generator last took it (0: none,
+    /// a plain stop).
+    pub stop_kind: AtomicU8,
     /// Commanded position: every pulse pushed to the board so far [pulse].
     pub commanded: [AtomicI64; MAX_AXES],
     /// Digital outputs the I/O Monitor applies, one word per board.
@@ -46,6 +50,8 @@ pub struct Shared {
     pub io_ready: AtomicBool,
     /// The wafer map has a wafer on the hand (set by the cell service).
     pub hand_wafer: AtomicBool,
+    /// Released by every stop request: the Pulse Generator's wake (set once at start-up).
+    stop_notify: OnceLock<Arc<dyn Notify>>,
 }
 
 impl Default for Shared {
@@ -58,6 +64,7 @@ impl Default for Shared {
             error_code: AtomicU32::new(0),
             stop_epoch: AtomicU32::new(0),
             stopped_epoch: AtomicU32::new(0),
+            stop_kind: AtomicU8::new(0),
             commanded: std::array::from_fn(|_| AtomicI64::new(0)),
             outputs: std::array::from_fn(|_| AtomicU32::new(0)),
             inputs: std::array::from_fn(|_| AtomicU32::new(0)),
@@ -68,6 +75,7 @@ impl Default for Shared {
             decel_ns: AtomicU64::new(0),
             io_ready: AtomicBool::new(false),
             hand_wafer: AtomicBool::new(false),
+            stop_notify: OnceLock::new(),
         }
     }
 }
@@ -83,11 +91,31 @@ impl Shared {
         self.state.store(state.to_u8(), Ordering::Release);
     }
 
-    /// Request a controlled stop; returns the new stop epoch.
-    pub fn request_stop(&self) -> u32 {
-        self.stop_epoch
+    /// Request a stop of `kind`; returns the new stop epoch. The kind is raised before the
+    /// epoch moves, so the Pulse Generator that sees the epoch also sees the kind (or a
+    /// stronger one requested meanwhile: an ESTOP is never weakened by a later STOP or HOLD).
+    pub fn request_stop(&self, kind: StopKind) -> u32 {
+        self.stop_kind.fetch_max(kind as u8, Ordering::AcqRel);
+        let epoch = self
+            .stop_epoch
             .fetch_add(1, Ordering::AcqRel)
-            .wrapping_add(1)
+            .wrapping_add(1);
+        if let Some(notify) = self.stop_notify.get() {
+            notify.notify();
+        }
+        epoch
+    }
+
+    /// Wake `notify` (the Pulse Generator) on every stop request, so the brake starts at
+    /// once instead of at its next period. Set once; later calls change nothing.
+    pub fn notify_stops(&self, notify: Arc<dyn Notify>) {
+        let _ = self.stop_notify.set(notify);
+    }
+
+    /// Take the strongest stop kind requested (the Pulse Generator, when it sees a new stop
+    /// epoch); a stop without a recorded kind is a plain [`StopKind::Stop`].
+    pub fn take_stop_kind(&self) -> StopKind {
+        StopKind::from_u8(self.stop_kind.swap(0, Ordering::AcqRel))
     }
 
     /// Now on the clock of the timestamps above [ns] (a vDSO read, no system call).
@@ -102,175 +130,28 @@ impl Shared {
     }
 }
 
-/// A move the Command Interpreter hands to the Velocity Generator.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum MoveKind {
-    /// PTP in joint space [deg or mm per axis].
-    Joints(Joints),
-    /// PTP to a Cartesian pose, with the elbow posture or the current one.
-    Pose(Pose, Option<Posture>),
-    /// Straight line of the TCP to a pose.
-    Line(Pose),
-    /// A pulse count on one axis.
-    Jog {
-        /// Axis index.
-        axis: usize,
-        /// Pulses (negative: backwards).
-        pulses: i64,
-    },
+/// What a stop request asks of the Pulse Generator, weakest first (a stronger request
+/// overrides a weaker one made at about the same time).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum StopKind {
+    /// `HOLD`: brake on the path at the move's own (override) limits and keep the move, to
+    /// be resumed.
+    Hold = 1,
+    /// `STOP`, a program's `ABORT`, a RESET's resynchronisation: brake on the path at the
+    /// move's own (override) limits and end the move.
+    Stop = 2,
+    /// `ESTOP`, a fault, a lost wafer: IEC 60204-1 stop category 1, brake on the path with
+    /// every axis's full limits whatever the override, then hold position.
+    Estop = 3,
 }
 
-/// One order for the Velocity Generator.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MoveOrder {
-    /// Identifies the move in the replies (never 0).
-    pub ticket: u32,
-    /// The stop epoch when it was ordered: a stop cancels every older order.
-    pub epoch: u32,
-    /// Speed override for this move [%].
-    pub speed_pct: f64,
-    /// What to do.
-    pub kind: MoveKind,
-}
-
-/// One period's pulses on their way from the Velocity Generator to the Pulse Generator.
-#[derive(Debug, Clone, Copy)]
-pub struct Batch {
-    /// Pulses per axis for the period [pulse].
-    pub pulses: [i64; MAX_AXES],
-    /// Stop epoch of the plan it belongs to; a newer stop discards it.
-    pub epoch: u32,
-    /// The move it belongs to.
-    pub ticket: u32,
-    /// The last period of that move.
-    pub last: bool,
-    /// The generator's state after this period, to stop from if the stop comes now.
-    pub after: MotionState,
-}
-
-/// How a move ended, reported to the Command Interpreter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MoveOutcome {
-    /// Its last period was pushed to the board.
-    Completed,
-    /// A stop brought it to rest early.
-    Stopped,
-    /// It could not be planned (the reason is a protocol code number).
-    Refused(u16),
-}
-
-/// A move's end, from the Velocity or Pulse Generator to the Command Interpreter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MoveDone {
-    /// The move's ticket.
-    pub ticket: u32,
-    /// How it ended.
-    pub outcome: MoveOutcome,
-}
-
-/// Who sent a command: the kind of source and its connection slot.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct SourceId(pub u32);
-
-impl SourceId {
-    /// Nobody (no owner, or a message for every client).
-    pub const NONE: SourceId = SourceId(0);
-    /// The controller itself (Error Check, I/O Monitor).
-    pub const CONTROLLER: SourceId = SourceId(1);
-    /// Every client (events), as an address for the Command Interpreter's replies.
-    pub const BROADCAST: SourceId = SourceId(2);
-    /// The robot-language program the Command Interpreter runs.
-    pub const PROGRAM: SourceId = SourceId(3);
-    /// The steps of a wafer job (`GET`, `PUT`, `MAP`) the Command Interpreter carries out.
-    pub const CELL: SourceId = SourceId(4);
-    /// Kind tag of a TCP host connection.
-    pub const TCP: u32 = 1;
-    /// Kind tag of a local GUI connection (Unix socket).
-    pub const GUI: u32 = 2;
-    /// Kind tag of the teaching pendant (serial line).
-    pub const PENDANT: u32 = 3;
-
-    /// A source of `kind` at connection `slot` (generation keeps reused slots apart).
-    pub fn new(kind: u32, slot: u32, generation: u32) -> SourceId {
-        SourceId((kind << 28) | ((generation & 0xfff) << 16) | (slot & 0xffff))
-    }
-
-    /// The kind tag.
-    pub fn kind(self) -> u32 {
-        self.0 >> 28
-    }
-
-    /// The connection slot.
-    pub fn slot(self) -> usize {
-        (self.0 & 0xffff) as usize
-    }
-}
-
-impl std::fmt::Display for SourceId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self.kind() {
-            _ if *self == SourceId::NONE => f.write_str("none"),
-            _ if *self == SourceId::CONTROLLER => f.write_str("controller"),
-            _ if *self == SourceId::PROGRAM => f.write_str("program"),
-            _ if *self == SourceId::CELL => f.write_str("cell"),
-            SourceId::TCP => write!(f, "tcp{}", self.slot()),
-            SourceId::GUI => write!(f, "gui{}", self.slot()),
-            SourceId::PENDANT => f.write_str("pendant"),
-            _ => write!(f, "src{:x}", self.0),
+impl StopKind {
+    fn from_u8(n: u8) -> StopKind {
+        match n {
+            1 => StopKind::Hold,
+            3 => StopKind::Estop,
+            _ => StopKind::Stop,
         }
     }
-}
-
-/// Longest reply line [bytes], newline included.
-pub const LINE_MAX: usize = 512;
-
-/// One reply or event line on its way to a client, fixed-size (no allocation).
-#[derive(Clone, Copy)]
-pub struct OutLine {
-    /// The client, or [`SourceId::NONE`] for every client (events).
-    pub to: SourceId,
-    len: u16,
-    text: [u8; LINE_MAX],
-}
-
-impl OutLine {
-    /// A line for `to` with `text` (cut at [`LINE_MAX`] bytes).
-    pub fn new(to: SourceId, text: &[u8]) -> OutLine {
-        let mut line = OutLine {
-            to,
-            len: 0,
-            text: [0; LINE_MAX],
-        };
-        let n = text.len().min(LINE_MAX);
-        line.text[..n].copy_from_slice(&text[..n]);
-        line.len = n as u16;
-        line
-    }
-
-    /// The bytes of the line.
-    pub fn bytes(&self) -> &[u8] {
-        &self.text[..self.len as usize]
-    }
-}
-
-impl std::fmt::Debug for OutLine {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "OutLine({}, {:?})",
-            self.to,
-            String::from_utf8_lossy(self.bytes())
-        )
-    }
-}
-
-/// An emergency for the Command Interpreter's urgent path (posted with its semaphore).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Urgent {
-    /// STOP from a source (with where its reply goes).
-    Stop(SourceId, wrc_protocol::ReplyTo),
-    /// ESTOP from a source (with where its reply goes).
-    Estop(SourceId, wrc_protocol::ReplyTo),
-    /// A fault found by Error Check: the protocol code number.
-    Fault(u16),
 }

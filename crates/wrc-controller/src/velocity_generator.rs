@@ -19,7 +19,8 @@ use wrc_rt::ipc::queue::MessageQueue;
 use wrc_rt::ipc::spsc::SpscSender;
 use wrc_rt::{CycleContext, Task};
 
-use crate::shared::{Batch, MoveDone, MoveKind, MoveOrder, MoveOutcome, Shared};
+use crate::messages::{Batch, MoveDone, MoveKind, MoveOrder, MoveOutcome};
+use crate::shared::Shared;
 
 /// Protocol code numbers for moves refused at planning time (see docs/protocol.md).
 pub mod refusal {
@@ -168,6 +169,8 @@ impl VelocityGenerator {
 }
 
 impl Task for VelocityGenerator {
+    /// Released by its period or by a new order (the order queue notifies it), so a motion
+    /// is planned at once and its first pulse goes out in the next Pulse Generator period.
     fn cycle(&mut self, _ctx: &CycleContext) {
         self.step();
     }

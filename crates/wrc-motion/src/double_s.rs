@@ -6,14 +6,16 @@
 //! limit A and jerk limit J. Because the input is piecewise constant, the filters' output is
 //! evaluated in closed form (a sum of shifted cubic step responses), which equals the FIR
 //! evaluated at an infinitely fine tick: durations are the continuous optimum, not rounded
-//! to whole periods, and one evaluation is O(1) with no delay line. All `f64`, no allocation.
+//! to whole periods, and one evaluation is O(1) with no delay line. Velocity and acceleration
+//! have closed forms too ([`DoubleS::state`]): a controlled stop brakes from them
+//! (`brake.rs`). All `f64`, no allocation.
 
 /// Lengths of the three boxes whose convolution is the motion, for a distance normalised to
-/// 1, plus where the input box is cut (for a controlled stop).
+/// 1.
 ///
-/// Invariants: `t1 >= t2 >= 0`, `t0 >= t1 + t2`, `0 <= cut <= t0`. With `t0 >= t1 + t2`
-/// the jerk pulses of acceleration and deceleration never overlap, so the peak jerk is the
-/// planned one (overlap would double it).
+/// Invariants: `t1 >= t2 >= 0`, `t0 >= t1 + t2`. With `t0 >= t1 + t2` the jerk pulses of
+/// acceleration and deceleration never overlap, so the peak jerk is the planned one (overlap
+/// would double it).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DoubleS {
     /// Length of the constant-velocity input box, distance / velocity [s].
@@ -22,8 +24,6 @@ pub struct DoubleS {
     pub t1: f64,
     /// Second filter, acceleration / jerk [s].
     pub t2: f64,
-    /// Time at which the input box ends [s]; `t0` unless a stop cut it short.
-    pub cut: f64,
 }
 
 impl DoubleS {
@@ -32,7 +32,6 @@ impl DoubleS {
         t0: 0.0,
         t1: 0.0,
         t2: 0.0,
-        cut: 0.0,
     };
 
     /// The time-optimal rest-to-rest profile for a distance `d` and limits `v`, `a`, `j`,
@@ -67,34 +66,15 @@ impl DoubleS {
             }
             t0 = t1 + t2;
         }
-        DoubleS {
-            t0,
-            t1,
-            t2,
-            cut: t0,
-        }
+        DoubleS { t0, t1, t2 }
     }
 
-    /// Total duration [s] of the uncut profile.
+    /// Duration [s] of the profile: it is at rest from then on (0 for [`DoubleS::REST`]).
     pub fn duration(&self) -> f64 {
-        self.t0 + self.t1 + self.t2
-    }
-
-    /// Time [s] at which the (possibly cut) profile comes to rest.
-    pub fn end_time(&self) -> f64 {
         if self.t0 <= 0.0 {
             0.0
         } else {
-            self.cut + self.t1 + self.t2
-        }
-    }
-
-    /// Fraction of the distance covered when the profile ends: 1, or less after a stop.
-    pub fn final_fraction(&self) -> f64 {
-        if self.t0 <= 0.0 || self.cut >= self.t0 {
-            1.0
-        } else {
-            self.cut / self.t0
+            self.t0 + self.t1 + self.t2
         }
     }
 
@@ -110,64 +90,61 @@ impl DoubleS {
             t0: self.t0 * s,
             t1: self.t1 * s,
             t2: self.t2 * s,
-            cut: self.cut * s,
         }
     }
 
     /// Fraction of the distance covered at time `t` [s] after the start, in [0, 1].
     #[inline]
     pub fn fraction(&self, t: f64) -> f64 {
-        if self.t0 <= 0.0 {
-            return 1.0;
-        }
-        if t >= self.end_time() {
-            return self.final_fraction();
-        }
-        (ramp_response(t, self.t1, self.t2) - ramp_response(t - self.cut, self.t1, self.t2))
-            / self.t0
+        self.state(t).0
     }
 
-    /// Request a controlled stop at time `now` [s]: cut the input box as early as the jerk
-    /// limit allows. A cut at c makes a deceleration jerk pulse on [c, c+T2]; the end of the
-    /// acceleration makes one on [T1, T1+T2]. They must not overlap (the jerk would double),
-    /// so a stop requested in (T1−T2, T1+T2) is cut at T1+T2 instead: the acceleration ends
-    /// first, then the deceleration follows at once. This costs at most 2·T2 and keeps every
-    /// limit. A stop during the planned deceleration changes nothing.
-    pub fn stop_at(&mut self, now: f64) {
-        let now = now.max(0.0);
-        if now >= self.cut {
-            return;
+    /// Fraction of the distance covered at time `t` [s] after the start, and its first and
+    /// second time derivatives [1, 1/s, 1/s²], in closed form: (0, 0, 0) before the start,
+    /// (1, 0, 0) from [`DoubleS::duration`] on.
+    #[inline]
+    pub fn state(&self, t: f64) -> (f64, f64, f64) {
+        if self.t0 <= 0.0 || t >= self.duration() {
+            return (1.0, 0.0, 0.0);
         }
-        let (lo, hi) = (self.t1 - self.t2, self.t1 + self.t2);
-        let c = if now > lo && now < hi { hi } else { now };
-        self.cut = c.min(self.cut);
+        let (p, v, a) = ramp_response(t, self.t1, self.t2);
+        let (pc, vc, ac) = ramp_response(t - self.t0, self.t1, self.t2);
+        ((p - pc) / self.t0, (v - vc) / self.t0, (a - ac) / self.t0)
     }
 }
 
 /// Position response at time `t` [s] of a unit-velocity step through normalised boxes of
-/// lengths `t1 >= t2 >= 0` [s]: 0 before the step, `t − (t1 + t2)/2` once both filters are
-/// full, and a piecewise cubic in between.
+/// lengths `t1 >= t2 >= 0` [s], with its first and second derivatives: 0 before the step,
+/// `t − (t1 + t2)/2` once both filters are full, and a piecewise cubic in between.
 #[inline]
-fn ramp_response(t: f64, t1: f64, t2: f64) -> f64 {
+fn ramp_response(t: f64, t1: f64, t2: f64) -> (f64, f64, f64) {
     if t <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0, 0.0);
     }
     let full = t1 + t2;
     if t >= full {
-        return t - 0.5 * full;
+        return (t - 0.5 * full, 1.0, 0.0);
     }
     // Degenerate filters (a box of length ~0 is the identity).
     let tiny = 1e-12_f64.max(full * 1e-9);
     if t1 <= tiny {
-        return t;
+        return (t, 1.0, 0.0);
     }
+    let pos = |x: f64| x.max(0.0);
+    let sq = |x: f64| pos(x) * pos(x);
+    let (d1, d2) = (t - t1, t - t2);
     if t2 <= tiny {
         // One box: the double integral of (H(t) − H(t−t1)) / t1.
-        let sq = |x: f64| if x > 0.0 { x * x } else { 0.0 };
-        return (sq(t) - sq(t - t1)) / (2.0 * t1);
+        let step = if d1 > 0.0 { 0.0 } else { 1.0 };
+        return ((sq(t) - sq(d1)) / (2.0 * t1), (t - pos(d1)) / t1, step / t1);
     }
-    let cube = |x: f64| if x > 0.0 { x * x * x } else { 0.0 };
-    (cube(t) - cube(t - t1) - cube(t - t2) + cube(t - full)) / (6.0 * t1 * t2)
+    let cube = |x: f64| pos(x) * pos(x) * pos(x);
+    let (c, q) = (6.0 * t1 * t2, 2.0 * t1 * t2);
+    (
+        (cube(t) - cube(d1) - cube(d2)) / c,
+        (sq(t) - sq(d1) - sq(d2)) / q,
+        (t - pos(d1) - pos(d2)) / (t1 * t2),
+    )
 }
 
 #[cfg(test)]
@@ -177,7 +154,7 @@ mod tests {
     /// Sample a profile scaled to distance `d` every `dt` seconds; return the maximum
     /// velocity, acceleration and jerk from finite differences.
     fn peaks(p: &DoubleS, d: f64, dt: f64) -> (f64, f64, f64) {
-        let n = (p.end_time() / dt).ceil() as usize + 4;
+        let n = (p.duration() / dt).ceil() as usize + 4;
         let x: Vec<f64> = (0..n).map(|k| d * p.fraction(k as f64 * dt)).collect();
         let v: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
         let a: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
@@ -230,32 +207,31 @@ mod tests {
     }
 
     #[test]
-    fn stop_keeps_limits_wherever_it_is_requested() {
-        let base = DoubleS::time_optimal(100.0, 50.0, 200.0, 2000.0);
-        for i in 0..60 {
-            let now = i as f64 * 0.05;
-            let mut p = base;
-            p.stop_at(now);
-            assert!(p.cut >= now.min(base.t0) - 1e-12 && p.cut <= base.t0);
-            assert!(
-                p.cut <= now.max(base.t1 + base.t2) + 1e-12,
-                "stop at {now} cut at {}",
-                p.cut
-            );
-            let (v, a, j) = peaks(&p, 100.0, 1e-4);
-            assert!(
-                v <= 50.0 + 1e-6 && a <= 200.0 * 1.001 && j <= 2000.0 * 1.001,
-                "stop at {now}: {v} {a} {j}"
-            );
-            // The distance is exactly what the cut input carried.
-            assert!((p.fraction(p.end_time() + 1.0) - p.cut / p.t0).abs() < 1e-12);
-            // The motion is monotone: a stop never reverses.
-            let mut last = 0.0;
-            for k in 0..400 {
-                let f = p.fraction(k as f64 * 0.01);
-                assert!(f >= last - 1e-12);
-                last = f;
+    fn state_is_the_exact_derivative_of_the_fraction() {
+        for p in [
+            DoubleS::time_optimal(100.0, 50.0, 200.0, 2000.0),
+            DoubleS::time_optimal(5.0, 50.0, 200.0, 2000.0),
+            DoubleS::time_optimal(0.01, 50.0, 200.0, 2000.0),
+            DoubleS::time_optimal(100.0, 1.0, 1000.0, 100.0),
+        ] {
+            let h = 1e-6;
+            for k in 0..=400 {
+                let t = p.duration() * k as f64 / 400.0;
+                let (f, v, a) = p.state(t);
+                assert_eq!(f, p.fraction(t));
+                // Central differences. Tolerance: their truncation error where the
+                // acceleration has a kink (the jerk, 1/(t0·t1·t2), times h² for v and h for
+                // a) plus rounding (a few ulps of the response, (t + 1) s, over h).
+                let (fm, vm, _) = p.state(t - h);
+                let (fp, vp, _) = p.state(t + h);
+                let jerk = 1.0 / (p.t0 * p.t1 * p.t2);
+                let round = 1e-15 * (t + 1.0) / (h * p.t0);
+                let (dv, da) = ((fp - fm) / (2.0 * h), (vp - vm) / (2.0 * h));
+                assert!((v - dv).abs() < jerk * h * h + round, "{p:?} v at {t}");
+                assert!((a - da).abs() < jerk * h + round, "{p:?} a at {t}");
             }
+            assert_eq!(p.state(p.duration()), (1.0, 0.0, 0.0));
+            assert_eq!(p.state(-1.0), (0.0, 0.0, 0.0));
         }
     }
 

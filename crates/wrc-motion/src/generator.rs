@@ -1,6 +1,7 @@
 //! The incremental velocity generator: plans a move (PTP, straight line, jog) from the
 //! current commanded position and then yields, period by period, the integer pulse
-//! increment of every axis, with a speed override and a controlled stop.
+//! increment of every axis, with a speed override and a controlled stop (STOP/HOLD with the
+//! move's limits, ESTOP with every axis's full limits: [`BrakeLimits`]).
 //!
 //! Planning may take some tens of microseconds (a straight line is checked point by point)
 //! but, like every period, it does not allocate: the generator owns fixed-size arrays only,
@@ -11,6 +12,7 @@ use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
 use crate::double_s::DoubleS;
 use crate::error::{PlanError, SettingsError};
+use crate::fir_axes::FirAxes;
 use crate::line_profile::{Bounds, LineProfile};
 use crate::paper::PaperChannel;
 use crate::path::{line_path, DerivTable, Derivs, LineAxes, LinePath};
@@ -38,6 +40,34 @@ pub enum MoveEnd {
     Completed,
     /// A controlled stop ended it before the target.
     Stopped,
+}
+
+/// Which limits a controlled stop ([`VelocityGenerator::stop`]) brakes with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BrakeLimits {
+    /// STOP or HOLD: the limits the move was planned with, i.e. every axis's (and a line's
+    /// Cartesian) limits scaled by the move's speed override (velocity p, acceleration p²,
+    /// jerk p³).
+    Override,
+    /// ESTOP, IEC 60204-1 stop category 1: every axis's full limits whatever the speed
+    /// override (a straight line: its full joint and Cartesian limits).
+    Full,
+}
+
+/// Where a move is going ([`MotionState::goal`]): what HOLD keeps to RESUME to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Goal {
+    /// A PTP move or a jog: every axis's target [pulse] (start plus distance; entries past
+    /// the axis count are 0). [`VelocityGenerator::plan_ptp_pulses`] goes there exactly.
+    Joints([i64; MAX_AXES]),
+    /// A straight line: its end pose [mm, mm, mm, deg] (the yaw as the line reaches it, not
+    /// wrapped), and its end joints followed along the line [pulse].
+    Line {
+        /// The line's end pose.
+        pose: Pose,
+        /// The joints at the end of the line [pulse].
+        pulses: [i64; MAX_AXES],
+    },
 }
 
 /// How the axes of a PTP move are synchronised.
@@ -87,7 +117,9 @@ impl Default for Period {
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
 enum Law {
-    Fir([DoubleS; MAX_AXES]),
+    /// The default profile: each axis's double-S, or after a stop its brake.
+    Fir(FirAxes),
+    /// The paper's profile, one channel per axis.
     Paper([PaperChannel; MAX_AXES]),
 }
 
@@ -118,6 +150,9 @@ enum Active {
         start: [i64; MAX_AXES],
         distance: [i64; MAX_AXES],
         law: Law,
+        sync: Sync,
+        /// Speed override of the move as a fraction.
+        scale: f64,
     },
     Line {
         path: LinePath,
@@ -148,6 +183,27 @@ impl MotionState {
     /// Whether a move is under way in this state.
     pub fn is_moving(&self) -> bool {
         !matches!(self.active, Active::Idle)
+    }
+
+    /// Where the move under way in this state is going (also while it is being stopped);
+    /// `None` when idle.
+    pub fn goal(&self) -> Option<Goal> {
+        match &self.active {
+            Active::Idle => None,
+            Active::Joint {
+                start, distance, ..
+            } => {
+                let mut target = [0i64; MAX_AXES];
+                for ((t, s), d) in target.iter_mut().zip(start).zip(distance) {
+                    *t = s + d;
+                }
+                Some(Goal::Joints(target))
+            }
+            Active::Line { path, target, .. } => Some(Goal::Line {
+                pose: path.pose_at(1.0),
+                pulses: *target,
+            }),
+        }
     }
 }
 
@@ -236,6 +292,11 @@ impl VelocityGenerator {
         !matches!(self.active, Active::Idle)
     }
 
+    /// Where the move under way is going; `None` when idle (see [`MotionState::goal`]).
+    pub fn goal(&self) -> Option<Goal> {
+        self.state().goal()
+    }
+
     /// Set the commanded position (after homing, or to start from a known place). Refused
     /// while moving.
     pub fn set_position_pulses(&mut self, pulses: &[i64; MAX_AXES]) -> Result<(), PlanError> {
@@ -279,14 +340,29 @@ impl VelocityGenerator {
     pub fn plan_ptp(&mut self, target: &Joints) -> Result<MoveInfo, PlanError> {
         self.ensure_idle()?;
         self.robot.check_joints(target)?;
-        let goal = self.robot.joints_to_pulses(target);
+        self.ptp_to_pulses(&self.robot.joints_to_pulses(target))
+    }
+
+    /// Plan a PTP move in joint space to `target` [pulse per axis; entries past the axis
+    /// count are ignored], exactly: e.g. to resume a held move to its [`Goal::Joints`]
+    /// without rounding through units. Refused if a target is beyond its axis's limits.
+    pub fn plan_ptp_pulses(&mut self, target: &[i64; MAX_AXES]) -> Result<MoveInfo, PlanError> {
+        self.ensure_idle()?;
+        self.robot
+            .check_joints(&self.robot.pulses_to_joints(target))?;
+        self.ptp_to_pulses(target)
+    }
+
+    fn ptp_to_pulses(&mut self, goal: &[i64; MAX_AXES]) -> Result<MoveInfo, PlanError> {
         let mut distance = [0i64; MAX_AXES];
         for (i, d) in distance
             .iter_mut()
             .enumerate()
             .take(self.robot.axis_count())
         {
-            *d = goal[i] - self.position[i];
+            *d = goal[i]
+                .checked_sub(self.position[i])
+                .ok_or(PlanError::TooLong("pulse count overflows"))?;
         }
         Ok(self.start_joint_move(distance))
     }
@@ -451,7 +527,7 @@ impl VelocityGenerator {
     }
 
     fn fir_info(&self, profiles: &[DoubleS; MAX_AXES], sync: Sync) -> MoveInfo {
-        let end = profiles.iter().map(|p| p.end_time()).fold(0.0, f64::max);
+        let end = profiles.iter().map(DoubleS::duration).fold(0.0, f64::max);
         MoveInfo {
             duration_s: end,
             periods: periods_for(end, self.settings.period_s),
@@ -512,7 +588,10 @@ impl VelocityGenerator {
                     }
                     Sync::Time
                 };
-                (Law::Fir(profiles), self.fir_info(&profiles, sync))
+                (
+                    Law::Fir(FirAxes::new(&profiles)),
+                    self.fir_info(&profiles, sync),
+                )
             }
             Profile::Paper { mask_len } => {
                 let half = (mask_len / 2) as u64;
@@ -549,26 +628,71 @@ impl VelocityGenerator {
             start: self.position,
             distance,
             law,
+            sync: info.sync,
+            scale: s,
         };
         self.k = 0;
         self.stopped = false;
         info
     }
 
-    /// Controlled stop from any state: decelerate within every limit as soon as they allow,
-    /// keeping a straight line on its line. The move then ends with
-    /// [`MoveEnd::Stopped`] unless it was already decelerating to its target.
-    pub fn stop(&mut self) {
+    /// Controlled stop from any state: from the state after the last period produced, with
+    /// no coasting and no deferral, brake to rest within `limits` as fast as they allow, a
+    /// PTP move on its joint-space line and a straight line on its line. The move then ends
+    /// with [`MoveEnd::Stopped`] unless it reached its target (a stop during its own planned
+    /// deceleration with the same limits). A second stop is taken only if it brakes with
+    /// stronger limits (ESTOP after STOP). Never allocates.
+    ///
+    /// - PTP and jog under the default profile: the time-optimal jerk-limited brake
+    ///   ([`crate::Brake1d`]) from the exact state of the profile; phase-synchronised and
+    ///   single-axis moves with one brake of the path parameter (the slowest axis's limits),
+    ///   time-synchronised ones with each axis's own brake.
+    /// - A straight line under the default profile: its verified brake (docs/motion.md).
+    ///   [`BrakeLimits::Override`] starts it at the law's next knot (at most 4 ms of plan
+    ///   time later); [`BrakeLimits::Full`] rescales the law to real time at once and brakes
+    ///   with the full limits, if a brake from that state is verified to keep every limit and
+    ///   to stop on the line before its end — otherwise it brakes as `Override` does.
+    /// - The paper profile keeps the paper's stop (its input stream cut as early as its mask
+    ///   allows) with the move's limits, whatever `limits` says.
+    pub fn stop(&mut self, limits: BrakeLimits) {
         let now = self.k as f64 * self.settings.period_s;
+        let n = self.robot.axis_count();
         let mut cut_short = false;
         match &mut self.active {
             Active::Idle => return,
-            Active::Joint { law, .. } => match law {
-                Law::Fir(profiles) => {
-                    for p in profiles.iter_mut().filter(|p| p.t0 > 0.0) {
-                        p.stop_at(now);
-                        cut_short |= p.cut < p.t0;
+            Active::Joint {
+                distance,
+                law,
+                sync,
+                scale,
+                ..
+            } => match law {
+                Law::Fir(fir) => {
+                    let stronger = match (fir.braking(), limits) {
+                        (None, _) | (Some(BrakeLimits::Override), BrakeLimits::Full) => true,
+                        (Some(BrakeLimits::Override), BrakeLimits::Override)
+                        | (Some(BrakeLimits::Full), _) => false,
+                    };
+                    if !stronger {
+                        return;
                     }
+                    let s = match limits {
+                        BrakeLimits::Override => *scale,
+                        BrakeLimits::Full => 1.0,
+                    };
+                    // The limits of each moving axis's fraction of its distance.
+                    let mut fraction_limits = [None; MAX_AXES];
+                    for (i, (l, &d)) in fraction_limits.iter_mut().zip(&*distance).enumerate() {
+                        if i < n && d != 0 {
+                            let axis = &self.robot.axes()[i];
+                            let units = d.unsigned_abs() as f64 / axis.pulses_per_unit;
+                            *l = Some((
+                                axis.limits.max_acceleration * s * s / units,
+                                axis.limits.max_jerk * s * s * s / units,
+                            ));
+                        }
+                    }
+                    fir.brake(now, limits, &fraction_limits, *sync != Sync::Time);
                 }
                 Law::Paper(channels) => {
                     for ch in channels.iter_mut() {
@@ -578,8 +702,36 @@ impl VelocityGenerator {
                 }
             },
             // Whether the brake ends short of the target is known when it has stopped.
-            Active::Line { law, .. } => match law {
-                LineLaw::Timed { profile, .. } => profile.stop(),
+            Active::Line { path, law, last, .. } => match law {
+                LineLaw::Timed {
+                    profile,
+                    bounds,
+                    scale,
+                    table,
+                } => {
+                    // ESTOP: the law rescaled to real time, braking at once with the full
+                    // limits, if a brake from where it is is verified. At 100 % a brake or
+                    // the final landing under way already uses the full limits.
+                    let try_full = limits == BrakeLimits::Full
+                        && (*scale < 1.0 || profile.is_planning());
+                    let rescaled = try_full
+                        && if *table == self.table.id {
+                            let tab = &self.table;
+                            profile.brake_now(bounds, &|u: f64| tab.at(u), now * *scale, *scale, now)
+                        } else {
+                            let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
+                            let derivs = |u: f64| {
+                                path.jets_at(robot, u, &reference)
+                                    .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
+                            };
+                            profile.brake_now(bounds, &derivs, now * *scale, *scale, now)
+                        };
+                    if rescaled {
+                        *scale = 1.0;
+                    } else {
+                        profile.stop();
+                    }
+                }
                 LineLaw::Paper(ch) => {
                     ch.stop();
                     cut_short |= ch.final_pulses() != ch.distance();
@@ -587,6 +739,38 @@ impl VelocityGenerator {
             },
         }
         self.stopped |= cut_short;
+    }
+
+    /// The path parameter of the move under way and its first two time derivatives after the
+    /// last period, in real time [1, 1/s, 1/s²]: a joint move's fraction of its distance
+    /// (phase-synchronised or single-axis, default profile), a straight line's u (default
+    /// profile). `None` otherwise. For measurements (`wrc bench stop`).
+    pub(crate) fn path_state(&self) -> Option<(f64, f64, f64)> {
+        let now = self.k as f64 * self.settings.period_s;
+        match &self.active {
+            Active::Joint {
+                law: Law::Fir(fir),
+                sync: Sync::Phase | Sync::Single,
+                distance,
+                ..
+            } => {
+                let first = distance.iter().position(|&d| d != 0)?;
+                Some(fir.state(first, now))
+            }
+            Active::Line {
+                law: LineLaw::Timed { profile, scale, .. },
+                ..
+            } => {
+                let (u, v, a) = profile.state(now * scale);
+                Some((u, v * scale, a * scale * scale))
+            }
+            Active::Idle
+            | Active::Joint { .. }
+            | Active::Line {
+                law: LineLaw::Paper(_),
+                ..
+            } => None,
+        }
     }
 
     /// Produce the next period: the pulses of every axis, added to the commanded position.
@@ -604,22 +788,19 @@ impl VelocityGenerator {
                 start,
                 distance,
                 law,
+                ..
             } => {
                 self.k += 1;
                 let t = self.k as f64 * self.settings.period_s;
                 let mut exact = self.robot.pulses_to_joints(start);
                 let done = match law {
-                    Law::Fir(profiles) => {
-                        let end = profiles[..n]
-                            .iter()
-                            .map(|p| p.end_time())
-                            .fold(0.0, f64::max);
-                        let last = t >= end;
+                    Law::Fir(fir) => {
+                        let last = t >= fir.end_time(n);
                         for i in 0..n {
                             let f = if last {
-                                profiles[i].final_fraction()
+                                fir.final_fraction(i)
                             } else {
-                                profiles[i].fraction(t)
+                                fir.state(i, t).0
                             };
                             let ppu = self.robot.axes()[i].pulses_per_unit;
                             let travelled = distance[i] as f64 * f;
@@ -631,6 +812,9 @@ impl VelocityGenerator {
                                     travelled.round() as i64
                                 };
                             self.position[i] = target;
+                        }
+                        if last && fir.braking().is_some() {
+                            self.stopped = (0..n).any(|i| self.position[i] != start[i] + distance[i]);
                         }
                         last
                     }
@@ -676,10 +860,7 @@ impl VelocityGenerator {
                             };
                             profile.at(bounds, &derivs, t * *scale)
                         };
-                        let done = profile.done();
-                        let complete = profile.completed();
-                        self.stopped |= done && !complete;
-                        (u, done, complete)
+                        (u, profile.done(), profile.completed())
                     }
                     LineLaw::Paper(ch) => {
                         ch.next_pulses();
@@ -702,6 +883,10 @@ impl VelocityGenerator {
                 } else {
                     let p = self.robot.joints_to_pulses(last);
                     self.position[..n].copy_from_slice(&p[..n]);
+                }
+                if done {
+                    // Stopped short unless the stop ended on the target's pulses anyway.
+                    self.stopped = self.position[..n] != target[..n];
                 }
                 done
             }

@@ -42,8 +42,10 @@
 #![deny(missing_docs)]
 
 pub mod bench;
+mod brake;
 mod double_s;
 mod error;
+mod fir_axes;
 mod generator;
 mod line_profile;
 mod paper;
@@ -52,9 +54,12 @@ pub mod reference;
 mod settings;
 mod solutions;
 
+pub use brake::Brake1d;
 pub use double_s::DoubleS;
 pub use error::{PathProblem, PlanError, SettingsError};
-pub use generator::{MotionState, MoveEnd, MoveInfo, Period, Status, Sync, VelocityGenerator};
+pub use generator::{
+    BrakeLimits, Goal, MotionState, MoveEnd, MoveInfo, Period, Status, Sync, VelocityGenerator,
+};
 pub use paper::PaperChannel;
 pub use path::{check_line, LinePath, PathCheck, PathLimits};
 pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};

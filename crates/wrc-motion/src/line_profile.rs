@@ -530,6 +530,66 @@ impl LineProfile {
         }
     }
 
+    /// Whether the law still follows its plan before its final brake (no stop requested, not
+    /// landing on u = 1, not at rest).
+    pub(crate) fn is_planning(&self) -> bool {
+        self.mode == Mode::Forward && self.land.is_none()
+    }
+
+    /// u, u̇ and ü at plan time `t` [s] (from the last knot, which [`LineProfile::at`] has
+    /// brought up to `t`) [1, 1/s, 1/s²]; u without the final landing's stretch (at most
+    /// [`LAND_TOL`]).
+    pub(crate) fn state(&self, t: f64) -> (f64, f64, f64) {
+        if self.mode == Mode::Done {
+            return (self.u, 0.0, 0.0);
+        }
+        let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, t - self.t);
+        (u, v.max(0.0), a)
+    }
+
+    /// Brake now with the limits at 100 %, in real time: the law played at `scale` is at plan
+    /// time `t_plan` [s], real time `t_real` [s]; its state in real time is
+    /// (u, scale·u̇, scale²·ü). If a brake of [`BRAKES`] from that state is verified to keep
+    /// every limit to its stop and to stop before u = 1 (the same simulation that verifies
+    /// every state of a plan), the law continues from it at scale 1 — its next knot is now,
+    /// at `t_real`, and [`LineProfile::at`] must then be called with real time — and this
+    /// returns true. Otherwise (or at rest) nothing changes and it returns false: the caller
+    /// stops as [`LineProfile::stop`] does.
+    ///
+    /// Sound because a brake is a feedback law of the state alone: once verified from the
+    /// rescaled state, following it step by step reproduces the verified simulation, whatever
+    /// the state was planned for. The state itself is within the limits at 100 % (it was
+    /// within them at the override, which only scales them down); the landing stretch near
+    /// u = 1, if it has begun, stays in force and keeps u ≤ 1.
+    pub(crate) fn brake_now(
+        &mut self,
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        t_plan: f64,
+        scale: f64,
+        t_real: f64,
+    ) -> bool {
+        while self.mode != Mode::Done && t_plan >= self.t + self.dt {
+            self.next_knot(b, derivs);
+        }
+        if self.mode == Mode::Done {
+            return false;
+        }
+        let (u, v, a) = self.state(t_plan);
+        let real = (u, scale * v, scale * scale * a);
+        match safe(b, derivs, real, (0, BRAKES.len() - 1), Horizon::Full) {
+            Ok((brake, Some(stop))) => {
+                (self.t, self.u, self.v, self.a) = (t_real, real.0, real.1, real.2);
+                self.brake = brake;
+                self.brake_stop = stop;
+                self.mode = Mode::Stopping;
+                self.choose(b, derivs);
+                true
+            }
+            Ok((_, None)) | Err(_) => false,
+        }
+    }
+
     fn next_knot(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
         let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, self.dt);
         self.t += self.dt;

@@ -89,6 +89,8 @@ pub enum Code {
     ProgramRunning = 127,
     /// 128: no program is running.
     NoProgram = 128,
+    /// 129: RESUME with no held motion.
+    NotHeld = 129,
     /// 130: no station has that name.
     StationUnknown = 130,
     /// 131: GET from a slot the wafer map says is empty.
@@ -174,6 +176,7 @@ impl Code {
         Code::ProgramInvalid,
         Code::ProgramRunning,
         Code::NoProgram,
+        Code::NotHeld,
         Code::StationUnknown,
         Code::SlotEmpty,
         Code::SlotOccupied,
@@ -247,6 +250,7 @@ impl Code {
             Code::ProgramInvalid => "the program does not compile",
             Code::ProgramRunning => "a program is running; ABORT it first",
             Code::NoProgram => "no program is running",
+            Code::NotHeld => "no motion is held",
             Code::StationUnknown => "no such station; STN lists them",
             Code::SlotEmpty => "the slot is empty",
             Code::SlotOccupied => "the slot is occupied",
@@ -329,6 +333,7 @@ mod tests {
             (Code::ProgramInvalid, 126),
             (Code::ProgramRunning, 127),
             (Code::NoProgram, 128),
+            (Code::NotHeld, 129),
             (Code::StationUnknown, 130),
             (Code::SlotEmpty, 131),
             (Code::SlotOccupied, 132),

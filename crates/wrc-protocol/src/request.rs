@@ -85,6 +85,10 @@ pub enum Command {
     Stop,
     /// `ESTOP`.
     Estop,
+    /// `HOLD`: brake on the path, keep the motion.
+    Hold,
+    /// `RESUME`: continue the held motion.
+    Resume,
     /// `RESET`.
     Reset,
     /// `IO`.
@@ -164,6 +168,8 @@ impl Command {
             Command::Speed(_) => Verb::Speed,
             Command::Stop => Verb::Stop,
             Command::Estop => Verb::Estop,
+            Command::Hold => Verb::Hold,
+            Command::Resume => Verb::Resume,
             Command::Reset => Verb::Reset,
             Command::Io => Verb::Io,
             Command::Out { .. } => Verb::Out,
@@ -662,6 +668,8 @@ impl Parser {
             }
             Verb::Stop => simple(Command::Stop),
             Verb::Estop => simple(Command::Estop),
+            Verb::Hold => simple(Command::Hold),
+            Verb::Resume => simple(Command::Resume),
             Verb::Reset => simple(Command::Reset),
             Verb::Io => simple(Command::Io),
             Verb::Out => {
@@ -883,6 +891,8 @@ mod tests {
             ("HOME", Command::Home),
             ("STOP", Command::Stop),
             ("ESTOP", Command::Estop),
+            ("HOLD", Command::Hold),
+            ("RESUME", Command::Resume),
             ("RESET", Command::Reset),
             ("IO", Command::Io),
             ("WAIT", Command::Wait),

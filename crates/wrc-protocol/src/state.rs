@@ -18,6 +18,9 @@ pub enum State {
     Error,
     /// Emergency stop (`ESTOP` or the E-stop input); `RESET` clears it once released.
     Estop,
+    /// A motion was held (`HOLD`): at rest on its path, `RESUME` continues it, `STOP`
+    /// abandons it.
+    Held,
 }
 
 impl State {
@@ -28,9 +31,10 @@ impl State {
         State::Stopping,
         State::Error,
         State::Estop,
+        State::Held,
     ];
 
-    /// The state's name on the wire (`IDLE`, `MOVING`, `STOPPING`, `ERROR`, `ESTOP`).
+    /// The state's name on the wire (`IDLE`, `MOVING`, `STOPPING`, `ERROR`, `ESTOP`, `HELD`).
     pub fn as_str(self) -> &'static str {
         match self {
             State::Idle => "IDLE",
@@ -38,10 +42,11 @@ impl State {
             State::Stopping => "STOPPING",
             State::Error => "ERROR",
             State::Estop => "ESTOP",
+            State::Held => "HELD",
         }
     }
 
-    /// The state's number in the simulator datagram (0 `IDLE` … 4 `ESTOP`).
+    /// The state's number in the simulator datagram (0 `IDLE` … 4 `ESTOP`, 5 `HELD`).
     pub fn to_u8(self) -> u8 {
         match self {
             State::Idle => 0,
@@ -49,6 +54,7 @@ impl State {
             State::Stopping => 2,
             State::Error => 3,
             State::Estop => 4,
+            State::Held => 5,
         }
     }
 
@@ -73,7 +79,7 @@ mod tests {
         for &s in State::ALL {
             assert_eq!(State::from_u8(s.to_u8()), Some(s));
         }
-        assert_eq!(State::from_u8(5), None);
+        assert_eq!(State::from_u8(6), None);
         assert_eq!(State::Estop.to_string(), "ESTOP");
     }
 }

@@ -28,6 +28,10 @@ pub enum Verb {
     Stop,
     /// `ESTOP`: emergency stop.
     Estop,
+    /// `HOLD`: brake on the path and keep the motion, to be resumed.
+    Hold,
+    /// `RESUME`: continue a held motion on the same path to the same target.
+    Resume,
     /// `RESET`: clear ERROR or ESTOP.
     Reset,
     /// `IO`: input and output words.
@@ -108,6 +112,8 @@ impl Verb {
         Verb::Speed,
         Verb::Stop,
         Verb::Estop,
+        Verb::Hold,
+        Verb::Resume,
         Verb::Reset,
         Verb::Io,
         Verb::Out,
@@ -192,6 +198,20 @@ impl Verb {
             Verb::Speed => v("SPEED", "<1-100>", "speed override [%]", false, true),
             Verb::Stop => v("STOP", "", "controlled stop", false, false),
             Verb::Estop => v("ESTOP", "", "emergency stop", false, false),
+            Verb::Hold => v(
+                "HOLD",
+                "",
+                "brake on the path and keep the motion (RESUME continues it)",
+                false,
+                false,
+            ),
+            Verb::Resume => v(
+                "RESUME",
+                "",
+                "continue a held motion on its path to its target",
+                false,
+                true,
+            ),
             Verb::Reset => v("RESET", "", "clear ERROR or ESTOP", false, true),
             Verb::Io => v("IO", "", "input and output words", false, false),
             Verb::Out => v("OUT", "<n> 0|1", "set output n", false, true),

@@ -9,8 +9,13 @@
 //! - wake-ups stay on the grid `origin + k × period` (no drift); an overrun is counted, its
 //!   missed periods are skipped rather than replayed, and it is reported from a non-real-time
 //!   thread;
-//! - after start-up, the runtime's per-cycle path (sleep, cycle, statistics, overrun event)
-//!   allocates nothing, takes no lock and prints nothing; statistics are read without
+//! - a task may also be released by an event ([`Runtime::add_released`] with a
+//!   [`wake::Waiter`]: a message in a queue made with
+//!   [`ipc::MessageQueue::with_notify`], a readable socket): it runs at its grid point or at
+//!   the event, whichever comes first; events never move the grid, and their cycles are
+//!   counted and timed apart from the periodic ones;
+//! - after start-up, the runtime's per-cycle path (sleep or wait, cycle, statistics, overrun
+//!   event) allocates nothing, takes no lock and prints nothing; statistics are read without
 //!   blocking the task;
 //! - IPC ([`ipc`]) allocates only when created.
 //!
@@ -41,6 +46,7 @@ pub mod schedule;
 pub mod stats;
 pub mod table;
 pub mod task;
+pub mod wake;
 
 pub use clock::{Clock, MockClock, MonotonicClock};
 pub use driver::{Step, TaskDriver};
@@ -53,4 +59,5 @@ pub use sched_policy::{fifo_priority, PinPolicy, RealtimeMode, SchedReport};
 pub use schedule::{CycleOutcome, Schedule};
 pub use stats::{StatsCell, Summary, TaskStats};
 pub use table::{TaskSpec, TaskTable, TaskTableError};
-pub use task::{CycleContext, SetupError, Task};
+pub use task::{CycleContext, Release, SetupError, Task};
+pub use wake::{Notify, Waiter};

@@ -1,5 +1,7 @@
 //! The runtime: one thread per task with its scheduling, memory and pinning set up, a common
-//! start time, a non-real-time reporter, and a clean stop with a join timeout.
+//! start time, a non-real-time reporter, and a clean stop with a join timeout. A task is
+//! released by its period ([`Runtime::add`]) or by its period or an event, whichever comes
+//! first ([`Runtime::add_released`]).
 
 use std::fmt;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -15,6 +17,7 @@ use crate::sched_policy::{self, PinPolicy, RealtimeMode, SchedReport, ThreadSche
 use crate::stats::{StatsCell, TaskStats};
 use crate::table::TaskSpec;
 use crate::task::Task;
+use crate::wake::{NoWaiter, Notify, Waiter};
 
 /// How the runtime runs its tasks.
 #[derive(Clone)]
@@ -135,6 +138,8 @@ struct Ready {
 pub struct Runtime {
     options: RuntimeOptions,
     tasks: Vec<(TaskSpec, BoxedStart)>,
+    /// The waiters' notifiers, to end their waits at once on a stop.
+    wakers: Vec<Arc<dyn Notify>>,
 }
 
 impl fmt::Debug for Runtime {
@@ -155,15 +160,41 @@ impl Runtime {
         Runtime {
             options,
             tasks: Vec::new(),
+            wakers: Vec::new(),
         }
     }
 
-    /// Add `task` to run as `spec` says.
+    /// Add `task` to run as `spec` says, released by its period.
     pub fn add(&mut self, spec: TaskSpec, task: impl Task) -> &mut Self {
-        let mut task = Some(task);
+        self.push(spec, task, None::<NoWaiter>)
+    }
+
+    /// Add `task` to run as `spec` says, released by its period or by an event from
+    /// `waiter`, whichever comes first (see [`crate::driver`] for how the two interplay and
+    /// are counted). `waiter` moves into the task's thread and waits on `CLOCK_MONOTONIC`;
+    /// its notifier, if it has one, also ends the wait when the runtime stops.
+    pub fn add_released(
+        &mut self,
+        spec: TaskSpec,
+        task: impl Task,
+        waiter: impl Waiter,
+    ) -> &mut Self {
+        if let Some(notifier) = waiter.notifier() {
+            self.wakers.push(notifier);
+        }
+        self.push(spec, task, Some(waiter))
+    }
+
+    fn push<T: Task, W: Waiter>(
+        &mut self,
+        spec: TaskSpec,
+        task: T,
+        waiter: Option<W>,
+    ) -> &mut Self {
+        let mut parts = Some((task, waiter));
         let start: BoxedStart = Box::new(move |ctx: ThreadCtx| {
-            if let Some(task) = task.take() {
-                run_thread(ctx, task)
+            if let Some((task, waiter)) = parts.take() {
+                run_thread(ctx, task, waiter)
             }
         });
         self.tasks.push((spec, start));
@@ -175,7 +206,11 @@ impl Runtime {
     /// is said once, through the notice sink. Fails (with every thread ended) when a setup
     /// fails.
     pub fn start(self) -> Result<RunningRuntime, RuntimeError> {
-        let Runtime { options, tasks } = self;
+        let Runtime {
+            options,
+            tasks,
+            wakers,
+        } = self;
         for (i, (spec, _)) in tasks.iter().enumerate() {
             if tasks[..i].iter().any(|t| t.0.name == spec.name) {
                 return Err(RuntimeError::Duplicate {
@@ -331,6 +366,7 @@ impl Runtime {
             tasks: specs,
             threads,
             stop,
+            wakers,
             sched: report,
             origin_ns,
             reporter_stop,
@@ -354,7 +390,7 @@ fn thread_name(task: &str) -> String {
     name
 }
 
-fn run_thread<T: Task>(ctx: ThreadCtx, mut task: T) {
+fn run_thread<T: Task, W: Waiter>(ctx: ThreadCtx, mut task: T, waiter: Option<W>) {
     struct Finished(Arc<AtomicBool>);
     impl Drop for Finished {
         fn drop(&mut self) {
@@ -401,7 +437,8 @@ fn run_thread<T: Task>(ctx: ThreadCtx, mut task: T) {
         ctx.stats,
         ctx.events,
         ctx.stop,
-    );
+    )
+    .with_optional_waiter(waiter);
     while driver.step() == Step::Ran {}
 }
 
@@ -427,6 +464,7 @@ pub struct RunningRuntime {
     _cpu_latency: Option<std::fs::File>,
     threads: Vec<TaskThread>,
     stop: Arc<AtomicBool>,
+    wakers: Vec<Arc<dyn Notify>>,
     sched: SchedReport,
     origin_ns: u64,
     reporter_stop: Arc<AtomicBool>,
@@ -479,14 +517,18 @@ impl RunningRuntime {
             .collect()
     }
 
-    /// Ask every task to stop after its current cycle (returns at once).
+    /// Ask every task to stop after its current cycle (returns at once); a task waiting for
+    /// an event is woken now.
     pub fn request_stop(&self) {
         self.stop.store(true, Ordering::Release);
+        for waker in &self.wakers {
+            waker.notify();
+        }
     }
 
     /// Stop every task after its current cycle and join them, waiting at most `timeout` in
-    /// all. A task still sleeping finishes when its next grid point comes, so `timeout` should
-    /// exceed the longest period. Tasks that did not stop are named in the report (their
+    /// all. A task still sleeping finishes when its next grid point comes (a task waiting
+    /// with a notifier at once), so `timeout` should exceed the longest period. Tasks that did not stop are named in the report (their
     /// threads are left running detached).
     pub fn stop(mut self, timeout: Duration) -> StopReport {
         self.request_stop();

@@ -1,5 +1,6 @@
 //! Per-task statistics: period, execution time and wake-up latency histograms, cycles,
-//! overruns and missed periods.
+//! overruns and missed periods of the periodic releases; the count and execution times of
+//! event releases, apart.
 //!
 //! The task's thread records into a [`StatsCell`] in every cycle without allocating or
 //! locking; any other thread takes a consistent [`TaskStats`] snapshot without ever blocking
@@ -34,6 +35,8 @@ pub struct StatsCell {
     period: AtomicHistogram,
     exec: AtomicHistogram,
     latency: AtomicHistogram,
+    event_cycles: AtomicU64,
+    event_exec: AtomicHistogram,
 }
 
 impl StatsCell {
@@ -60,6 +63,19 @@ impl StatsCell {
         self.seq.store(seq.wrapping_add(2), Ordering::Release);
     }
 
+    /// Record one event-released cycle that took `exec_ns` [ns] from wake-up to the end of
+    /// its work. Only the task's own thread calls this; wait-free, no allocation. The
+    /// periodic figures are not touched.
+    pub fn record_event(&self, exec_ns: u64) {
+        let seq = self.seq.load(Ordering::Relaxed);
+        self.seq.store(seq.wrapping_add(1), Ordering::Relaxed);
+        fence(Ordering::Release);
+        let n = self.event_cycles.load(Ordering::Relaxed);
+        self.event_cycles.store(n + 1, Ordering::Relaxed);
+        self.event_exec.record(exec_ns);
+        self.seq.store(seq.wrapping_add(2), Ordering::Release);
+    }
+
     /// A consistent copy of everything recorded so far (allocates; for non-real-time code).
     pub fn snapshot(&self) -> TaskStats {
         let mut stats = TaskStats::default();
@@ -80,6 +96,8 @@ impl StatsCell {
                 self.period.copy_into(&mut into.period);
                 self.exec.copy_into(&mut into.exec);
                 self.latency.copy_into(&mut into.latency);
+                into.event_cycles = self.event_cycles.load(Ordering::Relaxed);
+                self.event_exec.copy_into(&mut into.event_exec);
                 fence(Ordering::Acquire);
                 if self.seq.load(Ordering::Relaxed) == before {
                     return;
@@ -96,12 +114,14 @@ impl StatsCell {
     }
 }
 
-/// A snapshot of one task's statistics.
+/// A snapshot of one task's statistics. `cycles`, `overruns`, `missed_periods`, `period`,
+/// `exec` and `latency` are about periodic releases only; `event_cycles` and `event_exec`
+/// about event releases (a task added with [`crate::Runtime::add_released`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TaskStats {
-    /// Cycles run.
+    /// Periodic cycles run.
     pub cycles: u64,
-    /// Cycles that ended after their next grid point.
+    /// Periodic cycles that ended after their next grid point.
     pub overruns: u64,
     /// Grid points skipped because of overruns.
     pub missed_periods: u64,
@@ -111,6 +131,10 @@ pub struct TaskStats {
     pub exec: Histogram,
     /// Wake-up latencies, actual minus scheduled wake-up [ns] (what cyclictest measures).
     pub latency: Histogram,
+    /// Cycles released by an event before their grid point.
+    pub event_cycles: u64,
+    /// Execution times of the event-released cycles, wake-up to end of work [ns].
+    pub event_exec: Histogram,
 }
 
 /// min / max / avg / p99 of a histogram in [µs], for tables and JSON.
@@ -166,9 +190,12 @@ mod tests {
             overrun: true,
             missed_periods: 2,
         });
+        cell.record_event(7_000);
         let s = cell.snapshot();
         assert_eq!((s.cycles, s.overruns, s.missed_periods), (2, 1, 2));
         assert_eq!(s.period.count(), 1);
+        assert_eq!(s.exec.count(), 2, "an event cycle is not a periodic one");
+        assert_eq!((s.event_cycles, s.event_exec.max_ns()), (1, Some(7_000)));
         let exec = Summary::of(&s.exec);
         assert_eq!((exec.min_us, exec.max_us, exec.avg_us), (2.0, 4.0, 3.0));
         assert_eq!(Summary::of(&s.latency).max_us, 30.0);

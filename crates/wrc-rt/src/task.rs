@@ -3,21 +3,36 @@
 /// Why a task's setup failed (any error; setup runs before real-time starts).
 pub type SetupError = Box<dyn std::error::Error + Send + Sync>;
 
+/// Why a cycle runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Release {
+    /// Its grid point came (the periodic cycle; also when an event came with it or while the
+    /// thread was late).
+    Period,
+    /// An event (a message, readable input) came before the grid point; the grid does not
+    /// move, and the grid point still releases its own periodic cycle.
+    Event,
+}
+
 /// What a cycle knows about its timing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CycleContext {
-    /// Cycles run before this one.
+    /// Periodic cycles run before this one (event-released cycles are not counted).
     pub cycle: u64,
-    /// The grid point this cycle was scheduled for [ns, on the runtime's clock].
+    /// The grid point this cycle was scheduled for [ns, on the runtime's clock]; for an
+    /// event release, the grid point still ahead.
     pub scheduled_ns: u64,
     /// When the thread actually woke [ns].
     pub woke_ns: u64,
     /// The task's period [ns].
     pub period_ns: u64,
+    /// Why it runs: its period or an event.
+    pub release: Release,
 }
 
-/// One periodic real-time task. The runtime owns timing: it wakes the task on its grid,
-/// calls [`Task::cycle`], measures it and puts the thread back to sleep.
+/// One periodic real-time task. The runtime owns timing: it wakes the task on its grid (and,
+/// for a task added with [`crate::Runtime::add_released`], at events in between), calls
+/// [`Task::cycle`], measures it and puts the thread back to sleep.
 ///
 /// `cycle` runs on a SCHED_FIFO thread: it must not allocate, print, lock a contended mutex,
 /// block or make an avoidable system call, and it should return well within its period.
@@ -28,7 +43,7 @@ pub trait Task: Send + 'static {
         Ok(())
     }
 
-    /// Do one period's work.
+    /// Do one period's work (`ctx.release` says whether the period or an event released it).
     fn cycle(&mut self, ctx: &CycleContext);
 }
 

@@ -122,15 +122,25 @@ fn print_report(r: &BenchReport) {
         println!("load: {load}");
     }
 
-    println!("\nTable 3 — task periods [µs] (wake-up to wake-up)");
+    println!("\nTable 3 — task periods [µs] (wake-up to wake-up of the periodic releases)");
     println!(
-        "{:<20} {:>4} {:>4} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8}",
-        "task", "prio", "fifo", "period", "min", "max", "avg", "p99", "cycles", "overruns"
+        "{:<20} {:>4} {:>4} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>7}",
+        "task",
+        "prio",
+        "fifo",
+        "period",
+        "min",
+        "max",
+        "avg",
+        "p99",
+        "cycles",
+        "overruns",
+        "events"
     );
     for t in &r.tasks {
         let s = Summary::of(&t.stats.period);
         println!(
-            "{:<20} {:>4} {:>4} {:>9} {:>9.0} {:>9.0} {:>9.0} {:>9.0} {:>7} {:>8}",
+            "{:<20} {:>4} {:>4} {:>9} {:>9.0} {:>9.0} {:>9.0} {:>9.0} {:>7} {:>8} {:>7}",
             t.spec.label(),
             t.spec.priority,
             fifo_priority(t.spec.priority),
@@ -140,7 +150,8 @@ fn print_report(r: &BenchReport) {
             s.avg_us,
             s.p99_us,
             t.stats.cycles,
-            t.stats.overruns
+            t.stats.overruns,
+            t.stats.event_cycles
         );
     }
 
@@ -159,6 +170,26 @@ fn print_report(r: &BenchReport) {
             s.avg_us,
             s.p99_us
         );
+    }
+
+    if r.tasks.iter().any(|t| t.stats.event_cycles > 0) {
+        println!("\nEvent-released cycles — execution time [µs] (apart from the periodic ones)");
+        println!(
+            "{:<20} {:>9} {:>9} {:>9} {:>9} {:>7}",
+            "task", "min", "max", "avg", "p99", "cycles"
+        );
+        for t in r.tasks.iter().filter(|t| t.stats.event_cycles > 0) {
+            let s = Summary::of(&t.stats.event_exec);
+            println!(
+                "{:<20} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>7}",
+                t.spec.label(),
+                s.min_us,
+                s.max_us,
+                s.avg_us,
+                s.p99_us,
+                t.stats.event_cycles
+            );
+        }
     }
 
     println!("\nWake-up latency [µs] (actual minus scheduled wake-up; what cyclictest measures)");
@@ -249,6 +280,8 @@ fn to_json(r: &BenchReport) -> Value {
                 "cycles": t.stats.cycles,
                 "overruns": t.stats.overruns,
                 "missed_periods": t.stats.missed_periods,
+                "event_cycles": t.stats.event_cycles,
+                "event_exec": summary_json(&Summary::of(&t.stats.event_exec)),
             })
         })
         .collect();

@@ -11,12 +11,14 @@ use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
 use wrc_cell::TransferKind;
 use wrc_config::Config;
 use wrc_controller::cell_job::{transfer_steps, CellEvent, CellJob, JobKind, JobOffer};
-use wrc_controller::command_interpreter::{CommandInterpreter, Outputs};
-use wrc_controller::program_store::{ProgramStart, StoreLinks};
-use wrc_controller::shared::{MoveDone, MoveOrder, MoveOutcome, OutLine, Shared, SourceId};
+use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
+use wrc_controller::messages::{
+    MoveDone, MoveOrder, MoveOutcome, OutLine, Outputs, ProgramStart, SourceId, StoreLinks,
+};
+use wrc_controller::shared::Shared;
 use wrc_protocol::{ProgramName, ReplyTo};
 use wrc_robot::Robot;
-use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::ipc::MessageQueue;
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -85,17 +87,19 @@ impl Rig {
             robot.clone(),
             board,
             shared.clone(),
-            Arc::new(MessageQueue::new(16)),
-            Arc::new(MessageQueue::new(16)),
-            Arc::new(Semaphore::new(0)),
-            orders.clone(),
-            done.clone(),
-            Outputs {
-                network: network.clone(),
-                serial: Arc::new(MessageQueue::new(16)),
+            CommandLinks {
+                incoming: Arc::new(MessageQueue::new(16)),
+                urgent: Arc::new(MessageQueue::new(16)),
+                forwarded: Arc::new(MessageQueue::new(16)),
+                orders: orders.clone(),
+                done: done.clone(),
+                out: Outputs {
+                    network: network.clone(),
+                    serial: Arc::new(MessageQueue::new(16)),
+                },
+                owner_lost: Arc::new(AtomicBool::new(false)),
+                store: links.clone(),
             },
-            Arc::new(AtomicBool::new(false)),
-            links.clone(),
         );
         Rig {
             robot,

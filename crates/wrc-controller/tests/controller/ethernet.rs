@@ -1,28 +1,57 @@
-//! The Ethernet task, stepped by hand: replies reach the client they are for, whichever
-//! kind of client (TCP host or local GUI), and events reach every client.
+//! The Ethernet task, stepped by hand the way its thread runs it: wait on its `FdWake`, then
+//! one cycle with the release the wait gave. Requests are routed in the event cycle their
+//! line releases, replies are written in the event cycle their push releases, replies reach
+//! the client they are for (TCP host or local GUI) and events reach every client, the status
+//! stream goes out on the period only, and a flooding client cannot starve another.
+//!
+//! No sleeps: every wait has a far deadline that only bounds a failure, and sockets are read
+//! with a timeout that only bounds a failure.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
 use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
 use wrc_config::Config;
-use wrc_controller::clients::{ClientSet, Incoming, Routes};
+use wrc_controller::clients::{ClientSet, Routes, READ_BUDGET};
 use wrc_controller::ethernet::Ethernet;
-use wrc_controller::shared::{OutLine, Shared, SourceId};
+use wrc_controller::messages::{Incoming, OutLine, SourceId};
+use wrc_controller::shared::Shared;
+use wrc_protocol::Command;
 use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::wake::{FdWake, Waiter};
+use wrc_rt::{Clock, MonotonicClock, Release};
+
+/// Clients of each kind the rig's task has room for.
+const CLIENTS: usize = 4;
+
+/// A deadline no test reaches unless it fails [ns].
+fn far() -> u64 {
+    MonotonicClock.now_ns() + 20_000_000_000
+}
 
 struct Rig {
     task: Ethernet,
+    wake: FdWake,
     replies: Arc<MessageQueue<OutLine>>,
     incoming: Arc<MessageQueue<Incoming>>,
+    tcp_addr: std::net::SocketAddr,
+    gui_path: PathBuf,
     tcp: BufReader<TcpStream>,
     gui: BufReader<UnixStream>,
     _dir: tempfile::TempDir,
 }
 
+fn timed<S>(stream: S, set: impl Fn(&S, Option<Duration>) -> std::io::Result<()>) -> S {
+    set(&stream, Some(Duration::from_secs(5))).unwrap();
+    stream
+}
+
 impl Rig {
+    /// The task as `controller::start` builds it, with one TCP host and one GUI connected
+    /// and accepted.
     fn new() -> Rig {
         let config = Config::embedded_default();
         let shared = Arc::new(Shared::default());
@@ -36,7 +65,7 @@ impl Rig {
         let set = |kind| {
             ClientSet::new(
                 kind,
-                4,
+                CLIENTS,
                 false,
                 config.robot.clone(),
                 shared.clone(),
@@ -45,47 +74,82 @@ impl Rig {
         };
         let tcp = TcpListener::bind("127.0.0.1:0").unwrap();
         tcp.set_nonblocking(true).unwrap();
+        let tcp_addr = tcp.local_addr().unwrap();
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("gui.sock");
-        let unix = UnixListener::bind(&path).unwrap();
+        let gui_path = dir.path().join("gui.sock");
+        let unix = UnixListener::bind(&gui_path).unwrap();
         unix.set_nonblocking(true).unwrap();
-        let tcp_client = TcpStream::connect(tcp.local_addr().unwrap()).unwrap();
-        let gui_client = UnixStream::connect(&path).unwrap();
-        for t in [
-            tcp_client.set_read_timeout(Some(Duration::from_secs(5))),
-            gui_client.set_read_timeout(Some(Duration::from_secs(5))),
-        ] {
-            t.unwrap();
-        }
-        let replies = Arc::new(MessageQueue::new(64));
-        let mut task = Ethernet::new(
+        let wake = FdWake::new(Ethernet::tokens(CLIENTS, CLIENTS)).unwrap();
+        let replies = Arc::new(MessageQueue::with_notify(64, wake.notifier()));
+        let task = Ethernet::new(
             Some(tcp),
             Some(unix),
             set(SourceId::TCP),
             set(SourceId::GUI),
             replies.clone(),
+        )
+        .released_by(wake.registry())
+        .unwrap();
+        let tcp = timed(
+            TcpStream::connect(tcp_addr).unwrap(),
+            TcpStream::set_read_timeout,
         );
-        task.step();
-        Rig {
+        let gui = timed(
+            UnixStream::connect(&gui_path).unwrap(),
+            UnixStream::set_read_timeout,
+        );
+        let mut rig = Rig {
             task,
+            wake,
             replies,
             incoming,
-            tcp: BufReader::new(tcp_client),
-            gui: BufReader::new(gui_client),
+            tcp_addr,
+            gui_path,
+            tcp: BufReader::new(tcp),
+            gui: BufReader::new(gui),
             _dir: dir,
-        }
+        };
+        rig.settle();
+        rig
     }
 
-    /// The source id the Command Interpreter would see for each client.
+    /// Run event cycles until nothing is pending (the pending connections are accepted).
+    fn settle(&mut self) {
+        for _ in 0..100 {
+            // A deadline already passed: the wait says at once whether an event is pending.
+            if !self.wake.wait_until_ns(0) {
+                return;
+            }
+            self.task.step(Release::Event);
+        }
+        panic!("events never stopped coming");
+    }
+
+    /// Wait for the next event (a failure if none comes before the far deadline), then run
+    /// the event cycle it releases.
+    fn event_cycle(&mut self) {
+        assert!(self.wake.wait_until_ns(far()), "no event released the task");
+        self.task.step(Release::Event);
+    }
+
+    fn requests(&self) -> Vec<(SourceId, Command)> {
+        let mut got = Vec::new();
+        while let Ok(m) = self.incoming.try_recv() {
+            if let Incoming::Request(from, request) = m {
+                got.push((from, request.command));
+            }
+        }
+        got
+    }
+
+    /// The source id the Command Interpreter sees for each client.
     fn sources(&mut self) -> (SourceId, SourceId) {
-        use std::io::Write;
         self.tcp.get_mut().write_all(b"STATUS\n").unwrap();
         self.gui.get_mut().write_all(b"STATUS\n").unwrap();
-        let mut tcp = None;
-        let mut gui = None;
-        for _ in 0..200 {
-            self.task.step();
-            while let Ok(Incoming::Request(from, _)) = self.incoming.try_recv() {
+        let (mut tcp, mut gui) = (None, None);
+        for _ in 0..4 {
+            self.event_cycle();
+            for (from, _) in self.requests() {
                 match from.kind() {
                     SourceId::TCP => tcp = Some(from),
                     SourceId::GUI => gui = Some(from),
@@ -95,7 +159,6 @@ impl Rig {
             if let (Some(t), Some(g)) = (tcp, gui) {
                 return (t, g);
             }
-            std::thread::sleep(Duration::from_millis(5));
         }
         panic!("the requests never reached the Command Interpreter's queue");
     }
@@ -105,6 +168,31 @@ fn read(r: &mut impl BufRead) -> String {
     let mut l = String::new();
     r.read_line(&mut l).expect("a line before the timeout");
     l.trim_end().to_string()
+}
+
+#[test]
+fn a_request_is_routed_in_the_event_cycle_its_line_releases_and_its_reply_written_in_the_next() {
+    let mut rig = Rig::new();
+    // A new host is accepted in the event cycle its connection releases.
+    let mut host = BufReader::new(timed(
+        TcpStream::connect(rig.tcp_addr).unwrap(),
+        TcpStream::set_read_timeout,
+    ));
+    rig.event_cycle();
+    rig.settle();
+    host.get_mut().write_all(b"1 SPEED 100\n").unwrap();
+    rig.event_cycle();
+    let routed = rig.requests();
+    assert_eq!(routed.len(), 1, "{routed:?}");
+    let (from, command) = routed[0];
+    assert_eq!(from.kind(), SourceId::TCP);
+    assert_eq!(command, Command::Speed(100.0));
+    // The Command Interpreter's reply, pushed from any thread, releases the task again.
+    rig.replies
+        .try_send(OutLine::new(from, b"ACK 1\n"))
+        .unwrap();
+    rig.event_cycle();
+    assert_eq!(read(&mut host), "ACK 1");
 }
 
 #[test]
@@ -119,30 +207,83 @@ fn replies_reach_their_own_client_of_either_kind_and_events_reach_all() {
     ] {
         rig.replies.try_send(line).unwrap();
     }
-    rig.task.step();
+    // Three pushes, one release: the cycle drains the whole queue.
+    rig.event_cycle();
     assert_eq!(read(&mut rig.gui), "ACK for-gui");
     assert_eq!(read(&mut rig.gui), "EVT STATE IDLE");
     assert_eq!(read(&mut rig.tcp), "ACK for-tcp");
     assert_eq!(read(&mut rig.tcp), "EVT STATE IDLE");
+    assert!(!rig.wake.wait_until_ns(0), "nothing left to release it");
 }
 
 #[test]
-fn a_subscribed_gui_gets_status_samples_every_cycle() {
+fn the_status_stream_goes_out_on_every_period_and_never_on_events() {
     let mut rig = Rig::new();
-    use std::io::Write;
     rig.gui.get_mut().write_all(b"SUBSCRIBE\n").unwrap();
-    let mut samples = 0;
+    rig.event_cycle();
+    assert_eq!(read(&mut rig.gui), "ACK");
+    // Event cycles in between send no sample: the next line is the marker.
+    rig.replies
+        .try_send(OutLine::new(SourceId::NONE, b"EVT MARK\n"))
+        .unwrap();
+    rig.event_cycle();
+    assert_eq!(read(&mut rig.gui), "EVT MARK");
     for _ in 0..3 {
-        rig.task.step();
-        std::thread::sleep(Duration::from_millis(5));
+        rig.task.step(Release::Period);
     }
-    let mut lines = Vec::new();
-    while samples < 3 {
+    for _ in 0..3 {
         let l = read(&mut rig.gui);
-        if l.starts_with("EVT STATUS ") {
-            samples += 1;
-        }
-        lines.push(l);
+        assert!(l.starts_with("EVT STATUS "), "{l}");
     }
-    assert_eq!(lines[0], "ACK", "{lines:?}");
+}
+
+#[test]
+fn a_flooding_client_does_not_starve_another() {
+    let mut rig = Rig::new();
+    let mut flood = UnixStream::connect(&rig.gui_path).unwrap();
+    let mut other = UnixStream::connect(&rig.gui_path).unwrap();
+    rig.settle();
+    // 3 000 requests in one burst, then one line from another client.
+    flood.write_all(&b"STATUS\n".repeat(3_000)).unwrap();
+    other.write_all(b"7 SPEED 50\n").unwrap();
+    rig.event_cycle();
+    let routed = rig.requests();
+    let speed: Vec<_> = routed
+        .iter()
+        .filter(|(_, c)| *c == Command::Speed(50.0))
+        .collect();
+    assert_eq!(
+        speed.len(),
+        1,
+        "the other client's line waits behind the flood"
+    );
+    let flooded = routed.len() - 1;
+    assert!(
+        (1..=READ_BUDGET / b"STATUS\n".len()).contains(&flooded),
+        "{flooded} lines of the flood in one cycle"
+    );
+    // The rest of the flood is still unread, so the task is released again at once.
+    assert!(rig.wake.wait_until_ns(0));
+}
+
+#[test]
+fn a_client_that_goes_away_is_reported_and_no_longer_releases_the_task() {
+    let mut rig = Rig::new();
+    let (_, gui) = rig.sources();
+    drop(std::mem::replace(
+        &mut rig.gui,
+        BufReader::new(UnixStream::pair().unwrap().0),
+    ));
+    rig.event_cycle();
+    let mut gone = Vec::new();
+    while let Ok(m) = rig.incoming.try_recv() {
+        if let Incoming::Disconnected(from) = m {
+            gone.push(from);
+        }
+    }
+    assert_eq!(gone, [gui]);
+    assert!(
+        !rig.wake.wait_until_ns(0),
+        "a closed client still releases it"
+    );
 }

@@ -6,8 +6,9 @@ use std::sync::Arc;
 use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
 use wrc_config::Config;
+use wrc_controller::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome};
 use wrc_controller::pulse_generator::PulseGenerator;
-use wrc_controller::shared::{MoveDone, MoveKind, MoveOrder, MoveOutcome, Shared};
+use wrc_controller::shared::Shared;
 use wrc_controller::velocity_generator::VelocityGenerator;
 use wrc_motion::VelocityGenerator as Generator;
 use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
@@ -173,7 +174,8 @@ fn a_stop_decelerates_within_two_periods_and_keeps_the_books() {
     assert!(cruise > 1000, "cruising at {cruise} pulse/period");
     // The stop arrives between two periods (as from the Command Interpreter's urgent path).
     let stop_at = rig.increments.len();
-    rig.shared.request_stop();
+    rig.shared
+        .request_stop(wrc_controller::shared::StopKind::Stop);
     let done = rig.run_until_done(500);
     assert_eq!(
         done,

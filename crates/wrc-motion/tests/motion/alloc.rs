@@ -1,7 +1,7 @@
 //! Counting allocator: planning and producing periods allocate nothing.
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
-use wrc_motion::{Period, Profile, Status};
+use wrc_motion::{BrakeLimits, Period, Profile, Status};
 use wrc_robot::{Pose, Posture};
 
 use crate::common::generator;
@@ -45,7 +45,7 @@ fn planning_and_periods_allocate_nothing() {
             while vg.next_period(&mut out) != Status::Idle && vg.is_moving() {
                 k += 1;
                 if k == 40 {
-                    vg.stop();
+                    vg.stop(BrakeLimits::Override);
                 }
             }
             // A line started the real-time way (its law computed as it runs), stopped
@@ -63,7 +63,7 @@ fn planning_and_periods_allocate_nothing() {
                 vg.next_period(&mut out);
             }
             stopper.restore(&vg.state());
-            stopper.stop();
+            stopper.stop(BrakeLimits::Override);
             while stopper.is_moving() {
                 stopper.next_period(&mut out);
             }

@@ -8,3 +8,4 @@ mod line;
 mod ptp;
 mod ruckig;
 mod stop;
+mod scratch;

@@ -4,12 +4,25 @@
 //!
 //! The slots are a `crossbeam_queue::ArrayQueue` (lock-free, allocated once); a
 //! [`Semaphore`] counts the messages so a receiver can sleep until one arrives.
+//!
+//! A queue made with [`MessageQueue::with_notify`] also releases its consumer task (one
+//! added with [`crate::Runtime::add_released`]) at once. The rule: **every** successful send
+//! notifies, after the message is in the queue. Notifying costs an atomic swap; the
+//! notifier makes a system call only when the consumer sleeps and nobody woke it yet, so a
+//! burst of sends costs one. Every message is therefore pushed before a notification the
+//! consumer has not consumed yet, or before the consumer's wait that consumes it: the cycle
+//! that follows sees it. Nothing is left unnoticed as long as the consumer drains the queue
+//! each cycle; a consumer that leaves messages behind gets them at its next release (its
+//! period, or the next send).
 
+use std::fmt;
+use std::sync::Arc;
 use std::time::Duration;
 
 use crossbeam_queue::ArrayQueue;
 
 use crate::ipc::semaphore::Semaphore;
+use crate::wake::Notify;
 
 /// Why a send did not happen; the message is handed back.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -49,10 +62,20 @@ pub enum RecvError {
 /// assert_eq!(q.try_send(2), Err(TrySendError::Full(2)));
 /// assert_eq!(q.try_recv(), Ok(1));
 /// ```
-#[derive(Debug)]
 pub struct MessageQueue<T> {
     slots: ArrayQueue<T>,
     ready: Semaphore,
+    consumer: Option<Arc<dyn Notify>>,
+}
+
+impl<T> fmt::Debug for MessageQueue<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("MessageQueue")
+            .field("len", &self.slots.len())
+            .field("capacity", &self.slots.capacity())
+            .field("notifies", &self.consumer.is_some())
+            .finish()
+    }
 }
 
 impl<T> MessageQueue<T> {
@@ -61,13 +84,40 @@ impl<T> MessageQueue<T> {
         MessageQueue {
             slots: ArrayQueue::new(capacity),
             ready: Semaphore::new(0),
+            consumer: None,
         }
     }
 
-    /// Send without blocking; a full queue hands the message back.
+    /// A queue for up to `capacity` (> 0) messages whose every successful send notifies
+    /// `consumer` (the [`crate::wake::Waiter`] of the task that drains it), so that task runs
+    /// at once instead of at its next period. Allocates here only.
+    ///
+    /// ```
+    /// use wrc_rt::ipc::MessageQueue;
+    /// use wrc_rt::wake::{Wake, Waiter};
+    /// use wrc_rt::{Clock, MonotonicClock};
+    ///
+    /// let mut wake = Wake::new();
+    /// let q = MessageQueue::with_notify(8, wake.notifier());
+    /// q.try_send("1 SPEED 100").unwrap();
+    /// // The consumer's wait ends at once, long before its deadline.
+    /// assert!(wake.wait_until_ns(MonotonicClock.now_ns() + 10_000_000_000));
+    /// assert_eq!(q.try_recv(), Ok("1 SPEED 100"));
+    /// ```
+    pub fn with_notify(capacity: usize, consumer: Arc<dyn Notify>) -> MessageQueue<T> {
+        MessageQueue {
+            consumer: Some(consumer),
+            ..MessageQueue::new(capacity)
+        }
+    }
+
+    /// Send without blocking; a full queue hands the message back (and notifies nobody).
     pub fn try_send(&self, message: T) -> Result<(), TrySendError<T>> {
         self.slots.push(message).map_err(TrySendError::Full)?;
         self.ready.post();
+        if let Some(consumer) = &self.consumer {
+            consumer.notify();
+        }
         Ok(())
     }
 
@@ -157,6 +207,66 @@ mod tests {
         };
         assert_eq!(q.recv_timeout(Duration::from_secs(10)), Ok(7));
         sender.join().unwrap();
+    }
+
+    #[test]
+    fn every_send_to_a_notifying_queue_releases_its_consumer() {
+        use crate::wake::{MockWaiter, Waiter};
+        use crate::{Clock, MockClock};
+        let clock = MockClock::new(0);
+        let mut consumer = MockWaiter::new(clock.clone());
+        let q = MessageQueue::with_notify(2, consumer.notifier());
+        assert!(!consumer.wait_until_ns(1_000), "nothing sent yet");
+        q.try_send(1u8).unwrap();
+        assert!(consumer.wait_until_ns(2_000));
+        assert_eq!(
+            clock.now_ns(),
+            1_000,
+            "released without waiting for the deadline"
+        );
+        // Sent while the consumer is not waiting, even to a non-empty queue: released again.
+        q.try_send(2).unwrap();
+        assert!(consumer.wait_until_ns(2_000));
+        assert_eq!((q.try_recv(), q.try_recv()), (Ok(1), Ok(2)));
+        // A refused send notifies nobody.
+        q.try_send(3).unwrap();
+        q.try_send(4).unwrap();
+        assert!(consumer.wait_until_ns(2_000));
+        assert_eq!(q.try_send(5), Err(TrySendError::Full(5)));
+        assert!(!consumer.wait_until_ns(2_000));
+    }
+
+    #[test]
+    fn a_message_sent_while_the_consumer_drains_is_never_left_unnoticed() {
+        use crate::wake::{Waiter, Wake};
+        use crate::{Clock, MonotonicClock};
+        // A consumer that drains the queue each time it is released must receive every
+        // message, and never wait until its (far) deadline while one is queued.
+        let mut wake = Wake::new();
+        let q = Arc::new(MessageQueue::with_notify(64, wake.notifier()));
+        let total = 50_000u64;
+        let producer = {
+            let q = q.clone();
+            std::thread::spawn(move || {
+                for i in 0..total {
+                    let mut m = i;
+                    while let Err(TrySendError::Full(back)) = q.try_send(m) {
+                        m = back;
+                        std::thread::yield_now();
+                    }
+                }
+            })
+        };
+        let mut next = 0;
+        while next < total {
+            let deadline = MonotonicClock.now_ns() + 20_000_000_000;
+            assert!(wake.wait_until_ns(deadline), "a message went unnoticed");
+            while let Ok(m) = q.try_recv() {
+                assert_eq!(m, next);
+                next += 1;
+            }
+        }
+        producer.join().unwrap();
     }
 
     #[test]

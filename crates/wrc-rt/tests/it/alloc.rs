@@ -1,12 +1,16 @@
-//! Zero allocation in the per-cycle path: the driver's step (sleep, cycle, statistics,
-//! overrun event) and the IPC a cycle uses, with real and mock clocks.
+//! Zero allocation in the per-cycle path: the driver's step (sleep or wait, cycle,
+//! statistics, overrun event), the waiters and notifiers, and the IPC a cycle uses, with real
+//! and mock clocks.
 
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use wrc_rt::bench::work::{Role, SyntheticTask};
 use wrc_rt::ipc::{self, MessageQueue, Semaphore};
-use wrc_rt::{Clock, CycleContext, MockClock, MonotonicClock, StatsCell, Step, TaskDriver};
+use wrc_rt::wake::{FdWake, Waiter, Wake};
+use wrc_rt::{
+    Clock, CycleContext, MockClock, MonotonicClock, Release, StatsCell, Step, TaskDriver,
+};
 
 use wrc_alloc_count::allocations_in;
 
@@ -100,10 +104,70 @@ fn the_benchmark_tasks_allocate_nothing() {
                     scheduled_ns: now,
                     woke_ns: now,
                     period_ns: 1_000_000,
+                    release: wrc_rt::Release::Period,
                 };
                 wrc_rt::Task::cycle(t, &ctx);
             }
         }
     });
     assert_eq!(n.total(), 0, "{n:?}");
+}
+
+#[test]
+fn event_released_steps_and_their_notifications_allocate_nothing() {
+    use std::io::{Read, Write};
+    use std::os::unix::net::UnixStream;
+    wrc_alloc_count::assert_installed();
+    // A task released by its period (200 µs) or by a message or a readable socket: each
+    // cycle sends itself a message through a notifying queue every other cycle, and the test
+    // writes a byte on the socket that the cycle reads back.
+    let wake = FdWake::new(1).unwrap();
+    let registry = wake.registry();
+    let (mut peer, mut socket) = UnixStream::pair().unwrap();
+    socket.set_nonblocking(true).unwrap();
+    registry.register(&socket, 0).unwrap();
+    let queue = Arc::new(MessageQueue::with_notify(8, wake.notifier()));
+    let mut futex = Wake::new();
+    let futex_notifier = futex.notifier();
+    let task = {
+        let queue = queue.clone();
+        move |ctx: &CycleContext| {
+            while queue.try_recv().is_ok() {}
+            if registry.take_ready(0) {
+                let mut byte = [0u8; 1];
+                let _ = socket.read(&mut byte);
+            }
+            if ctx.release == Release::Period && ctx.cycle % 2 == 0 {
+                let _ = queue.try_send(ctx.cycle);
+            }
+            // A futex wake event, notified and consumed on the same thread.
+            futex_notifier.notify();
+            assert!(futex.wait_until_ns(0));
+        }
+    };
+    let stats = Arc::new(StatsCell::new());
+    let (tx, _rx) = rtrb::RingBuffer::new(4);
+    let clock = MonotonicClock;
+    let mut driver = TaskDriver::new(
+        clock,
+        task,
+        clock.now_ns() + 1_000_000,
+        200_000,
+        stats.clone(),
+        tx,
+        Arc::new(AtomicBool::new(false)),
+    )
+    .with_waiter(wake);
+    let (n, ()) = allocations_in(|| {
+        for i in 0..300 {
+            if i % 3 == 0 {
+                peer.write_all(b"x").unwrap();
+            }
+            assert_eq!(driver.step(), Step::Ran);
+        }
+    });
+    assert_eq!(n.total(), 0, "{n:?} in 300 steps");
+    let s = stats.snapshot();
+    assert_eq!(s.cycles + s.event_cycles, 300);
+    assert!(s.event_cycles > 0, "{s:?}");
 }

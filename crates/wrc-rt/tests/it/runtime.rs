@@ -4,9 +4,11 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use wrc_rt::ipc::MessageQueue;
+use wrc_rt::wake::Wake;
 use wrc_rt::{
-    CycleContext, Notice, PinPolicy, RealtimeMode, Runtime, RuntimeError, RuntimeOptions, Summary,
-    Task, TaskSpec,
+    CycleContext, Notice, PinPolicy, RealtimeMode, Release, Runtime, RuntimeError, RuntimeOptions,
+    Summary, Task, TaskSpec,
 };
 
 fn options(realtime: RealtimeMode) -> (RuntimeOptions, Arc<Mutex<Vec<Notice>>>) {
@@ -189,4 +191,46 @@ fn a_failed_setup_stops_everything_and_names_the_task() {
         }
         other => panic!("expected a setup error, got {other:?}"),
     }
+}
+
+#[test]
+fn a_message_releases_its_consumer_long_before_its_period_and_stop_ends_the_wait() {
+    let (opts, _) = options(RealtimeMode::Off);
+    let mut rt = Runtime::new(opts);
+    let wake = Wake::new();
+    let requests = Arc::new(MessageQueue::with_notify(16, wake.notifier()));
+    let replies = Arc::new(MessageQueue::new(16));
+    let task = {
+        let (requests, replies) = (requests.clone(), replies.clone());
+        move |ctx: &CycleContext| {
+            while let Ok(n) = requests.try_recv() {
+                let _ = replies.try_send((n, ctx.release));
+            }
+        }
+    };
+    // A one-minute period: a reply within the test's run can only come from an event.
+    rt.add_released(TaskSpec::new("echo", 45, 60_000_000), task, wake);
+    let running = rt.start().unwrap();
+    let t0 = Instant::now();
+    let mut by_event = 0;
+    for n in 0..20u32 {
+        requests.try_send(n).unwrap();
+        // The timeout only bounds a failure.
+        let (echo, release) = replies.recv_timeout(Duration::from_secs(20)).unwrap();
+        assert_eq!(echo, n);
+        by_event += (release == Release::Event) as u32;
+    }
+    assert!(t0.elapsed() < Duration::from_secs(60), "not event-released");
+    // The first request may have met the first grid point (the common origin).
+    assert!(by_event >= 19, "{by_event} of 20 released by an event");
+    let live = running.snapshot();
+    // A cycle may pick up the next request too (it drains the queue), so there may be fewer
+    // event cycles than requests, but there are some, counted apart from the periodic ones.
+    assert!(live[0].stats.event_cycles >= 1);
+    assert_eq!(live[0].stats.event_exec.count(), live[0].stats.event_cycles);
+    // At most the first cycle at the grid origin was periodic.
+    assert!(live[0].stats.cycles <= 1);
+    // The waiting task is woken by the stop, not left until its next minute.
+    let report = running.stop(Duration::from_secs(20));
+    assert!(report.is_clean(), "{report}");
 }

@@ -1,6 +1,7 @@
 //! The `wrc` binary driven as a user would, one module per subcommand.
 
 mod compile;
+mod hold;
 mod lines;
 mod plan;
 mod program;

@@ -14,9 +14,11 @@ use wrc_board::MotionBoard;
 use wrc_cell::Step;
 use wrc_protocol::{Code, Command};
 
-use super::{deliver, CommandInterpreter, ProgramWait};
+use super::program::ProgramWait;
+use super::{deliver, CommandInterpreter};
 use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
-use crate::shared::{RobotState, SourceId, Urgent};
+use crate::messages::{SourceId, Urgent};
+use crate::shared::{RobotState, StopKind};
 
 /// How long the board may take to clear its mapping latch or to apply an output [ns].
 const BOARD_ACK_NS: u64 = 1_000_000_000;
@@ -211,11 +213,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// A motion of the running job finished.
-    pub(super) fn job_motion_done(&mut self, ticket: u32, outcome: crate::shared::MoveOutcome) {
+    pub(super) fn job_motion_done(&mut self, ticket: u32, outcome: crate::messages::MoveOutcome) {
         if !self.job.is_some_and(|j| j.wait == JobWait::Motion(ticket)) {
             return;
         }
-        match super::motion_failure(outcome) {
+        match super::motion::motion_failure(outcome) {
             None => self.job_advance(),
             failure => self.end_job(failure),
         }
@@ -235,8 +237,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if j.holding && matches!(j.wait, JobWait::Motion(_)) {
             let dropped = if self.vacuum_sensed() {
                 0
-            } else {
+            } else if self.periodic {
                 j.dropped + 1
+            } else {
+                j.dropped
             };
             if let Some(r) = self.job.as_mut() {
                 r.dropped = dropped;
@@ -338,11 +342,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.hand_dropped = 0;
             return;
         }
-        self.hand_dropped += 1;
+        if self.periodic {
+            self.hand_dropped += 1;
+        }
         if self.hand_dropped >= LOST_CYCLES {
             self.hand_dropped = 0;
             let _ = self.links.cell_events.try_send(CellEvent::WaferLost);
-            self.shared.request_stop();
+            self.shared.request_stop(StopKind::Estop);
             self.handle_urgent(Urgent::Fault(Code::WaferLost.number()));
         }
     }
@@ -496,7 +502,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// A wafer fault: end the job with `code` and stop the robot like an alarm.
     fn job_fault(&mut self, code: Code, text: &str) {
         self.end_job(Some((code, text)));
-        self.shared.request_stop();
+        self.shared.request_stop(StopKind::Estop);
         self.handle_urgent(Urgent::Fault(code.number()));
     }
 

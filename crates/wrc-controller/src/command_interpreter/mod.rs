@@ -1,0 +1,299 @@
+//! Command Interpreter task (Table 1: priority 40, 50 ms): merges the commands of every
+//! source (Ethernet hosts, the local GUI, the RS232C pendant), enforces the control lock,
+//! validates every motion before accepting it (NAK and nothing moves), hands moves to the
+//! Velocity Generator, and answers in three phases (ACK, then INF or ABS).
+//!
+//! Emergencies first: STOP, ESTOP and Error Check's faults arrive on an urgent queue with a
+//! semaphore. A dedicated thread ([`UrgentPath`]) blocks on that semaphore and requests the
+//! stop the moment it is posted, so deceleration starts at the Pulse Generator's next
+//! period instead of after this task's 50 ms period; the bookkeeping (replies, state) follows
+//! in the next cycle.
+//!
+//! Real-time promise: the cycle does not allocate (fixed tables, fixed reply buffers), does
+//! not block and does not print.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use wrc_board::MotionBoard;
+use wrc_lang::{Program, Vm, VmLimits};
+use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo};
+use wrc_robot::{Joints, Robot};
+use wrc_rt::ipc::MessageQueue;
+use wrc_rt::{CycleContext, Release, Task};
+
+mod admission;
+mod job;
+mod motion;
+mod program;
+mod requests;
+mod reset;
+mod urgent;
+
+pub use urgent::UrgentPath;
+
+use crate::messages::{Incoming, MoveDone, MoveOrder, Outputs, SourceId, StoreLinks, Urgent};
+use crate::shared::{RobotState, Shared};
+use motion::Ticket;
+use program::RunningProgram;
+use requests::Refusal;
+
+/// Motions accepted but not finished, at most.
+pub const MAX_TICKETS: usize = 32;
+/// Clients waiting on WAIT, at most.
+pub const MAX_WAITERS: usize = 64;
+/// Robot-language instructions a running program may execute per cycle between two of its
+/// requests.
+pub const PROGRAM_BUDGET: u32 = 2_000;
+/// Requests carried out at once (PRINT, OUT, SPEED) a program may make per cycle.
+pub const PROGRAM_REQUESTS: u32 = 16;
+/// How long a RESET may wait for the board to clear its faults before it is refused [ns].
+pub const RESET_TIMEOUT_NS: u64 = 1_000_000_000;
+
+/// Send `line` to `to`; replies to the running program need not be sent (its refusals are
+/// recorded by [`CommandInterpreter::nak`]).
+fn deliver(out: &Outputs, to: SourceId, line: &[u8]) {
+    // A program's and a job's own motions are answered to themselves, not on the wire.
+    if to != SourceId::PROGRAM && to != SourceId::CELL {
+        out.send(to, line);
+    }
+}
+
+/// The queues a Command Interpreter talks through.
+pub struct CommandLinks {
+    /// Requests and disconnections from the Ethernet and RS232C tasks.
+    pub incoming: Arc<MessageQueue<Incoming>>,
+    /// Emergencies as the receiving tasks sent them: one this task takes off first (before
+    /// the [`UrgentPath`] thread) has its stop requested here.
+    pub urgent: Arc<MessageQueue<Urgent>>,
+    /// Emergencies the [`UrgentPath`] thread has already stopped for.
+    pub forwarded: Arc<MessageQueue<Urgent>>,
+    /// Move orders for the Velocity Generator.
+    pub orders: Arc<MessageQueue<MoveOrder>>,
+    /// Ends of moves, from the Velocity and Pulse Generators.
+    pub done: Arc<MessageQueue<MoveDone>>,
+    /// Where replies and events go.
+    pub out: Outputs,
+    /// Set when the controlling client went away during a motion (Error Check stops).
+    pub owner_lost: Arc<AtomicBool>,
+    /// The queues to and from the service thread (programs, wafer jobs).
+    pub store: StoreLinks,
+}
+
+/// The Command Interpreter.
+pub struct CommandInterpreter<B: MotionBoard> {
+    robot: Robot,
+    board: B,
+    shared: Arc<Shared>,
+    incoming: Arc<MessageQueue<Incoming>>,
+    urgent: Arc<MessageQueue<Urgent>>,
+    forwarded: Arc<MessageQueue<Urgent>>,
+    orders: Arc<MessageQueue<MoveOrder>>,
+    done: Arc<MessageQueue<MoveDone>>,
+    out: Outputs,
+    owner_lost: Arc<AtomicBool>,
+    /// Whether a HOLD is braking, or holds the motions of the open tickets.
+    hold: motion::Hold,
+    tickets: [Option<Ticket>; MAX_TICKETS],
+    waiters: [Option<(SourceId, ReplyTo)>; MAX_WAITERS],
+    next_ticket: u32,
+    /// Joints where the last accepted move ends (validation reference).
+    planned_end: Joints,
+    buf: ReplyBuf,
+    feedback: wrc_board::Feedback,
+    /// A RESET the board has not yet carried out: who asked, and when it is refused [ns].
+    reset_pending: Option<(SourceId, ReplyTo, u64)>,
+    /// Input bit of the E-stop circuit (board 0), if the cell has one.
+    pub estop_input: Option<u8>,
+    links: StoreLinks,
+    vm: Vm,
+    program: Option<RunningProgram>,
+    /// A finished program the store's queue had no room for yet (freed there, not here).
+    retire: Option<Box<Program>>,
+    refusal: Refusal,
+    now_ns: u64,
+    /// This cycle was released by the period (not by a message): counters of successive
+    /// periods (the vacuum watch) advance only on these.
+    periodic: bool,
+    /// The hand's signals (vacuum valve and sensor, mapping sensor).
+    pub hand: wrc_config::HandConfig,
+    job: Option<job::RunningJob>,
+    scan: wrc_board::MappingScan,
+    /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
+    /// hand moved outside a job.
+    hand_dropped: u32,
+}
+
+impl<B: MotionBoard> CommandInterpreter<B> {
+    /// A Command Interpreter for `robot` on `board`, talking through `links`.
+    pub fn new(robot: Robot, board: B, shared: Arc<Shared>, links: CommandLinks) -> Self {
+        let CommandLinks {
+            incoming,
+            urgent,
+            forwarded,
+            orders,
+            done,
+            out,
+            owner_lost,
+            store: links,
+        } = links;
+        let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
+        CommandInterpreter {
+            robot,
+            board,
+            shared,
+            incoming,
+            urgent,
+            forwarded,
+            orders,
+            done,
+            out,
+            owner_lost,
+            hold: motion::Hold::None,
+            tickets: [None; MAX_TICKETS],
+            waiters: [None; MAX_WAITERS],
+            next_ticket: 1,
+            planned_end,
+            buf: ReplyBuf::new(),
+            feedback: wrc_board::Feedback::default(),
+            reset_pending: None,
+            estop_input: None,
+            links,
+            vm: Vm::new(VmLimits::default()),
+            program: None,
+            retire: None,
+            refusal: Refusal {
+                code: None,
+                text: [0; 400],
+                len: 0,
+            },
+            now_ns: 0,
+            periodic: true,
+            hand: wrc_config::HandConfig::default(),
+            job: None,
+            scan: wrc_board::MappingScan::default(),
+            hand_dropped: 0,
+        }
+    }
+
+    pub(super) fn owner(&self) -> SourceId {
+        SourceId(self.shared.owner.load(Ordering::Acquire))
+    }
+
+    pub(super) fn event(&mut self, event: &Event<'_>) {
+        let line = self.buf.event(false, event);
+        self.out.send(SourceId::BROADCAST, line);
+    }
+
+    pub(super) fn set_state(&mut self, state: RobotState) {
+        if self.shared.state() != state {
+            self.shared.set_state(state);
+            self.event(&Event::State(state));
+        }
+    }
+
+    pub(super) fn nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
+        if from == SourceId::PROGRAM || from == SourceId::CELL {
+            self.refusal.record(code, text);
+        } else {
+            let line = self.buf.nak(to, code, text);
+            self.out.send(from, line);
+        }
+    }
+
+    /// One periodic cycle at `now_ns` (the cycle's wake-up time; public for tests that step
+    /// the task by hand with their own clock).
+    pub fn step(&mut self, now_ns: u64) {
+        self.step_released(now_ns, true);
+    }
+
+    /// One cycle at `now_ns`, released by the period (`periodic`) or by a message: the same
+    /// work, except that counts of successive periods advance only on periodic cycles.
+    pub fn step_released(&mut self, now_ns: u64, periodic: bool) {
+        self.now_ns = now_ns;
+        self.periodic = periodic;
+        // An emergency taken here before the urgent thread got to it: request its stop now
+        // (exactly one stop per message, whoever takes it).
+        while let Ok(u) = self.urgent.try_recv() {
+            self.shared.request_stop(u.stop_kind());
+            self.handle_urgent(u);
+        }
+        while let Ok(u) = self.forwarded.try_recv() {
+            self.handle_urgent(u);
+        }
+        while let Ok(d) = self.done.try_recv() {
+            self.handle_done(d);
+        }
+        while let Ok(incoming) = self.incoming.try_recv() {
+            match incoming {
+                Incoming::Request(from, request) => self.handle_request(from, request),
+                Incoming::Disconnected(source) => self.disconnected(source),
+            }
+        }
+        self.finish_reset();
+        while let Ok(start) = self.links.starts.try_recv() {
+            self.start_program(start);
+        }
+        while let Ok(offer) = self.links.jobs.try_recv() {
+            self.offer_job(offer);
+        }
+        self.run_program();
+        self.run_job();
+        self.watch_hand();
+        if let Some(program) = self.retire.take() {
+            if let Err(e) = self.links.retired.try_send(program) {
+                self.retire = Some(e.into_inner());
+            }
+        }
+        let stopped = self.shared.in_flight.load(Ordering::Acquire) == 0
+            && self.shared.stopped_epoch.load(Ordering::Acquire)
+                == self.shared.stop_epoch.load(Ordering::Acquire);
+        // A HOLD is HELD once its brake has come to rest, until RESUME, a stop or the end
+        // of whatever waited on its motions (ABORT of a program) leaves nothing open.
+        if self.hold == motion::Hold::Braking && stopped {
+            self.hold = motion::Hold::Held;
+            self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+            self.set_state(RobotState::Held);
+        }
+        if self.hold == motion::Hold::Held && !self.outstanding() {
+            self.hold = motion::Hold::None;
+        }
+        // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
+        let at_rest = !self.outstanding()
+            && self.job.is_none()
+            && self.orders.is_empty()
+            && self.shared.in_flight.load(Ordering::Acquire) == 0
+            && self.shared.stopped_epoch.load(Ordering::Acquire)
+                == self.shared.stop_epoch.load(Ordering::Acquire);
+        if at_rest {
+            if matches!(
+                self.shared.state(),
+                RobotState::Moving | RobotState::Stopping | RobotState::Held
+            ) {
+                self.set_state(RobotState::Idle);
+            }
+            self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+            for i in 0..MAX_WAITERS {
+                if let Some((from, to)) = self.waiters[i].take() {
+                    let line = match self.shared.state() {
+                        RobotState::Error | RobotState::Estop => {
+                            let code = Code::from_number(
+                                self.shared.error_code.load(Ordering::Acquire) as u16,
+                            )
+                            .unwrap_or(Code::MotionFault);
+                            self.buf.abs(to, code, code.text())
+                        }
+                        _ => self.buf.inf(to, ""),
+                    };
+                    deliver(&self.out, from, line);
+                }
+            }
+        }
+    }
+}
+
+impl<B: MotionBoard + 'static> Task for CommandInterpreter<B> {
+    fn cycle(&mut self, ctx: &CycleContext) {
+        self.step_released(ctx.woke_ns, ctx.release == Release::Period);
+    }
+}

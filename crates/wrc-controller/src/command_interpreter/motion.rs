@@ -1,0 +1,306 @@
+//! The motion runner of the Command Interpreter: tickets of accepted motions, orders to the
+//! Velocity Generator, their ends (INF/ABS), WAIT, and aborting everything on a stop.
+
+use std::sync::atomic::Ordering;
+
+use wrc_board::MotionBoard;
+use wrc_protocol::{Code, Event, ReplyTo};
+use wrc_robot::Joints;
+
+use super::{deliver, CommandInterpreter, MAX_TICKETS, MAX_WAITERS};
+use crate::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome, SourceId};
+use crate::shared::{RobotState, StopKind};
+
+/// An accepted motion, open until its INF or ABS.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Ticket {
+    pub(super) ticket: u32,
+    pub(super) from: SourceId,
+    pub(super) to: ReplyTo,
+    pub(super) home: bool,
+    /// The order that carries it out from wherever the motions before it ended, as
+    /// admitted: a PTP or jog to its checked joint target, a line to its pose. `RESUME`
+    /// sends it again after a HOLD: a PTP then continues on its joint-space line, a line on
+    /// its line, to the same target.
+    pub(super) resume: MoveKind,
+    /// The Pulse Generator reported it held (it was braking when HOLD came).
+    pub(super) held: bool,
+}
+
+/// Where a HOLD stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Hold {
+    /// No HOLD.
+    None,
+    /// Braking on the path after HOLD.
+    Braking,
+    /// At rest; the open tickets wait for RESUME.
+    Held,
+}
+
+/// How a motion's end ends the program or job that waited for it: `None` when it completed.
+pub(super) fn motion_failure(outcome: MoveOutcome) -> Option<(Code, &'static str)> {
+    match outcome {
+        MoveOutcome::Completed | MoveOutcome::Held => None,
+        MoveOutcome::Stopped => Some((Code::Stopped, "stopped")),
+        MoveOutcome::Refused(number) => {
+            let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+            Some((code, code.text()))
+        }
+    }
+}
+
+impl<B: MotionBoard> CommandInterpreter<B> {
+    pub(super) fn outstanding(&self) -> bool {
+        self.tickets.iter().any(Option::is_some)
+    }
+
+    /// Abort every accepted motion and WAIT with ABS `code`.
+    pub(super) fn abort_all(&mut self, code: Code, text: &str) {
+        self.hold = Hold::None;
+        if self.job.is_some() {
+            self.end_job(Some((code, text)));
+        }
+        for i in 0..MAX_TICKETS {
+            if let Some(t) = self.tickets[i].take() {
+                if t.from == SourceId::CELL {
+                    continue;
+                }
+                let line = self.buf.abs(t.to, code, text);
+                deliver(&self.out, t.from, line);
+            }
+        }
+        for i in 0..MAX_WAITERS {
+            if let Some((from, to)) = self.waiters[i].take() {
+                let line = self.buf.abs(to, code, text);
+                deliver(&self.out, from, line);
+            }
+        }
+        if self.program.is_some() {
+            self.end_program(Some((code, text)));
+        }
+    }
+
+    pub(super) fn new_ticket(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        home: bool,
+        resume: MoveKind,
+    ) -> Option<u32> {
+        let slot = self.tickets.iter().position(Option::is_none)?;
+        let ticket = self.next_ticket;
+        self.next_ticket = self.next_ticket.wrapping_add(1).max(1);
+        self.tickets[slot] = Some(Ticket {
+            ticket,
+            from,
+            to,
+            home,
+            resume,
+            held: false,
+        });
+        Some(ticket)
+    }
+
+    /// Validate and queue a motion; ACK or NAK.
+    pub(super) fn motion(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        kind: MoveKind,
+        end: Joints,
+        home: bool,
+    ) {
+        // A line is resumed as a line to its pose; every other motion as a PTP to the joint
+        // target admission checked (the one the Velocity Generator goes to).
+        let resume = match kind {
+            MoveKind::Line(_) => kind,
+            MoveKind::Joints(_) | MoveKind::Pose(..) | MoveKind::Jog { .. } => {
+                MoveKind::Joints(end)
+            }
+        };
+        let Some(ticket) = self.new_ticket(from, to, home, resume) else {
+            self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
+            return;
+        };
+        let order = MoveOrder {
+            ticket,
+            epoch: self.shared.stop_epoch.load(Ordering::Acquire),
+            speed_pct: f64::from(self.shared.speed_pct.load(Ordering::Acquire)),
+            kind,
+        };
+        if self.orders.try_send(order).is_err() {
+            if let Some(t) = self
+                .tickets
+                .iter_mut()
+                .find(|t| t.is_some_and(|t| t.ticket == ticket))
+            {
+                *t = None;
+            }
+            self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
+            return;
+        }
+        self.planned_end = end;
+        let line = self.buf.ack(to, "");
+        deliver(&self.out, from, line);
+        self.set_state(RobotState::Moving);
+    }
+
+    pub(super) fn handle_done(&mut self, done: MoveDone) {
+        let Some(i) = self
+            .tickets
+            .iter()
+            .position(|t| t.is_some_and(|t| t.ticket == done.ticket))
+        else {
+            return; // already answered (a stop aborted it)
+        };
+        if done.outcome == MoveOutcome::Held {
+            // Open until RESUME; whoever waits for it (a client, a program, a job) waits on.
+            if let Some(t) = self.tickets[i].as_mut() {
+                t.held = true;
+            }
+            return;
+        }
+        let Some(t) = self.tickets[i].take() else {
+            return;
+        };
+        if t.from == SourceId::PROGRAM {
+            if t.home && done.outcome == MoveOutcome::Completed {
+                self.shared.homed.store(true, Ordering::Release);
+            }
+            return self.program_motion_done(t.ticket, done.outcome);
+        }
+        if t.from == SourceId::CELL {
+            return self.job_motion_done(t.ticket, done.outcome);
+        }
+        match done.outcome {
+            MoveOutcome::Completed => {
+                if t.home {
+                    self.shared.homed.store(true, Ordering::Release);
+                }
+                let line = self.buf.inf(t.to, "");
+                deliver(&self.out, t.from, line);
+            }
+            MoveOutcome::Stopped | MoveOutcome::Held => {
+                let line = self.buf.abs(t.to, Code::Stopped, "stopped");
+                deliver(&self.out, t.from, line);
+            }
+            MoveOutcome::Refused(number) => {
+                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+                let line = self.buf.abs(t.to, code, code.text());
+                deliver(&self.out, t.from, line);
+            }
+        }
+    }
+
+    pub(super) fn disconnected(&mut self, source: SourceId) {
+        for t in self.tickets.iter_mut() {
+            if t.is_some_and(|t| t.from == source) {
+                // Nobody to answer; the motion itself continues unless it is the owner's.
+                if let Some(t) = t.as_mut() {
+                    t.from = SourceId::NONE;
+                    t.to = ReplyTo::default();
+                }
+            }
+        }
+        for w in self.waiters.iter_mut() {
+            if w.is_some_and(|w| w.0 == source) {
+                *w = None;
+            }
+        }
+        if let Some(j) = self.job.as_mut() {
+            j.forget_requester(source);
+        }
+        if self.owner() == source {
+            self.shared.owner.store(0, Ordering::Release);
+            let line = self.buf.event(false, &Event::Control { owner: None });
+            self.out.send(SourceId::BROADCAST, line);
+            if matches!(self.shared.state(), RobotState::Moving) {
+                // Error Check turns this into a controlled stop and ERROR.
+                self.owner_lost.store(true, Ordering::Release);
+            }
+        }
+    }
+
+    /// End the running program: `INF` to its starter, or `ABS` with `code`, the program's
+    /// name, its source line and `text`; stop its motion if one is under way.
+    /// A program or wafer job (`owner`) ends abnormally: if the motion it waits for
+    /// (`waiting`) is still in flight, stop the robot in a controlled way, and forget every
+    /// ticket of `owner`, whose replies nobody awaits any more.
+    pub(super) fn abandon_motion(&mut self, waiting: Option<u32>, owner: SourceId) {
+        let in_flight = waiting.is_some_and(|ticket| {
+            self.tickets
+                .iter()
+                .any(|t| t.is_some_and(|t| t.ticket == ticket))
+        });
+        if in_flight {
+            self.shared.request_stop(StopKind::Stop);
+            if self.shared.state() == RobotState::Moving {
+                self.set_state(RobotState::Stopping);
+            }
+        }
+        for t in self.tickets.iter_mut() {
+            if t.is_some_and(|t| t.from == owner) {
+                *t = None;
+            }
+        }
+    }
+
+    /// `HOLD`: brake on the path at the override's limits and keep every open motion.
+    pub(super) fn hold(&mut self, from: SourceId, to: ReplyTo) {
+        let line = self.buf.ack(to, "");
+        deliver(&self.out, from, line);
+        if self.hold != Hold::None || !self.outstanding() {
+            return; // nothing moves, or already held
+        }
+        self.shared.request_stop(StopKind::Hold);
+        self.hold = Hold::Braking;
+        self.set_state(RobotState::Stopping);
+    }
+
+    /// `RESUME`: send every open motion again, in the order they were accepted, from where
+    /// the arm stands (the held one continues on its path to its target).
+    pub(super) fn resume(&mut self, from: SourceId, to: ReplyTo) {
+        if self.hold != Hold::Held {
+            let text = if self.hold == Hold::Braking {
+                "the robot is still braking for HOLD; repeat RESUME when it is HELD"
+            } else {
+                "no motion is held"
+            };
+            return self.nak(from, to, Code::NotHeld, text);
+        }
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        let speed_pct = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        // Ticket numbers grow (wrapping) in the order motions were accepted.
+        let first = self.next_ticket;
+        let mut order: [Option<(u32, MoveKind)>; MAX_TICKETS] = [None; MAX_TICKETS];
+        for (slot, t) in order.iter_mut().zip(self.tickets.iter()) {
+            *slot = t.map(|t| (t.ticket, t.resume));
+        }
+        order
+            .sort_unstable_by_key(|o| o.map_or(u32::MAX, |(ticket, _)| ticket.wrapping_sub(first)));
+        for (ticket, kind) in order.into_iter().flatten() {
+            let sent = self.orders.try_send(MoveOrder {
+                ticket,
+                epoch,
+                speed_pct,
+                kind,
+            });
+            // The order queue holds MAX_TICKETS orders and the Velocity Generator dropped
+            // the held ones, so there is room; should there not be, the motion ends openly.
+            if sent.is_err() {
+                self.handle_done(MoveDone {
+                    ticket,
+                    outcome: MoveOutcome::Refused(Code::Busy.number()),
+                });
+            }
+        }
+        for t in self.tickets.iter_mut().flatten() {
+            t.held = false;
+        }
+        self.hold = Hold::None;
+        let line = self.buf.ack(to, "");
+        deliver(&self.out, from, line);
+        self.set_state(RobotState::Moving);
+    }
+}

@@ -1,0 +1,359 @@
+//! Requests from every source (connections, the running program, a wafer job), after
+//! admission: queries answered at once, settings, motions handed to the motion runner.
+
+use std::io::Write;
+use std::sync::atomic::Ordering;
+
+use wrc_board::MotionBoard;
+use wrc_protocol::{
+    Code, Command, Event, HelpBody, IoBody, ReplyTo, Request, StatusBody, Verb, WhereBody,
+};
+use wrc_robot::{Posture, MAX_AXES};
+
+use super::admission::{admit, Refused, Situation};
+use super::{deliver, CommandInterpreter, RESET_TIMEOUT_NS};
+use crate::clients::source_name;
+use crate::messages::{floor_char_boundary, MoveKind, SourceId, Urgent};
+use crate::velocity_generator::refusal_code;
+
+/// The refusal of the running program's last request (its requests go through the same
+/// checks as a connection's; a refusal is kept here instead of sent as a NAK).
+#[derive(Clone, Copy)]
+pub(super) struct Refusal {
+    pub(super) code: Option<Code>,
+    pub(super) text: [u8; 400],
+    pub(super) len: usize,
+}
+
+impl Refusal {
+    pub(super) fn record(&mut self, code: Code, text: &str) {
+        let n = floor_char_boundary(text, self.text.len());
+        self.text[..n].copy_from_slice(&text.as_bytes()[..n]);
+        self.len = n;
+        self.code = Some(code);
+    }
+
+    /// The recorded text.
+    pub(super) fn text(&self) -> &str {
+        std::str::from_utf8(&self.text[..self.len]).unwrap_or("refused")
+    }
+}
+
+impl<B: MotionBoard> CommandInterpreter<B> {
+    pub(super) fn handle_request(&mut self, from: SourceId, request: Request) {
+        let to = request.reply_to();
+        let owner = self.owner();
+        // A program's requests act for the source that started it; a job's for the source
+        // that asked for it (or that program's starter).
+        let acting = match (&self.program, from) {
+            (Some(p), SourceId::PROGRAM) => p.from,
+            (_, SourceId::CELL) => match (&self.job, &self.program) {
+                (Some(j), Some(p)) if j.from() == SourceId::PROGRAM => p.from,
+                (Some(j), _) => j.from(),
+                (None, _) => from,
+            },
+            _ => from,
+        };
+        let state = self.shared.state();
+        let situation = Situation {
+            from,
+            acting,
+            owner,
+            state,
+            homed: self.shared.homed.load(Ordering::Acquire),
+            job: self.job.is_some(),
+            program: self.program.is_some(),
+        };
+        match admit(&request.command, &situation) {
+            Ok(()) => {}
+            Err(Refused::ControlHeld(owner)) => {
+                let mut name = [0u8; 24];
+                let mut text = [0u8; 96];
+                let mut w: &mut [u8] = &mut text[..];
+                let _ = write!(
+                    w,
+                    "control is held by {}; it must RELEASE first",
+                    source_name(owner, &mut name).unwrap_or("another source")
+                );
+                let len = 96 - w.len();
+                let text = std::str::from_utf8(&text[..len])
+                    .unwrap_or("control is held by another source");
+                return self.nak(from, to, Code::ControlHeld, text);
+            }
+            Err(Refused::Interlock(code, text)) => return self.nak(from, to, code, text),
+        }
+        match request.command {
+            Command::Status => {
+                let mut name = [0u8; 24];
+                let body = StatusBody {
+                    state,
+                    homed: self.shared.homed.load(Ordering::Acquire),
+                    speed_pct: f64::from(self.shared.speed_pct.load(Ordering::Acquire)),
+                    owner: source_name(owner, &mut name),
+                    err: Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16),
+                };
+                let line = self.buf.ack(to, body);
+                deliver(&self.out, from, line);
+            }
+            Command::Where => {
+                let mut joints = [0.0; MAX_AXES];
+                let ok = self.board.read_feedback(&mut self.feedback).is_ok();
+                let commanded = self.shared.commanded_pulses();
+                for (i, a) in self.robot.axes().iter().enumerate() {
+                    let p = if ok {
+                        self.feedback.axes[i].encoder
+                    } else {
+                        commanded[i]
+                    };
+                    joints[i] = a.pulses_to_units(p);
+                }
+                let tcp = self.robot.forward(&joints);
+                let body = WhereBody {
+                    joints: &joints[..self.robot.axis_count()],
+                    tcp,
+                };
+                let line = self.buf.ack(to, body);
+                deliver(&self.out, from, line);
+            }
+            Command::Home => {
+                let home = self.robot.home();
+                self.motion(from, to, MoveKind::Joints(home), home, true);
+            }
+            Command::MovJ { joints, .. } => match self.robot.check_joints(&joints) {
+                Ok(()) => self.motion(from, to, MoveKind::Joints(joints), joints, false),
+                Err(e) => self.refuse(from, to, &wrc_motion::PlanError::Kinematics(e)),
+            },
+            Command::MovP { pose, posture } => {
+                let posture = posture
+                    .or_else(|| Posture::of(&self.robot, &self.planned_end))
+                    .unwrap_or(Posture::Right);
+                // The joint solution the Velocity Generator will go to (the one it reaches
+                // soonest where the ranges allow several).
+                match wrc_motion::ptp_target(&self.robot, &self.planned_end, &pose, posture) {
+                    Ok(end) => {
+                        self.motion(from, to, MoveKind::Pose(pose, Some(posture)), end, false)
+                    }
+                    Err(e) => self.refuse(from, to, &e),
+                }
+            }
+            Command::MovL { pose } => {
+                // Check every point of the line from where the previous motion ends, as the
+                // Velocity Generator will follow it (joints continuous).
+                let start = self
+                    .robot
+                    .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
+                match wrc_motion::check_line(&self.robot, &start, &pose) {
+                    Ok((_, check)) => {
+                        self.motion(from, to, MoveKind::Line(pose), check.end_joints, false)
+                    }
+                    Err(e) => self.refuse(from, to, &e),
+                }
+            }
+            Command::Jog { axis, pulses } => {
+                let Some(index) = axis.resolve(&self.robot) else {
+                    return self.nak(
+                        from,
+                        to,
+                        Code::AxisUnknown,
+                        "no such axis; WHERE lists the axes in order",
+                    );
+                };
+                let a = &self.robot.axes()[index];
+                let mut end = self.planned_end;
+                end[index] = a.pulses_to_units(a.units_to_pulses(end[index]) + pulses);
+                if !a.within_limits(end[index]) {
+                    return self.nak(
+                        from,
+                        to,
+                        Code::JointLimit,
+                        "the jog would leave the axis limits",
+                    );
+                }
+                self.motion(
+                    from,
+                    to,
+                    MoveKind::Jog {
+                        axis: index,
+                        pulses,
+                    },
+                    end,
+                    false,
+                );
+            }
+            Command::Speed(pct) => {
+                self.shared
+                    .speed_pct
+                    .store(pct.round().clamp(1.0, 100.0) as u32, Ordering::Release);
+                let mut body = [0u8; 24];
+                let mut w: &mut [u8] = &mut body[..];
+                let _ = write!(w, "speed={}", pct.round().clamp(1.0, 100.0) as u32);
+                let len = 24 - w.len();
+                let line = self
+                    .buf
+                    .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
+                deliver(&self.out, from, line);
+            }
+            Command::Stop => self.handle_urgent(Urgent::Stop(from, to)),
+            Command::Hold => self.hold(from, to),
+            Command::Resume => self.resume(from, to),
+            Command::Estop => self.handle_urgent(Urgent::Estop(from, to)),
+            Command::Reset => {
+                if let Some(input) = self.estop_input {
+                    if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << input) != 0 {
+                        return self.nak(
+                            from,
+                            to,
+                            Code::InEstop,
+                            "the E-stop input is still open; close it, then RESET",
+                        );
+                    }
+                }
+                if self.shared.in_flight.load(Ordering::Acquire) != 0 {
+                    return self.nak(
+                        from,
+                        to,
+                        Code::Busy,
+                        "the robot is still moving; STOP and WAIT first",
+                    );
+                }
+                if self.reset_pending.is_some() {
+                    return self.nak(from, to, Code::Busy, "a RESET is already in progress");
+                }
+                if self.board.reset().is_err() {
+                    return self.nak(
+                        from,
+                        to,
+                        Code::Busy,
+                        "the board is busy with a previous command; repeat RESET",
+                    );
+                }
+                // Answered once the board has carried it out and reports no fault (see
+                // `finish_reset`), so Error Check never sees the fault of before the RESET.
+                self.reset_pending = Some((from, to, self.now_ns.saturating_add(RESET_TIMEOUT_NS)));
+            }
+            Command::Io => {
+                let body = IoBody {
+                    inputs: self.shared.inputs[0].load(Ordering::Acquire),
+                    outputs: self.shared.outputs[0].load(Ordering::Acquire),
+                };
+                let line = self.buf.ack(to, body);
+                deliver(&self.out, from, line);
+            }
+            Command::Out { n, on } => {
+                let bit = 1u32 << n;
+                if on {
+                    self.shared.outputs[0].fetch_or(bit, Ordering::AcqRel);
+                } else {
+                    self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
+                }
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, from, line);
+            }
+            Command::Wait => {
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, from, line);
+                match self.waiters.iter().position(Option::is_none) {
+                    Some(i) => self.waiters[i] = Some((from, to)),
+                    None => {
+                        let line = self.buf.abs(to, Code::Busy, "too many clients waiting");
+                        deliver(&self.out, from, line);
+                    }
+                }
+            }
+            Command::Control => {
+                if owner == SourceId::NONE || owner == from {
+                    self.shared.owner.store(from.0, Ordering::Release);
+                    self.control_changed(Some(from), from, to);
+                } else {
+                    self.nak(
+                        from,
+                        to,
+                        Code::ControlHeld,
+                        "control is held by another source",
+                    );
+                }
+            }
+            Command::Release => {
+                if owner == from || owner == SourceId::NONE {
+                    self.shared.owner.store(0, Ordering::Release);
+                    self.control_changed(None, from, to);
+                } else {
+                    self.nak(
+                        from,
+                        to,
+                        Code::ControlHeld,
+                        "control is held by another source",
+                    );
+                }
+            }
+            Command::Pause | Command::Continue | Command::Abort => {
+                self.program_control(from, to, request.command)
+            }
+            Command::Help => {
+                let line = self.buf.ack(to, HelpBody);
+                deliver(&self.out, from, line);
+            }
+            _ => {
+                let _ = Verb::ALL;
+                self.nak(
+                    from,
+                    to,
+                    Code::NotAvailable,
+                    "not available on this controller",
+                );
+            }
+        }
+    }
+
+    pub(super) fn control_changed(&mut self, owner: Option<SourceId>, from: SourceId, to: ReplyTo) {
+        let mut name = [0u8; 24];
+        let owner_name = owner.and_then(|o| source_name(o, &mut name));
+        let mut body = [0u8; 40];
+        let mut w: &mut [u8] = &mut body[..];
+        let _ = write!(w, "owner={}", owner_name.unwrap_or("none"));
+        let len = 40 - w.len();
+        let body = std::str::from_utf8(&body[..len]).unwrap_or("");
+        let line = self.buf.ack(to, body);
+        deliver(&self.out, from, line);
+        let line = self.buf.event(false, &Event::Control { owner: owner_name });
+        self.out.send(SourceId::BROADCAST, line);
+    }
+
+    pub(super) fn refuse(&mut self, from: SourceId, to: ReplyTo, err: &wrc_motion::PlanError) {
+        let code = Code::from_number(refusal_code(err)).unwrap_or(Code::OutOfReach);
+        let mut text = [0u8; 400];
+        let mut w: &mut [u8] = &mut text[..];
+        let _ = write!(w, "{err}");
+        let len = 400 - w.len();
+        let text = std::str::from_utf8(&text[..len]).unwrap_or("the target cannot be reached");
+        self.nak(from, to, code, text);
+    }
+
+    /// A request of the controller's own (`source`: the program or a wafer job) through the
+    /// checks every connection's request goes through (see [`Self::program_request`]).
+    pub(super) fn internal_request(
+        &mut self,
+        source: SourceId,
+        command: Command,
+    ) -> Result<Option<u32>, Code> {
+        self.refusal.code = None;
+        let next = self.next_ticket;
+        self.handle_request(
+            source,
+            Request {
+                id: None,
+                command,
+                checksum: false,
+            },
+        );
+        if let Some(code) = self.refusal.code {
+            return Err(code);
+        }
+        Ok(self
+            .tickets
+            .iter()
+            .flatten()
+            .find(|t| t.from == source && t.ticket >= next)
+            .map(|t| t.ticket))
+    }
+}

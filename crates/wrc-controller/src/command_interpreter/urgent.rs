@@ -1,0 +1,92 @@
+//! The urgent path: STOP, ESTOP and Error Check's faults overtake everything. A thread
+//! ([`UrgentPath`]) requests the stop the moment the semaphore is posted; the Command
+//! Interpreter's cycle then answers and sets the state.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use wrc_board::MotionBoard;
+use wrc_protocol::{Code, Event};
+use wrc_rt::ipc::{MessageQueue, Semaphore};
+
+use super::{deliver, CommandInterpreter};
+use crate::messages::Urgent;
+use crate::shared::{RobotState, Shared};
+
+/// The blocking half of the urgent path: a thread that waits on the semaphore, takes each
+/// emergency off the urgent queue, requests its stop at once (the kind decides the brake:
+/// [`Urgent::stop_kind`]) and forwards it to the Command Interpreter for the replies.
+pub struct UrgentPath {
+    /// The semaphore the receiving tasks post.
+    pub wake: Arc<Semaphore>,
+    /// The emergencies, as the receiving tasks sent them.
+    pub urgent: Arc<MessageQueue<Urgent>>,
+    /// The same, once their stop is requested, for the Command Interpreter's bookkeeping.
+    pub forwarded: Arc<MessageQueue<Urgent>>,
+    /// The shared state whose stop epoch it bumps.
+    pub shared: Arc<Shared>,
+    /// Ends the thread.
+    pub quit: Arc<AtomicBool>,
+}
+
+impl UrgentPath {
+    /// Run until `quit`: every emergency requests one stop.
+    pub fn run(self) {
+        while !self.quit.load(Ordering::Acquire) {
+            if self.wake.wait_timeout(Duration::from_millis(100)) {
+                while let Ok(urgent) = self.urgent.try_recv() {
+                    self.shared.request_stop(urgent.stop_kind());
+                    // Sized like the urgent queue: a message taken from it always fits.
+                    let _ = self.forwarded.try_send(urgent);
+                }
+            }
+        }
+    }
+}
+
+impl<B: MotionBoard> CommandInterpreter<B> {
+    /// The bookkeeping of an emergency whose stop is already requested: replies, aborts,
+    /// state.
+    pub(super) fn handle_urgent(&mut self, urgent: Urgent) {
+        match urgent {
+            Urgent::Stop(from, to) => {
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, from, line);
+                if self.shared.state() == RobotState::Moving {
+                    self.set_state(RobotState::Stopping);
+                }
+                self.abort_all(Code::Stopped, "stopped by STOP");
+            }
+            Urgent::Estop(from, to) => {
+                let line = self.buf.ack(to, "");
+                deliver(&self.out, from, line);
+                self.abort_all(Code::EmergencyStop, "emergency stop");
+                self.shared
+                    .error_code
+                    .store(u32::from(Code::EmergencyStop.number()), Ordering::Release);
+                self.set_state(RobotState::Estop);
+                self.event(&Event::Error {
+                    code: Code::EmergencyStop,
+                    text: "emergency stop; RESET to continue",
+                });
+            }
+            Urgent::Fault(number) => {
+                let code = Code::from_number(number).unwrap_or(Code::MotionFault);
+                let text = code.text();
+                self.abort_all(code, text);
+                self.shared
+                    .error_code
+                    .store(u32::from(number), Ordering::Release);
+                let state = if code == Code::EstopInput {
+                    RobotState::Estop
+                } else {
+                    RobotState::Error
+                };
+                self.set_state(state);
+                self.event(&Event::Error { code, text });
+            }
+        }
+        self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+    }
+}

@@ -1,0 +1,129 @@
+//! HOLD and RESUME through the host protocol of a real `wrc up`: a held motion brakes on its
+//! path and stays open (no INF/ABS), the state is HELD, RESUME continues it on the same path
+//! to the same target; a PTP, a straight line and a GET; STOP abandons a held motion.
+//!
+//! The hold is sent once the arm is seen moving (polled with WHERE, bounded by a deadline
+//! that only a failure reaches), never after a sleep.
+
+use std::time::{Duration, Instant};
+
+use crate::up::{Client, Controller};
+
+/// Poll WHERE until `moved` says the arm has moved far enough (panics after 20 s).
+fn until_moved(host: &mut Client, moved: impl Fn(&[f64], f64, f64) -> bool) {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let (j, x, y) = host.where_();
+        if moved(&j, x, y) {
+            return;
+        }
+        assert!(Instant::now() < deadline, "the arm did not move: {j:?}");
+    }
+}
+
+/// Read until `EVT STATE <state>`; fail on a final reply of `id` on the way.
+fn until_state(host: &mut Client, state: &str, id: u32) {
+    let want = format!("EVT STATE {state}");
+    loop {
+        let l = host.line();
+        if l == want {
+            return;
+        }
+        assert!(
+            !l.starts_with(&format!("INF {id}")) && !l.starts_with(&format!("ABS {id}")),
+            "motion {id} ended while it should be held: {l}"
+        );
+    }
+}
+
+fn hold(host: &mut Client, id: u32) {
+    assert_eq!(host.ask("HOLD"), "ACK");
+    until_state(host, "HELD", id);
+    assert!(host.status().starts_with("ACK state=HELD"));
+}
+
+#[test]
+fn a_held_ptp_stays_on_its_joint_line_and_resumes_to_its_target() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert_eq!(host.ask("RESUME"), "NAK 129 no motion is held");
+    assert_eq!(host.ask("HOLD"), "ACK", "HOLD at rest is harmless");
+    assert!(host.status().starts_with("ACK state=IDLE"));
+    let (start, _, _) = host.where_();
+    assert!(host.ask("SPEED 30").starts_with("ACK"));
+    let target = [60.0, 30.0, 120.0, 0.0];
+    assert_eq!(host.ask("3 MOVJ 60 30 120 0"), "ACK 3");
+    until_moved(&mut host, |j, _, _| (j[0] - start[0]).abs() > 20.0);
+    hold(&mut host, 3);
+    let (held, _, _) = host.where_();
+    // Phase-synchronised: every axis has covered the same fraction of its distance.
+    let f = (held[0] - start[0]) / (target[0] - start[0]);
+    assert!(f > 0.1 && f < 0.95, "held at fraction {f}");
+    for i in 0..3 {
+        let fi = (held[i] - start[i]) / (target[i] - start[i]);
+        assert!((fi - f).abs() < 1e-3, "axis {i} at {fi}, j1 at {f}");
+    }
+    // While held: no new motion, and the hold survives queries.
+    assert!(host.ask("4 MOVJ 0 90 0 10").starts_with("NAK 4 121 "));
+    assert!(host.status().starts_with("ACK state=HELD"));
+    assert_eq!(host.ask("RESUME"), "ACK");
+    assert_eq!(host.reply(), "INF 3");
+    let (end, _, _) = host.where_();
+    for (e, t) in end.iter().zip(target) {
+        assert!((e - t).abs() < 0.002, "{end:?}");
+    }
+    assert!(host.status().starts_with("ACK state=IDLE"));
+}
+
+#[test]
+fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert_eq!(host.motion(3, "MOVP 300 -150 20 0"), "INF 3");
+    assert!(host.ask("SPEED 20").starts_with("ACK"));
+    let (a, b) = ((300.0, -150.0), (300.0, 150.0));
+    assert_eq!(host.ask("4 MOVL 300 150 20 0"), "ACK 4");
+    until_moved(&mut host, |_, _, y| y > -100.0);
+    hold(&mut host, 4);
+    let (_, x, y) = host.where_();
+    assert!(
+        (x - a.0).abs() < 0.01 && y > a.1 && y < b.1,
+        "held at {x} {y}"
+    );
+    assert_eq!(host.ask("RESUME"), "ACK");
+    assert_eq!(host.reply(), "INF 4");
+    let (_, x, y) = host.where_();
+    assert!((x - b.0).abs() < 0.01 && (y - b.1).abs() < 0.01, "{x} {y}");
+
+    // STOP while held ends the held motion.
+    assert_eq!(host.ask("5 MOVL 300 -150 20 0"), "ACK 5");
+    until_moved(&mut host, |_, _, y| y < 100.0);
+    hold(&mut host, 5);
+    assert_eq!(host.ask("STOP"), "ACK");
+    assert!(host.reply().starts_with("ABS 5 200"));
+    until_state(&mut host, "IDLE", 5);
+    assert_eq!(host.ask("RESUME"), "NAK 129 no motion is held");
+}
+
+#[test]
+fn a_held_get_waits_and_resumes_to_take_its_wafer() {
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3 LP1 1"));
+    let (start, _, _) = host.where_();
+    assert!(host.ask("SPEED 30").starts_with("ACK"));
+    assert_eq!(host.ask("4 GET LP1 2"), "ACK 4");
+    until_moved(&mut host, |j, _, _| {
+        j.iter().zip(&start).any(|(a, b)| (a - b).abs() > 5.0)
+    });
+    hold(&mut host, 4);
+    assert_eq!(host.ask("RESUME"), "ACK");
+    assert_eq!(host.reply(), "INF 4 W2");
+    assert!(host.ask("WAFERS").contains("hand=W2"));
+}

@@ -15,14 +15,40 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use wrc_cell::{Reconciled, SlotCode, Stations, TransferKind, WaferMap, WaferMapError};
+use wrc_cell::{
+    Reconciled, SlotCode, Station, StationError, Stations, Step, TransferKind, WaferMap,
+    WaferMapError,
+};
 use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
-use wrc_robot::Robot;
+use wrc_robot::{Joints, Robot};
 
-use crate::cell_job::{transfer_steps, CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
+use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::shared::{RobotState, Shared};
+
+
+/// The job steps of a transfer ([`wrc_cell::plan`]'s), with its move to the approach pose
+/// made a joint move to the solution from which the straight line into the station keeps
+/// every limit, reached soonest from `from` ([`Station::approach_joints`]): the transfer's
+/// motions are checked here, before anything moves.
+pub fn transfer_steps(
+    kind: TransferKind,
+    station: &Station,
+    slot: u16,
+    robot: &Robot,
+    from: &Joints,
+) -> Result<Vec<JobStep>, StationError> {
+    // GET enters lowered (under the wafer), PUT lifted (holding it).
+    let approach = station.approach_joints(robot, slot, kind == TransferKind::Put, from)?;
+    Ok(wrc_cell::plan(kind, station, slot)?
+        .into_iter()
+        .map(|step| match step {
+            Step::Ptp(..) => JobStep::Joints(approach),
+            other => JobStep::Transfer(other),
+        })
+        .collect())
+}
 
 /// Why the wafer cell could not be opened.
 #[derive(Debug, thiserror::Error)]

@@ -29,7 +29,7 @@ use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::wake::{FdRegistry, Token};
 
-use crate::cell_job::JobKind;
+use crate::messages::cell_job::JobKind;
 use crate::messages::{Incoming, OutLine, SourceId, StoreRequest, Urgent};
 use crate::shared::Shared;
 
@@ -271,6 +271,10 @@ impl ClientSet {
     /// one everything each has sent.
     pub fn poll_reads(&mut self) {
         for i in 0..self.slots.len() {
+            if let Some((registry, first)) = &self.poll {
+                // Read now: the mark would only cost the next event cycle an empty read.
+                registry.take_ready(first + i);
+            }
             self.read_client(i);
         }
     }

@@ -25,7 +25,7 @@ use crate::error_check::{ErrorCheck, Limits};
 use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
 use crate::messages::{Outputs, SourceId, StoreLinks};
-use crate::program_store::ProgramStore;
+use crate::service::Service;
 use crate::pulse_generator::PulseGenerator;
 use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
 use crate::shared::{Shared, StopKind};
@@ -322,7 +322,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         network: network_out.clone(),
         serial: serial_out.clone(),
     };
-    let store = ProgramStore::new(
+    let store = Service::new(
         &options.programs,
         robot.clone(),
         links.clone(),
@@ -521,7 +521,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         .ok();
     let store_quit = quit.clone();
     let store_thread = std::thread::Builder::new()
-        .name("wrc-programs".into())
+        .name("wrc-service".into())
         .spawn(move || store.run(store_quit, service_wake))
         .ok();
     Ok(Running {

@@ -8,7 +8,6 @@
 //! `wrc_rt::ipc` queues and the atomics of [`shared::Shared`]. [`controller`] starts it all.
 #![deny(missing_docs)]
 
-pub mod cell_job;
 pub mod cell_service;
 pub mod clients;
 pub mod command_interpreter;
@@ -17,7 +16,7 @@ pub mod error_check;
 pub mod ethernet;
 pub mod io_monitor;
 pub mod messages;
-pub mod program_store;
+pub mod service;
 pub mod pulse_generator;
 pub mod queries;
 pub mod rs232c;

@@ -178,6 +178,23 @@ impl Brake1d {
     }
 }
 
+impl Brake1d {
+    /// The brake's constant-jerk phases in order: (start [s], length [s], jerk), for checks
+    /// along it (a straight line's brake is verified against every joint limit).
+    pub(crate) fn phases(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        let mut start = 0.0;
+        self.len
+            .iter()
+            .zip(&self.jerk)
+            .filter(|(&len, _)| len > 0.0)
+            .map(move |(&len, &jerk)| {
+                let phase = (start, len, jerk);
+                start += len;
+                phase
+            })
+    }
+}
+
 /// The phases of a brake being built, and the state at the end of the last one.
 struct Phases<'a> {
     brake: &'a mut Brake1d,

@@ -709,27 +709,17 @@ impl VelocityGenerator {
                     scale,
                     table,
                 } => {
-                    // ESTOP: the law rescaled to real time, braking at once with the full
-                    // limits, if a brake from where it is is verified. At 100 % a brake or
-                    // the final landing under way already uses the full limits.
-                    let try_full = limits == BrakeLimits::Full
-                        && (*scale < 1.0 || profile.is_planning());
-                    let rescaled = try_full
-                        && if *table == self.table.id {
-                            let tab = &self.table;
-                            profile.brake_now(bounds, &|u: f64| tab.at(u), now * *scale, *scale, now)
-                        } else {
-                            let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
-                            let derivs = |u: f64| {
-                                path.jets_at(robot, u, &reference)
-                                    .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
-                            };
-                            profile.brake_now(bounds, &derivs, now * *scale, *scale, now)
-                        };
-                    if rescaled {
-                        *scale = 1.0;
+                    if *table == self.table.id {
+                        let tab = &self.table;
+                        stop_line(profile, bounds, scale, limits, now, &|u: f64| tab.at(u));
                     } else {
-                        profile.stop();
+                        // Another generator's plan: the derivatives from the kinematics.
+                        let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
+                        let derivs = |u: f64| {
+                            path.jets_at(robot, u, &reference)
+                                .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
+                        };
+                        stop_line(profile, bounds, scale, limits, now, &derivs);
                     }
                 }
                 LineLaw::Paper(ch) => {
@@ -912,6 +902,29 @@ impl VelocityGenerator {
         } else {
             Status::Working
         }
+    }
+}
+
+/// Stop a straight line's timing law played at `scale` at real time `now` [s], with `limits`:
+/// ESTOP below 100 % brakes in real time with the full limits (the law's scale becomes 1),
+/// if a brake from there is verified; otherwise, and for STOP, it brakes at once in plan time
+/// (played at the override), if verified; otherwise from the next knot with the brake
+/// verified there. A line already braking, or on its final brake at 100 %, goes on.
+fn stop_line(
+    profile: &mut LineProfile,
+    bounds: &Bounds,
+    scale: &mut f64,
+    limits: BrakeLimits,
+    now: f64,
+    derivs: &impl Fn(f64) -> Derivs,
+) {
+    let t_plan = now * *scale;
+    let planning = profile.is_planning();
+    let rescale = limits == BrakeLimits::Full && *scale < 1.0;
+    if rescale && profile.brake_now(bounds, derivs, t_plan, *scale, now) {
+        *scale = 1.0;
+    } else if !(planning && profile.brake_now(bounds, derivs, t_plan, 1.0, t_plan)) {
+        profile.stop();
     }
 }
 

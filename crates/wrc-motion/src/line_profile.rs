@@ -38,6 +38,7 @@
 //! I/O. The state ([`LineProfile`]) is small and `Copy`: a stop needs only the state and the
 //! line's derivatives, which can be computed on the spot.
 
+use crate::brake::Brake1d;
 use crate::path::{Derivs, LineAxes, LINE_AXES};
 use crate::settings::LineLimits;
 use wrc_robot::Robot;
@@ -52,6 +53,15 @@ pub const LIMIT_MARGIN: f64 = 0.995;
 /// The brakes tried, strongest first: each decelerates at this fraction κ of the
 /// deceleration the limits allow where it is, and releases with κ of the jerk they allow.
 pub const BRAKES: [f64; 4] = [0.97, 0.8, 0.6, 0.4];
+
+/// A stop tries the closed-form time-optimal brake of u ([`Brake1d`]) with these fractions of
+/// the deceleration and jerk u may have where it is (the smaller of their values at rest and
+/// in its present state), besides the feedback brakes of [`BRAKES`].
+pub const CLOSED_BRAKES: [f64; 3] = [1.0, 0.9, 0.75];
+
+/// Longest interval between two checks of a closed-form brake [s] (half a plan step; every
+/// phase boundary is checked too).
+const CHECK_S: f64 = STEP_S / 2.0;
 
 /// How close to u = 1 the search for the last brake of a line brings its stop; the law then
 /// stretches that brake onto u = 1 (by at most this fraction).
@@ -143,6 +153,19 @@ impl Bounds {
         let v2 = v * v;
         (0..self.n)
             .all(|k| (d.d1[k] * j + 3.0 * d.d2[k] * v * a + d.d3[k] * v2 * v).abs() <= self.j[k])
+    }
+
+    /// The largest admissible acceleration at rest (u̇ = 0) where the derivatives are `d`.
+    #[inline]
+    fn accel_at_rest(&self, d: &Derivs) -> f64 {
+        let mut hi = self.ca;
+        for k in 0..self.n {
+            let d1 = d.d1[k].abs();
+            if d1 >= 1e-9 {
+                hi = hi.min(self.a[k] / d1);
+            }
+        }
+        hi
     }
 
     /// The largest admissible jerk at rest (u̇ = ü = 0) where the derivatives are `d`.
@@ -433,6 +456,9 @@ enum Mode {
     Forward,
     /// A stop was requested: from the next knot on, the brake.
     Stopping,
+    /// A stop was requested: the closed-form brake `brake`, started at time `from` [s] and
+    /// checked along its whole length.
+    Closed { from: f64, brake: Brake1d },
     /// At rest for good at `u`.
     Done,
 }
@@ -494,14 +520,8 @@ impl LineProfile {
 
     /// u at plan time `t` [s] (≥ the last knot's), moving the knots forward as needed.
     pub(crate) fn at(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs, t: f64) -> f64 {
-        while self.mode != Mode::Done && t >= self.t + self.dt {
-            self.next_knot(b, derivs);
-        }
-        let u = if self.mode == Mode::Done {
-            self.u
-        } else {
-            step_to(self.u, self.v, self.a, self.jerk, t - self.t).0
-        };
+        self.advance_to(b, derivs, t);
+        let u = self.state(t).0;
         match self.land {
             // u + (1 − stop)·x⁴ with x the fraction of the last brake done: the brake ends on
             // u = 1, and u, u̇ and ü stay continuous where the stretch begins (the added
@@ -516,10 +536,29 @@ impl LineProfile {
 
     /// Run the law to its end; returns the plan time at which it comes to rest [s].
     pub(crate) fn run_to_end(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
-        while self.mode != Mode::Done {
-            self.next_knot(b, derivs);
-        }
+        self.advance_to(b, derivs, f64::INFINITY);
         self.t
+    }
+
+    /// Move the last knot up to time `t` [s] (the knot at or before it, or the rest).
+    fn advance_to(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs, t: f64) {
+        loop {
+            match self.mode {
+                Mode::Done => return,
+                Mode::Closed { from, brake } => {
+                    if t >= from + brake.duration() {
+                        (self.t, self.u, self.v, self.a) =
+                            (from + brake.duration(), brake.stop_position(), 0.0, 0.0);
+                        self.mode = Mode::Done;
+                    }
+                    return;
+                }
+                Mode::Forward | Mode::Stopping if t >= self.t + self.dt => {
+                    self.next_knot(b, derivs)
+                }
+                Mode::Forward | Mode::Stopping => return,
+            }
+        }
     }
 
     /// Request a controlled stop: the current step ends at its knot, then the brake that was
@@ -540,53 +579,87 @@ impl LineProfile {
     /// brought up to `t`) [1, 1/s, 1/s²]; u without the final landing's stretch (at most
     /// [`LAND_TOL`]).
     pub(crate) fn state(&self, t: f64) -> (f64, f64, f64) {
-        if self.mode == Mode::Done {
-            return (self.u, 0.0, 0.0);
+        match self.mode {
+            Mode::Done => (self.u, 0.0, 0.0),
+            Mode::Closed { from, brake } => brake.at(t - from),
+            Mode::Forward | Mode::Stopping => {
+                let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, t - self.t);
+                (u, v.max(0.0), a)
+            }
         }
-        let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, t - self.t);
-        (u, v.max(0.0), a)
     }
 
-    /// Brake now with the limits at 100 %, in real time: the law played at `scale` is at plan
-    /// time `t_plan` [s], real time `t_real` [s]; its state in real time is
-    /// (u, scale·u̇, scale²·ü). If a brake of [`BRAKES`] from that state is verified to keep
-    /// every limit to its stop and to stop before u = 1 (the same simulation that verifies
-    /// every state of a plan), the law continues from it at scale 1 — its next knot is now,
-    /// at `t_real`, and [`LineProfile::at`] must then be called with real time — and this
-    /// returns true. Otherwise (or at rest) nothing changes and it returns false: the caller
-    /// stops as [`LineProfile::stop`] does.
+    /// Brake now, from the state at law time `t` [s] multiplied by `scale` (u, scale·u̇,
+    /// scale²·ü), with the limits at 100 %; the brake's time starts at `t_new` [s].
     ///
-    /// Sound because a brake is a feedback law of the state alone: once verified from the
-    /// rescaled state, following it step by step reproduces the verified simulation, whatever
-    /// the state was planned for. The state itself is within the limits at 100 % (it was
+    /// - A stop (STOP, at any override): `scale` = 1 and `t_new` = `t`, both in plan time.
+    /// - A stop with the full limits below 100 % (ESTOP): the law played at `scale` is at plan
+    ///   time `t` and real time `t_new`; the state in real time is the rescaled one. From
+    ///   then on the law runs in real time, so [`LineProfile::at`] must be called with real
+    ///   time (the caller's scale becomes 1).
+    ///
+    /// The candidates: the closed-form time-optimal brake of u ([`Brake1d`]) with the
+    /// deceleration and jerk u may have where it is (at [`CLOSED_BRAKES`] of them), each
+    /// checked against every joint and Cartesian limit along its whole length (every
+    /// [`CHECK_S`] and at every phase boundary) and to stop by u = 1; and the strongest
+    /// feedback brake of [`BRAKES`] that keeps every limit, simulated to its stop as every
+    /// state of a plan is verified. Of those that pass, the one that stops first along the
+    /// line is taken, and this returns true; if none passes (or at rest) nothing changes
+    /// and it returns false: the caller stops as [`LineProfile::stop`] does, from the next
+    /// knot with the brake verified there.
+    ///
+    /// Sound because whatever is taken was checked from this very state: the closed form is
+    /// followed exactly, and a feedback brake (a law of the state alone) reproduces the
+    /// simulation that verified it. The rescaled state is within the limits at 100 % (it was
     /// within them at the override, which only scales them down); the landing stretch near
     /// u = 1, if it has begun, stays in force and keeps u ≤ 1.
     pub(crate) fn brake_now(
         &mut self,
         b: &Bounds,
         derivs: &impl Fn(f64) -> Derivs,
-        t_plan: f64,
+        t: f64,
         scale: f64,
-        t_real: f64,
+        t_new: f64,
     ) -> bool {
-        while self.mode != Mode::Done && t_plan >= self.t + self.dt {
-            self.next_knot(b, derivs);
-        }
+        self.advance_to(b, derivs, t);
         if self.mode == Mode::Done {
             return false;
         }
-        let (u, v, a) = self.state(t_plan);
-        let real = (u, scale * v, scale * scale * a);
-        match safe(b, derivs, real, (0, BRAKES.len() - 1), Horizon::Full) {
-            Ok((brake, Some(stop))) => {
-                (self.t, self.u, self.v, self.a) = (t_real, real.0, real.1, real.2);
+        let (u, v, a) = self.state(t);
+        let (v, a) = ((scale * v).max(0.0), scale * scale * a);
+        let d = derivs(u);
+        // What u may do where it is: at rest there, and in its present state (the
+        // acceleration's coupling terms q″u̇² and 3q″u̇ü narrow both).
+        let (lo, _) = b.jerk_range(&d, v, a);
+        let decel = b.accel_at_rest(&d).min(b.decel(&d, v).max(0.0));
+        let jerk = b.jerk_hi_at_rest(&d).min((-lo).max(0.0));
+        let closed = CLOSED_BRAKES
+            .iter()
+            .map(|&f| Brake1d::new(u, v, a, f * decel, f * jerk))
+            .filter(|brake| decel > 0.0 && jerk > 0.0 && closed_brake_ok(b, derivs, brake))
+            .min_by(|x, y| x.stop_position().total_cmp(&y.stop_position()));
+        let feedback = match safe(b, derivs, (u, v, a), (0, BRAKES.len() - 1), Horizon::Full) {
+            Ok((brake, Some(stop))) => Some((brake, stop)),
+            Ok((_, None)) | Err(_) => None,
+        };
+        match (closed, feedback) {
+            (Some(brake), None) => {
+                self.mode = Mode::Closed { from: t_new, brake };
+                true
+            }
+            (Some(brake), Some((_, stop))) if brake.stop_position() <= stop => {
+                self.mode = Mode::Closed { from: t_new, brake };
+                true
+            }
+            (Some(_) | None, Some((brake, stop))) => {
+                (self.t, self.u, self.v, self.a) = (t_new, u, v, a);
                 self.brake = brake;
                 self.brake_stop = stop;
                 self.mode = Mode::Stopping;
                 self.choose(b, derivs);
                 true
             }
-            Ok((_, None)) | Err(_) => false,
+            (None, None) => false,
         }
     }
 
@@ -724,6 +797,26 @@ impl LineProfile {
             }
         }
     }
+}
+
+/// Whether the closed-form brake `brake` of u keeps every limit along its whole length
+/// (checked every [`CHECK_S`] at most and at both ends of every phase, with that phase's
+/// jerk), never moves backwards and stops by u = 1.
+fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d) -> bool {
+    if brake.stop_position() > 1.0 + END_TOL {
+        return false;
+    }
+    let v0 = brake.at(0.0).1;
+    brake.phases().all(|(start, len, jerk)| {
+        let steps = (len / CHECK_S).ceil().clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;
+        (0..=steps).all(|i| {
+            let (u, v, a) = brake.at(start + len * (i as f64 / steps as f64));
+            // The velocity may rise above the start's (admissible: it is a state of the
+            // plan) by rounding, when the plan rides the velocity bound.
+            let v = if v > v0 && v <= v0 * (1.0 + 1e-9) { v0 } else { v };
+            v >= -1e-9 && b.ok(&derivs(u), v.max(0.0), a, jerk)
+        })
+    })
 }
 
 /// The jerk in (lo.0, hi.0) whose verified brake stops within [`LAND_TOL`] of u = 1, given

@@ -16,7 +16,7 @@ use wrc_protocol::{Code, Command};
 
 use super::program::ProgramWait;
 use super::{deliver, CommandInterpreter};
-use crate::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
+use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
 use crate::messages::{SourceId, Urgent};
 use crate::shared::{RobotState, StopKind};
 
@@ -252,7 +252,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 );
             }
         }
-        for _ in 0..crate::cell_job::MAX_JOB_STEPS + 1 {
+        for _ in 0..crate::messages::cell_job::MAX_JOB_STEPS + 1 {
             let Some(j) = self.job else {
                 return;
             };

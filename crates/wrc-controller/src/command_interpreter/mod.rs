@@ -297,3 +297,6 @@ impl<B: MotionBoard + 'static> Task for CommandInterpreter<B> {
         self.step_released(ctx.woke_ns, ctx.release == Release::Period);
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -353,11 +353,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         kind: wrc_lang::TransferKind::Get,
                         station,
                         slot,
-                    } => (crate::cell_job::JobKind::Get, station, slot),
+                    } => (crate::messages::cell_job::JobKind::Get, station, slot),
                     R::Transfer { station, slot, .. } => {
-                        (crate::cell_job::JobKind::Put, station, slot)
+                        (crate::messages::cell_job::JobKind::Put, station, slot)
                     }
-                    R::Map { station } => (crate::cell_job::JobKind::Map, station, 0),
+                    R::Map { station } => (crate::messages::cell_job::JobKind::Map, station, 0),
                     _ => return true,
                 };
                 let asked = self

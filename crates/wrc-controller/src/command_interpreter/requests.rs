@@ -193,10 +193,19 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
                 deliver(&self.out, from, line);
             }
-            Command::Stop => self.handle_urgent(Urgent::Stop(from, to)),
+            // STOP and ESTOP from a connection take the urgent path; these are a program's
+            // or a test's, which request the stop here.
+            Command::Stop | Command::Estop => {
+                let urgent = if matches!(request.command, Command::Stop) {
+                    Urgent::Stop(from, to)
+                } else {
+                    Urgent::Estop(from, to)
+                };
+                self.shared.request_stop(urgent.stop_kind());
+                self.handle_urgent(urgent);
+            }
             Command::Hold => self.hold(from, to),
             Command::Resume => self.resume(from, to),
-            Command::Estop => self.handle_urgent(Urgent::Estop(from, to)),
             Command::Reset => {
                 if let Some(input) = self.estop_input {
                     if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << input) != 0 {

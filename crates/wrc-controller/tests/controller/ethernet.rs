@@ -94,6 +94,8 @@ impl Rig {
             TcpStream::connect(tcp_addr).unwrap(),
             TcpStream::set_read_timeout,
         );
+        // Each request goes out at once, as a host's would (no Nagle delay).
+        tcp.set_nodelay(true).unwrap();
         let gui = timed(
             UnixStream::connect(&gui_path).unwrap(),
             UnixStream::set_read_timeout,
@@ -286,4 +288,26 @@ fn a_client_that_goes_away_is_reported_and_no_longer_releases_the_task() {
         !rig.wake.wait_until_ns(0),
         "a closed client still releases it"
     );
+}
+
+#[test]
+fn event_cycles_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
+    let mut rig = Rig::new();
+    let (tcp, gui) = rig.sources();
+    let (calls, ()) = wrc_alloc_count::allocations_in(|| {
+        for i in 0..50 {
+            rig.tcp.get_mut().write_all(b"1 SPEED 100\n").unwrap();
+            rig.event_cycle();
+            while rig.incoming.try_recv().is_ok() {}
+            let to = if i % 2 == 0 { tcp } else { gui };
+            rig.replies.try_send(OutLine::new(to, b"ACK 1\n")).unwrap();
+            rig.event_cycle();
+        }
+    });
+    assert_eq!(calls.total(), 0, "{calls:?}");
+    for _ in 0..25 {
+        assert_eq!(read(&mut rig.tcp), "ACK 1");
+        assert_eq!(read(&mut rig.gui), "ACK 1");
+    }
 }

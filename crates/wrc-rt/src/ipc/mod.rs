@@ -4,7 +4,7 @@
 //! | kind | use | real-time side |
 //! |---|---|---|
 //! | [`Semaphore`] | events, "work is ready" | `post` is lock-free from any thread |
-//! | [`MessageQueue`] | commands between tasks | `try_send` hands the message back when full |
+//! | [`MessageQueue`] | commands between tasks | `try_send` hands the message back when full; made with [`MessageQueue::with_notify`], every send also releases the consumer task at once ([`crate::wake`]) |
 //! | [`spsc`] | per-period pulse batches | wait-free push/pop (rtrb) |
 //! | [`mailbox`] | latest state snapshot | wait-free write/read (triple buffer) |
 

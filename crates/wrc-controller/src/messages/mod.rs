@@ -15,6 +15,8 @@ use wrc_rt::Notify;
 
 use crate::shared::StopKind;
 
+pub mod cell_job;
+
 /// A request or a disconnection, for the Command Interpreter.
 #[derive(Debug, Clone, Copy)]
 pub enum Incoming {
@@ -348,7 +350,7 @@ pub enum StoreRequest {
         /// Where the replies go.
         to: ReplyTo,
         /// Which.
-        kind: crate::cell_job::JobKind,
+        kind: crate::messages::cell_job::JobKind,
         /// The station.
         station: StationName,
         /// GET/PUT: the slot.
@@ -401,9 +403,9 @@ pub struct StoreLinks {
     /// Programs the Command Interpreter is done with (freed by the store).
     pub retired: Arc<MessageQueue<Box<Program>>>,
     /// Wafer jobs (and refusals of a program's) for the Command Interpreter.
-    pub jobs: Arc<MessageQueue<crate::cell_job::JobOffer>>,
+    pub jobs: Arc<MessageQueue<crate::messages::cell_job::JobOffer>>,
     /// What the Command Interpreter reports of the wafer jobs.
-    pub cell_events: Arc<MessageQueue<crate::cell_job::CellEvent>>,
+    pub cell_events: Arc<MessageQueue<crate::messages::cell_job::CellEvent>>,
 }
 
 impl StoreLinks {

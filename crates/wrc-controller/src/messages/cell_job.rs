@@ -10,11 +10,10 @@
 //! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
 //! from the vacuum sensor, as at start-up) and saves.
 
-use wrc_cell::{Station, StationError, Step, TransferKind};
+use wrc_cell::Step;
 use wrc_protocol::{Code, ReplyTo, StationName};
-use wrc_robot::{Joints, Robot};
 
-use crate::messages::{floor_char_boundary, SourceId};
+use super::{floor_char_boundary, SourceId};
 
 /// Most steps in one job.
 pub const MAX_JOB_STEPS: usize = 24;
@@ -58,28 +57,6 @@ pub enum JobStep {
     MapSensor(bool),
     /// Read the mapping latch: every slot must have been seen at the job's station.
     MapRead,
-}
-
-/// The job steps of a transfer ([`wrc_cell::plan`]'s), with its move to the approach pose
-/// made a joint move to the solution from which the straight line into the station keeps
-/// every limit, reached soonest from `from` ([`Station::approach_joints`]): the transfer's
-/// motions are checked here, before anything moves.
-pub fn transfer_steps(
-    kind: TransferKind,
-    station: &Station,
-    slot: u16,
-    robot: &Robot,
-    from: &Joints,
-) -> Result<Vec<JobStep>, StationError> {
-    // GET enters lowered (under the wafer), PUT lifted (holding it).
-    let approach = station.approach_joints(robot, slot, kind == TransferKind::Put, from)?;
-    Ok(wrc_cell::plan(kind, station, slot)?
-        .into_iter()
-        .map(|step| match step {
-            Step::Ptp(..) => JobStep::Joints(approach),
-            other => JobStep::Transfer(other),
-        })
-        .collect())
 }
 
 /// A job the cell service hands to the Command Interpreter.

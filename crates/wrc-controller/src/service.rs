@@ -1,7 +1,10 @@
-//! The program store: a non-real-time thread that receives uploaded robot-language programs
-//! line by line, compiles them with the controller's robot (`wrc-lang`), keeps them on disk
-//! (`STATE_DIR/programs/<name>.wrl`, written atomically), lists and deletes them, and for
-//! `RUN` compiles the stored text and hands the program to the Command Interpreter.
+//! The service thread: the controller's non-real-time work, released by its queues. It
+//! serves the program store (uploaded robot-language programs received line by line,
+//! compiled with the controller's robot (`wrc-lang`), kept on disk
+//! (`STATE_DIR/programs/<name>.wrl`, written atomically), listed and deleted; for
+//! `RUN` compiles the stored text and hands the program to the Command Interpreter), the
+//! wafer cell ([`crate::cell_service`]: stations, the wafer map, GET/PUT/MAP planning) and
+//! the `ROBOT` and `TASKS` queries.
 //!
 //! Compiling allocates, so it happens here and never in a real-time task: the Ethernet and
 //! RS232C tasks pass fixed-size messages in, the Command Interpreter receives a boxed
@@ -41,8 +44,9 @@ struct Upload {
     too_long: bool,
 }
 
-/// The program store (runs on its own non-real-time thread, see [`ProgramStore::run`]).
-pub struct ProgramStore {
+/// The service thread's state: the program store, the wafer cell and the queries (runs on
+/// its own non-real-time thread, see [`Service::run`]).
+pub struct Service {
     dir: PathBuf,
     robot: Robot,
     links: StoreLinks,
@@ -54,16 +58,16 @@ pub struct ProgramStore {
     cell: Option<CellService>,
 }
 
-impl ProgramStore {
+impl Service {
     /// A store keeping programs in `dir` (created if missing).
     pub fn new(
         dir: &Path,
         robot: Robot,
         links: StoreLinks,
         out: Outputs,
-    ) -> std::io::Result<ProgramStore> {
+    ) -> std::io::Result<Service> {
         fs::create_dir_all(dir)?;
-        Ok(ProgramStore {
+        Ok(Service {
             dir: dir.to_path_buf(),
             robot,
             links,
@@ -77,7 +81,7 @@ impl ProgramStore {
     }
 
     /// Also serve the wafer cell: `STN`, `TEACH`, `WAFERS`, `GET`, `PUT`, `MAP`.
-    pub fn with_cell(mut self, mut cell: CellService) -> ProgramStore {
+    pub fn with_cell(mut self, mut cell: CellService) -> Service {
         cell.connect(self.out.clone(), self.links.clone());
         self.cell = Some(cell);
         self
@@ -85,7 +89,7 @@ impl ProgramStore {
 
     /// Also answer `ROBOT` (with the Pulse Generator's period [ms]) and `TASKS` (from the
     /// runtime's statistics cells, once they are set).
-    pub fn with_queries(mut self, period_ms: f64, tasks: TaskCells) -> ProgramStore {
+    pub fn with_queries(mut self, period_ms: f64, tasks: TaskCells) -> Service {
         self.period_ms = period_ms;
         self.tasks = tasks;
         self
@@ -232,14 +236,14 @@ impl ProgramStore {
 
     fn no_cell(&mut self, from: SourceId, to: ReplyTo) {
         if from == SourceId::PROGRAM {
-            let refusal = crate::cell_job::JobRefusal::new(
+            let refusal = crate::messages::cell_job::JobRefusal::new(
                 Code::NotAvailable,
                 "this controller has no wafer cell (no stations file)",
             );
             let _ = self
                 .links
                 .jobs
-                .try_send(crate::cell_job::JobOffer::Refused(refusal));
+                .try_send(crate::messages::cell_job::JobOffer::Refused(refusal));
             return;
         }
         self.reply_nak(

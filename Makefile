@@ -10,7 +10,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion demo clean
+.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -101,6 +101,13 @@ bench-controller: build
 bench-motion: build
 	@mkdir -p $(OUT)
 	$(WRC) bench motion --json $(OUT)/bench-motion.json
+
+# Stopping times and distances (ISO 10218-1 Annex B form): every axis and a straight line at
+# 33, 66 and 100 % speed, stopped at peak acceleration and in cruise, ESTOP (full limits) and
+# STOP (the move's limits), from the output pulses, against the 1-D time-optimal brake.
+bench-stop: build
+	@mkdir -p $(OUT)
+	$(WRC) bench stop --json $(OUT)/bench-stop.json
 
 # The GUI must not disturb control: the Pulse Generator's wake-up latency with no GUI, with
 # wrc ui and browsers-worth of WebSocket clients attached, and after kill -9 of wrc ui.

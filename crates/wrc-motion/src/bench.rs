@@ -1,7 +1,10 @@
-//! Measuring straight lines (`wrc bench motion`): random reachable lines of a robot, each
-//! planned and run to its end as the controller runs it, its duration compared with the
-//! lower bounds of [`crate::reference`], its limits and its accuracy checked from the
-//! output pulses. Not used by the controller; this module allocates.
+//! Measurements for `wrc bench`: straight lines (`wrc bench motion`) — random reachable lines
+//! of a robot, each planned and run to its end as the controller runs it, its duration
+//! compared with the lower bounds of [`crate::reference`], its limits and its accuracy
+//! checked from the output pulses — and stopping times and distances ([`stop`], `wrc bench
+//! stop`). Not used by the controller; this module allocates.
+
+pub mod stop;
 
 use std::time::Instant;
 

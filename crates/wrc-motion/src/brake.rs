@@ -162,7 +162,7 @@ impl Brake1d {
     /// (closed form, no integration): the start state for t ≤ 0, rest at
     /// [`Brake1d::stop_position`] from [`Brake1d::duration`] on.
     pub fn at(&self, t: f64) -> (f64, f64, f64) {
-        if !(t < self.duration) {
+        if t.is_nan() || t >= self.duration {
             return (self.stop, 0.0, 0.0);
         }
         let mut t = t.max(0.0);
@@ -293,7 +293,11 @@ mod tests {
         // Below the curve: the peak (positive) acceleration is √(J·(−v0) + a0²/2).
         let peak = (jm * -v0 + 0.5 * a0 * a0).sqrt();
         let want = (peak - a0) / jm + peak / jm;
-        assert!((b.duration() - want).abs() < 1e-12, "{} vs {want}", b.duration());
+        assert!(
+            (b.duration() - want).abs() < 1e-12,
+            "{} vs {want}",
+            b.duration()
+        );
         // The most negative velocity is where a = 0 on the way up: v0 − a0²/2J.
         let n = 10_000;
         let vmin = (0..=n)
@@ -305,11 +309,19 @@ mod tests {
 
     #[test]
     fn acceleration_beyond_the_limit_comes_back_first() {
-        for (v0, a0) in [(50.0, 1000.0), (50.0, -1000.0), (-50.0, 1000.0), (400.0, -900.0)] {
+        for (v0, a0) in [
+            (50.0, 1000.0),
+            (50.0, -1000.0),
+            (-50.0, 1000.0),
+            (400.0, -900.0),
+        ] {
             let b = Brake1d::new(0.0, v0, a0, 720.0, 7200.0);
             // The first phase moves the acceleration towards the limit at full jerk.
             let (_, _, a) = b.at(1e-6);
-            assert!((a.abs() - (a0.abs() - 7200.0 * 1e-6)).abs() < 1e-6, "{v0} {a0}: {a}");
+            assert!(
+                (a.abs() - (a0.abs() - 7200.0 * 1e-6)).abs() < 1e-6,
+                "{v0} {a0}: {a}"
+            );
             let (amax, jmax) = sampled(&b, 1e-5);
             assert!(amax <= a0.abs() + 1e-9 && jmax <= 7200.0 * (1.0 + 1e-9));
             // Within the limit once it is back.
@@ -360,7 +372,12 @@ mod tests {
         ];
         for &a_max in &odd {
             for &j_max in &odd {
-                for (v0, a0) in [(1.0, 0.0), (-1e300, 1e300), (f64::MAX, f64::MIN), (0.0, -5.0)] {
+                for (v0, a0) in [
+                    (1.0, 0.0),
+                    (-1e300, 1e300),
+                    (f64::MAX, f64::MIN),
+                    (0.0, -5.0),
+                ] {
                     let b = Brake1d::new(1.0, v0, a0, a_max, j_max);
                     assert!(b.duration().is_finite() && b.duration() >= 0.0);
                     assert!(b.stop_position().is_finite(), "{a_max} {j_max} {v0} {a0}");

@@ -123,7 +123,8 @@ enum Law {
     Paper([PaperChannel; MAX_AXES]),
 }
 
-/// Timing law of a straight line.
+/// Timing law of a straight line (fixed-size on purpose, as [`Law`]).
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
 enum LineLaw {
     /// The default profile: the path parameter's time-optimal jerk-limited law, planned at
@@ -647,11 +648,16 @@ impl VelocityGenerator {
     ///   ([`crate::Brake1d`]) from the exact state of the profile; phase-synchronised and
     ///   single-axis moves with one brake of the path parameter (the slowest axis's limits),
     ///   time-synchronised ones with each axis's own brake.
-    /// - A straight line under the default profile: its verified brake (docs/motion.md).
-    ///   [`BrakeLimits::Override`] starts it at the law's next knot (at most 4 ms of plan
-    ///   time later); [`BrakeLimits::Full`] rescales the law to real time at once and brakes
-    ///   with the full limits, if a brake from that state is verified to keep every limit and
-    ///   to stop on the line before its end — otherwise it brakes as `Override` does.
+    /// - A straight line under the default profile: a brake of its path parameter checked,
+    ///   from the present state, against every joint and Cartesian limit along the line and
+    ///   to stop before its end — the closed-form time-optimal brake with the limits where
+    ///   the line is, or the feedback brake of the law's plan, whichever stops first
+    ///   (docs/motion.md). [`BrakeLimits::Override`] brakes in plan time, played at the
+    ///   override; [`BrakeLimits::Full`] below 100 % rescales the law to real time at once
+    ///   (u, p·u̇, p²·ü) and brakes with the full limits. If no brake from the present state
+    ///   passes its check, the line brakes from its plan's next knot (at most 4 ms of plan
+    ///   time later) with the brake verified there, as every state of its plan is; during its
+    ///   final landing, it lands on the target unless a brake stops it sooner.
     /// - The paper profile keeps the paper's stop (its input stream cut as early as its mask
     ///   allows) with the move's limits, whatever `limits` says.
     pub fn stop(&mut self, limits: BrakeLimits) {
@@ -702,25 +708,24 @@ impl VelocityGenerator {
                 }
             },
             // Whether the brake ends short of the target is known when it has stopped.
-            Active::Line { path, law, last, .. } => match law {
+            Active::Line {
+                path, law, last, ..
+            } => match law {
                 LineLaw::Timed {
                     profile,
                     bounds,
                     scale,
-                    table,
+                    ..
                 } => {
-                    if *table == self.table.id {
-                        let tab = &self.table;
-                        stop_line(profile, bounds, scale, limits, now, &|u: f64| tab.at(u));
-                    } else {
-                        // Another generator's plan: the derivatives from the kinematics.
-                        let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
-                        let derivs = |u: f64| {
-                            path.jets_at(robot, u, &reference)
-                                .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
-                        };
-                        stop_line(profile, bounds, scale, limits, now, &derivs);
-                    }
+                    // The brakes are checked with the derivatives from the kinematics, exactly,
+                    // whoever planned the line: the generator that planned it and another one
+                    // restored to the same state (the Pulse Generator's) take the same brake.
+                    let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
+                    let derivs = |u: f64| {
+                        path.jets_at(robot, u, &reference)
+                            .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
+                    };
+                    stop_line(profile, bounds, scale, limits, now, &derivs);
                 }
                 LineLaw::Paper(ch) => {
                     ch.stop();
@@ -804,7 +809,8 @@ impl VelocityGenerator {
                             self.position[i] = target;
                         }
                         if last && fir.braking().is_some() {
-                            self.stopped = (0..n).any(|i| self.position[i] != start[i] + distance[i]);
+                            self.stopped =
+                                (0..n).any(|i| self.position[i] != start[i] + distance[i]);
                         }
                         last
                     }
@@ -909,7 +915,8 @@ impl VelocityGenerator {
 /// ESTOP below 100 % brakes in real time with the full limits (the law's scale becomes 1),
 /// if a brake from there is verified; otherwise, and for STOP, it brakes at once in plan time
 /// (played at the override), if verified; otherwise from the next knot with the brake
-/// verified there. A line already braking, or on its final brake at 100 %, goes on.
+/// verified there (or, on its final landing, lands on the target). A line already braking
+/// goes on, unless ESTOP finds a real-time brake from where it is.
 fn stop_line(
     profile: &mut LineProfile,
     bounds: &Bounds,
@@ -919,11 +926,11 @@ fn stop_line(
     derivs: &impl Fn(f64) -> Derivs,
 ) {
     let t_plan = now * *scale;
-    let planning = profile.is_planning();
+    let forward = profile.is_forward();
     let rescale = limits == BrakeLimits::Full && *scale < 1.0;
     if rescale && profile.brake_now(bounds, derivs, t_plan, *scale, now) {
         *scale = 1.0;
-    } else if !(planning && profile.brake_now(bounds, derivs, t_plan, 1.0, t_plan)) {
+    } else if !(forward && profile.brake_now(bounds, derivs, t_plan, 1.0, t_plan)) {
         profile.stop();
     }
 }
@@ -941,5 +948,95 @@ fn periods_for(duration: f64, ts: f64) -> u64 {
         0
     } else {
         ((duration / ts) - 1e-9).ceil().max(1.0) as u64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn generator() -> VelocityGenerator {
+        VelocityGenerator::new(Robot::paper_default(), MotionSettings::default()).unwrap()
+    }
+
+    fn run_to_end(vg: &mut VelocityGenerator) -> MoveEnd {
+        let mut p = Period::default();
+        loop {
+            if let Status::Finished(end) = vg.next_period(&mut p) {
+                return end;
+            }
+        }
+    }
+
+    #[test]
+    fn the_goal_of_a_joint_move_is_its_target_in_pulses() {
+        let mut vg = generator();
+        assert_eq!(vg.goal(), None);
+        let start = *vg.position_pulses();
+        vg.plan_jog(2, -12_345).unwrap();
+        let mut want = start;
+        want[2] -= 12_345;
+        assert_eq!(vg.goal(), Some(Goal::Joints(want)));
+        // Still known while the move is being stopped, in every state taken of it.
+        let mut p = Period::default();
+        vg.next_period(&mut p);
+        vg.stop(BrakeLimits::Override);
+        assert_eq!(vg.state().goal(), Some(Goal::Joints(want)));
+        assert_eq!(run_to_end(&mut vg), MoveEnd::Stopped);
+        assert_eq!(vg.goal(), None);
+    }
+
+    #[test]
+    fn a_ptp_in_pulses_lands_on_them_exactly() {
+        let mut vg = generator();
+        let mut target = *vg.position_pulses();
+        target[0] += 33_333;
+        target[1] -= 7;
+        target[3] += 123_457;
+        vg.plan_ptp_pulses(&target).unwrap();
+        assert_eq!(vg.goal(), Some(Goal::Joints(target)));
+        assert_eq!(
+            vg.plan_ptp_pulses(&target).unwrap_err(),
+            PlanError::Busy,
+            "refused while moving"
+        );
+        assert_eq!(run_to_end(&mut vg), MoveEnd::Completed);
+        assert_eq!(*vg.position_pulses(), target);
+        // Beyond an axis's limits: refused before any pulse.
+        let mut beyond = target;
+        beyond[3] = -1_000;
+        assert!(vg.plan_ptp_pulses(&beyond).is_err());
+        assert!(!vg.is_moving());
+    }
+
+    #[test]
+    fn the_goal_of_a_line_is_its_end_pose_and_pulses() {
+        let mut vg = generator();
+        let start = Pose {
+            x: 300.0,
+            y: -100.0,
+            z: 0.0,
+            yaw: 170.0,
+        };
+        let q = vg.robot().inverse(&start, Posture::Right, None).unwrap();
+        vg.set_position_pulses(&vg.robot().joints_to_pulses(&q))
+            .unwrap();
+        // Yaw across ±180: the line turns 20°, the goal's yaw is where it ends (190°).
+        let end = Pose {
+            x: 300.0,
+            y: 100.0,
+            z: 50.0,
+            yaw: -170.0,
+        };
+        vg.start_line(&end).unwrap();
+        let Some(Goal::Line { pose, pulses }) = vg.goal() else {
+            panic!("{:?}", vg.goal())
+        };
+        let from = vg.pose();
+        assert!((pose.x - end.x).abs() < 1e-9 && (pose.y - end.y).abs() < 1e-9);
+        assert!((pose.z - end.z).abs() < 1e-9);
+        assert!((pose.yaw - (from.yaw + 20.0)).abs() < 1e-6, "{pose:?}");
+        assert_eq!(run_to_end(&mut vg), MoveEnd::Completed);
+        assert_eq!(*vg.position_pulses(), pulses);
     }
 }

@@ -16,6 +16,12 @@
 //! it reaches soonest ([`ptp_target`]). Not for the controller: [`reference`] (lower bounds
 //! of a line's duration, TOPP-RA) and [`bench`] (`wrc bench motion`), which allocate.
 //!
+//! A controlled stop ([`VelocityGenerator::stop`]) brakes from the present state in the next
+//! period with the time-optimal jerk-limited brake ([`Brake1d`]): with the move's limits for
+//! STOP and HOLD, every axis's full limits for ESTOP ([`BrakeLimits`]); a PTP move on its
+//! joint-space line, a straight line on its line. [`MotionState::goal`] keeps where a held
+//! move was going.
+//!
 //! Guarantees: the pulses emitted for a completed move sum exactly to the target; velocity,
 //! acceleration and jerk stay within every axis's limits (scaled by the speed override);
 //! straight lines keep the TCP on the segment; planning and every period run without heap

@@ -34,6 +34,17 @@
 //! acceleration by p² and jerk by p³ — exactly what playing the same law at plan time p·t
 //! does — so one plan serves every override and stays within the scaled limits.
 //!
+//! # Stop
+//!
+//! A stop brakes from the present state ([`LineProfile::brake_now`]): the closed-form
+//! time-optimal brake of u ([`Brake1d`]) with the deceleration and jerk the limits allow where
+//! the line is, or the strongest feedback brake, whichever stops first of those that keep
+//! every limit to the stop — each checked from this very state, as every state of a plan is.
+//! STOP brakes in plan time (played at the override); ESTOP below 100 % first rescales the law
+//! to real time — its state in real time is (u, p·u̇, p²·ü) — and brakes with the limits at
+//! 100 %. If nothing passes, the line brakes from the plan's next knot with the brake verified
+//! there ([`LineProfile::stop`]): never later than 4 ms of plan time.
+//!
 //! Real-time promise: every function here is arithmetic on `Copy` values; no allocation, no
 //! I/O. The state ([`LineProfile`]) is small and `Copy`: a stop needs only the state and the
 //! line's derivatives, which can be computed on the spot.
@@ -57,7 +68,12 @@ pub const BRAKES: [f64; 4] = [0.97, 0.8, 0.6, 0.4];
 /// A stop tries the closed-form time-optimal brake of u ([`Brake1d`]) with these fractions of
 /// the deceleration and jerk u may have where it is (the smaller of their values at rest and
 /// in its present state), besides the feedback brakes of [`BRAKES`].
-pub const CLOSED_BRAKES: [f64; 3] = [1.0, 0.9, 0.75];
+pub const CLOSED_BRAKES: [f64; 5] = [1.0, 0.95, 0.9, 0.8, 0.7];
+
+/// Part of the velocity margin ([`LIMIT_MARGIN`]) a closed-form brake may use [-]: the plan
+/// rides the velocity bound with the variation within a step above it, and a brake that
+/// starts there still accelerating rises by ü²/2J more (some 1e-5 relative).
+const VELOCITY_SLACK: f64 = 1e-3;
 
 /// Longest interval between two checks of a closed-form brake [s] (half a plan step; every
 /// phase boundary is checked too).
@@ -569,10 +585,10 @@ impl LineProfile {
         }
     }
 
-    /// Whether the law still follows its plan before its final brake (no stop requested, not
-    /// landing on u = 1, not at rest).
-    pub(crate) fn is_planning(&self) -> bool {
-        self.mode == Mode::Forward && self.land.is_none()
+    /// Whether the law still follows its plan, up to its final landing on u = 1 (no stop
+    /// requested, not at rest).
+    pub(crate) fn is_forward(&self) -> bool {
+        self.mode == Mode::Forward
     }
 
     /// u, u̇ and ü at plan time `t` [s] (from the last knot, which [`LineProfile::at`] has
@@ -604,9 +620,10 @@ impl LineProfile {
     /// [`CHECK_S`] and at every phase boundary) and to stop by u = 1; and the strongest
     /// feedback brake of [`BRAKES`] that keeps every limit, simulated to its stop as every
     /// state of a plan is verified. Of those that pass, the one that stops first along the
-    /// line is taken, and this returns true; if none passes (or at rest) nothing changes
-    /// and it returns false: the caller stops as [`LineProfile::stop`] does, from the next
-    /// knot with the brake verified there.
+    /// line is taken, and this returns true — during the line's final landing only if it
+    /// stops short of the landing. If none is taken (or at rest) nothing changes and it
+    /// returns false: the caller stops as [`LineProfile::stop`] does, from the next knot
+    /// with the brake verified there (or goes on landing on the target).
     ///
     /// Sound because whatever is taken was checked from this very state: the closed form is
     /// followed exactly, and a feedback brake (a law of the state alone) reproduces the
@@ -642,6 +659,10 @@ impl LineProfile {
             Ok((brake, Some(stop))) => Some((brake, stop)),
             Ok((_, None)) | Err(_) => None,
         };
+        // During the final landing a brake must stop short of it to be worth taking.
+        let landing = self.land.map_or(f64::INFINITY, |(_, stop)| stop - LAND_TOL);
+        let closed = closed.filter(|brake| brake.stop_position() < landing);
+        let feedback = feedback.filter(|&(_, stop)| stop < landing);
         match (closed, feedback) {
             (Some(brake), None) => {
                 self.mode = Mode::Closed { from: t_new, brake };
@@ -806,15 +827,11 @@ fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d)
     if brake.stop_position() > 1.0 + END_TOL {
         return false;
     }
-    let v0 = brake.at(0.0).1;
     brake.phases().all(|(start, len, jerk)| {
         let steps = (len / CHECK_S).ceil().clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;
         (0..=steps).all(|i| {
             let (u, v, a) = brake.at(start + len * (i as f64 / steps as f64));
-            // The velocity may rise above the start's (admissible: it is a state of the
-            // plan) by rounding, when the plan rides the velocity bound.
-            let v = if v > v0 && v <= v0 * (1.0 + 1e-9) { v0 } else { v };
-            v >= -1e-9 && b.ok(&derivs(u), v.max(0.0), a, jerk)
+            v >= -1e-9 && b.ok(&derivs(u), v.max(0.0) * (1.0 - VELOCITY_SLACK), a, jerk)
         })
     })
 }

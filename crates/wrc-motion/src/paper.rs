@@ -113,9 +113,10 @@ impl PaperChannel {
     }
 
     /// Controlled stop before input period `self.index`: stop feeding input as early as the
-    /// jerk limit allows. As in [`crate::DoubleS::stop_at`] with T1 = T2 = m, a cut inside
-    /// the first n = 2m input periods would overlap the acceleration's jerk pulse, so it
-    /// waits until period n.
+    /// jerk limit allows. The mask is two boxes of m periods: a cut makes a deceleration jerk
+    /// pulse of 2m periods, which must not overlap the acceleration's (the jerk would
+    /// double), so a cut inside the first n = 2m input periods waits until period n. This is
+    /// the paper profile's own stop; the default profile brakes with [`crate::Brake1d`].
     pub fn stop(&mut self) {
         let now = self.index;
         if now >= self.cut {

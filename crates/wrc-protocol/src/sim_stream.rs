@@ -350,7 +350,7 @@ mod tests {
                 expected: 120
             })
         );
-        assert_eq!(with(7, 5), Err(DecodeError::State(5)));
+        assert_eq!(with(7, 6), Err(DecodeError::State(6)));
         assert_eq!(with(24, 2), Err(DecodeError::Homed(2)));
         assert_eq!(with(26, 1), Err(DecodeError::Reserved(26)));
         assert_eq!(with(39, 1), Err(DecodeError::Reserved(39)));

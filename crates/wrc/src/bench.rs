@@ -33,6 +33,10 @@ enum BenchWhat {
     /// Straight lines against the time-optimal lower bound: random reachable lines planned
     /// and run; durations, limits used, accuracy and planning time.
     Motion(crate::bench_motion::MotionArgs),
+    /// Stopping times and distances (ISO 10218-1 Annex B): every axis and a straight line, at
+    /// 33, 66 and 100 % speed, stopped at peak acceleration and in cruise, ESTOP and STOP,
+    /// from the output pulses, against the time-optimal brake.
+    Stop(crate::bench_stop::StopArgs),
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
     Ui(crate::bench_ui::UiBenchArgs),
@@ -70,6 +74,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Controller(args) => crate::bench_controller::run(args),
         BenchWhat::Ui(args) => crate::bench_ui::run(args),
         BenchWhat::Motion(args) => crate::bench_motion::run(args),
+        BenchWhat::Stop(args) => crate::bench_stop::run(args),
     }
 }
 

@@ -3,6 +3,7 @@
 mod bench;
 mod bench_controller;
 mod bench_motion;
+mod bench_stop;
 mod bench_ui;
 mod board_sim;
 mod cli;

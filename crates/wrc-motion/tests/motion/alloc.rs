@@ -1,7 +1,8 @@
-//! Counting allocator: planning and producing periods allocate nothing.
+//! Counting allocator: planning, producing periods and stopping (STOP and ESTOP, PTP and
+//! lines, in this generator or another one) allocate nothing.
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
-use wrc_motion::{BrakeLimits, Period, Profile, Status};
+use wrc_motion::{BrakeLimits, Goal, Period, Profile, Status};
 use wrc_robot::{Pose, Posture};
 
 use crate::common::generator;
@@ -72,7 +73,68 @@ fn planning_and_periods_allocate_nothing() {
                 line_allocations, 0,
                 "{profile:?} at {period} s: a started line allocated"
             );
+            // The same with ESTOP below 100 %: the law rescaled to real time and braked with
+            // the full limits, in another generator, then in this one.
             vg.restore(&stopper.state());
+            vg.set_speed_pct(40.0).unwrap();
+            vg.start_line(&Pose {
+                x: 300.0,
+                y: 100.0,
+                z: 50.0,
+                yaw: 30.0,
+            })
+            .unwrap();
+            for _ in 0..30 {
+                vg.next_period(&mut out);
+            }
+            stopper.restore(&vg.state());
+            stopper.stop(BrakeLimits::Full);
+            vg.stop(BrakeLimits::Override);
+            for _ in 0..3 {
+                vg.next_period(&mut out);
+            }
+            vg.stop(BrakeLimits::Full);
+            while vg.is_moving() {
+                vg.next_period(&mut out);
+            }
+            while stopper.is_moving() {
+                stopper.next_period(&mut out);
+            }
+            let line_allocations = heap_calls().allocations - before_line;
+            assert_eq!(
+                line_allocations, 0,
+                "{profile:?} at {period} s: an ESTOP on a line allocated"
+            );
+            // PTP moves: STOP, ESTOP, STOP then ESTOP, and the goal and exact resume.
+            for (first, then) in [
+                (BrakeLimits::Override, None),
+                (BrakeLimits::Full, None),
+                (BrakeLimits::Override, Some(BrakeLimits::Full)),
+            ] {
+                let mut t = vg.joints();
+                t[0] += 30.0;
+                t[3] += 20.0;
+                vg.plan_ptp(&t).unwrap();
+                for _ in 0..20 {
+                    vg.next_period(&mut out);
+                }
+                vg.stop(first);
+                vg.next_period(&mut out);
+                if let Some(then) = then {
+                    vg.stop(then);
+                }
+                let goal = vg.goal();
+                while vg.is_moving() {
+                    vg.next_period(&mut out);
+                }
+                if let Some(Goal::Joints(target)) = goal {
+                    vg.plan_ptp_pulses(&target).unwrap();
+                }
+                while vg.is_moving() {
+                    vg.next_period(&mut out);
+                }
+            }
+            vg.set_speed_pct(100.0).unwrap();
             let mut t = vg.joints();
             t[0] += 30.0;
             vg.plan_ptp(&t).unwrap();

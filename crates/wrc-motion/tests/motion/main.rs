@@ -8,4 +8,3 @@ mod line;
 mod ptp;
 mod ruckig;
 mod stop;
-mod scratch;

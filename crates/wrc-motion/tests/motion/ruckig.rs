@@ -146,5 +146,8 @@ fn brake_equals_ruckig() {
             b.stop_position()
         );
     }
-    eprintln!("brake vs ruckig: worst |Δt| {:.2e} s, worst |Δd|/scale {:.2e}", worst.0, worst.1);
+    eprintln!(
+        "brake vs ruckig: worst |Δt| {:.2e} s, worst |Δd|/scale {:.2e}",
+        worst.0, worst.1
+    );
 }

@@ -180,8 +180,8 @@ fn check_joint_stop(
     };
     let mut position = start;
     for p in pulse_run.periods.iter_mut() {
-        for i in 0..n {
-            position[i] += p.pulses[i];
+        for (x, d) in position.iter_mut().zip(&p.pulses).take(n) {
+            *x += d;
         }
         p.exact = robot.pulses_to_joints(&position);
     }
@@ -236,7 +236,11 @@ fn check_joint_stop(
         "{what}"
     );
     if t < plan.iter().map(|p| p.t0).fold(0.0, f64::max) {
-        assert_eq!(run.end, MoveEnd::Stopped, "{what}: stopped before decelerating");
+        assert_eq!(
+            run.end,
+            MoveEnd::Stopped,
+            "{what}: stopped before decelerating"
+        );
     }
     JointStop {
         time_s,
@@ -332,14 +336,14 @@ fn estop_ignores_the_override() {
     // 20 %, 150 ms after the start (accelerating).
     let stop = check_joint_stop(&from, &to, 20.0, 0.01, 15, STOP, Sync::Single);
     let estop = check_joint_stop(&from, &to, 20.0, 0.01, 15, ESTOP, Sync::Single);
-    assert!(
-        estop.time_s * 5.0 < stop.time_s,
-        "{estop:?} vs {stop:?}"
-    );
+    assert!(estop.time_s * 5.0 < stop.time_s, "{estop:?} vs {stop:?}");
     // Regression: the stop this replaces (velocity held to the end of the acceleration,
     // then the override's limits) took 1.8 s and 7.2° here.
     assert!(stop.time_s < 0.5 && stop.distance[0] < 0.4, "{stop:?}");
-    assert!(estop.time_s <= 0.03 + 1e-9 && estop.distance[0] < 0.01, "{estop:?}");
+    assert!(
+        estop.time_s <= 0.03 + 1e-9 && estop.distance[0] < 0.01,
+        "{estop:?}"
+    );
 }
 
 /// The figures of the report that asked for this brake, from a long J1 MOVJ at 100 %. Its
@@ -357,7 +361,10 @@ fn the_reported_stops_are_time_optimal() {
     // Accelerating, at a 1 ms period: ≈ 110 ms and ≈ 0.7°.
     let r = check_joint_stop(&from, &to, 100.0, 0.001, 37, ESTOP, Sync::Single);
     assert!((r.ref_time_s - 0.111).abs() < 0.001, "{r:?}");
-    assert!(r.time_s <= 0.110 * 1.02 + 0.001 && r.time_s >= 0.105, "{r:?}");
+    assert!(
+        r.time_s <= 0.110 * 1.02 + 0.001 && r.time_s >= 0.105,
+        "{r:?}"
+    );
     assert!((r.distance[0] - 0.7).abs() < 0.05, "{r:?}");
     // 100 ms after the start at the default 10 ms period.
     let r = check_joint_stop(&from, &to, 100.0, 0.01, 10, ESTOP, Sync::Single);
@@ -372,9 +379,26 @@ fn the_reported_stops_are_time_optimal() {
     }
 }
 
+/// What a line's stop did, from its periods, and the TCP's 1-D reference.
+#[derive(Debug)]
+struct LineStop {
+    /// From the request to the last period of the move [s].
+    time_s: f64,
+    /// The TCP's travel after the request [mm].
+    distance_mm: f64,
+    /// Ruckig's time-optimal brake of the TCP along the line with the Cartesian limits only,
+    /// from the same state: a lower bound on the time (every joint's limits come on top) [s].
+    ref_time_s: f64,
+    /// Its distance [mm].
+    ref_distance_mm: f64,
+    /// TCP speed at the request [mm/s].
+    speed_mm_s: f64,
+    /// How the move ended.
+    end: MoveEnd,
+}
+
 /// A straight line stopped at `frac` of its duration with `limits`: limits (joints and TCP)
-/// from the exact positions, on the line from the pulses, how it ended. Returns the time
-/// from the request to rest [s] and the TCP's travel [mm].
+/// from the exact positions, on the line from the pulses, how it ended, and the figures.
 fn check_line_stop(
     a: &Pose,
     b: &Pose,
@@ -382,7 +406,7 @@ fn check_line_stop(
     ts: f64,
     frac: f64,
     limits: BrakeLimits,
-) -> (f64, f64) {
+) -> LineStop {
     let mut vg = generator(Profile::Fir, ts, pct);
     let robot = vg.robot().clone();
     let start = robot.inverse(a, Posture::Right, None).unwrap();
@@ -390,7 +414,27 @@ fn check_line_stop(
         .unwrap();
     let a = vg.pose();
     let info = vg.plan_line(b).unwrap();
-    let k = (info.periods as f64 * frac) as usize;
+    let k = ((info.periods as f64 * frac) as usize).max(1);
+    // Distance of the TCP from the start [mm].
+    let along = |q: &Joints| {
+        let p = robot.forward(q);
+        ((p.x - a.x).powi(2) + (p.y - a.y).powi(2) + (p.z - a.z).powi(2)).sqrt()
+    };
+    // The TCP's state at the request, from the unstopped motion: central differences of the
+    // exact positions (errors of J·Ts²/6 in the speed, none in the acceleration while the
+    // jerk is constant).
+    let unstopped = {
+        let mut probe = vg.clone();
+        let mut p = Period::default();
+        let mut x = vec![along(&probe.joints())];
+        for _ in 0..=k {
+            probe.next_period(&mut p);
+            x.push(along(&p.exact));
+        }
+        x
+    };
+    let (xm, x0, xp) = (unstopped[k - 1], unstopped[k], unstopped[k + 1]);
+    let (speed, accel) = ((xp - xm) / (2.0 * ts), (xp - 2.0 * x0 + xm) / (ts * ts));
     let run = run_stopped(&mut vg, k, limits);
     let what = format!("line at {pct} %, {limits:?} at {frac} of it");
     let s = match limits {
@@ -403,15 +447,25 @@ fn check_line_stop(
     let line = vg.settings().line;
     let path: Vec<f64> = std::iter::once(run.start)
         .chain(run.periods.iter().map(|p| p.exact))
-        .map(|q| {
-            let p = robot.forward(&q);
-            ((p.x - a.x).powi(2) + (p.y - a.y).powi(2) + (p.z - a.z).powi(2)).sqrt()
-        })
+        .map(|q| along(&q))
         .collect();
+    assert!(
+        (path[k] - x0).abs() < 1e-9,
+        "{what}: the probe is not the run"
+    );
     let (v, acc, j) = derivative_peaks(&path, ts);
-    assert!(v <= line.max_speed_mm_s * s * (1.0 + 1e-6), "{what}: {v} mm/s");
-    assert!(acc <= line.max_accel_mm_s2 * s * s * (1.0 + 1e-6), "{what}: {acc} mm/s²");
-    assert!(j <= line.max_jerk_mm_s3 * s * s * s * (1.0 + 1e-6), "{what}: {j} mm/s³");
+    assert!(
+        v <= line.max_speed_mm_s * s * (1.0 + 1e-6),
+        "{what}: {v} mm/s"
+    );
+    assert!(
+        acc <= line.max_accel_mm_s2 * s * s * (1.0 + 1e-6),
+        "{what}: {acc} mm/s²"
+    );
+    assert!(
+        j <= line.max_jerk_mm_s3 * s * s * s * (1.0 + 1e-6),
+        "{what}: {j} mm/s³"
+    );
     // (c) On the line, from the pulses (forward kinematics): within 0.01 mm.
     let mut position = robot.joints_to_pulses(&start);
     for p in &run.periods {
@@ -422,17 +476,32 @@ fn check_line_stop(
         let off = distance_to_segment(&tcp, &a, b);
         assert!(off <= 0.01, "{what}: {off} mm off the line");
     }
-    if frac < 0.5 {
-        assert_eq!(run.end, MoveEnd::Stopped, "{what}");
+    let (ref_time_s, ref_distance_mm) = ruckig_brake(
+        speed,
+        accel,
+        line.max_accel_mm_s2 * s * s,
+        line.max_jerk_mm_s3 * s * s * s,
+    );
+    LineStop {
+        time_s: (run.periods.len() - k) as f64 * ts,
+        distance_mm: path.last().unwrap() - x0,
+        ref_time_s,
+        ref_distance_mm,
+        speed_mm_s: speed,
+        end: run.end,
     }
-    let at = k.checked_sub(1).map_or(0.0, |i| path[i + 1]);
-    let time = (run.periods.len() - k) as f64 * ts;
-    (time, path.last().unwrap() - at)
 }
 
 /// Lines stopped while accelerating, cruising and decelerating, at 20, 50 and 100 %, STOP and
 /// ESTOP: within the limits braked with (joints and TCP), on the line; ESTOP below 100 %
 /// brakes in real time with the full limits, much sooner than STOP.
+///
+/// Against the TCP's own time-optimal brake with the Cartesian limits (a lower bound: the
+/// joints' limits come on top): in cruise the line's brake is the closed-form 1-D brake and
+/// within 2 % (+ 1 period, and the 0.5 % planning margin); accelerating or decelerating, the
+/// elbow's jerk (its term 3q″u̇ü) binds where the Cartesian bound knows nothing of it, and
+/// the brake measured 1.07-1.25 times the bound's time and up to 1.4 times its distance:
+/// the test allows 1.3 and 1.45.
 #[test]
 fn line_stops_keep_the_limits_and_the_line() {
     let a = Pose {
@@ -441,22 +510,51 @@ fn line_stops_keep_the_limits_and_the_line() {
         z: 0.0,
         yaw: 0.0,
     };
-    let b = Pose {
-        x: 250.0,
-        y: 250.0,
-        z: 100.0,
-        yaw: 40.0,
-    };
-    for pct in [20.0, 50.0, 100.0] {
-        for frac in [0.05, 0.15, 0.5, 0.9] {
-            let (t_stop, d_stop) = check_line_stop(&a, &b, pct, 0.01, frac, STOP);
-            let (t_estop, d_estop) = check_line_stop(&a, &b, pct, 0.01, frac, ESTOP);
-            assert!(
-                t_estop <= t_stop + 1e-9 && d_estop <= d_stop + 1e-6,
-                "{pct} % at {frac}: ESTOP {t_estop} s {d_estop} mm, STOP {t_stop} s {d_stop} mm"
-            );
-            if pct <= 50.0 && frac <= 0.5 {
-                assert!(t_estop * 2.0 < t_stop, "{pct} % at {frac}: {t_estop} vs {t_stop}");
+    for b in [
+        Pose {
+            x: 250.0,
+            y: 250.0,
+            z: 100.0,
+            yaw: 40.0,
+        },
+        Pose {
+            x: 250.0,
+            y: 250.0,
+            z: 0.0,
+            yaw: 0.0,
+        },
+    ] {
+        for pct in [20.0, 50.0, 100.0] {
+            for frac in [0.05, 0.15, 0.5, 0.9] {
+                let ts = 0.001;
+                let stop = check_line_stop(&a, &b, pct, ts, frac, STOP);
+                let estop = check_line_stop(&a, &b, pct, ts, frac, ESTOP);
+                let print = std::env::var_os("WRC_PRINT").is_some();
+                for (limits, r) in [(STOP, &stop), (ESTOP, &estop)] {
+                    let what = format!("{pct} % at {frac}, {limits:?}: {r:?}");
+                    if print {
+                        eprintln!("{what}");
+                    }
+                    let cruise = frac == 0.5;
+                    let (kt, kd) = if cruise { (1.02, 1.02) } else { (1.3, 1.45) };
+                    assert!(r.time_s >= r.ref_time_s - 1e-3, "{what}");
+                    assert!(r.time_s <= kt * r.ref_time_s + ts + 1e-9, "{what}");
+                    assert!(
+                        r.distance_mm <= kd * r.ref_distance_mm + r.speed_mm_s * ts,
+                        "{what}"
+                    );
+                    if frac < 0.5 {
+                        assert_eq!(r.end, MoveEnd::Stopped, "{what}");
+                    }
+                }
+                assert!(
+                    estop.time_s <= stop.time_s + 1e-9
+                        && estop.distance_mm <= stop.distance_mm + 1e-6,
+                    "{pct} % at {frac}: ESTOP {estop:?}, STOP {stop:?}"
+                );
+                if pct <= 50.0 {
+                    assert!(estop.time_s * 2.0 < stop.time_s, "{pct} % at {frac}");
+                }
             }
         }
     }
@@ -496,7 +594,10 @@ proptest! {
         for ax in 0..4 {
             prop_assert_eq!(vg.position_pulses()[ax], start[ax] + sums[ax]);
         }
-        if stop_at < full_run.saturating_sub(60) {
+        // Before the planned deceleration (at most 0.6 s at 100 %, 0.6/p s at p) a stop ends
+        // short of the target, and sooner.
+        let decel_periods = (60.0 * 100.0 / pct).ceil() as usize;
+        if stop_at < full_run.saturating_sub(decel_periods) {
             prop_assert_eq!(run.end, MoveEnd::Stopped);
             prop_assert!(run.periods.len() < full_run);
         }
@@ -572,7 +673,10 @@ fn a_second_stop_only_strengthens_the_brake() {
     let (stop, _) = once(STOP);
     let (escalated, _) = twice(STOP, ESTOP);
     let (estop, _) = once(ESTOP);
-    assert!(escalated < stop && escalated > estop, "{escalated} {stop} {estop}");
+    assert!(
+        escalated < stop && escalated > estop,
+        "{escalated} {stop} {estop}"
+    );
 }
 
 #[test]
@@ -676,7 +780,8 @@ proptest! {
     // The controller's Pulse Generator stops a line from the state of the period it has
     // reached, in a generator of its own (which computes the line's derivatives itself):
     // the stop keeps every limit, stays on the line, ends short of the target, and lands
-    // within a pulse of where the planning generator's own stop lands.
+    // within a pulse of where the planning generator's own stop lands (both choose the
+    // brake with the exact derivatives; a feedback brake then follows the planner's table).
     #[test]
     fn a_line_stopped_by_another_generator_keeps_its_limits(
         stop_at in 1usize..120, pct in 10.0f64..100.0, fast in any::<bool>(), full in any::<bool>(),

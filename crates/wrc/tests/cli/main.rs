@@ -1,5 +1,6 @@
 //! The `wrc` binary driven as a user would, one module per subcommand.
 
+mod bench_stop;
 mod compile;
 mod hold;
 mod lines;

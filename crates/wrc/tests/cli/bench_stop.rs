@@ -1,0 +1,58 @@
+//! `wrc bench stop`: the stopping table (ISO 10218-1 Annex B form) and its JSON.
+
+use crate::{text, wrc};
+
+#[test]
+fn the_stopping_table_is_measured_and_written_as_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("stop.json");
+    let out = wrc(&[
+        "bench",
+        "stop",
+        "--speed",
+        "100",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    for heading in [
+        "j1 [deg]",
+        "z [mm]",
+        "straight line",
+        "ESTOP",
+        "STOP",
+        "cruise",
+    ] {
+        assert!(stdout.contains(heading), "no {heading:?} in\n{stdout}");
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    // Four axes and the line, two moments, two stops.
+    assert_eq!(rows.len(), 5 * 2 * 2);
+    for r in rows {
+        let (t, d) = (
+            r["time_ratio"].as_f64().unwrap(),
+            r["distance_ratio"].as_f64().unwrap(),
+        );
+        if r["subject"] == "line" {
+            // Joint limits come on top of the Cartesian reference's.
+            assert!(t < 1.3 && d < 1.35, "{r}");
+        } else {
+            // An axis alone takes the 1-D optimum: the distance exactly (to a pulse), the
+            // time rounded to whole periods (the last pulses of the tail may round to 0).
+            assert!((d - 1.0).abs() < 1e-3, "{r}");
+            let ref_ms = r["ref_time_ms"].as_f64().unwrap();
+            assert!(t > 0.9 && t * ref_ms <= ref_ms + 10.0 + 1e-6, "{r}");
+        }
+    }
+}
+
+#[test]
+fn a_bad_speed_is_named() {
+    let out = wrc(&["bench", "stop", "--speed", "0"]);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert!(stderr.contains("--speed"), "{stderr}");
+}

@@ -27,7 +27,6 @@ use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusa
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::shared::{RobotState, Shared};
 
-
 /// The job steps of a transfer ([`wrc_cell::plan`]'s), with its move to the approach pose
 /// made a joint move to the solution from which the straight line into the station keeps
 /// every limit, reached soonest from `from` ([`Station::approach_joints`]): the transfer's

@@ -25,9 +25,9 @@ use crate::error_check::{ErrorCheck, Limits};
 use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
 use crate::messages::{Outputs, SourceId, StoreLinks};
-use crate::service::Service;
 use crate::pulse_generator::PulseGenerator;
 use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
+use crate::service::Service;
 use crate::shared::{Shared, StopKind};
 use crate::simulator_manager::SimulatorManager;
 use crate::velocity_generator::VelocityGenerator;
@@ -522,7 +522,16 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let store_quit = quit.clone();
     let store_thread = std::thread::Builder::new()
         .name("wrc-service".into())
-        .spawn(move || store.run(store_quit, service_wake))
+        .spawn(move || {
+            if realtime != RealtimeMode::Off {
+                // The lowest SCHED_FIFO priority, below every task of Table 1: its answers
+                // (GET/PUT refusals, STN, WAFERS) do not queue behind ordinary processes,
+                // such as hundreds of clients polling on the same CPUs. Its long work
+                // (compiling) still yields to every real-time task.
+                let _ = wrc_rt::sched_policy::set_current_thread_fifo(1);
+            }
+            store.run(store_quit, service_wake)
+        })
         .ok();
     Ok(Running {
         runtime: Some(running),

@@ -26,9 +26,9 @@ enum BenchWhat {
     /// Run the real-time task set (paper Table 1) and print periods, execution times and IPC
     /// latencies (paper Tables 3-5), with cyclictest as the reference.
     Rt(RtArgs),
-    /// Run the controller with a simulated board and measure command-to-first-pulse and
-    /// ESTOP-to-deceleration latencies, and the Pulse Generator's jitter while many TCP
-    /// clients poll STATUS.
+    /// Run the controller with a simulated board and measure, idle and while 200 TCP clients
+    /// poll STATUS: request → reply, motion request → first pulse, ESTOP → first braking
+    /// period (read and sent) and → the simulator stream, and the Pulse Generator's jitter.
     Controller(crate::bench_controller::ControllerArgs),
     /// Straight lines against the time-optimal lower bound: random reachable lines planned
     /// and run; durations, limits used, accuracy and planning time.

@@ -30,7 +30,7 @@ pub struct ControllerArgs {
     #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     runs: u32,
     /// Motion + ESTOP runs in each condition (a long MOVJ, an ESTOP in its cruise, a RESET:
-    /// about 1.2 s each).
+    /// about 1 s each; 100 runs keep the whole bench near 4 minutes).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=1000))]
     stop_runs: u32,
     /// Length of each jitter window [s].
@@ -1095,5 +1095,74 @@ impl Table {
             );
         }
         serde_json::Value::Object(map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stream of J1 increments [pulse per period], one datagram every 10 ms from t = 0.
+    fn stream(increments: &[i64]) -> Vec<StreamSample> {
+        let mut position = 0;
+        let mut out = vec![];
+        for (k, inc) in std::iter::once(&0).chain(increments).enumerate() {
+            position += inc;
+            let mut pulses = [0; MAX_AXES];
+            pulses[0] = position;
+            pulses[1] = position / 3;
+            let t = k as u64 * 10_000_000;
+            out.push(StreamSample {
+                arrival_ns: t + 50_000,
+                sample_ns: t,
+                sequence: k as u64,
+                pulses,
+            });
+        }
+        out
+    }
+
+    #[test]
+    fn the_brake_is_the_first_decrease_that_continues() {
+        // Cruise, a one-pulse rounding dip, cruise, then a jerk-limited brake.
+        let s = stream(&[
+            1800, 1800, 1800, 1800, 1800, 1799, 1800, 1800, 1799, 1794, 1782,
+        ]);
+        // Sent at 35 ms: the datagram of 60 ms (the dip) is not braking.
+        let b = stream_brake(&s, 35_000_000).expect("a brake");
+        assert_eq!(b.sample.sample_ns, 90_000_000);
+        assert!(b.in_cruise);
+    }
+
+    #[test]
+    fn a_brake_that_does_not_continue_is_not_found() {
+        let s = stream(&[-1800, -1800, -1800, -1800, -1800, -1799, -1800, -1800]);
+        assert!(stream_brake(&s, 35_000_000).is_none());
+    }
+
+    #[test]
+    fn a_lost_datagram_counts_per_period() {
+        let mut s = stream(&[1800, 1800, 1800, 1800, 1800, 1800, 1799, 1794, 1782]);
+        // The datagram of 60 ms is lost: the next one's 3,599 pulses count over two periods.
+        s.remove(6);
+        let b = stream_brake(&s, 35_000_000).expect("a brake");
+        assert_eq!(b.sample.sample_ns, 70_000_000);
+    }
+
+    #[test]
+    fn accelerating_before_the_send_is_not_cruise() {
+        let s = stream(&[600, 900, 1200, 1500, 1800, 1799, 1794, 1782]);
+        let b = stream_brake(&s, 45_000_000).expect("a brake");
+        assert!(!b.in_cruise);
+        assert_eq!(b.sample.sample_ns, 60_000_000);
+    }
+
+    #[test]
+    fn percentiles_are_nearest_rank() {
+        let v: Vec<f64> = (1..=200).map(f64::from).collect();
+        let s = Summary::of(&v);
+        assert_eq!((s.n, s.p50, s.p99, s.max), (200, 100.0, 198.0, 200.0));
+        let s = Summary::of(&v[..50]);
+        assert_eq!((s.p50, s.p99, s.max), (25.0, 50.0, 50.0));
     }
 }

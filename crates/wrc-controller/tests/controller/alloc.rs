@@ -11,8 +11,8 @@ use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
 use wrc_cell::TransferKind;
 use wrc_config::Config;
 use wrc_controller::cell_service::transfer_steps;
-use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer};
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
+use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer};
 use wrc_controller::messages::{
     MoveDone, MoveOrder, MoveOutcome, OutLine, Outputs, ProgramStart, SourceId, StoreLinks,
 };

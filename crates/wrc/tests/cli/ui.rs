@@ -221,6 +221,10 @@ fn killing_the_gui_leaves_the_controller_serving() {
         assert!(Instant::now() < deadline, "the robot did not stop");
         std::thread::sleep(Duration::from_millis(100));
     }
+    // The fault is answered at once; WAIT answers when the arm has braked to a standstill.
+    assert_eq!(host.ask("9 WAIT"), "ACK 9");
+    let r = host.reply();
+    assert!(r.starts_with("ABS 9 208"), "{r}");
     assert_eq!(host.ask("10 RESET"), "ACK 10");
     assert_eq!(host.motion(11, "MOVJ 0 90 -90 10"), "INF 11");
 

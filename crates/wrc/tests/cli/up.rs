@@ -317,7 +317,11 @@ fn a_board_alarm_aborts_the_move_and_reset_recovers() {
     );
     let r = host.reply();
     assert!(r.starts_with("ABS 2 205"), "{r}");
-    std::thread::sleep(Duration::from_millis(300));
+    // The ABS comes at once; the arm is still braking. WAIT answers when it stands still
+    // (with the fault's code), after which RESET is accepted.
+    assert_eq!(host.ask("4 WAIT"), "ACK 4");
+    let r = host.reply();
+    assert!(r.starts_with("ABS 4 205"), "{r}");
     assert!(
         host.status().starts_with("ACK state=ERROR"),
         "{:?}",

@@ -17,7 +17,7 @@ use std::time::Duration;
 use wrc_config::Config;
 use wrc_controller::clients::{ClientSet, Routes, READ_BUDGET};
 use wrc_controller::ethernet::Ethernet;
-use wrc_controller::messages::{Incoming, OutLine, SourceId};
+use wrc_controller::messages::{Incoming, OutLine, SourceId, Urgent};
 use wrc_controller::shared::Shared;
 use wrc_protocol::Command;
 use wrc_rt::ipc::{MessageQueue, Semaphore};
@@ -37,6 +37,8 @@ struct Rig {
     wake: FdWake,
     replies: Arc<MessageQueue<OutLine>>,
     incoming: Arc<MessageQueue<Incoming>>,
+    urgent: Arc<MessageQueue<Urgent>>,
+    urgent_wake: Arc<Semaphore>,
     tcp_addr: std::net::SocketAddr,
     gui_path: PathBuf,
     tcp: BufReader<TcpStream>,
@@ -56,10 +58,12 @@ impl Rig {
         let config = Config::embedded_default();
         let shared = Arc::new(Shared::default());
         let incoming = Arc::new(MessageQueue::new(64));
+        let urgent = Arc::new(MessageQueue::new(8));
+        let urgent_wake = Arc::new(Semaphore::new(0));
         let routes = Routes {
             incoming: incoming.clone(),
-            urgent: Arc::new(MessageQueue::new(8)),
-            wake: Arc::new(Semaphore::new(0)),
+            urgent: urgent.clone(),
+            wake: urgent_wake.clone(),
             store: Arc::new(MessageQueue::new(8)),
         };
         let set = |kind| {
@@ -105,6 +109,8 @@ impl Rig {
             wake,
             replies,
             incoming,
+            urgent,
+            urgent_wake,
             tcp_addr,
             gui_path,
             tcp: BufReader::new(tcp),
@@ -310,4 +316,32 @@ fn event_cycles_allocate_nothing() {
         assert_eq!(read(&mut rig.tcp), "ACK 1");
         assert_eq!(read(&mut rig.gui), "ACK 1");
     }
+}
+
+#[test]
+fn estop_and_stop_overtake_a_full_request_queue_from_a_host_and_a_gui() {
+    let mut rig = Rig::new();
+    let (tcp, gui) = rig.sources();
+    // The Command Interpreter is busy: its request queue is full.
+    while rig
+        .incoming
+        .try_send(Incoming::Disconnected(SourceId::NONE))
+        .is_ok()
+    {}
+    rig.tcp.get_mut().write_all(b"7 ESTOP\n").unwrap();
+    rig.event_cycle();
+    rig.gui.get_mut().write_all(b"STOP\n").unwrap();
+    rig.event_cycle();
+    // Both went to the urgent path, each with one post of its semaphore, in the event cycle
+    // their line released; neither was refused as busy.
+    let mut got = Vec::new();
+    while let Ok(u) = rig.urgent.try_recv() {
+        got.push(u);
+    }
+    assert!(
+        matches!(got[..], [Urgent::Estop(a, _), Urgent::Stop(b, _)] if a == tcp && b == gui),
+        "{got:?}"
+    );
+    assert_eq!(rig.urgent_wake.count(), 2);
+    assert!(rig.replies.is_empty());
 }

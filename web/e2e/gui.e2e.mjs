@@ -515,9 +515,15 @@ async function run() {
       const robotAxes = await page.locator('[data-testid^="dest-j"]').count();
       const target = [-120, 120, -150, 200, 0, 0, 0, 0].slice(0, robotAxes);
       await setDestination(page, 'joint', Object.fromEntries(target.map((v, i) => [`j${i + 1}`, v])));
+      const startJ1 = await num(page, 'current-axis-1');
       await page.click(tid('go'));
       await page.waitForSelector(`${tid('state')}[data-state="MOVING"]`, { timeout: STEP_MS });
-      await sleep(300);
+      // Hold once the arm is seen moving (axis 1 two degrees on its way), not after a guess.
+      await page.waitForFunction(
+        (start) => Math.abs(Number(document.querySelector('[data-testid="current-axis-1"]')?.textContent ?? NaN) - start) > 2,
+        startJ1,
+        { timeout: STEP_MS },
+      );
       await page.click(tid('hold'));
       // HELD, or the controller's refusal of HOLD, whichever comes first.
       const held = await page.waitForFunction(
@@ -555,14 +561,17 @@ async function run() {
       const end = await logText();
       if (count(end, /ABS MOVJ/g) !== absBefore) throw new Error(`the resumed MOVJ was aborted: ${end.slice(-300)}`);
       await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
-      // The last datagrams may trail the state by a period or two.
-      const deadline = Date.now() + STEP_MS;
-      for (;;) {
+      // The last datagrams may trail the state by a period or two: wait for every axis.
+      const atTarget = (want) =>
+        want.every(
+          (t, i) => Math.abs(Number(document.querySelector(`[data-testid="current-axis-${i + 1}"]`)?.textContent ?? NaN) - t) <= 0.01,
+        );
+      try {
+        await page.waitForFunction(atTarget, target, { timeout: STEP_MS });
+      } catch {
         const at = [];
         for (let i = 0; i < robotAxes; i++) at.push(await num(page, `current-axis-${i + 1}`));
-        if (at.every((v, i) => Math.abs(v - target[i]) <= 0.01)) break;
-        if (Date.now() > deadline) throw new Error(`the axes ended at ${at.join(' ')}, not ${target.join(' ')}`);
-        await sleep(100);
+        throw new Error(`the axes ended at ${at.join(' ')}, not ${target.join(' ')}`);
       }
       if (!(await page.locator(tid('resume')).isDisabled())) throw new Error('RESUME stays enabled after the motion ended');
     });

@@ -40,26 +40,37 @@ pub struct MotionArgs {
     json: Option<PathBuf>,
 }
 
-/// Run `wrc bench motion`.
-pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
-    let config = wrc_config::Config::load(args.config.as_deref())?;
-    let robot = config.robot.clone();
+/// The robot and the motion settings a motion benchmark runs with: the configuration (or the
+/// embedded default), the default profile, `--period-ms` if given; every setting and every
+/// `--speed` checked, an error naming the option that set a bad value.
+pub(crate) fn fir_settings(
+    config: Option<&std::path::Path>,
+    period_ms: Option<f64>,
+    speeds: &[f64],
+) -> anyhow::Result<(wrc_robot::Robot, wrc_motion::MotionSettings)> {
+    let config = wrc_config::Config::load(config)?;
     let mut settings = config.motion;
     settings.profile = Profile::Fir;
-    if let Some(ms) = args.period_ms {
+    if let Some(ms) = period_ms {
         settings.period_s = ms / 1000.0;
     }
     settings.validate().map_err(|e| {
         // Name the option that set it, when an option did.
         let key = match e.key.as_str() {
-            "motion.period_ms" if args.period_ms.is_some() => "--period-ms",
+            "motion.period_ms" if period_ms.is_some() => "--period-ms",
             other => other,
         };
         anyhow::anyhow!("{key}: {}", e.reason)
     })?;
-    for &pct in &args.speed {
+    for &pct in speeds {
         wrc_motion::check_speed_pct(pct).map_err(|e| anyhow::anyhow!("--speed: {}", e.reason))?;
     }
+    Ok((config.robot, settings))
+}
+
+/// Run `wrc bench motion`.
+pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
+    let (robot, settings) = fir_settings(args.config.as_deref(), args.period_ms, &args.speed)?;
     println!(
         "wrc bench motion: {} random reachable lines and {} long ones of {} (seed {}), period {} ms, speeds {:?} %",
         args.lines,

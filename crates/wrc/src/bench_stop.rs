@@ -13,7 +13,7 @@ use clap::Args;
 use serde_json::json;
 use wrc_motion::bench::stop::{default_line, table, StopRow, Subject};
 use wrc_motion::bench::LineCase;
-use wrc_motion::{BrakeLimits, Profile};
+use wrc_motion::BrakeLimits;
 use wrc_robot::{Pose, Posture, Robot};
 
 /// Arguments of `wrc bench stop`.
@@ -54,23 +54,8 @@ pub struct StopArgs {
 
 /// Run `wrc bench stop`.
 pub fn run(args: StopArgs) -> anyhow::Result<ExitCode> {
-    let config = wrc_config::Config::load(args.config.as_deref())?;
-    let robot = config.robot.clone();
-    let mut settings = config.motion;
-    settings.profile = Profile::Fir;
-    if let Some(ms) = args.period_ms {
-        settings.period_s = ms / 1000.0;
-    }
-    settings.validate().map_err(|e| {
-        let key = match e.key.as_str() {
-            "motion.period_ms" if args.period_ms.is_some() => "--period-ms",
-            other => other,
-        };
-        anyhow::anyhow!("{key}: {}", e.reason)
-    })?;
-    for &pct in &args.speed {
-        wrc_motion::check_speed_pct(pct).map_err(|e| anyhow::anyhow!("--speed: {}", e.reason))?;
-    }
+    let (robot, settings) =
+        crate::bench_motion::fir_settings(args.config.as_deref(), args.period_ms, &args.speed)?;
     let line = match (&args.line_from, &args.line_to) {
         (Some(a), Some(b)) => LineCase {
             start: pose(a),

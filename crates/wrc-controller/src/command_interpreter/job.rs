@@ -190,7 +190,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.nak(job.from, job.to, code, text);
             }
             let sensed = self.vacuum_sensed();
-            let _ = self.links.cell_events.try_send(CellEvent::Ended {
+            let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
                 kind: job.kind,
                 started: false,
                 code: Some(code),
@@ -200,7 +200,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         if job.from != SourceId::PROGRAM {
             let line = self.buf.ack(job.to, "");
-            deliver(&self.out, job.from, line);
+            deliver(&self.io.out, job.from, line);
         }
         self.job = Some(RunningJob {
             job,
@@ -347,7 +347,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         if self.hand_dropped >= LOST_CYCLES {
             self.hand_dropped = 0;
-            let _ = self.links.cell_events.try_send(CellEvent::WaferLost);
+            let _ = self.io.store.cell_events.try_send(CellEvent::WaferLost);
             self.shared.request_stop(StopKind::Estop);
             self.handle_urgent(Urgent::Fault(Code::WaferLost.number()));
         }
@@ -417,7 +417,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.job_wait(JobWait::Vacuum { expect, deadline });
                 }
                 Step::CommitMap => {
-                    let _ = self.links.cell_events.try_send(CellEvent::Commit);
+                    let _ = self.io.store.cell_events.try_send(CellEvent::Commit);
                     self.job_advance();
                 }
             },
@@ -483,7 +483,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         let mut codes = [0u8; MAX_MAP_SLOTS];
         codes[..count].copy_from_slice(&self.scan.codes[..count]);
-        let _ = self.links.cell_events.try_send(CellEvent::Mapped {
+        let _ = self.io.store.cell_events.try_send(CellEvent::Mapped {
             station_index: j.job.station_index,
             count: count as u16,
             codes,
@@ -527,7 +527,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
         }
         let sensed = self.vacuum_sensed();
-        let _ = self.links.cell_events.try_send(CellEvent::Ended {
+        let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
             kind: j.job.kind,
             started: true,
             code: failure.map(|f| f.0),
@@ -576,6 +576,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Some((code, text)) => self.buf.abs(j.job.to, code, text),
         };
-        deliver(&self.out, j.job.from, line);
+        deliver(&self.io.out, j.job.from, line);
     }
 }

@@ -85,13 +85,8 @@ pub struct CommandInterpreter<B: MotionBoard> {
     robot: Robot,
     board: B,
     shared: Arc<Shared>,
-    incoming: Arc<MessageQueue<Incoming>>,
-    urgent: Arc<MessageQueue<Urgent>>,
-    forwarded: Arc<MessageQueue<Urgent>>,
-    orders: Arc<MessageQueue<MoveOrder>>,
-    done: Arc<MessageQueue<MoveDone>>,
-    out: Outputs,
-    owner_lost: Arc<AtomicBool>,
+    /// The queues it talks through.
+    io: CommandLinks,
     /// Whether a HOLD is braking, or holds the motions of the open tickets.
     hold: motion::Hold,
     tickets: [Option<Ticket>; MAX_TICKETS],
@@ -105,7 +100,6 @@ pub struct CommandInterpreter<B: MotionBoard> {
     reset_pending: Option<(SourceId, ReplyTo, u64)>,
     /// Input bit of the E-stop circuit (board 0), if the cell has one.
     pub estop_input: Option<u8>,
-    links: StoreLinks,
     vm: Vm,
     program: Option<RunningProgram>,
     /// A finished program the store's queue had no room for yet (freed there, not here).
@@ -127,28 +121,12 @@ pub struct CommandInterpreter<B: MotionBoard> {
 impl<B: MotionBoard> CommandInterpreter<B> {
     /// A Command Interpreter for `robot` on `board`, talking through `links`.
     pub fn new(robot: Robot, board: B, shared: Arc<Shared>, links: CommandLinks) -> Self {
-        let CommandLinks {
-            incoming,
-            urgent,
-            forwarded,
-            orders,
-            done,
-            out,
-            owner_lost,
-            store: links,
-        } = links;
         let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
         CommandInterpreter {
             robot,
             board,
             shared,
-            incoming,
-            urgent,
-            forwarded,
-            orders,
-            done,
-            out,
-            owner_lost,
+            io: links,
             hold: motion::Hold::None,
             tickets: [None; MAX_TICKETS],
             waiters: [None; MAX_WAITERS],
@@ -158,7 +136,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             feedback: wrc_board::Feedback::default(),
             reset_pending: None,
             estop_input: None,
-            links,
             vm: Vm::new(VmLimits::default()),
             program: None,
             retire: None,
@@ -182,7 +159,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     pub(super) fn event(&mut self, event: &Event<'_>) {
         let line = self.buf.event(false, event);
-        self.out.send(SourceId::BROADCAST, line);
+        self.io.out.send(SourceId::BROADCAST, line);
     }
 
     pub(super) fn set_state(&mut self, state: RobotState) {
@@ -197,7 +174,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.refusal.record(code, text);
         } else {
             let line = self.buf.nak(to, code, text);
-            self.out.send(from, line);
+            self.io.out.send(from, line);
         }
     }
 
@@ -214,34 +191,34 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.periodic = periodic;
         // An emergency taken here before the urgent thread got to it: request its stop now
         // (exactly one stop per message, whoever takes it).
-        while let Ok(u) = self.urgent.try_recv() {
+        while let Ok(u) = self.io.urgent.try_recv() {
             self.shared.request_stop(u.stop_kind());
             self.handle_urgent(u);
         }
-        while let Ok(u) = self.forwarded.try_recv() {
+        while let Ok(u) = self.io.forwarded.try_recv() {
             self.handle_urgent(u);
         }
-        while let Ok(d) = self.done.try_recv() {
+        while let Ok(d) = self.io.done.try_recv() {
             self.handle_done(d);
         }
-        while let Ok(incoming) = self.incoming.try_recv() {
+        while let Ok(incoming) = self.io.incoming.try_recv() {
             match incoming {
                 Incoming::Request(from, request) => self.handle_request(from, request),
                 Incoming::Disconnected(source) => self.disconnected(source),
             }
         }
         self.finish_reset();
-        while let Ok(start) = self.links.starts.try_recv() {
+        while let Ok(start) = self.io.store.starts.try_recv() {
             self.start_program(start);
         }
-        while let Ok(offer) = self.links.jobs.try_recv() {
+        while let Ok(offer) = self.io.store.jobs.try_recv() {
             self.offer_job(offer);
         }
         self.run_program();
         self.run_job();
         self.watch_hand();
         if let Some(program) = self.retire.take() {
-            if let Err(e) = self.links.retired.try_send(program) {
+            if let Err(e) = self.io.store.retired.try_send(program) {
                 self.retire = Some(e.into_inner());
             }
         }
@@ -261,7 +238,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
         let at_rest = !self.outstanding()
             && self.job.is_none()
-            && self.orders.is_empty()
+            && self.io.orders.is_empty()
             && self.shared.in_flight.load(Ordering::Acquire) == 0
             && self.shared.stopped_epoch.load(Ordering::Acquire)
                 == self.shared.stop_epoch.load(Ordering::Acquire);
@@ -285,7 +262,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         }
                         _ => self.buf.inf(to, ""),
                     };
-                    deliver(&self.out, from, line);
+                    deliver(&self.io.out, from, line);
                 }
             }
         }

@@ -67,13 +67,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     continue;
                 }
                 let line = self.buf.abs(t.to, code, text);
-                deliver(&self.out, t.from, line);
+                deliver(&self.io.out, t.from, line);
             }
         }
         for i in 0..MAX_WAITERS {
             if let Some((from, to)) = self.waiters[i].take() {
                 let line = self.buf.abs(to, code, text);
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
         }
         if self.program.is_some() {
@@ -129,7 +129,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             speed_pct: f64::from(self.shared.speed_pct.load(Ordering::Acquire)),
             kind,
         };
-        if self.orders.try_send(order).is_err() {
+        if self.io.orders.try_send(order).is_err() {
             if let Some(t) = self
                 .tickets
                 .iter_mut()
@@ -142,7 +142,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         self.planned_end = end;
         let line = self.buf.ack(to, "");
-        deliver(&self.out, from, line);
+        deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
     }
 
@@ -179,16 +179,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.shared.homed.store(true, Ordering::Release);
                 }
                 let line = self.buf.inf(t.to, "");
-                deliver(&self.out, t.from, line);
+                deliver(&self.io.out, t.from, line);
             }
             MoveOutcome::Stopped | MoveOutcome::Held => {
                 let line = self.buf.abs(t.to, Code::Stopped, "stopped");
-                deliver(&self.out, t.from, line);
+                deliver(&self.io.out, t.from, line);
             }
             MoveOutcome::Refused(number) => {
                 let code = Code::from_number(number).unwrap_or(Code::MotionFault);
                 let line = self.buf.abs(t.to, code, code.text());
-                deliver(&self.out, t.from, line);
+                deliver(&self.io.out, t.from, line);
             }
         }
     }
@@ -214,10 +214,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if self.owner() == source {
             self.shared.owner.store(0, Ordering::Release);
             let line = self.buf.event(false, &Event::Control { owner: None });
-            self.out.send(SourceId::BROADCAST, line);
+            self.io.out.send(SourceId::BROADCAST, line);
             if matches!(self.shared.state(), RobotState::Moving) {
                 // Error Check turns this into a controlled stop and ERROR.
-                self.owner_lost.store(true, Ordering::Release);
+                self.io.owner_lost.store(true, Ordering::Release);
             }
         }
     }
@@ -249,7 +249,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// `HOLD`: brake on the path at the override's limits and keep every open motion.
     pub(super) fn hold(&mut self, from: SourceId, to: ReplyTo) {
         let line = self.buf.ack(to, "");
-        deliver(&self.out, from, line);
+        deliver(&self.io.out, from, line);
         if self.hold != Hold::None || !self.outstanding() {
             return; // nothing moves, or already held
         }
@@ -280,7 +280,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         order
             .sort_unstable_by_key(|o| o.map_or(u32::MAX, |(ticket, _)| ticket.wrapping_sub(first)));
         for (ticket, kind) in order.into_iter().flatten() {
-            let sent = self.orders.try_send(MoveOrder {
+            let sent = self.io.orders.try_send(MoveOrder {
                 ticket,
                 epoch,
                 speed_pct,
@@ -300,7 +300,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         self.hold = Hold::None;
         let line = self.buf.ack(to, "");
-        deliver(&self.out, from, line);
+        deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
     }
 }

@@ -68,7 +68,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 state,
             },
         );
-        self.out.send(SourceId::BROADCAST, line);
+        self.io.out.send(SourceId::BROADCAST, line);
     }
 
     /// `RUN`: the store compiled the program; start it unless something forbids it.
@@ -109,7 +109,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             return;
         }
         let line = self.buf.ack(to, "");
-        deliver(&self.out, from, line);
+        deliver(&self.io.out, from, line);
         self.program = Some(RunningProgram {
             from,
             to,
@@ -122,7 +122,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     pub(super) fn retire_program(&mut self, program: Box<Program>) {
-        if let Err(e) = self.links.retired.try_send(program) {
+        if let Err(e) = self.io.store.retired.try_send(program) {
             // Sent again next cycle and freed by the store, never here. Should even the retry
             // slot be taken (the store drains its queue every 50 ms, so it is not expected),
             // the program is leaked rather than freed in this real-time task.
@@ -156,7 +156,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match failure {
             None => {
                 let line = self.buf.inf(p.to, "");
-                deliver(&self.out, p.from, line);
+                deliver(&self.io.out, p.from, line);
             }
             Some((code, text)) => {
                 let waiting = match p.wait {
@@ -170,7 +170,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let len = 400 - w.len();
                 let body = std::str::from_utf8(&body[..len]).unwrap_or(text);
                 let line = self.buf.abs(p.to, code, body);
-                deliver(&self.out, p.from, line);
+                deliver(&self.io.out, p.from, line);
             }
         }
         self.program_event(p.name, "ENDED");
@@ -188,7 +188,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let changed = !p.paused;
                 p.paused = true;
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 if changed {
                     self.program_event(name, "PAUSED");
                 }
@@ -197,14 +197,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let changed = p.paused;
                 p.paused = false;
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 if changed {
                     self.program_event(name, "RUNNING");
                 }
             }
             _ => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 self.end_program(Some((Code::Stopped, "aborted by ABORT")));
             }
         }
@@ -341,7 +341,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             R::Print => {
                 let line = self.buf.event(false, &Event::Print(self.vm.print_text()));
-                self.out.send(SourceId::BROADCAST, line);
+                self.io.out.send(SourceId::BROADCAST, line);
                 self.vm.resume(Resume::Ok);
                 return true;
             }
@@ -361,7 +361,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     _ => return true,
                 };
                 let asked = self
-                    .links
+                    .io
+                    .store
                     .requests
                     .try_send(crate::messages::StoreRequest::Job {
                         from: SourceId::PROGRAM,

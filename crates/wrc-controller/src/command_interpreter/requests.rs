@@ -93,7 +93,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     err: Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16),
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             Command::Where => {
                 let mut joints = [0.0; MAX_AXES];
@@ -113,7 +113,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     tcp,
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             Command::Home => {
                 let home = self.robot.home();
@@ -191,7 +191,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self
                     .buf
                     .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             // STOP and ESTOP from a connection take the urgent path; these are a program's
             // or a test's, which request the stop here.
@@ -246,7 +246,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     outputs: self.shared.outputs[0].load(Ordering::Acquire),
                 };
                 let line = self.buf.ack(to, body);
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             Command::Out { n, on } => {
                 let bit = 1u32 << n;
@@ -256,16 +256,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
                 }
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             Command::Wait => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 match self.waiters.iter().position(Option::is_none) {
                     Some(i) => self.waiters[i] = Some((from, to)),
                     None => {
                         let line = self.buf.abs(to, Code::Busy, "too many clients waiting");
-                        deliver(&self.out, from, line);
+                        deliver(&self.io.out, from, line);
                     }
                 }
             }
@@ -300,7 +300,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Command::Help => {
                 let line = self.buf.ack(to, HelpBody);
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
             }
             _ => {
                 let _ = Verb::ALL;
@@ -323,9 +323,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let len = 40 - w.len();
         let body = std::str::from_utf8(&body[..len]).unwrap_or("");
         let line = self.buf.ack(to, body);
-        deliver(&self.out, from, line);
+        deliver(&self.io.out, from, line);
         let line = self.buf.event(false, &Event::Control { owner: owner_name });
-        self.out.send(SourceId::BROADCAST, line);
+        self.io.out.send(SourceId::BROADCAST, line);
     }
 
     pub(super) fn refuse(&mut self, from: SourceId, to: ReplyTo, err: &wrc_motion::PlanError) {

@@ -51,7 +51,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.shared.request_stop(StopKind::Stop);
                 self.shared.error_code.store(0, Ordering::Release);
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 self.set_state(RobotState::Idle);
             }
             Some(reason) if self.now_ns >= deadline => {

@@ -52,7 +52,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match urgent {
             Urgent::Stop(from, to) => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 if self.shared.state() == RobotState::Moving {
                     self.set_state(RobotState::Stopping);
                 }
@@ -60,7 +60,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Urgent::Estop(from, to) => {
                 let line = self.buf.ack(to, "");
-                deliver(&self.out, from, line);
+                deliver(&self.io.out, from, line);
                 self.abort_all(Code::EmergencyStop, "emergency stop");
                 self.shared
                     .error_code

@@ -348,9 +348,7 @@ mod tests {
     use std::io::{Read, Write};
     use std::os::unix::net::UnixStream;
 
-    fn far() -> u64 {
-        MonotonicClock.now_ns() + 20_000_000_000
-    }
+    use crate::wake::testing::{far, ping_pong};
 
     #[test]
     fn notifications_release_one_wait_and_the_timer_ends_the_next_at_its_deadline() {
@@ -425,19 +423,8 @@ mod tests {
 
     #[test]
     fn ping_pong_never_loses_a_notification() {
-        let (mut a, mut b) = (FdWake::new(0).unwrap(), FdWake::new(0).unwrap());
+        let (a, b) = (FdWake::new(0).unwrap(), FdWake::new(0).unwrap());
         let (to_a, to_b) = (a.notifier(), b.notifier());
-        let rounds = 10_000;
-        let partner = std::thread::spawn(move || {
-            for _ in 0..rounds {
-                assert!(b.wait_until_ns(far()), "lost a ping");
-                to_a.notify();
-            }
-        });
-        for _ in 0..rounds {
-            to_b.notify();
-            assert!(a.wait_until_ns(far()), "lost a pong");
-        }
-        partner.join().unwrap();
+        ping_pong(a, b, to_a, to_b, 10_000);
     }
 }

@@ -122,10 +122,7 @@ mod tests {
     use crate::clock::{Clock, MonotonicClock};
     use std::time::{Duration, Instant};
 
-    /// A deadline no test reaches unless it fails [ns].
-    fn far() -> u64 {
-        MonotonicClock.now_ns() + 20_000_000_000
-    }
+    use crate::wake::testing::{far, ping_pong};
 
     #[test]
     fn notifications_before_the_wait_release_it_once() {
@@ -173,19 +170,8 @@ mod tests {
 
     #[test]
     fn ping_pong_never_loses_a_notification() {
-        let (mut a, mut b) = (Wake::new(), Wake::new());
+        let (a, b) = (Wake::new(), Wake::new());
         let (to_a, to_b) = (a.notifier(), b.notifier());
-        let rounds = 20_000;
-        let partner = std::thread::spawn(move || {
-            for _ in 0..rounds {
-                assert!(b.wait_until_ns(far()), "lost a ping");
-                to_a.notify();
-            }
-        });
-        for _ in 0..rounds {
-            to_b.notify();
-            assert!(a.wait_until_ns(far()), "lost a pong");
-        }
-        partner.join().unwrap();
+        ping_pong(a, b, to_a, to_b, 20_000);
     }
 }

@@ -98,3 +98,37 @@ pub(crate) fn timespec_of(ns: u64) -> libc::timespec {
         tv_nsec: (ns % 1_000_000_000) as libc::c_long,
     }
 }
+
+/// What the waiters' tests share.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::{Notify, Waiter};
+    use crate::{Clock, MonotonicClock};
+
+    /// A deadline no test reaches unless it fails [ns].
+    pub(crate) fn far() -> u64 {
+        MonotonicClock.now_ns() + 20_000_000_000
+    }
+
+    /// Two waiters notify each other `rounds` times from two threads; every notification
+    /// must release the other's wait before the far deadline (none is lost).
+    pub(crate) fn ping_pong<W: Waiter>(
+        mut a: W,
+        mut b: W,
+        to_a: std::sync::Arc<dyn Notify>,
+        to_b: std::sync::Arc<dyn Notify>,
+        rounds: usize,
+    ) {
+        let partner = std::thread::spawn(move || {
+            for _ in 0..rounds {
+                assert!(b.wait_until_ns(far()), "lost a ping");
+                to_a.notify();
+            }
+        });
+        for _ in 0..rounds {
+            to_b.notify();
+            assert!(a.wait_until_ns(far()), "lost a pong");
+        }
+        partner.join().unwrap();
+    }
+}

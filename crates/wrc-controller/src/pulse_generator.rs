@@ -239,11 +239,19 @@ impl<B: MotionBoard> PulseGenerator<B> {
         if let Some((ticket, left)) = self.completing {
             if left <= 1 {
                 self.completing = None;
+                // At rest before the end is reported: whoever hears of it sees no motion.
+                self.publish_in_flight();
                 self.report(ticket, MoveOutcome::Completed);
             } else {
                 self.completing = Some((ticket, left - 1));
             }
         }
+        self.publish_in_flight();
+    }
+
+    /// Whether pulses are still in flight (a brake, a move, the ring, a move the board has
+    /// not finished executing), for the other tasks.
+    fn publish_in_flight(&self) {
         let moving = self.stopping
             || self.last.is_moving()
             || !self.ring.is_empty()

@@ -153,6 +153,27 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
+    /// MOVING, STOPPING and HELD end when nothing is open, queued, in flight or stopping:
+    /// then the state becomes IDLE (now, before a reply that tells a client the motion
+    /// ended goes out, so the client's next request sees it). Whether the robot is at rest.
+    pub(super) fn settle_state(&mut self) -> bool {
+        let at_rest = !self.outstanding()
+            && self.job.is_none()
+            && self.io.orders.is_empty()
+            && self.shared.in_flight.load(Ordering::Acquire) == 0
+            && self.shared.stopped_epoch.load(Ordering::Acquire)
+                == self.shared.stop_epoch.load(Ordering::Acquire);
+        if at_rest
+            && matches!(
+                self.shared.state(),
+                RobotState::Moving | RobotState::Stopping | RobotState::Held
+            )
+        {
+            self.set_state(RobotState::Idle);
+        }
+        at_rest
+    }
+
     pub(super) fn owner(&self) -> SourceId {
         SourceId(self.shared.owner.load(Ordering::Acquire))
     }
@@ -235,20 +256,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if self.hold == motion::Hold::Held && !self.outstanding() {
             self.hold = motion::Hold::None;
         }
-        // State: MOVING and STOPPING end when nothing is queued, in flight or stopping.
-        let at_rest = !self.outstanding()
-            && self.job.is_none()
-            && self.io.orders.is_empty()
-            && self.shared.in_flight.load(Ordering::Acquire) == 0
-            && self.shared.stopped_epoch.load(Ordering::Acquire)
-                == self.shared.stop_epoch.load(Ordering::Acquire);
-        if at_rest {
-            if matches!(
-                self.shared.state(),
-                RobotState::Moving | RobotState::Stopping | RobotState::Held
-            ) {
-                self.set_state(RobotState::Idle);
-            }
+        if self.settle_state() {
             self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
             for i in 0..MAX_WAITERS {
                 if let Some((from, to)) = self.waiters[i].take() {

@@ -178,6 +178,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 if t.home {
                     self.shared.homed.store(true, Ordering::Release);
                 }
+                self.settle_state();
                 let line = self.buf.inf(t.to, "");
                 deliver(&self.io.out, t.from, line);
             }

@@ -29,6 +29,11 @@ use crate::shared::{Shared, StopKind};
 /// periods after the Pulse Generator starts it.
 pub const FIFO_LEAD: usize = 2;
 
+/// Periods a finished move may wait, once the board has executed its last period, for every
+/// encoder to reach its commanded count before its end is reported anyway (the servo's lag;
+/// Error Check watches the following error).
+pub const IN_POSITION_PERIODS: usize = 10;
+
 /// The Pulse Generator.
 pub struct PulseGenerator<B: MotionBoard> {
     board: B,
@@ -231,13 +236,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 if let Some((ticket, _)) = self.completing.take() {
                     self.report(ticket, MoveOutcome::Completed);
                 }
-                // The board executes it FIFO_LEAD periods from now.
-                self.completing = Some((batch.ticket, FIFO_LEAD + 1));
+                // The board executes it FIFO_LEAD periods from now; then the motors settle.
+                self.completing = Some((batch.ticket, FIFO_LEAD + 1 + IN_POSITION_PERIODS));
                 self.ticket = 0;
             }
         }
         if let Some((ticket, left)) = self.completing {
-            if left <= 1 {
+            // Executed by the board; then in position (every encoder on its commanded
+            // count) unless another move follows at once, or the settling time is over.
+            let executed = left <= IN_POSITION_PERIODS + 1;
+            let next_move = self.last.is_moving() || !self.ring.is_empty();
+            if executed && (left <= 1 || next_move || self.in_position()) {
                 self.completing = None;
                 // At rest before the end is reported: whoever hears of it sees no motion.
                 self.publish_in_flight();
@@ -247,6 +256,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
         }
         self.publish_in_flight();
+    }
+
+    /// Every axis's encoder on its commanded count (a torn read counts as not yet).
+    fn in_position(&mut self) -> bool {
+        if self.board.read_feedback(&mut self.feedback).is_err() {
+            return false;
+        }
+        let n = self.feedback.axis_count;
+        self.feedback.axes[..n]
+            .iter()
+            .all(|a| a.encoder == a.commanded)
     }
 
     /// Whether pulses are still in flight (a brake, a move, the ring, a move the board has

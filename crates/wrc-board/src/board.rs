@@ -3,6 +3,7 @@
 //! non-blocking and allocation-free, so the Pulse Generator, Error Check and I/O Monitor may
 //! call it from their cycles.
 
+use crate::dpram::FifoPosition;
 use wrc_robot::MAX_AXES;
 
 use crate::layout::MAX_BOARDS;
@@ -227,6 +228,22 @@ pub trait MotionBoard: Send {
 
     /// Fill `out` with the mapping sensor's latch (board 0's sensor).
     fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn>;
+
+    /// Where the command FIFO stands, for [`MotionBoard::flush_queued`]: `None` if the
+    /// board cannot flush (several boards, or none of the DPRAM kind), is inside a period,
+    /// or has a flush pending.
+    fn fifo_position(&self) -> Option<FifoPosition> {
+        None
+    }
+
+    /// Ask the board to skip, at the start of its next period, the entries it has not
+    /// executed at `at` up to the FIFO index `to` (entries pushed since `at` was read): the
+    /// first entry it executes then is `to`. False, and nothing asked, if the board began a
+    /// period since `at` was read (read the position again and push again).
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
+        let _ = (at, to);
+        false
+    }
 }
 
 impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
@@ -274,5 +291,11 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     }
     fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn> {
         (**self).read_mapping(out)
+    }
+    fn fifo_position(&self) -> Option<FifoPosition> {
+        (**self).fifo_position()
+    }
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
+        (**self).flush_queued(at, to)
     }
 }

@@ -13,6 +13,20 @@
 //!   with release ordering. The board loads `write` with acquire ordering, reads the entry,
 //!   checks its `seq`, then frees the slot by storing `read + 1` with release ordering. The
 //!   host pushes only while `write − read < fifo_depth`.
+//! - **FIFO flush** (a stop that must not wait for the queued periods): the host replaces
+//!   the entries the board has not executed yet by new ones (a brake from the state the
+//!   board has reached) without a race. The board adds 2³² to the `FLUSH` word at the start
+//!   and at the end of every period (the high half is odd inside a period). The host loads
+//!   `FLUSH` (acquire); if the board is between periods and no flush is pending (low half =
+//!   `FLUSH_ACK`), it reads `read` and `write` — the board executes entry `read` next — and
+//!   pushes the new entries behind the old ones. It stores `FLUSH_FROM = read` and
+//!   `FLUSH_TO` = the first new entry, then raises the low half by a compare-and-swap of the
+//!   whole word against the value it loaded (release): the swap fails if a period began in
+//!   between, and then nothing is asked (the host tries again from the new `read`). At the
+//!   start of its next period the board sees the new sequence, checks on every axis that
+//!   `read == FLUSH_FROM` and that `FLUSH_TO` is within the published entries, skips the
+//!   stretch (`read = FLUSH_TO`, counted in `discarded`), stores `FLUSH_ACK`, and executes
+//!   the first new entry in that very period. A check that fails is a FIFO sequence alarm.
 //! - **Feedback** (board → host, per axis): a seqlock. The board makes `fb_seq` odd, writes
 //!   the record, makes `fb_seq` even again (release). The host reads `fb_seq` (acquire),
 //!   the record, `fb_seq` again; equal and even means a consistent snapshot, otherwise it
@@ -30,7 +44,19 @@
 use std::sync::atomic::{fence, Ordering};
 
 use crate::driver::Mapping;
-use crate::layout::{self, axis, header, Header, LayoutError, FIFO_CAPACITY, MAGIC};
+use crate::layout::{self, axis, control, header, Header, LayoutError, FIFO_CAPACITY, MAGIC};
+
+/// Where the command FIFO stands between two board periods, for a flush
+/// ([`Dpram::flush_position`], [`crate::MotionBoard::fifo_position`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FifoPosition {
+    /// The flush word as loaded (the compare-and-swap checks that no period began since).
+    pub word: u64,
+    /// FIFO index of the entry the board executes next (every axis of the board).
+    pub read: u32,
+    /// FIFO index the next pushed entry gets.
+    pub write: u32,
+}
 
 /// A feedback record could not be read consistently: the board kept rewriting it (or a
 /// foreign writer left it odd). Try again next cycle.
@@ -255,6 +281,96 @@ impl Dpram {
         let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
         self.store(base + axis::FIFO_READ, write);
         write.wrapping_sub(read).min(FIFO_CAPACITY as u32)
+    }
+
+    // ---- FIFO flush ----
+
+    /// Host: where the FIFO stands, if the board is between two periods and no flush is
+    /// pending (else `None`: try again later).
+    pub fn flush_position(&self) -> Option<FifoPosition> {
+        let word = self.map.u64(control::FLUSH).load(Ordering::Acquire);
+        let period_open = (word >> 32) & 1 == 1;
+        if period_open || word as u32 != self.load(control::FLUSH_ACK) {
+            return None;
+        }
+        let base = layout::axis_base(0);
+        Some(FifoPosition {
+            word,
+            read: self.load(base + axis::FIFO_READ),
+            write: self
+                .map
+                .u32(base + axis::FIFO_WRITE)
+                .load(Ordering::Relaxed),
+        })
+    }
+
+    /// Host: ask the board to skip the entries from `at.read` up to (not including) `to`
+    /// at the start of its next period. False, and nothing asked, if a period began since
+    /// `at` was read.
+    pub fn flush_arm(&self, at: &FifoPosition, to: u32) -> bool {
+        self.map
+            .u32(control::FLUSH_FROM)
+            .store(at.read, Ordering::Relaxed);
+        self.map.u32(control::FLUSH_TO).store(to, Ordering::Relaxed);
+        let next = (at.word & !0xFFFF_FFFF) | u64::from((at.word as u32).wrapping_add(1));
+        self.map
+            .u64(control::FLUSH)
+            .compare_exchange(at.word, next, Ordering::AcqRel, Ordering::Relaxed)
+            .is_ok()
+    }
+
+    /// Board: open a period; returns the pending flush (from, to), if any (act on it, then
+    /// [`Dpram::flush_done`]).
+    pub fn period_begin(&self) -> Option<(u32, u32)> {
+        let word = self
+            .map
+            .u64(control::FLUSH)
+            .fetch_add(1 << 32, Ordering::AcqRel);
+        let seq = word as u32;
+        if seq == self.map.u32(control::FLUSH_ACK).load(Ordering::Relaxed) {
+            return None;
+        }
+        Some((
+            self.map.u32(control::FLUSH_FROM).load(Ordering::Relaxed),
+            self.map.u32(control::FLUSH_TO).load(Ordering::Relaxed),
+        ))
+    }
+
+    /// Board: the pending flush is done (or refused).
+    pub fn flush_done(&self) {
+        let seq = self.map.u64(control::FLUSH).load(Ordering::Acquire) as u32;
+        self.store(control::FLUSH_ACK, seq);
+    }
+
+    /// Board: close the period opened by [`Dpram::period_begin`].
+    pub fn period_end(&self) {
+        self.map
+            .u64(control::FLUSH)
+            .fetch_add(1 << 32, Ordering::AcqRel);
+    }
+
+    /// Board: whether axis `channel` can skip its entries `from..to`: its next entry is
+    /// `from` and `to` is within the published entries.
+    pub fn fifo_skippable(&self, channel: usize, from: u32, to: u32) -> bool {
+        let base = layout::axis_base(channel);
+        let write = self.load(base + axis::FIFO_WRITE);
+        let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
+        let skip = to.wrapping_sub(from);
+        read == from && skip <= write.wrapping_sub(read) && skip <= FIFO_CAPACITY as u32
+    }
+
+    /// Board: skip axis `channel`'s entries `from..to` (counted in `discarded`), if
+    /// [`Dpram::fifo_skippable`]; false otherwise (nothing changed).
+    pub fn fifo_skip(&self, channel: usize, from: u32, to: u32) -> bool {
+        if !self.fifo_skippable(channel, from, to) {
+            return false;
+        }
+        let base = layout::axis_base(channel);
+        let skip = to.wrapping_sub(from);
+        self.store(base + axis::FIFO_READ, to);
+        let d = self.load(base + axis::DISCARDED).wrapping_add(skip);
+        self.store(base + axis::DISCARDED, d);
+        true
     }
 
     // ---- feedback seqlock ----

@@ -1,4 +1,4 @@
-//! The DPRAM layout, version 1: fixed byte offsets, little-endian 32- and 64-bit words, and
+//! The DPRAM layout, version 2: fixed byte offsets, little-endian 32- and 64-bit words, and
 //! the header check every user of a mapping runs first. See `docs/dpram.md` for the table.
 //!
 //! Every word is naturally aligned, so each can be read and written as one atomic access;
@@ -7,7 +7,7 @@
 /// Magic number at offset 0: the bytes `WRCB` read as a little-endian `u32`.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"WRCB");
 /// The layout version this crate reads and writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Axes on one board (the paper's PCI board drives 4).
 pub const AXES_PER_BOARD: usize = 4;
 /// Boards one controller drives at most (4 boards × 4 axes = 16 axes).
@@ -61,6 +61,17 @@ pub mod control {
     pub const PERIOD_COUNT: usize = 0x060;
     /// `u32` board periods that started late and were caught up (simulated board only).
     pub const LATE_PERIODS: usize = 0x068;
+    /// `u32` the last flush sequence (the low half of `FLUSH`) the board acted on.
+    pub const FLUSH_ACK: usize = 0x06C;
+    /// `u64` flush word: low 32 bits the flush sequence (the host raises it, by a
+    /// compare-and-swap of the whole word, to ask for a flush), high 32 bits the board's
+    /// period count, odd while the board is inside a period (the board adds 2³² at the start
+    /// and at the end of every period). See [`crate::dpram`], "FIFO flush".
+    pub const FLUSH: usize = 0x070;
+    /// `u32` FIFO index the flushed stretch starts at: the entry the board executes next.
+    pub const FLUSH_FROM: usize = 0x078;
+    /// `u32` FIFO index the board resumes at after skipping `FLUSH_FROM..FLUSH_TO`.
+    pub const FLUSH_TO: usize = 0x07C;
 }
 
 /// Digital I/O offsets: 32 inputs and 32 outputs.
@@ -478,9 +489,10 @@ mod tests {
             Header::parse(&foreign),
             Err(LayoutError::Foreign { .. })
         ));
-        let mut v2 = bytes.clone();
-        v2[header::VERSION] = 2;
-        assert_eq!(Header::parse(&v2), Err(LayoutError::Version { found: 2 }));
+        // A board of layout 1 (no FIFO flush) is refused, by its version.
+        let mut v1 = bytes.clone();
+        v1[header::VERSION] = 1;
+        assert_eq!(Header::parse(&v1), Err(LayoutError::Version { found: 1 }));
         let mut axes = bytes.clone();
         axes[header::AXIS_COUNT] = 5;
         let e = Header::parse(&axes).unwrap_err().to_string();

@@ -56,6 +56,7 @@ pub use wrc_cell;
 pub use board::{
     AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
 };
+pub use dpram::FifoPosition;
 pub use driver::{DpramBoard, Expect, Mapping, OpenError};
 pub use fault::Fault;
 pub use multi::{MultiBoard, MultiError};

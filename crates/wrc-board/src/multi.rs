@@ -2,6 +2,7 @@
 //! axes 0..16 onto (board, channel) pairs. Same real-time promise as the boards it wraps:
 //! no allocation or blocking after construction.
 
+use crate::dpram::FifoPosition;
 use wrc_robot::MAX_AXES;
 
 use crate::board::{Busy, Feedback, Full, MappingScan, MotionBoard, Torn};
@@ -217,5 +218,21 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
     /// The mapping sensor is board 0's.
     fn read_mapping(&self, out: &mut MappingScan) -> Result<(), Torn> {
         self.boards[0].read_mapping(out)
+    }
+
+    // Boards keep their own time, so a flush cannot be armed on several at once: only a
+    // single board flushes (several brake behind their queued periods).
+    fn fifo_position(&self) -> Option<FifoPosition> {
+        match &self.boards[..] {
+            [one] => one.fifo_position(),
+            _ => None,
+        }
+    }
+
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
+        match &mut self.boards[..] {
+            [one] => one.flush_queued(at, to),
+            _ => false,
+        }
     }
 }

@@ -2,10 +2,14 @@
 //! Generator's pulse batches from the SPSC ring into the board FIFO, keeping it a fixed
 //! number of periods ahead, and streams zero batches at rest (a motion card expects one
 //! entry per period; a missing one is an underrun). A stop request takes effect here, from
-//! the period actually reached: the queued plan is discarded and the generator state of the
-//! last pushed period brakes time-optimally on its path from its velocity and acceleration
-//! (STOP and HOLD at the move's override limits, ESTOP and faults at the axes' full limits);
-//! a HOLD's move is reported held, not stopped, so the Command Interpreter can resume it.
+//! the period the board has actually reached: the queued plan is discarded, the generator
+//! state after the last period the board executed brakes time-optimally on its path from
+//! its velocity and acceleration (STOP and HOLD at the move's override limits, ESTOP and
+//! faults at the axes' full limits), and the board is asked to flush the periods it has
+//! queued but not executed (docs/dpram.md, "FIFO flush"), so the brake's first period is
+//! the board's next one. A board that cannot flush (several boards) gets the brake behind
+//! its queued periods. A HOLD's move is reported held, not stopped, so the Command
+//! Interpreter can resume it.
 //!
 //! Real-time promise: the cycle does not allocate, block or print; the board calls are
 //! atomic memory operations on the mapped DPRAM.
@@ -13,7 +17,7 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use wrc_board::{Feedback, MotionBoard};
+use wrc_board::{Feedback, FifoPosition, MotionBoard};
 use wrc_motion::{BrakeLimits, MotionState, MoveEnd, Period, Status, VelocityGenerator};
 use wrc_robot::MAX_AXES;
 use wrc_rt::ipc::mailbox::MailboxWriter;
@@ -33,6 +37,89 @@ pub const FIFO_LEAD: usize = 2;
 /// encoder to reach its commanded count before its end is reported anyway (the servo's lag;
 /// Error Check watches the following error).
 pub const IN_POSITION_PERIODS: usize = 10;
+
+/// Periods pushed to the board that the Pulse Generator remembers (the state after each and
+/// its pulses), to brake from the one the board has reached: more than the FIFO ever holds
+/// while moving (its lead, the periods a flush pushes, one before them).
+const HISTORY: usize = 16;
+
+/// Tries at a flush before a stop brakes behind the queued periods: a try fails only when a
+/// board period begins while the brake's first periods are computed.
+const FLUSH_TRIES: usize = 3;
+
+/// Polls of the board's FIFO position while the board is inside a period (its period takes
+/// microseconds) before a flush is given up.
+const POSITION_POLLS: usize = 10_000;
+
+/// One period pushed to the board.
+#[derive(Clone, Copy)]
+struct Pushed {
+    pulses: [i64; MAX_AXES],
+    after: MotionState,
+}
+
+/// The last [`HISTORY`] periods pushed, oldest first.
+struct History {
+    ring: [Pushed; HISTORY],
+    /// Periods pushed since the start (the newest is at `(count - 1) % HISTORY`).
+    count: usize,
+}
+
+impl History {
+    fn new(at: MotionState) -> History {
+        History {
+            ring: [Pushed {
+                pulses: [0; MAX_AXES],
+                after: at,
+            }; HISTORY],
+            count: 0,
+        }
+    }
+
+    fn push(&mut self, pulses: &[i64; MAX_AXES], after: &MotionState) {
+        let slot = &mut self.ring[self.count % HISTORY];
+        slot.pulses = *pulses;
+        slot.after = *after;
+        self.count += 1;
+    }
+
+    /// The `back`-th newest period (0 = the newest), if remembered.
+    fn get(&self, back: usize) -> Option<&Pushed> {
+        (back < self.count.min(HISTORY)).then(|| &self.ring[(self.count - 1 - back) % HISTORY])
+    }
+
+    /// The state before the oldest of the `queued` newest periods (after the period before
+    /// them), if remembered.
+    fn before(&self, queued: usize) -> Option<&MotionState> {
+        self.get(queued).map(|p| &p.after)
+    }
+
+    /// Forget the `n` periods before the `keep` newest (the board skipped them).
+    fn drop_before(&mut self, keep: usize, n: usize) {
+        let keep = keep.min(self.count);
+        let n = n.min(self.count - keep);
+        for i in 0..keep {
+            // Newest first would overwrite what is still to be moved: oldest first.
+            let from = (self.count - keep + i) % HISTORY;
+            let to = (self.count - keep - n + i) % HISTORY;
+            self.ring[to] = self.ring[from];
+        }
+        self.count -= n;
+    }
+
+    /// Sum of the pulses of the `n` periods before the `keep` newest.
+    fn pulses_before(&self, keep: usize, n: usize) -> [i64; MAX_AXES] {
+        let mut sum = [0i64; MAX_AXES];
+        for back in keep..keep + n {
+            if let Some(p) = self.get(back) {
+                for (s, x) in sum.iter_mut().zip(&p.pulses) {
+                    *s += x;
+                }
+            }
+        }
+        sum
+    }
+}
 
 /// The Pulse Generator.
 pub struct PulseGenerator<B: MotionBoard> {
@@ -57,6 +144,13 @@ pub struct PulseGenerator<B: MotionBoard> {
     /// periods to wait).
     completing: Option<(u32, usize)>,
     feedback: Feedback,
+    history: History,
+    /// The brake pushed before a flush ended the stop (reported by the next cycle's loop).
+    brake_end: Option<Status>,
+    /// Stops that flushed the board's queue, and that braked behind it.
+    pub flushes: u64,
+    /// Stops that could not flush and braked behind the queued periods.
+    pub flush_fallbacks: u64,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -90,6 +184,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
             fifo_depth,
             completing: None,
             feedback: Feedback::default(),
+            history: History::new(last),
+            brake_end: None,
+            flushes: 0,
+            flush_fallbacks: 0,
         }
     }
 
@@ -97,16 +195,95 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.fifo_depth.saturating_sub(self.board.fifo_free())
     }
 
-    fn emit(&mut self, pulses: &[i64; MAX_AXES]) -> bool {
+    /// Push one period whose generator state after it is `after`.
+    fn emit(&mut self, pulses: &[i64; MAX_AXES], after: &MotionState) -> bool {
         if self.board.push(pulses).is_err() {
             return false;
         }
+        self.history.push(pulses, after);
         for (c, p) in self.shared.commanded.iter().zip(pulses) {
             if *p != 0 {
                 c.fetch_add(*p, Ordering::AcqRel);
             }
         }
         true
+    }
+
+    /// Start the brake from the state after the last period the board executed, and ask
+    /// the board to skip the periods queued after it: the brake's first periods are
+    /// computed first, the flush is armed (refused if a board period began meanwhile: then
+    /// try again from the period reached by then), and only then are they pushed, right
+    /// behind the skipped ones. True when the board will skip them (the brake is under way:
+    /// `stopper`, `last`); false when it cannot flush (several boards, a flush pending, the
+    /// state before the queued periods forgotten, no room): the caller brakes from the last
+    /// pushed period, behind the queue.
+    fn flush_brake(&mut self, limits: BrakeLimits) -> bool {
+        for _ in 0..FLUSH_TRIES {
+            let Some(at) = self.fifo_position() else {
+                break;
+            };
+            let queued = at.write.wrapping_sub(at.read) as usize;
+            let room = self.board.fifo_free().min(FIFO_LEAD);
+            let Some(before) = self.history.before(queued).copied() else {
+                break;
+            };
+            if room == 0 {
+                break;
+            }
+            self.stopper.restore(&before);
+            self.stopper.stop(limits);
+            // The brake's first periods, as many as the lead keeps queued.
+            let mut first = [Pushed {
+                pulses: [0; MAX_AXES],
+                after: before,
+            }; FIFO_LEAD];
+            let mut n = 0usize;
+            let mut end = None;
+            let mut period = Period::default();
+            while n < room && end.is_none() {
+                let status = self.stopper.next_period(&mut period);
+                first[n] = Pushed {
+                    pulses: period.pulses,
+                    after: self.stopper.state(),
+                };
+                n += 1;
+                if !matches!(status, Status::Working) {
+                    end = Some(status);
+                }
+            }
+            if !self.board.flush_queued(&at, at.write) {
+                continue; // a board period began: it executed another queued period
+            }
+            // The board skips the `queued` periods from its next one on.
+            let skipped = self.history.pulses_before(0, queued);
+            for (c, p) in self.shared.commanded.iter().zip(skipped) {
+                if p != 0 {
+                    c.fetch_sub(p, Ordering::AcqRel);
+                }
+            }
+            self.history.drop_before(0, queued);
+            for p in &first[..n] {
+                // Room was checked, and only this task pushes.
+                let _ = self.emit(&p.pulses, &p.after);
+            }
+            self.last = first[n - 1].after;
+            self.brake_end = end;
+            self.flushes += 1;
+            return true;
+        }
+        self.flush_fallbacks += 1;
+        false
+    }
+
+    /// The board's FIFO position, waiting out a board period under way (microseconds).
+    fn fifo_position(&self) -> Option<FifoPosition> {
+        for _ in 0..POSITION_POLLS {
+            if let Some(at) = self.board.fifo_position() {
+                return Some(at);
+            }
+            std::hint::spin_loop();
+        }
+        None
     }
 
     fn report(&self, ticket: u32, outcome: MoveOutcome) {
@@ -135,17 +312,27 @@ impl<B: MotionBoard> PulseGenerator<B> {
             self.pending = None;
             while self.ring.try_recv().is_some() {}
             if self.last.is_moving() {
-                // From the state of the last period pushed (mid-brake too, when a stronger
-                // stop overtakes a HOLD or a STOP): ESTOP brakes with the full limits.
-                self.stopper.restore(&self.last);
-                self.stopper.stop(match kind {
+                // From the state of the period the board has reached (mid-brake too, when a
+                // stronger stop overtakes a HOLD or a STOP): ESTOP brakes with the full
+                // limits.
+                let limits = match kind {
                     StopKind::Estop => BrakeLimits::Full,
                     StopKind::Hold | StopKind::Stop => BrakeLimits::Override,
-                });
+                };
                 self.stop_kind = kind;
                 self.stopping = true;
                 self.decel_pending = true;
                 braking_now = true;
+                if self.flush_brake(limits) {
+                    self.decel_pushed();
+                    if let Some(status) = self.brake_end.take() {
+                        self.brake_finished(status);
+                    }
+                } else {
+                    // Behind the queued periods, from the last one pushed.
+                    self.stopper.restore(&self.last);
+                    self.stopper.stop(limits);
+                }
             } else {
                 // At rest: take the board's own position (after a RESET the board may have
                 // stopped by itself, e.g. on a watchdog trip or E-stop).
@@ -183,30 +370,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
         while self.queued() < lead {
             if self.stopping {
                 let status = self.stopper.next_period(&mut period);
-                if !self.emit(&period.pulses) {
+                let after = self.stopper.state();
+                if !self.emit(&period.pulses, &after) {
                     break;
                 }
-                if self.decel_pending {
-                    self.decel_pending = false;
-                    self.shared
-                        .decel_ns
-                        .store(Shared::now_ns(), Ordering::Release);
-                }
-                self.last = self.stopper.state();
+                self.decel_pushed();
+                self.last = after;
                 if !matches!(status, Status::Working) {
-                    self.stopping = false;
-                    let outcome = match (status, self.stop_kind) {
-                        // The brake ended on the target (it was decelerating to it anyway).
-                        (Status::Finished(MoveEnd::Completed), _) => MoveOutcome::Completed,
-                        (_, StopKind::Hold) => MoveOutcome::Held,
-                        (_, StopKind::Stop | StopKind::Estop) => MoveOutcome::Stopped,
-                    };
-                    self.report(self.ticket, outcome);
-                    self.ticket = 0;
-                    self.resume.write(self.last);
-                    self.shared
-                        .stopped_epoch
-                        .store(self.epoch_seen, Ordering::Release);
+                    self.brake_finished(status);
                 }
                 continue;
             }
@@ -215,13 +386,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 Some(_) => continue,
                 None => {
                     // At rest (or the plan is late): stream a zero period.
-                    if !self.emit(&[0; MAX_AXES]) {
+                    let after = self.last;
+                    if !self.emit(&[0; MAX_AXES], &after) {
                         break;
                     }
                     continue;
                 }
             };
-            if !self.emit(&batch.pulses) {
+            if !self.emit(&batch.pulses, &batch.after) {
                 self.pending = Some(batch);
                 break;
             }
@@ -256,6 +428,35 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
         }
         self.publish_in_flight();
+    }
+
+    /// The first braking period of the stop under way was pushed (the benchmark's "first
+    /// decelerating pulse").
+    fn decel_pushed(&mut self) {
+        if self.decel_pending {
+            self.decel_pending = false;
+            self.shared
+                .decel_ns
+                .store(Shared::now_ns(), Ordering::Release);
+        }
+    }
+
+    /// The brake's last period was pushed: report the move held, stopped or (a brake that
+    /// ended on the target) completed.
+    fn brake_finished(&mut self, status: Status) {
+        self.stopping = false;
+        let outcome = match (status, self.stop_kind) {
+            // The brake ended on the target (it was decelerating to it anyway).
+            (Status::Finished(MoveEnd::Completed), _) => MoveOutcome::Completed,
+            (_, StopKind::Hold) => MoveOutcome::Held,
+            (_, StopKind::Stop | StopKind::Estop) => MoveOutcome::Stopped,
+        };
+        self.report(self.ticket, outcome);
+        self.ticket = 0;
+        self.resume.write(self.last);
+        self.shared
+            .stopped_epoch
+            .store(self.epoch_seen, Ordering::Release);
     }
 
     /// Every axis's encoder on its commanded count (a torn read counts as not yet).

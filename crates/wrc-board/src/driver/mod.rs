@@ -4,6 +4,7 @@
 
 mod mmap;
 
+use crate::dpram::FifoPosition;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -217,6 +218,14 @@ impl DpramBoard {
 }
 
 impl MotionBoard for DpramBoard {
+    fn fifo_position(&self) -> Option<FifoPosition> {
+        self.dpram.flush_position()
+    }
+
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
+        self.dpram.flush_arm(at, to)
+    }
+
     fn axis_count(&self) -> usize {
         self.dpram.header().axis_count as usize
     }

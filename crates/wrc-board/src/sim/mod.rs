@@ -343,6 +343,34 @@ impl SimBoard {
 
     /// Run one board period.
     pub fn step(&mut self) {
+        if let Some((from, to)) = self.dpram.period_begin() {
+            self.flush(from, to);
+        }
+        self.period();
+        self.dpram.period_end();
+    }
+
+    /// A flush the host asked for: every axis in use skips `from..to`, or none does and
+    /// each axis that cannot is alarmed (the host and the board disagree on the FIFO).
+    fn flush(&mut self, from: u32, to: u32) {
+        let used = |c: usize| self.axes[c].is_some();
+        let ok = (0..AXES_PER_BOARD)
+            .filter(|&c| used(c))
+            .all(|c| self.dpram.fifo_skippable(c, from, to));
+        for channel in 0..AXES_PER_BOARD {
+            let Some(a) = self.axes[channel].as_mut() else {
+                continue;
+            };
+            if ok {
+                self.dpram.fifo_skip(channel, from, to);
+            } else if a.raise(alarm::FIFO_SEQUENCE) {
+                self.dpram.bump(layout::axis_base(channel) + axis::ALARMS);
+            }
+        }
+        self.dpram.flush_done();
+    }
+
+    fn period(&mut self) {
         self.periods += 1;
         self.dpram.store64(control::PERIOD_COUNT, self.periods);
         self.dpram.bump(control::BOARD_WATCHDOG);

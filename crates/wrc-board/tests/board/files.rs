@@ -58,12 +58,12 @@ fn other_versions_and_bad_fields_are_named() {
         epoch: 1,
     }
     .encode(&mut bytes);
-    let path = dir.path().join("v2.dpram");
-    let mut v2 = bytes.clone();
-    v2[header::VERSION] = 2;
-    fs::write(&path, &v2).unwrap();
+    let path = dir.path().join("v1.dpram");
+    let mut v1 = bytes.clone();
+    v1[header::VERSION] = 1;
+    fs::write(&path, &v1).unwrap();
     let e = open_err(&path);
-    assert!(e.contains("version 2"), "{e}");
+    assert!(e.contains("version 1"), "{e}");
 
     let mut depth = bytes.clone();
     depth[header::FIFO_DEPTH] = 200;

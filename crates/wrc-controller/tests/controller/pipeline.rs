@@ -162,7 +162,7 @@ fn a_ptp_move_reaches_the_board_exactly() {
 }
 
 #[test]
-fn a_stop_decelerates_within_two_periods_and_keeps_the_books() {
+fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
     let mut rig = Rig::new();
     let mut target = Config::embedded_default().robot.home();
     target[0] = 170.0; // long cruise on J1
@@ -188,13 +188,23 @@ fn a_stop_decelerates_within_two_periods_and_keeps_the_books() {
         rig.period();
     }
     let inc: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
-    // The board executes what was queued before the stop (FIFO lead), then decelerates.
-    let lead = wrc_controller::pulse_generator::FIFO_LEAD;
+    // The board skips what was queued before the stop (a FIFO flush) and decelerates in its
+    // very next period, from the period it had reached, and never speeds up again.
     assert!(
-        inc[stop_at + lead] < cruise,
-        "no deceleration {} periods after the stop: {:?}",
-        lead + 1,
+        inc[stop_at] < cruise,
+        "no deceleration in the board's next period: {:?}",
         &inc[stop_at - 2..stop_at + 6]
+    );
+    assert!(
+        inc[stop_at - 1..].windows(2).all(|w| w[1] <= w[0]),
+        "{:?}",
+        &inc[stop_at - 1..]
+    );
+    // Here the board runs right after the Pulse Generator: one period was queued ahead.
+    assert_eq!(
+        fb_discarded(&rig),
+        wrc_controller::pulse_generator::FIFO_LEAD as u32 - 1,
+        "the board skipped the periods queued ahead"
     );
     assert!(inc[inc.len() - 1] == 0);
     // Books: the board's commanded position equals everything the Pulse Generator pushed.
@@ -222,6 +232,13 @@ fn a_stop_decelerates_within_two_periods_and_keeps_the_books() {
         rig.period();
     }
     assert_eq!(rig.feedback().axes[0].commanded, 0);
+}
+
+/// Periods the board skipped on axis 0 (a flush).
+fn fb_discarded(rig: &Rig) -> u32 {
+    rig.host
+        .dpram()
+        .load(wrc_board::layout::axis_base(0) + wrc_board::layout::axis::DISCARDED)
 }
 
 #[test]

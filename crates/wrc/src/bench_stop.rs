@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
-use wrc_motion::bench::stop::{default_line, table, StopRow, Subject};
+use wrc_motion::bench::stop::{default_line, table, RefBy, StopRow, Subject};
 use wrc_motion::bench::LineCase;
 use wrc_motion::BrakeLimits;
 use wrc_robot::{Pose, Posture, Robot};
@@ -81,8 +81,13 @@ pub fn run(args: StopArgs) -> anyhow::Result<ExitCode> {
     println!(
         "  stop requested at peak acceleration (mid-acceleration) or in cruise (half-way); \
          time = request to the last period with a pulse, distance = the pulses after the request \
-         (a line: mm of TCP path); reference = the 1-D time-optimal jerk-limited brake from the \
-         same state (the axis's limits, a line's Cartesian limits; scaled by the override for STOP)"
+         (a line: mm of TCP path)"
+    );
+    println!(
+        "  reference = the time-optimal jerk-limited brake from the same state (scaled by the \
+         override for STOP): an axis's 1-D brake; a line's, the longer of its TCP's 1-D brake \
+         with the Cartesian limits (by tcp) and its path brake with every joint's limits too \
+         (by path)"
     );
     println!(
         "  ESTOP = stop category 1 (IEC 60204-1) with every axis's full limits; STOP = the \
@@ -153,33 +158,46 @@ fn print_table(robot: &Robot, rows: &[StopRow], line: &LineCase) {
                 ),
             }
             println!(
-                "  {:>5}  {:<6} {:<5} {:>12} {:>8} {:>8} {:>6}  {:>9} {:>9} {:>6}",
+                "  {:>5}  {:<6} {:<5} {:>12} {:>8} {:>8} {:>4} {:>6}  {:>9} {:>9} {:>4} {:>6}",
                 "speed",
                 "when",
                 "stop",
                 format!("v [{unit}/s]"),
                 "time ms",
                 "ref ms",
+                "by",
                 "ratio",
                 format!("dist {unit}"),
                 format!("ref {unit}"),
+                "by",
                 "ratio"
             );
             current = Some(name);
         }
         println!(
-            "  {:>4}%  {:<6} {:<5} {:>12.1} {:>8.0} {:>8.1} {:>6.3}  {:>9.3} {:>9.3} {:>6.3}",
+            "  {:>4}%  {:<6} {:<5} {:>12.1} {:>8.0} {:>8.1} {:>4} {:>6.3}  {:>9.3} {:>9.3} {:>4} {:>6.3}",
             r.speed_pct,
             r.phase.name(),
             stop_name(r.limits),
             r.speed,
             r.time_s * 1e3,
             r.ref_time_s * 1e3,
+            binding(&r.subject, r.ref_time_by),
             r.time_ratio(),
             r.distance,
             r.ref_distance,
+            binding(&r.subject, r.ref_distance_by),
             r.distance_ratio()
         );
+    }
+}
+
+/// Which brake gives a reference: the axis's own, a line's TCP or its path brake.
+fn binding(subject: &Subject, by: RefBy) -> &'static str {
+    match (subject, by) {
+        (Subject::Axis(_), _) => "",
+        (Subject::Line(_), RefBy::OneD) => "tcp",
+        (Subject::Line(_), RefBy::Path) => "path",
     }
 }
 
@@ -198,6 +216,8 @@ fn row_json(robot: &Robot, r: &StopRow) -> serde_json::Value {
         "distance": r.distance,
         "ref_time_ms": r.ref_time_s * 1e3,
         "ref_distance": r.ref_distance,
+        "ref_time_by": binding(&r.subject, r.ref_time_by),
+        "ref_distance_by": binding(&r.subject, r.ref_distance_by),
         "time_ratio": r.time_ratio(),
         "distance_ratio": r.distance_ratio(),
     })

@@ -11,6 +11,8 @@ use wrc_robot::{Joints, Pose, Robot, MAX_AXES};
 use crate::brake::Brake1d;
 use crate::error::PlanError;
 use crate::generator::{BrakeLimits, Period, Status, VelocityGenerator};
+use crate::path::LinePath;
+use crate::settings::LineLimits;
 
 use super::LineCase;
 
@@ -64,11 +66,29 @@ pub struct StopRow {
     /// Travel after the request, from the pulses [unit; mm of TCP path for a line].
     pub distance: f64,
     /// The one-dimensional time-optimal jerk-limited brake from the same state, with the
-    /// axis's limits (a line: the Cartesian line limits), scaled by the override for STOP:
-    /// its duration [s].
+    /// axis's limits, scaled by the override for STOP: its duration [s]. A line: the longest
+    /// of the TCP's brake with the Cartesian line limits and every joint's own brake from
+    /// its velocity and acceleration at the request with its limits — each coordinate must
+    /// stop, and none can stop sooner than its own optimum, so no motion along the line
+    /// stops sooner (a lower bound).
     pub ref_time_s: f64,
-    /// Its distance [unit; mm].
+    /// Its distance [unit; mm]. A line: the longest of the TCP's brake distance and, for each
+    /// joint, the path to the first point where that joint has travelled its own brake's
+    /// distance (a lower bound too).
     pub ref_distance: f64,
+    /// Which brake gives the reference time.
+    pub ref_time_by: RefBy,
+    /// Which brake gives the reference distance.
+    pub ref_distance_by: RefBy,
+}
+
+/// Which brake a reference figure comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RefBy {
+    /// The 1-D brake of the axis, or of a line's TCP with the Cartesian limits.
+    OneD,
+    /// A line's path brake with every joint's limits ([`line_brake_reference`]).
+    Path,
 }
 
 impl StopRow {
@@ -127,6 +147,7 @@ pub fn measure(
     };
     // Plan the move; `scale` turns the path state into units, `limits_1d` are the
     // reference's (acceleration, jerk).
+    let mut vg_start = *vg.position_pulses();
     let (scale, limits_1d) = match subject {
         Subject::Axis(i) => {
             let axis = robot
@@ -158,6 +179,7 @@ pub fn measure(
         Subject::Line(case) => {
             let start = robot.inverse(&case.start, case.posture, None)?;
             vg.set_position_pulses(&robot.joints_to_pulses(&start))?;
+            vg_start = *vg.position_pulses();
             let a = vg.pose();
             vg.start_line(&case.target)?;
             let length = ((case.target.x - a.x).powi(2)
@@ -207,6 +229,26 @@ pub fn measure(
         limits_1d.0,
         limits_1d.1,
     );
+    let mut bound = Bound {
+        time_s: reference.duration(),
+        distance: reference.stop_position(),
+        time_by: None,
+        distance_by: None,
+    };
+    if let (Subject::Line(case), Some(state)) = (subject, vg.path_state()) {
+        let start = robot.forward(&robot.pulses_to_joints(&vg_start));
+        let path = LinePath::new(&robot, start, case.target, case.posture);
+        let at = robot.pulses_to_joints(&position);
+        path_bound(
+            &robot,
+            &path,
+            &at,
+            state,
+            &vg.settings().line,
+            brake_scale,
+            &mut bound,
+        );
+    }
     vg.stop(limits);
     let (mut last_pulse, mut distance) = (0u64, 0.0f64);
     let mut i = 0u64;
@@ -247,9 +289,192 @@ pub fn measure(
         acceleration: acceleration * speed.signum(),
         time_s: last_pulse as f64 * ts,
         distance,
-        ref_time_s: reference.duration(),
-        ref_distance: reference.stop_position(),
+        ref_time_s: bound.time_s,
+        ref_distance: bound.distance,
+        ref_time_by: bound.time_by.unwrap_or(RefBy::OneD),
+        ref_distance_by: bound.distance_by.unwrap_or(RefBy::OneD),
     })
+}
+
+/// The reference of a stop: the longest of the one-dimensional brakes.
+struct Bound {
+    time_s: f64,
+    distance: f64,
+    time_by: Option<RefBy>,
+    distance_by: Option<RefBy>,
+}
+
+/// The time-optimal jerk-limited brake of a straight line's path parameter u from the path
+/// state `(u, u̇, ü)` [1, 1/s, 1/s², real time] at the joints `at`, with every joint's
+/// acceleration and jerk limit and the Cartesian ones (`line`), all scaled by `scale` (the
+/// override for STOP, 1 for ESTOP): its duration [s] and TCP distance [mm]. `None` at rest,
+/// for a line of no length, or where the kinematics fail.
+///
+/// Along the line q̈ = q′ü + q″u̇² and q⃛ = q′u⃛ + 3q″u̇ü + q‴u̇³, so at each state the limits
+/// bound ü and u⃛ to intervals that move with the state. The TCP's own 1-D brake (Ruckig's,
+/// with the Cartesian limits) ignores that, and can ask a joint for more jerk than it has
+/// (1.5× J2's on the default table line while accelerating): it is a lower bound no motion
+/// reaches. This brake keeps them all: the bang-bang structure of a time-optimal
+/// jerk-limited brake, the most negative jerk the state allows (the deceleration held on its
+/// bound once there) until a switching time, then the most positive, so that ü and u̇ reach
+/// zero together, with the switching time found by bisection on a simulation in steps of
+/// 0.1 ms. An independent reference: it shares the line's kinematics with the controller's
+/// brake (`line_profile.rs`), not its algorithm, tables or margins.
+pub fn line_brake_reference(
+    robot: &Robot,
+    path: &LinePath,
+    at: &Joints,
+    (u0, v0, a0): (f64, f64, f64),
+    line: &LineLimits,
+    scale: f64,
+) -> Option<(f64, f64)> {
+    let length = path.length_mm();
+    if length <= 0.0 || v0 <= 0.0 {
+        return None;
+    }
+    let limits = PathBrakeLimits {
+        cart: (
+            line.max_accel_mm_s2 * scale * scale / length,
+            line.max_jerk_mm_s3 * scale.powi(3) / length,
+        ),
+        joints: std::array::from_fn(|k| {
+            robot
+                .axes()
+                .get(k)
+                .map_or((f64::INFINITY, f64::INFINITY), |a| {
+                    (
+                        a.limits.max_acceleration * scale * scale,
+                        a.limits.max_jerk * scale.powi(3),
+                    )
+                })
+        }),
+    };
+    let run = |switch: f64| simulate_path_brake(robot, path, at, (u0, v0, a0), &limits, switch);
+    // Released at 60 s, a brake has stopped long before (or the line ended).
+    let (mut early, mut late) = (0.0, 60.0);
+    let mut best = match run(late) {
+        shot @ Shot::Late { .. } => shot,
+        Shot::Early | Shot::Failed => return None,
+    };
+    for _ in 0..48 {
+        let mid = 0.5 * (early + late);
+        match run(mid) {
+            Shot::Early => early = mid,
+            shot @ Shot::Late { .. } => {
+                late = mid;
+                best = shot;
+            }
+            Shot::Failed => return None,
+        }
+    }
+    match best {
+        Shot::Late { time_s, u } => Some((time_s, (u - u0) * length)),
+        Shot::Early | Shot::Failed => None,
+    }
+}
+
+/// Raise `bound` (the TCP's brake) to the line's own: [`line_brake_reference`].
+fn path_bound(
+    robot: &Robot,
+    path: &LinePath,
+    at: &Joints,
+    state: (f64, f64, f64),
+    line: &LineLimits,
+    scale: f64,
+    bound: &mut Bound,
+) {
+    if let Some((time_s, distance)) = line_brake_reference(robot, path, at, state, line, scale) {
+        if time_s > bound.time_s {
+            bound.time_s = time_s;
+            bound.time_by = Some(RefBy::Path);
+        }
+        if distance > bound.distance {
+            bound.distance = distance;
+            bound.distance_by = Some(RefBy::Path);
+        }
+    }
+}
+
+/// Step of the reference path brake's simulation [s].
+const REF_STEP_S: f64 = 1e-4;
+
+/// The limits of the reference path brake: the Cartesian (acceleration, jerk) in u units and
+/// every joint's.
+struct PathBrakeLimits {
+    cart: (f64, f64),
+    joints: [(f64, f64); MAX_AXES],
+}
+
+/// How a simulated path brake ends.
+#[derive(Debug, Clone, Copy)]
+enum Shot {
+    /// The deceleration was released too early: ü is back at zero with u̇ > 0.
+    Early,
+    /// Released too late (or on time): u̇ reached zero, at `time_s` and path point `u`.
+    Late { time_s: f64, u: f64 },
+    /// The kinematics failed (the line's end or a singular point).
+    Failed,
+}
+
+/// Brake with the most negative admissible jerk until `switch` [s], then the most positive.
+fn simulate_path_brake(
+    robot: &Robot,
+    path: &LinePath,
+    at: &Joints,
+    (mut u, mut v, mut a): (f64, f64, f64),
+    limits: &PathBrakeLimits,
+    switch: f64,
+) -> Shot {
+    let mut q = *at;
+    let mut t = 0.0;
+    let n = robot.axis_count();
+    while t < 60.0 {
+        let Ok(jets) = path.jets_at(robot, u.min(1.0), &q) else {
+            return Shot::Failed;
+        };
+        for (k, x) in q.iter_mut().enumerate().take(n) {
+            *x = jets.joints[k].d[0];
+        }
+        // The admissible jerk and acceleration of u at this state.
+        let (mut jlo, mut jhi) = (-limits.cart.1, limits.cart.1);
+        let (mut alo, mut ahi) = (-limits.cart.0, limits.cart.0);
+        for k in 0..n {
+            let d = jets.joints[k].d;
+            if d[1].abs() < 1e-12 {
+                continue;
+            }
+            let (am, jm) = limits.joints[k];
+            let c = 3.0 * d[2] * v * a + d[3] * v * v * v;
+            let (x, y) = ((-jm - c) / d[1], (jm - c) / d[1]);
+            jlo = jlo.max(x.min(y));
+            jhi = jhi.min(x.max(y));
+            let c = d[2] * v * v;
+            let (x, y) = ((-am - c) / d[1], (am - c) / d[1]);
+            alo = alo.max(x.min(y));
+            ahi = ahi.min(x.max(y));
+        }
+        let next_a = if t < switch {
+            (a + jlo * REF_STEP_S).max(alo.min(a))
+        } else {
+            (a + jhi.max(0.0) * REF_STEP_S).min(ahi.max(a))
+        };
+        let next_v = v + 0.5 * (a + next_a) * REF_STEP_S;
+        let dt = if next_v < 0.0 && v > next_v {
+            REF_STEP_S * v / (v - next_v)
+        } else {
+            REF_STEP_S
+        };
+        u += v * dt + (2.0 * a + next_a) / 6.0 * dt * dt;
+        t += dt;
+        if next_v <= 0.0 {
+            return Shot::Late { time_s: t, u };
+        }
+        if t >= switch && next_a >= 0.0 {
+            return Shot::Early;
+        }
+        (v, a) = (next_v, next_a);
+    }
+    Shot::Failed
 }
 
 /// The period after which to request the stop: the middle of the periods at the peak path

@@ -3,9 +3,12 @@
 //! trip; with the simulated cell, a GET through the DPRAM moves a wafer in the world file.
 //! The board process is always killed (guard on drop).
 
+mod common;
+
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+
+use common::{wait_until, PATIENCE};
 
 use wrc_board::layout::{alarm, board_status};
 use wrc_board::wrc_cell::{SlotCode, Stations, World};
@@ -35,20 +38,20 @@ fn start(path: &Path) -> Board {
     Board(child)
 }
 
-/// Poll `done` on fresh feedback for up to 20 s (generous on a loaded machine).
+/// Poll fresh feedback until `done` holds (refreshing the host watchdog meanwhile if
+/// `refresh`).
 fn until(host: &mut DpramBoard, refresh: bool, done: impl Fn(&Feedback) -> bool) -> Feedback {
-    let deadline = Instant::now() + Duration::from_secs(20);
     let mut f = Feedback::default();
-    loop {
+    wait_until("the awaited board feedback", || {
         if refresh {
             host.refresh_watchdog();
         }
         if host.read_feedback(&mut f).is_ok() && done(&f) {
-            return f;
+            Ok(f)
+        } else {
+            Err(format!("{f:?}"))
         }
-        assert!(Instant::now() < deadline, "timed out; last feedback {f:?}");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    })
 }
 
 #[test]
@@ -62,7 +65,7 @@ fn driver_and_board_process_share_the_dpram() {
             board_id: Some(0),
             ..Expect::default()
         },
-        Duration::from_secs(20),
+        PATIENCE,
     )
     .expect("board came up");
     assert_eq!(host.axis_count(), 4);
@@ -70,14 +73,11 @@ fn driver_and_board_process_share_the_dpram() {
     // 20 periods of +500 pulses on j2.
     let mut increments = [0i64; 16];
     increments[1] = 500;
-    let mut pushed = 0;
-    while pushed < 20 {
-        host.refresh_watchdog();
-        if host.push(&increments).is_ok() {
-            pushed += 1;
-        } else {
-            std::thread::sleep(Duration::from_millis(2));
-        }
+    for _ in 0..20 {
+        wait_until("room in the board's FIFO", || {
+            host.refresh_watchdog();
+            host.push(&increments).map_err(|e| e.to_string())
+        });
     }
     let f = until(&mut host, true, |f| {
         f.axes[1].commanded == 150_000 + 20 * 500 && f.axes[1].fifo_level == 0
@@ -179,24 +179,20 @@ fn start_cell(dir: &Path) -> Board {
     Board(child)
 }
 
-/// Send SIGTERM and wait (up to 20 s) for a clean exit.
+/// Send SIGTERM and wait for a clean exit.
 fn terminate(board: &mut Board) {
     // SAFETY: kill with the pid of a child we spawned and have not reaped.
     unsafe {
         libc::kill(board.0.id() as libc::pid_t, libc::SIGTERM);
     }
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        if let Some(status) = board.0.try_wait().unwrap() {
-            assert!(status.success(), "board-sim exited with {status}");
-            return;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "board-sim did not stop on SIGTERM"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    let status = wait_until("board-sim to stop on SIGTERM", || {
+        board
+            .0
+            .try_wait()
+            .unwrap()
+            .ok_or_else(|| "running".to_string())
+    });
+    assert!(status.success(), "board-sim exited with {status}");
 }
 
 /// Push a joint move to `pose` (right elbow), at most 1 500 pulses a period per axis, and
@@ -217,9 +213,9 @@ fn drive_to(host: &mut DpramBoard, robot: &wrc_robot::Robot, pose: Pose) {
             *i = (t - *e).clamp(-1_500, 1_500);
             *e += *i;
         }
-        while host.push(&inc).is_err() {
-            std::thread::sleep(Duration::from_millis(2));
-        }
+        wait_until("room in the board's FIFO", || {
+            host.push(&inc).map_err(|e| e.to_string())
+        });
     }
     f = until(host, false, |f| {
         f.axes[..4]
@@ -238,7 +234,7 @@ fn the_simulated_cell_keeps_its_world_file_as_the_ground_truth() {
     let mut host = DpramBoard::open_waiting(
         &dir.path().join("board0.dpram"),
         Expect::default(),
-        Duration::from_secs(20),
+        PATIENCE,
     )
     .expect("board came up");
     // Created from the stations' [station.sim] tables before the board came up.
@@ -270,14 +266,11 @@ fn the_simulated_cell_keeps_its_world_file_as_the_ground_truth() {
     until(&mut host, false, |f| {
         f.boards[0].inputs & (1 << config.hand.vacuum_input) != 0
     });
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while read_world(&world_path).hand().is_none() {
-        assert!(
-            Instant::now() < deadline,
-            "the pick never reached the world file"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_until("the pick in the world file", || {
+        read_world(&world_path)
+            .hand()
+            .ok_or_else(|| "no wafer on the hand".to_string())
+    });
     let world = read_world(&world_path);
     assert_eq!(world.hand(), Some(1));
     assert_eq!(world.map_station("LP1").unwrap()[0], SlotCode::Absent);
@@ -316,7 +309,7 @@ fn the_simulated_cell_keeps_its_world_file_as_the_ground_truth() {
     DpramBoard::open_waiting(
         &dir.path().join("board0.dpram"),
         Expect::default(),
-        Duration::from_secs(20),
+        PATIENCE,
     )
     .unwrap();
     terminate(&mut board);

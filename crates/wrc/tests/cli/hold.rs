@@ -2,24 +2,10 @@
 //! path and stays open (no INF/ABS), the state is HELD, RESUME continues it on the same path
 //! to the same target; a PTP, a straight line and a GET; STOP abandons a held motion.
 //!
-//! The hold is sent once the arm is seen moving (polled with WHERE, bounded by a deadline
-//! that only a failure reaches), never after a sleep.
-
-use std::time::{Duration, Instant};
+//! The hold is sent once the arm is seen moving (polled with STATUS and WHERE, bounded by a
+//! deadline that only a failure reaches), never after a sleep.
 
 use crate::up::{Client, Controller};
-
-/// Poll WHERE until `moved` says the arm has moved far enough (panics after 20 s).
-fn until_moved(host: &mut Client, moved: impl Fn(&[f64], f64, f64) -> bool) {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        let (j, x, y) = host.where_();
-        if moved(&j, x, y) {
-            return;
-        }
-        assert!(Instant::now() < deadline, "the arm did not move: {j:?}");
-    }
-}
 
 /// Read until `EVT STATE <state>`; fail on a final reply of `id` on the way.
 fn until_state(host: &mut Client, state: &str, id: u32) {
@@ -55,7 +41,9 @@ fn a_held_ptp_stays_on_its_joint_line_and_resumes_to_its_target() {
     assert!(host.ask("SPEED 30").starts_with("ACK"));
     let target = [60.0, 30.0, 120.0, 0.0];
     assert_eq!(host.ask("3 MOVJ 60 30 120 0"), "ACK 3");
-    until_moved(&mut host, |j, _, _| (j[0] - start[0]).abs() > 20.0);
+    host.wait_moving("j1 20 deg on its way", |j, _, _| {
+        (j[0] - start[0]).abs() > 20.0
+    });
     hold(&mut host, 3);
     let (held, _, _) = host.where_();
     // Phase-synchronised: every axis has covered the same fraction of its distance.
@@ -87,7 +75,7 @@ fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
     assert!(host.ask("SPEED 20").starts_with("ACK"));
     let (a, b) = ((300.0, -150.0), (300.0, 150.0));
     assert_eq!(host.ask("4 MOVL 300 150 20 0"), "ACK 4");
-    until_moved(&mut host, |_, _, y| y > -100.0);
+    host.wait_moving("y past -100 mm", |_, _, y| y > -100.0);
     hold(&mut host, 4);
     let (_, x, y) = host.where_();
     assert!(
@@ -101,7 +89,7 @@ fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
 
     // STOP while held ends the held motion.
     assert_eq!(host.ask("5 MOVL 300 -150 20 0"), "ACK 5");
-    until_moved(&mut host, |_, _, y| y < 100.0);
+    host.wait_moving("y back below 100 mm", |_, _, y| y < 100.0);
     hold(&mut host, 5);
     assert_eq!(host.ask("STOP"), "ACK");
     assert!(host.reply().starts_with("ABS 5 200"));
@@ -119,7 +107,7 @@ fn a_held_get_waits_and_resumes_to_take_its_wafer() {
     let (start, _, _) = host.where_();
     assert!(host.ask("SPEED 30").starts_with("ACK"));
     assert_eq!(host.ask("4 GET LP1 2"), "ACK 4");
-    until_moved(&mut host, |j, _, _| {
+    host.wait_moving("an axis 5 deg on its way", |j, _, _| {
         j.iter().zip(&start).any(|(a, b)| (a - b).abs() > 5.0)
     });
     hold(&mut host, 4);

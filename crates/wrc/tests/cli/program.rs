@@ -2,9 +2,8 @@
 //! runtime errors with their source line, STOP, the examples, and programs kept on disk.
 
 use std::path::Path;
-use std::time::Duration;
 
-use super::up::{Client, Controller};
+use super::up::{Client, Controller, STILL_PERIODS};
 use super::{text, wrc};
 
 /// Upload `source` as `name`; returns every line up to and including the final ACK/NAK.
@@ -149,7 +148,10 @@ fn stop_aborts_a_running_program_and_other_sources_cannot_move_meanwhile() {
         .unwrap()
         .starts_with("ACK 1"));
     assert_eq!(host.ask("2 RUN forever"), "ACK 2");
-    std::thread::sleep(Duration::from_millis(1500));
+    // The program is in its loop, on the way from home (j1 -75) to j1 170.
+    other.wait_moving("the program's first MOVEJ under way", |j, _, _| {
+        j[0] > -65.0
+    });
     assert!(other.ask("MOVJ 0 90 0 0").starts_with("NAK 127"));
     assert!(other.ask("RUN forever").starts_with("NAK 127"));
     assert_eq!(other.ask("PAUSE"), "ACK");
@@ -158,9 +160,11 @@ fn stop_aborts_a_running_program_and_other_sources_cannot_move_meanwhile() {
     let lines = until_final(&mut host, 2);
     let last = lines.last().unwrap();
     assert!(last.starts_with("ABS 2 200 forever line "), "{lines:?}");
-    std::thread::sleep(Duration::from_millis(600));
+    assert_eq!(host.motion(4, "WAIT"), "INF 4");
+    let board = c.board();
+    board.wait_at_rest();
     let a = host.where_().0;
-    std::thread::sleep(Duration::from_millis(300));
+    board.wait_periods(STILL_PERIODS);
     assert_eq!(host.where_().0, a, "nothing moves after the stop");
     assert!(host.ask("ABORT").starts_with("NAK 128"));
     assert!(host.ask("PAUSE").starts_with("NAK 128"));

@@ -10,18 +10,15 @@ use std::time::{Duration, Instant};
 use tungstenite::{Message, WebSocket};
 
 use crate::up::{free_port, Controller};
+use crate::{poll_until, wait_until, PATIENCE};
 
 type Ws = WebSocket<TcpStream>;
 
 fn connect_ws(port: u16, query: &str) -> Result<Ws, String> {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let stream = loop {
-        match TcpStream::connect(("127.0.0.1", port)) {
-            Ok(s) => break s,
-            Err(e) if Instant::now() > deadline => return Err(format!("no GUI port: {e}")),
-            Err(_) => std::thread::sleep(Duration::from_millis(50)),
-        }
-    };
+    let stream = poll_until(PATIENCE, || {
+        TcpStream::connect(("127.0.0.1", port)).map_err(|e| e.to_string())
+    })
+    .map_err(|e| format!("no GUI port: {e}"))?;
     stream
         .set_read_timeout(Some(Duration::from_secs(30)))
         .unwrap();
@@ -216,11 +213,14 @@ fn killing_the_gui_leaves_the_controller_serving() {
         }
     };
     assert!(lost.starts_with("EVT ERROR 208"), "{lost}");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while !host.status().contains("owner=none") || host.status().contains("MOVING") {
-        assert!(Instant::now() < deadline, "the robot did not stop");
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    wait_until("control freed and the robot stopping", || {
+        let status = host.status();
+        if status.contains("owner=none") && !status.contains("MOVING") {
+            Ok(())
+        } else {
+            Err(status)
+        }
+    });
     // The fault is answered at once; WAIT answers when the arm has braked to a standstill.
     assert_eq!(host.ask("9 WAIT"), "ACK 9");
     let r = host.reply();
@@ -255,13 +255,14 @@ fn stop(child: &mut Child) {
     unsafe {
         libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
     }
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(20));
+    let stopped = poll_until(PATIENCE, || {
+        child
+            .try_wait()
+            .unwrap()
+            .ok_or_else(|| "running".to_string())
+    });
+    if stopped.is_err() {
+        let _ = child.kill();
     }
 }
 

@@ -6,7 +6,12 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use crate::{wait_until, BoardView};
+
+/// Board periods (10 ms each) that a test watches the arm after a stop to see nothing move.
+pub(crate) const STILL_PERIODS: u64 = 30;
 
 pub(crate) struct Controller {
     child: Child,
@@ -71,11 +76,9 @@ impl Controller {
             sim_port,
             dir,
         };
-        let deadline = Instant::now() + Duration::from_secs(20);
-        while TcpStream::connect(("127.0.0.1", port)).is_err() {
-            assert!(Instant::now() < deadline, "wrc up did not open its port");
-            std::thread::sleep(Duration::from_millis(50));
-        }
+        wait_until("wrc up to open its port", || {
+            TcpStream::connect(("127.0.0.1", port)).map_err(|e| e.to_string())
+        });
         c
     }
 
@@ -96,19 +99,22 @@ impl Controller {
         self.dir.path().join("board0.dpram")
     }
 
+    /// The simulated board that `wrc up` started, seen through its DPRAM.
+    pub(crate) fn board(&self) -> BoardView {
+        BoardView::open(&self.dpram())
+    }
+
     fn terminate(&mut self) -> std::process::ExitStatus {
         // SAFETY: signals our own child.
         unsafe {
             libc::kill(self.child.id() as libc::pid_t, libc::SIGTERM);
         }
-        let deadline = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status;
-            }
-            assert!(Instant::now() < deadline, "wrc up did not stop on SIGTERM");
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        wait_until("wrc up to stop on SIGTERM", || {
+            self.child
+                .try_wait()
+                .unwrap()
+                .ok_or_else(|| "still running".to_string())
+        })
     }
 }
 
@@ -199,6 +205,41 @@ impl Client {
     pub(crate) fn status(&mut self) -> String {
         self.ask("STATUS")
     }
+
+    /// Poll STATUS until the state is `state` (`IDLE`, `ERROR`, …); the STATUS reply then.
+    pub(crate) fn wait_state(&mut self, state: &str) -> String {
+        let want = format!("state={state}");
+        wait_until(&format!("STATUS {want}"), || {
+            let status = self.status();
+            if status.split_whitespace().any(|w| w == want) {
+                Ok(status)
+            } else {
+                Err(status)
+            }
+        })
+    }
+
+    /// Poll STATUS and WHERE until the arm is MOVING and `moved(joints, x, y)` says it has
+    /// got far enough (`what`, for the failure message); the joints then [deg, mm]. On a
+    /// connection whose motion is still open, its INF/ABS must not come meanwhile.
+    pub(crate) fn wait_moving(
+        &mut self,
+        what: &str,
+        moved: impl Fn(&[f64], f64, f64) -> bool,
+    ) -> Vec<f64> {
+        wait_until(what, || {
+            let status = self.status();
+            if !status.contains("state=MOVING") {
+                return Err(status);
+            }
+            let (j, x, y) = self.where_();
+            if moved(&j, x, y) {
+                Ok(j)
+            } else {
+                Err(format!("j={j:?} x={x} y={y}"))
+            }
+        })
+    }
 }
 
 #[test]
@@ -275,21 +316,27 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
     let mut other = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
     assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
-    std::thread::sleep(Duration::from_millis(400));
+    // STOP once j1 is on its way from -75, far from 170.
+    other.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     assert_eq!(other.ask("3 STOP"), "ACK 3");
     assert_eq!(host.reply(), "ABS 2 200 stopped by STOP");
-    std::thread::sleep(Duration::from_millis(500));
+    // Once the controller has braked (WAIT) and the board has executed the brake, nothing
+    // moves for STILL_PERIODS board periods.
+    assert_eq!(host.motion(7, "WAIT"), "INF 7");
+    let board = c.board();
+    board.wait_at_rest();
     let a = host.where_().0;
-    std::thread::sleep(Duration::from_millis(300));
+    board.wait_periods(STILL_PERIODS);
     assert_eq!(host.where_().0, a, "no pulses after the stop");
     assert!(a[0] < 170.0 && a[0] > -75.0);
     assert!(host.status().starts_with("ACK state=IDLE"));
 
     assert_eq!(host.ask("4 MOVJ -100 30 0 0"), "ACK 4");
-    std::thread::sleep(Duration::from_millis(300));
+    other.wait_moving("j1 on its way to -100 deg", |j, _, _| j[0] < a[0] - 2.0);
     assert_eq!(other.ask("5 ESTOP"), "ACK 5");
     assert_eq!(host.reply(), "ABS 4 201 emergency stop");
-    std::thread::sleep(Duration::from_millis(600));
+    // WAIT answers (with the E-stop's code) once the brake is over; RESET needs that.
+    assert!(host.motion(8, "WAIT").starts_with("ABS 8 201"));
     assert!(host.status().starts_with("ACK state=ESTOP"));
     assert!(host.ask("MOVJ 0 90 0 0").starts_with("NAK 123"));
     assert_eq!(host.ask("RESET"), "ACK");
@@ -303,7 +350,7 @@ fn a_board_alarm_aborts_the_move_and_reset_recovers() {
     let mut host = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
     assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
-    std::thread::sleep(Duration::from_millis(300));
+    host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
         .args(["board-sim", "inject", "--dpram"])
         .arg(c.dpram())
@@ -403,7 +450,7 @@ fn sigterm_stops_cleanly_and_leaves_no_process() {
     let mut host = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
     assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
-    std::thread::sleep(Duration::from_millis(200));
+    host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     let status = c.terminate();
     assert!(status.success(), "{status:?}");
     let mut out = String::new();
@@ -418,7 +465,7 @@ fn sigterm_stops_cleanly_and_leaves_no_process() {
         "{out}"
     );
     assert!(c.dir.path().join("state.toml").exists());
-    std::thread::sleep(Duration::from_millis(300));
+    // wrc up reaps its children (the simulated board) before it exits.
     let left = processes_mentioning(c.dir.path());
     assert!(left.is_empty(), "left behind: {left:?}");
 }
@@ -430,18 +477,18 @@ fn the_pendant_speaks_the_protocol_on_a_serial_line_with_checksums() {
     let c = Controller::start(&["--serial", slave.to_str().unwrap(), "--baud", "9600"]);
     let read_line = |m: &mut std::fs::File| -> String {
         let mut line = Vec::new();
-        let deadline = Instant::now() + Duration::from_secs(10);
         let mut byte = [0u8; 1];
-        while Instant::now() < deadline {
+        wait_until("a line on the serial port", || loop {
             match m.read(&mut byte) {
-                Ok(1) if byte[0] == b'\n' => break,
+                Ok(1) if byte[0] == b'\n' => {
+                    return Ok(String::from_utf8_lossy(&line)
+                        .trim_end_matches('\r')
+                        .to_string())
+                }
                 Ok(1) => line.push(byte[0]),
-                _ => std::thread::sleep(Duration::from_millis(5)),
+                _ => return Err(String::from_utf8_lossy(&line).into_owned()),
             }
-        }
-        String::from_utf8_lossy(&line)
-            .trim_end_matches('\r')
-            .to_string()
+        })
     };
     master.write_all(b"STATUS\n").unwrap();
     let r = read_line(&mut master);
@@ -583,29 +630,21 @@ fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
         assert!(owner.ask("CONTROL").starts_with("ACK owner="));
         assert_eq!(owner.motion(1, "HOME"), "INF 1");
         assert_eq!(owner.ask("2 MOVJ 170 30 0 250"), "ACK 2");
-        std::thread::sleep(Duration::from_millis(300));
+        watcher.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     } // the owner's connection drops here
-    let deadline = Instant::now() + Duration::from_secs(10);
-    loop {
-        let s = watcher.status();
-        if s.contains("state=ERROR") {
-            assert!(s.contains("err=208") && s.contains("owner=none"), "{s}");
-            break;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "no ERROR after losing the owner: {s}"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    let s = watcher.wait_state("ERROR");
+    assert!(s.contains("err=208") && s.contains("owner=none"), "{s}");
     assert!(
         watcher.seen.iter().any(|l| l.starts_with("EVT ERROR 208")),
         "{:?}",
         watcher.seen
     );
-    std::thread::sleep(Duration::from_millis(800));
+    // WAIT answers (with the fault's code) once the brake is over.
+    assert!(watcher.motion(3, "WAIT").starts_with("ABS 3 208"));
+    let board = c.board();
+    board.wait_at_rest();
     let a = watcher.where_().0;
-    std::thread::sleep(Duration::from_millis(300));
+    board.wait_periods(STILL_PERIODS);
     assert_eq!(watcher.where_().0, a, "stopped");
     assert_eq!(watcher.ask("RESET"), "ACK");
 }

@@ -1,7 +1,8 @@
 //! The wafer map under load (issue 8): the bundled demo program moves all 25 wafers LP1 → AL
 //! → LP2 with the map checked against the simulated cell at the end; and `wrc up` killed
-//! with SIGKILL again and again during transfers never loses or duplicates a wafer in the
-//! map, checked against the simulated board's ground truth after every restart.
+//! with SIGKILL again and again during transfers (in each of the windows a crash can hit,
+//! found by the events the host hears) never loses or duplicates a wafer in the map,
+//! checked against the simulated board's ground truth after every restart.
 //!
 //! Both run the demo cell with the stations' speed limits lifted to 100 % and the Command
 //! Interpreter, Velocity Generator and I/O Monitor at 10 ms instead of Table 1's 50/50/100 ms,
@@ -10,11 +11,10 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
 
 use crate::up::{free_port, Client, Controller};
 use crate::wafers::{truth, truth_codes};
-use crate::{text, wrc};
+use crate::{text, wait_until, wrc, BoardView};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -101,15 +101,14 @@ fn hand(wafers: &str) -> &str {
 /// The map (after any start-up reconciliation) agrees with the cell: every station's
 /// occupancy, the hand, and 25 wafers in all, none lost.
 fn check_against_truth(host: &mut Client, world: &Path, when: &str) {
-    let deadline = Instant::now() + Duration::from_secs(10);
-    let wafers = loop {
+    let wafers = wait_until(&format!("{when}: no transfer pending"), || {
         let w = host.ask("WAFERS");
-        if !w.contains("pending=") {
-            break w;
+        if w.contains("pending=") {
+            Err(w)
+        } else {
+            Ok(w)
         }
-        assert!(Instant::now() < deadline, "{when}: still pending: {w}");
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    });
     let t = truth(world);
     let mut total = 0;
     for station in ["LP1", "LP2", "AL"] {
@@ -169,17 +168,18 @@ fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
     );
 }
 
-struct Board(Child);
+/// A process killed when the test ends, passed or failed (the board, every `wrc up`).
+struct KillOnDrop(Child);
 
-impl Drop for Board {
+impl Drop for KillOnDrop {
     fn drop(&mut self) {
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
 }
 
-fn start_up(dir: &Path, dpram: &Path, config: &Path, stations: &Path, port: u16) -> Child {
-    let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+fn start_up(dir: &Path, dpram: &Path, config: &Path, stations: &Path, port: u16) -> KillOnDrop {
+    let up = Command::new(env!("CARGO_BIN_EXE_wrc"))
         .args(["up", "--no-rt", "--no-ui"])
         .args(["--port", &format!("127.0.0.1:{port}")])
         .args(["--sim-addr", &format!("127.0.0.1:{}", free_port())])
@@ -195,19 +195,38 @@ fn start_up(dir: &Path, dpram: &Path, config: &Path, stations: &Path, port: u16)
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(Instant::now() < deadline, "wrc up did not open its port");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child
+    let up = KillOnDrop(up);
+    wait_until("wrc up to open its port", || {
+        std::net::TcpStream::connect(("127.0.0.1", port)).map_err(|e| e.to_string())
+    });
+    up
 }
 
-/// A deterministic pseudo-random kill time per round [ms], 1.5 to 6.5 s into the transfers.
-fn kill_after_ms(round: u64) -> u64 {
-    let x = round.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17) ^ 0xD1B5_4A32_D192_ED03;
-    1500 + x % 5000
-}
+/// Where each round kills the controller: right after the host hears the `n`-th line that
+/// starts with the text, counted from the program's start (input 0 is the hand's vacuum
+/// sensor). Between them the rounds hit every window a crash can fall in.
+const KILLS: [(&str, usize, &str); 4] = [
+    (
+        "EVT WAFER pending=get:",
+        2,
+        "a GET announced, the hand on its way to the wafer",
+    ),
+    (
+        "EVT INPUT 0 1",
+        2,
+        "a wafer sensed on the hand, its GET not yet in the map",
+    ),
+    (
+        "EVT INPUT 0 0",
+        2,
+        "a wafer released by a PUT, not yet in the map",
+    ),
+    (
+        "EVT WAFER pending=-",
+        3,
+        "a transfer in the map, the next one not yet begun",
+    ),
+];
 
 #[test]
 fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
@@ -232,7 +251,7 @@ fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
         .spawn()
         .unwrap();
     let stderr = board.stderr.take().unwrap();
-    let board = Board(board);
+    let board = KillOnDrop(board);
     let mut lines = BufReader::new(stderr).lines();
     // Wait for the board to be up.
     loop {
@@ -243,8 +262,8 @@ fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
     }
     std::thread::spawn(move || for _ in lines {});
 
-    let rounds = 4u64;
-    for round in 1..=rounds {
+    let view = BoardView::open(&dpram);
+    for (round, (event, nth, window)) in (1..).zip(KILLS) {
         let port = free_port();
         let mut up = start_up(&state, &dpram, &config, &stations, port);
         let mut host = Client::connect_to(port);
@@ -290,20 +309,38 @@ fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
         }
         assert!(host.ask(".").starts_with("ACK name=carry"), "{program}");
         assert_eq!(host.ask("5 RUN carry"), "ACK 5");
-        // SIGKILL at a moment no one chose: somewhere in a GET, PUT or between them.
-        std::thread::sleep(Duration::from_millis(kill_after_ms(round)));
-        up.kill().unwrap();
-        up.wait().unwrap();
+        let mut heard = 0;
+        while heard < nth {
+            let l = host.line();
+            assert!(
+                !l.starts_with("INF 5") && !l.starts_with("ABS 5"),
+                "round {round}: the program ended before {window}: {:?}",
+                host.seen
+            );
+            heard += usize::from(l.starts_with(event));
+        }
+        let trips = view.feedback().boards[0].watchdog_trips;
+        up.0.kill().unwrap();
+        up.0.wait().unwrap();
         drop(host);
-        // Let the board stop the arm (its watchdog: 1 s) and save the cell.
-        std::thread::sleep(Duration::from_millis(1500));
+        // The board stops the arm by itself once the dead controller's watchdog refreshes
+        // stop coming; its saver thread writes the cell to the world file right after each
+        // change, and the last change came before the arm stood still.
+        wait_until(&format!("round {round}: the board's watchdog trip"), || {
+            let now = view.feedback().boards[0].watchdog_trips;
+            if now > trips {
+                Ok(())
+            } else {
+                Err(format!("{now} trips"))
+            }
+        });
+        view.wait_at_rest();
     }
     // A last restart: the map still matches the cell.
     let port = free_port();
-    let mut up = start_up(&state, &dpram, &config, &stations, port);
+    let up = start_up(&state, &dpram, &config, &stations, port);
     let mut host = Client::connect_to(port);
     check_against_truth(&mut host, &world, "the last restart");
-    up.kill().unwrap();
-    let _ = up.wait();
+    drop(up);
     drop(board);
 }

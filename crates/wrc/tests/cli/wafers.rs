@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use crate::up::{Client, Controller};
-use crate::{text, wrc};
+use crate::{text, wait_until, wrc};
 
 /// The ground truth: `wrc board-sim world` of the world file, one line per station
 /// (`LP1 11111…`) and the hand.
@@ -48,22 +48,18 @@ fn inject(c: &Controller, fault: &str) {
 /// load. Regression: a PUT sent right after `sensor-flip 14 off` was refused with 135 in a
 /// loaded CI run, because the controller still saw the interlock closed.
 fn wait_input(host: &mut Client, n: u32, on: bool) {
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
-    loop {
+    wait_until(&format!("input {n} {on} at the controller"), || {
         let r = host.ask("IO");
         let word = r
             .split_whitespace()
             .find_map(|f| f.strip_prefix("in="))
             .and_then(|h| u32::from_str_radix(h, 16).ok());
         if word.is_some_and(|w| (w >> n) & 1 == u32::from(on)) {
-            return;
+            Ok(())
+        } else {
+            Err(r)
         }
-        assert!(
-            std::time::Instant::now() < deadline,
-            "input {n} never became {on} at the controller: {r}"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    });
 }
 
 #[test]
@@ -220,15 +216,14 @@ fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_leaves_the_map() {
     }
     assert!(host.status().contains("state=ERROR"));
     // The wafer left the map with the hand's vacuum: the map does not invent where it is.
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
-    loop {
+    wait_until("W1 off the hand and out of the map", || {
         let map = host.ask("6 WAFERS");
         if map.starts_with("ACK 6 hand=- LP1=-,W2..W25 ") {
-            break;
+            Ok(())
+        } else {
+            Err(map)
         }
-        assert!(std::time::Instant::now() < deadline, "{map}");
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
+    });
 }
 
 #[test]
@@ -288,15 +283,14 @@ fn abort_during_a_programs_get_stops_it_and_the_map_settles_from_the_sensor() {
     assert!(!host.seen.iter().any(|l| l.contains("never")));
     // The robot comes to rest, and the map agrees with the cell.
     assert!(host.motion(6, "WAIT").starts_with("INF 6"));
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
-    let map = loop {
+    let map = wait_until("the map settled, no transfer pending", || {
         let map = host.ask("7 WAFERS");
-        if !map.contains("pending=") {
-            break map;
+        if map.contains("pending=") {
+            Err(map)
+        } else {
+            Ok(map)
         }
-        assert!(std::time::Instant::now() < deadline, "{map}");
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    };
+    });
     // The ABORT came seconds before the hand could reach the wafer: the GET stopped with the
     // program, so the wafer is still in its slot, in the cell and in the map.
     assert!(truth(&world).contains("hand -"), "{}", truth(&world));

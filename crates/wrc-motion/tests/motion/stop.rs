@@ -563,7 +563,11 @@ fn line_stops_keep_the_limits_and_the_line() {
                     // to 1.19x the path brake's time and 1.13x its distance (a known gap).
                     // Accelerating, measured up to 1.078x the time (ESTOP at 20 %, a 44 ms
                     // brake) and 1.054x the distance: the goal is 1.05x, a known gap.
-                    let (kt, kd) = if frac < 0.9 { (1.08, 1.06) } else { (1.2, 1.15) };
+                    let (kt, kd) = if frac < 0.9 {
+                        (1.08, 1.06)
+                    } else {
+                        (1.2, 1.15)
+                    };
                     assert!(r.time_s <= kt * r.ref_time_s + ts + 1e-9, "{what}");
                     assert!(
                         r.distance_mm <= kd * r.ref_distance_mm + r.speed_mm_s * ts,

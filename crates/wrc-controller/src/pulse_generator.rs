@@ -94,23 +94,15 @@ impl History {
         self.get(queued).map(|p| &p.after)
     }
 
-    /// Forget the `n` periods before the `keep` newest (the board skipped them).
-    fn drop_before(&mut self, keep: usize, n: usize) {
-        let keep = keep.min(self.count);
-        let n = n.min(self.count - keep);
-        for i in 0..keep {
-            // Newest first would overwrite what is still to be moved: oldest first.
-            let from = (self.count - keep + i) % HISTORY;
-            let to = (self.count - keep - n + i) % HISTORY;
-            self.ring[to] = self.ring[from];
-        }
-        self.count -= n;
+    /// Forget the `n` newest periods (the board skipped them).
+    fn drop_newest(&mut self, n: usize) {
+        self.count -= n.min(self.count);
     }
 
-    /// Sum of the pulses of the `n` periods before the `keep` newest.
-    fn pulses_before(&self, keep: usize, n: usize) -> [i64; MAX_AXES] {
+    /// Sum of the pulses of the `n` newest periods.
+    fn newest_pulses(&self, n: usize) -> [i64; MAX_AXES] {
         let mut sum = [0i64; MAX_AXES];
-        for back in keep..keep + n {
+        for back in 0..n {
             if let Some(p) = self.get(back) {
                 for (s, x) in sum.iter_mut().zip(&p.pulses) {
                     *s += x;
@@ -147,10 +139,6 @@ pub struct PulseGenerator<B: MotionBoard> {
     history: History,
     /// The brake pushed before a flush ended the stop (reported by the next cycle's loop).
     brake_end: Option<Status>,
-    /// Stops that flushed the board's queue, and that braked behind it.
-    pub flushes: u64,
-    /// Stops that could not flush and braked behind the queued periods.
-    pub flush_fallbacks: u64,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -186,8 +174,6 @@ impl<B: MotionBoard> PulseGenerator<B> {
             feedback: Feedback::default(),
             history: History::new(last),
             brake_end: None,
-            flushes: 0,
-            flush_fallbacks: 0,
         }
     }
 
@@ -255,23 +241,21 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 continue; // a board period began: it executed another queued period
             }
             // The board skips the `queued` periods from its next one on.
-            let skipped = self.history.pulses_before(0, queued);
+            let skipped = self.history.newest_pulses(queued);
             for (c, p) in self.shared.commanded.iter().zip(skipped) {
                 if p != 0 {
                     c.fetch_sub(p, Ordering::AcqRel);
                 }
             }
-            self.history.drop_before(0, queued);
+            self.history.drop_newest(queued);
             for p in &first[..n] {
                 // Room was checked, and only this task pushes.
                 let _ = self.emit(&p.pulses, &p.after);
             }
             self.last = first[n - 1].after;
             self.brake_end = end;
-            self.flushes += 1;
             return true;
         }
-        self.flush_fallbacks += 1;
         false
     }
 

@@ -232,8 +232,8 @@ pub fn measure(
     let mut bound = Bound {
         time_s: reference.duration(),
         distance: reference.stop_position(),
-        time_by: None,
-        distance_by: None,
+        time_by: RefBy::OneD,
+        distance_by: RefBy::OneD,
     };
     if let (Subject::Line(case), Some(state)) = (subject, vg.path_state()) {
         let start = robot.forward(&robot.pulses_to_joints(&vg_start));
@@ -291,8 +291,8 @@ pub fn measure(
         distance,
         ref_time_s: bound.time_s,
         ref_distance: bound.distance,
-        ref_time_by: bound.time_by.unwrap_or(RefBy::OneD),
-        ref_distance_by: bound.distance_by.unwrap_or(RefBy::OneD),
+        ref_time_by: bound.time_by,
+        ref_distance_by: bound.distance_by,
     })
 }
 
@@ -300,8 +300,8 @@ pub fn measure(
 struct Bound {
     time_s: f64,
     distance: f64,
-    time_by: Option<RefBy>,
-    distance_by: Option<RefBy>,
+    time_by: RefBy,
+    distance_by: RefBy,
 }
 
 /// The time-optimal jerk-limited brake of a straight line's path parameter u from the path
@@ -386,11 +386,11 @@ fn path_bound(
     if let Some((time_s, distance)) = line_brake_reference(robot, path, at, state, line, scale) {
         if time_s > bound.time_s {
             bound.time_s = time_s;
-            bound.time_by = Some(RefBy::Path);
+            bound.time_by = RefBy::Path;
         }
         if distance > bound.distance {
             bound.distance = distance;
-            bound.distance_by = Some(RefBy::Path);
+            bound.distance_by = RefBy::Path;
         }
     }
 }
@@ -414,6 +414,13 @@ enum Shot {
     Late { time_s: f64, u: f64 },
     /// The kinematics failed (the line's end or a singular point).
     Failed,
+}
+
+/// Narrow [lo, hi] to the x with |k·x + c| ≤ limit (k ≠ 0).
+fn narrow(lo: &mut f64, hi: &mut f64, limit: f64, c: f64, k: f64) {
+    let (x, y) = ((-limit - c) / k, (limit - c) / k);
+    *lo = lo.max(x.min(y));
+    *hi = hi.min(x.max(y));
 }
 
 /// Brake with the most negative admissible jerk until `switch` [s], then the most positive.
@@ -445,13 +452,8 @@ fn simulate_path_brake(
             }
             let (am, jm) = limits.joints[k];
             let c = 3.0 * d[2] * v * a + d[3] * v * v * v;
-            let (x, y) = ((-jm - c) / d[1], (jm - c) / d[1]);
-            jlo = jlo.max(x.min(y));
-            jhi = jhi.min(x.max(y));
-            let c = d[2] * v * v;
-            let (x, y) = ((-am - c) / d[1], (am - c) / d[1]);
-            alo = alo.max(x.min(y));
-            ahi = ahi.min(x.max(y));
+            narrow(&mut jlo, &mut jhi, jm, c, d[1]);
+            narrow(&mut alo, &mut ahi, am, d[2] * v * v, d[1]);
         }
         let next_a = if t < switch {
             (a + jlo * REF_STEP_S).max(alo.min(a))

@@ -1,12 +1,12 @@
 //! Velocity Generator cost: one 50 ms cycle of a straight line for 4 axes, IK included
 //! (5 periods at 10 ms, 50 at 1 ms). The paper needed 5,185-9,181 µs per cycle; the target
 //! here is 20 µs. Also the cost of starting a line (checked point by point), of planning one
-//! with its whole timing law, and a PTP cycle.
+//! with its whole timing law, of stopping one, and a PTP cycle.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use wrc_motion::{MotionSettings, Period, Profile, VelocityGenerator};
+use wrc_motion::{BrakeLimits, MotionSettings, Period, Profile, VelocityGenerator};
 use wrc_robot::{Pose, Posture, Robot};
 
 /// Where the 250 mm line of these benchmarks ends.
@@ -135,6 +135,25 @@ fn cycle(c: &mut Criterion) {
             BatchSize::SmallInput,
         )
     });
+    // What a stop costs the task that brakes (the Pulse Generator's, on ESTOP and STOP): the
+    // brake from the present state, every candidate simulated to its stop, a third of the way
+    // along the line, at 100 % and at 20 % (where ESTOP brakes in real time).
+    for (name, pct, limits) in [
+        ("stop_line_mid/estop_100pct", 100.0, BrakeLimits::Full),
+        ("stop_line_mid/stop_100pct", 100.0, BrakeLimits::Override),
+        ("stop_line_mid/estop_20pct", 20.0, BrakeLimits::Full),
+        ("stop_line_mid/stop_20pct", 20.0, BrakeLimits::Override),
+    ] {
+        let mut moving = mid_line(0.010, Profile::Fir);
+        moving.set_speed_pct(pct).unwrap();
+        c.bench_function(name, |b| {
+            b.iter_batched_ref(
+                || moving.clone(),
+                |vg| vg.stop(black_box(limits)),
+                BatchSize::SmallInput,
+            )
+        });
+    }
     // With the whole timing law run ahead, for the duration (`wrc plan`).
     c.bench_function("plan_line_250mm", |b| {
         b.iter_batched_ref(

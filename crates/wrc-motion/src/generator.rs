@@ -843,12 +843,13 @@ impl VelocityGenerator {
                         scale,
                         table,
                     } => {
-                        let u = if *table == self.table.id {
+                        let u = if *table == self.table.id && !profile.braked_now() {
                             let tab = &self.table;
                             profile.at(bounds, &|u: f64| tab.at(u), t * *scale)
                         } else {
-                            // Another generator's plan (e.g. restored to stop it): the
-                            // derivatives from the kinematics, exactly.
+                            // Another generator's plan (e.g. restored to stop it), or a brake
+                            // from the present state (verified with them): the derivatives
+                            // from the kinematics, exactly.
                             let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
                             let derivs = |u: f64| {
                                 path.jets_at(robot, u, &reference)

@@ -36,10 +36,17 @@
 //!
 //! # Stop
 //!
-//! A stop brakes from the present state ([`LineProfile::brake_now`]): the closed-form
-//! time-optimal brake of u ([`Brake1d`]) with the deceleration and jerk the limits allow where
-//! the line is, or the strongest feedback brake, whichever stops first of those that keep
-//! every limit to the stop — each checked from this very state, as every state of a plan is.
+//! A stop brakes from the present state ([`LineProfile::brake_now`]) with the time-optimal
+//! brake of u along the path: the most negative jerk the limits admit *where the line is at
+//! each moment* (every joint's, through the coupling terms, and the Cartesian ones) down to
+//! the largest deceleration they admit, which it then tracks, and a release that brings ü
+//! and u̇ to 0 together ([`STOP_BRAKES`], in steps of [`STOP_STEP_S`]). It is simulated to its
+//! stop before it is taken, besides the closed-form brake of u with the limits at rest and in
+//! the present state ([`Brake1d`]) and the plan's feedback brakes; the one that stops first
+//! of those that keep every limit is followed — each checked from this very state, as every
+//! state of a plan is. Measured against the time-optimal path brake of
+//! `bench::stop::line_brake_reference` (0.1 ms simulation, the limits without the planner's
+//! margin): within 2.5 % of its time and distance, plus one period, from every phase.
 //! STOP brakes in plan time (played at the override); ESTOP below 100 % first rescales the law
 //! to real time — its state in real time is (u, p·u̇, p²·ü) — and brakes with the limits at
 //! 100 %. If nothing passes, the line brakes from the plan's next knot with the brake verified
@@ -65,10 +72,73 @@ pub const LIMIT_MARGIN: f64 = 0.995;
 /// deceleration the limits allow where it is, and releases with κ of the jerk they allow.
 pub const BRAKES: [f64; 4] = [0.97, 0.8, 0.6, 0.4];
 
+/// A brake policy ([`brake_step`]): track the deceleration −κ·decel(u, u̇) the limits allow
+/// where it is with a jerk within κ of the admissible range, then release with a constant
+/// jerk that brings ü and u̇ to 0 together, from where that jerk reaches `release` times the
+/// largest admissible one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Policy {
+    /// κ [-].
+    kappa: f64,
+    /// Fraction of the largest admissible jerk the release may take [-].
+    release: f64,
+    /// Whether that largest jerk is also the one admissible at rest where it is (the plan's
+    /// brakes, whose release must be admissible to its end); otherwise only the one where
+    /// the release starts (a stop's, whose release is verified to its end).
+    at_rest: bool,
+    /// Step [s].
+    step: f64,
+}
+
+impl Policy {
+    /// A brake of the plan ([`BRAKES`]).
+    const fn plan(kappa: f64) -> Policy {
+        Policy {
+            kappa,
+            release: kappa,
+            at_rest: true,
+            step: STEP_S,
+        }
+    }
+
+    /// A stop's brake ([`STOP_BRAKES`]).
+    const fn stop(kappa: f64, release: f64, at_rest: bool) -> Policy {
+        Policy {
+            kappa,
+            release,
+            at_rest,
+            step: STOP_STEP_S,
+        }
+    }
+}
+
+/// How many of [`STOP_BRAKES`] brake with the whole deceleration and jerk (tried first).
+const STOP_FULL: usize = 2;
+
+/// The brakes a stop tries first, strongest first ([`LineProfile::brake_now`]): the whole
+/// deceleration and braking jerk the limits allow where the line is at each moment, in steps
+/// of [`STOP_STEP_S`], released with all, or a little less, of the jerk allowed where the
+/// release starts: the time-optimal brake of u along the path, up to the discretisation.
+/// Each is simulated to its stop and kept within the bounds relaxed by [`STOP_RELAX`].
+const STOP_BRAKES: [Policy; 4] = [
+    Policy::stop(1.0, 1.0, false),
+    Policy::stop(1.0, 1.0, true),
+    Policy::stop(1.0, 0.95, true),
+    Policy::stop(0.97, 0.9, true),
+];
+
 /// A stop tries the closed-form time-optimal brake of u ([`Brake1d`]) with these fractions of
 /// the deceleration and jerk u may have where it is (the smaller of their values at rest and
 /// in its present state), besides the feedback brakes of [`BRAKES`].
 pub const CLOSED_BRAKES: [f64; 5] = [1.0, 0.95, 0.9, 0.8, 0.7];
+
+/// Step of a stop's brake ([`STOP_BRAKES`]) [s]: the jerk is constant over each.
+const STOP_STEP_S: f64 = 0.002;
+
+/// How far a stop's brake may stray beyond the planner's bounds at a knot: half the margin
+/// ([`LIMIT_MARGIN`]) between them and the limits, the rest for the variation within a step
+/// and the interpolation of the derivative table.
+const STOP_RELAX: f64 = 0.5 * (1.0 / LIMIT_MARGIN - 1.0);
 
 /// Part of the velocity margin ([`LIMIT_MARGIN`]) a closed-form brake may use [-]: the plan
 /// rides the velocity bound with the variation within a step above it, and a brake that
@@ -138,6 +208,20 @@ impl Bounds {
             b.cj = line.max_jerk_mm_s3 * LIMIT_MARGIN / length_mm;
         }
         b
+    }
+
+    /// These bounds loosened by the factor 1 + `by`.
+    fn relaxed(&self, by: f64) -> Bounds {
+        let f = 1.0 + by;
+        Bounds {
+            n: self.n,
+            v: self.v.map(|x| x * f),
+            a: self.a.map(|x| x * f),
+            j: self.j.map(|x| x * f),
+            cv: self.cv * f,
+            ca: self.ca * f,
+            cj: self.cj * f,
+        }
     }
 
     /// Whether the state (v = u̇ ≥ 0, a = ü) with jerk j = u⃛ keeps every limit.
@@ -267,7 +351,13 @@ enum BrakeStep {
 /// ü²/(2·κ·j_max) (the release curve). The release may start within a step, which then ends
 /// there, so where the brake stops depends continuously on where it starts.
 #[inline]
-fn brake_step(b: &Bounds, d: &Derivs, v: f64, a: f64, kappa: f64, h: f64) -> BrakeStep {
+fn brake_step(b: &Bounds, d: &Derivs, v: f64, a: f64, policy: &Policy) -> BrakeStep {
+    let Policy {
+        kappa,
+        release,
+        at_rest,
+        step: h,
+    } = *policy;
     if v <= REST_V && a.abs() <= 1e-9 {
         return BrakeStep::Rest;
     }
@@ -277,7 +367,12 @@ fn brake_step(b: &Bounds, d: &Derivs, v: f64, a: f64, kappa: f64, h: f64) -> Bra
     }
     // The release's jerk is constant while the admissible range moves from its value here
     // to its value at rest: keep within both.
-    let cap = kappa * hi.min(b.jerk_hi_at_rest(d));
+    let cap = release
+        * if at_rest {
+            hi.min(b.jerk_hi_at_rest(d))
+        } else {
+            hi
+        };
     // On (or below) the release curve: release now. The curve moves a little with the
     // state (cap does), so "on" means within 0.1 %: the release jerk is then at most cap
     // plus 0.1 %, still inside the admissible range.
@@ -354,27 +449,28 @@ enum Horizon {
 /// Steps a short probe goes on after the brake's speed has started to fall.
 const SHORT_AFTER_PEAK: usize = 3;
 
-/// Simulate the brake `kappa` from (u, v, a), checking every limit at every step: to its
-/// stop (`Some(where)`), or for a short horizon (`None` when nothing failed in it).
+/// Simulate the brake `policy` within the bounds `b` from (u, v, a), checking every limit of
+/// `check` at every step: to its stop (`Some(where)`), or for a short horizon (`None` when
+/// nothing failed in it).
 fn brake_stop(
-    b: &Bounds,
+    (b, check): (&Bounds, &Bounds),
     derivs: &impl Fn(f64) -> Derivs,
     (mut u, mut v, mut a): (f64, f64, f64),
-    kappa: f64,
+    policy: &Policy,
     horizon: Horizon,
 ) -> Result<Option<f64>, Unsafe> {
     let mut d = derivs(u);
     let mut falling = 0;
     let mut beyond = u > 1.0 + END_TOL;
     for _ in 0..MAX_BRAKE_STEPS {
-        let (j, dt, last) = match brake_step(b, &d, v, a, kappa, STEP_S) {
+        let (j, dt, last) = match brake_step(b, &d, v, a, policy) {
             BrakeStep::Rest => break,
             BrakeStep::Fail => return Err(Unsafe::Limit),
             BrakeStep::Jerk { jerk, dt } => (jerk, dt, false),
             BrakeStep::Land { jerk, dt } => (jerk, dt, true),
         };
         // The jerk changes at the knot: it must be admissible there too.
-        if !b.jerk_ok(&d, v, a, j) {
+        if !check.jerk_ok(&d, v, a, j) {
             return Err(Unsafe::Limit);
         }
         let (un, vn, an) = step_to(u, v, a, j, dt);
@@ -385,7 +481,7 @@ fn brake_stop(
             return Err(Unsafe::Limit);
         }
         d = derivs(un);
-        if !b.ok(&d, vn, an, j) {
+        if !check.ok(&d, vn, an, j) {
             return Err(Unsafe::Limit);
         }
         (u, v, a) = (un, vn.max(0.0), an);
@@ -427,7 +523,7 @@ fn safe(
     horizon: Horizon,
 ) -> Result<(u8, Option<f64>), Unsafe> {
     for (i, &kappa) in BRAKES.iter().enumerate().take(brakes.1 + 1).skip(brakes.0) {
-        match brake_stop(b, derivs, state, kappa, horizon) {
+        match brake_stop((b, b), derivs, state, &Policy::plan(kappa), horizon) {
             Ok(stop) => return Ok((i as u8, stop)),
             Err(Unsafe::Overshoot(at)) => return Err(Unsafe::Overshoot(at)),
             Err(Unsafe::Limit) => {}
@@ -472,6 +568,8 @@ enum Mode {
     Forward,
     /// A stop was requested: from the next knot on, the brake.
     Stopping,
+    /// A stop was requested: the brake [`STOP_BRAKES`]`[brake]`, from the last knot on.
+    Braking { brake: u8 },
     /// A stop was requested: the closed-form brake `brake`, started at time `from` [s] and
     /// checked along its whole length.
     Closed { from: f64, brake: Brake1d },
@@ -502,6 +600,9 @@ pub(crate) struct LineProfile {
     /// exactly on 1.
     land: Option<(f64, f64)>,
     mode: Mode,
+    /// A brake from [`LineProfile::brake_now`] is under way: it was verified with the
+    /// derivatives it was given there, so it must be followed with the same ones.
+    braked_now: bool,
 }
 
 impl LineProfile {
@@ -519,9 +620,17 @@ impl LineProfile {
             ends: false,
             land: None,
             mode: Mode::Forward,
+            braked_now: false,
         };
         p.choose(b, derivs);
         p
+    }
+
+    /// Whether a brake taken by [`LineProfile::brake_now`] is under way (or has ended the
+    /// motion): the law must then be played with the derivatives given to `brake_now` (those
+    /// it was verified with), not the plan's.
+    pub(crate) fn braked_now(&self) -> bool {
+        self.braked_now
     }
 
     /// Whether the motion has come to rest for good.
@@ -569,10 +678,10 @@ impl LineProfile {
                     }
                     return;
                 }
-                Mode::Forward | Mode::Stopping if t >= self.t + self.dt => {
+                Mode::Forward | Mode::Stopping | Mode::Braking { .. } if t >= self.t + self.dt => {
                     self.next_knot(b, derivs)
                 }
-                Mode::Forward | Mode::Stopping => return,
+                Mode::Forward | Mode::Stopping | Mode::Braking { .. } => return,
             }
         }
     }
@@ -598,7 +707,7 @@ impl LineProfile {
         match self.mode {
             Mode::Done => (self.u, 0.0, 0.0),
             Mode::Closed { from, brake } => brake.at(t - from),
-            Mode::Forward | Mode::Stopping => {
+            Mode::Forward | Mode::Stopping | Mode::Braking { .. } => {
                 let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, t - self.t);
                 (u, v.max(0.0), a)
             }
@@ -614,20 +723,25 @@ impl LineProfile {
     ///   then on the law runs in real time, so [`LineProfile::at`] must be called with real
     ///   time (the caller's scale becomes 1).
     ///
-    /// The candidates: the closed-form time-optimal brake of u ([`Brake1d`]) with the
-    /// deceleration and jerk u may have where it is (at [`CLOSED_BRAKES`] of them), each
-    /// checked against every joint and Cartesian limit along its whole length (every
-    /// [`CHECK_S`] and at every phase boundary) and to stop by u = 1; and the strongest
-    /// feedback brake of [`BRAKES`] that keeps every limit, simulated to its stop as every
-    /// state of a plan is verified. Of those that pass, the one that stops first along the
-    /// line is taken, and this returns true — during the line's final landing only if it
-    /// stops short of the landing. If none is taken (or at rest) nothing changes and it
-    /// returns false: the caller stops as [`LineProfile::stop`] does, from the next knot
-    /// with the brake verified there (or goes on landing on the target).
+    /// The candidates: the stop's brakes of [`STOP_BRAKES`] (the time-optimal brake of u along
+    /// the path, with the deceleration and jerk the limits allow where the line is at each
+    /// step), each simulated to its stop with every knot within the bounds relaxed by
+    /// [`STOP_RELAX`]; the closed-form time-optimal brake of u ([`Brake1d`]) with the
+    /// deceleration and jerk u may have where it is (at [`CLOSED_BRAKES`] of them), checked
+    /// against every joint and Cartesian limit along its whole length (every [`CHECK_S`] and
+    /// at every phase boundary); and the strongest feedback brake of [`BRAKES`] that keeps
+    /// every limit, simulated to its stop as every state of a plan is verified. All stop by
+    /// u = 1. The stop's full-strength brakes are simulated first, the rest only if neither
+    /// passes (they would stop later). Of those that pass, the one that stops first along
+    /// the line is taken, and this
+    /// returns true — during the line's final landing only if it stops short of the landing.
+    /// If none is taken (or at rest) nothing changes and it returns false: the caller stops
+    /// as [`LineProfile::stop`] does, from the next knot with the brake verified there (or
+    /// goes on landing on the target).
     ///
     /// Sound because whatever is taken was checked from this very state: the closed form is
-    /// followed exactly, and a feedback brake (a law of the state alone) reproduces the
-    /// simulation that verified it. The rescaled state is within the limits at 100 % (it was
+    /// followed exactly, and a stop's or feedback brake (a law of the state alone, stepped as
+    /// in its simulation) reproduces the simulation that verified it. The rescaled state is within the limits at 100 % (it was
     /// within them at the override, which only scales them down); the landing stretch near
     /// u = 1, if it has begun, stays in force and keeps u ≤ 1.
     pub(crate) fn brake_now(
@@ -650,38 +764,75 @@ impl LineProfile {
         let (lo, _) = b.jerk_range(&d, v, a);
         let decel = b.accel_at_rest(&d).min(b.decel(&d, v).max(0.0));
         let jerk = b.jerk_hi_at_rest(&d).min((-lo).max(0.0));
-        let closed = CLOSED_BRAKES
-            .iter()
-            .map(|&f| Brake1d::new(u, v, a, f * decel, f * jerk))
-            .filter(|brake| decel > 0.0 && jerk > 0.0 && closed_brake_ok(b, derivs, brake))
-            .min_by(|x, y| x.stop_position().total_cmp(&y.stop_position()));
-        let feedback = match safe(b, derivs, (u, v, a), (0, BRAKES.len() - 1), Horizon::Full) {
-            Ok((brake, Some(stop))) => Some((brake, stop)),
-            Ok((_, None)) | Err(_) => None,
-        };
         // During the final landing a brake must stop short of it to be worth taking.
         let landing = self.land.map_or(f64::INFINITY, |(_, stop)| stop - LAND_TOL);
-        let closed = closed.filter(|brake| brake.stop_position() < landing);
-        let feedback = feedback.filter(|&(_, stop)| stop < landing);
-        match (closed, feedback) {
-            (Some(brake), None) => {
-                self.mode = Mode::Closed { from: t_new, brake };
-                true
+        let check = b.relaxed(STOP_RELAX);
+        // The stop's brakes from `from` to `to`: the one that stops first.
+        let stopping = |(from, to): (usize, usize)| {
+            STOP_BRAKES[from..to]
+                .iter()
+                .enumerate()
+                .filter_map(|(k, policy)| {
+                    match brake_stop((b, &check), derivs, (u, v, a), policy, Horizon::Full) {
+                        Ok(Some(stop)) if stop < landing => Some(((from + k) as u8, stop)),
+                        Ok(_) | Err(_) => None,
+                    }
+                })
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+        };
+        // The full-strength ones stop first when they pass; only if neither does are the
+        // weaker ones and the others simulated (each costs a simulation to the stop).
+        let (stopping, closed, feedback) = match stopping((0, STOP_FULL)) {
+            found @ Some(_) => (found, None, None),
+            None => {
+                let closed = CLOSED_BRAKES
+                    .iter()
+                    .map(|&f| Brake1d::new(u, v, a, f * decel, f * jerk))
+                    .filter(|brake| {
+                        decel > 0.0
+                            && jerk > 0.0
+                            && brake.stop_position() < landing
+                            && closed_brake_ok(b, derivs, brake)
+                    })
+                    .min_by(|x, y| x.stop_position().total_cmp(&y.stop_position()))
+                    .map(|brake| (brake.stop_position(), brake));
+                let feedback =
+                    match safe(b, derivs, (u, v, a), (0, BRAKES.len() - 1), Horizon::Full) {
+                        Ok((brake, Some(stop))) if stop < landing => Some((brake, stop)),
+                        Ok(_) | Err(_) => None,
+                    };
+                (stopping((STOP_FULL, STOP_BRAKES.len())), closed, feedback)
             }
-            (Some(brake), Some((_, stop))) if brake.stop_position() <= stop => {
-                self.mode = Mode::Closed { from: t_new, brake };
-                true
+        };
+        // The one that stops first.
+        let first = [
+            stopping.map(|(_, stop)| stop),
+            closed.map(|(stop, _)| stop),
+            feedback.map(|(_, stop)| stop),
+        ]
+        .into_iter()
+        .flatten()
+        .fold(f64::INFINITY, f64::min);
+        match (stopping, closed, feedback) {
+            (Some((brake, stop)), _, _) if stop <= first => {
+                (self.t, self.u, self.v, self.a) = (t_new, u, v, a);
+                self.mode = Mode::Braking { brake };
+                self.choose(b, derivs);
             }
-            (Some(_) | None, Some((brake, stop))) => {
+            (_, Some((stop, brake)), _) if stop <= first => {
+                self.mode = Mode::Closed { from: t_new, brake };
+            }
+            (_, _, Some((brake, stop))) if stop <= first => {
                 (self.t, self.u, self.v, self.a) = (t_new, u, v, a);
                 self.brake = brake;
                 self.brake_stop = stop;
                 self.mode = Mode::Stopping;
                 self.choose(b, derivs);
-                true
             }
-            (None, None) => false,
+            _ => return false,
         }
+        self.braked_now = true;
+        true
     }
 
     fn next_knot(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
@@ -711,10 +862,21 @@ impl LineProfile {
     /// (stopping at `self.brake_stop`).
     fn choose(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
         let (u, v, a) = (self.u, self.v, self.a);
+        if let Mode::Braking { brake } = self.mode {
+            // The stop's brake, step by step as it was verified (a failure never comes from
+            // a verified state: it would end the motion where it is).
+            let policy = &STOP_BRAKES[brake as usize];
+            (self.jerk, self.dt, self.ends) = match brake_step(b, &derivs(u), v, a, policy) {
+                BrakeStep::Rest | BrakeStep::Fail => (0.0, 0.0, true),
+                BrakeStep::Jerk { jerk, dt } => (jerk, dt, false),
+                BrakeStep::Land { jerk, dt } => (jerk, dt, true),
+            };
+            return;
+        }
         let last = self.jerk;
         let d = derivs(u);
         let brake = self.brake;
-        let fallback = brake_step(b, &d, v, a, BRAKES[brake as usize], STEP_S);
+        let fallback = brake_step(b, &d, v, a, &Policy::plan(BRAKES[brake as usize]));
         // At rest (nothing safe to start with) or from a state the brake cannot hold (never
         // from a verified state), the motion ends where it is.
         let (jb, dtb, lands) = match fallback {

@@ -455,16 +455,23 @@ fn simulate_path_brake(
             narrow(&mut jlo, &mut jhi, jm, c, d[1]);
             narrow(&mut alo, &mut ahi, am, d[2] * v * v, d[1]);
         }
-        let next_a = if t < switch {
-            (a + jlo * REF_STEP_S).max(alo.min(a))
-        } else {
-            (a + jhi.max(0.0) * REF_STEP_S).min(ahi.max(a))
-        };
-        let next_v = v + 0.5 * (a + next_a) * REF_STEP_S;
-        let dt = if next_v < 0.0 && v > next_v {
-            REF_STEP_S * v / (v - next_v)
+        // A step ends at the switch, so where the brake ends is continuous in the switch
+        // time and the bisection converges on the brake whose ü and u̇ reach 0 together.
+        let step = if t < switch {
+            REF_STEP_S.min(switch - t)
         } else {
             REF_STEP_S
+        };
+        let next_a = if t < switch {
+            (a + jlo * step).max(alo.min(a))
+        } else {
+            (a + jhi.max(0.0) * step).min(ahi.max(a))
+        };
+        let next_v = v + 0.5 * (a + next_a) * step;
+        let dt = if next_v < 0.0 && v > next_v {
+            step * v / (v - next_v)
+        } else {
+            step
         };
         u += v * dt + (2.0 * a + next_a) / 6.0 * dt * dt;
         t += dt;

@@ -26,6 +26,7 @@ use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::pulse_generator::PulseGenerator;
+use crate::queries::TaskCell;
 use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
 use crate::service::Service;
 use crate::shared::{Shared, StopKind};
@@ -496,7 +497,16 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
         );
     }
-    let _ = task_cells.set(running.task_cells());
+    // The Pulse Generator's line also says how its stops braked.
+    let cells = running
+        .task_cells()
+        .into_iter()
+        .map(|(spec, timing)| {
+            let stops = (spec.name == "pulse_generator").then(|| shared.clone());
+            (spec, TaskCell::new(timing, stops))
+        })
+        .collect();
+    let _ = task_cells.set(cells);
     let quit = Arc::new(AtomicBool::new(false));
     let path = UrgentPath {
         wake,

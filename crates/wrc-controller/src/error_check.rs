@@ -166,9 +166,14 @@ impl<B: MotionBoard> ErrorCheck<B> {
         }
         if let Some(code) = fault {
             if !self.reported && !matches!(state, RobotState::Error | RobotState::Estop) {
-                self.reported = true;
+                // Reported once it is on the urgent queue; a queue full of emergencies (a
+                // burst of STOP and ESTOP lines) leaves it for the next period.
                 if self.urgent.try_send(Urgent::Fault(code.number())).is_ok() {
+                    self.reported = true;
                     self.wake.post();
+                } else if code == Code::ClientLost {
+                    // The loss was taken from its flag: keep it for the next period.
+                    self.owner_lost.store(true, Ordering::Release);
                 }
             }
         }

@@ -308,12 +308,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 self.decel_pending = true;
                 braking_now = true;
                 if self.flush_brake(limits) {
+                    self.shared.stops.flushed.fetch_add(1, Ordering::Relaxed);
                     self.decel_pushed();
                     if let Some(status) = self.brake_end.take() {
                         self.brake_finished(status);
                     }
                 } else {
                     // Behind the queued periods, from the last one pushed.
+                    self.shared
+                        .stops
+                        .behind_queue
+                        .fetch_add(1, Ordering::Relaxed);
                     self.stopper.restore(&self.last);
                     self.stopper.stop(limits);
                 }

@@ -10,8 +10,43 @@ use wrc_robot::Robot;
 use wrc_rt::histogram::bucket_range;
 use wrc_rt::{StatsCell, Summary, TaskSpec, TaskStats};
 
-/// Every task as configured with its statistics cell, set once the runtime has started.
-pub type TaskCells = Arc<OnceLock<Vec<(TaskSpec, Arc<StatsCell>)>>>;
+use crate::shared::{Shared, StopTally};
+
+/// Every task as configured with its figures, set once the runtime has started.
+pub type TaskCells = Arc<OnceLock<Vec<(TaskSpec, TaskCell)>>>;
+
+/// Where one task's `TASKS` figures are read: the runtime's timing statistics and, for the
+/// Pulse Generator, how its stops braked ([`crate::shared::StopCounts`]).
+#[derive(Clone)]
+pub struct TaskCell {
+    timing: Arc<StatsCell>,
+    stops: Option<Arc<Shared>>,
+}
+
+impl TaskCell {
+    /// A task's cell: its `timing` and, if it is the Pulse Generator, the shared state whose
+    /// stop counts it keeps.
+    pub fn new(timing: Arc<StatsCell>, stops: Option<Arc<Shared>>) -> TaskCell {
+        TaskCell { timing, stops }
+    }
+
+    /// The task's figures now (never blocks the task).
+    pub fn snapshot(&self) -> TaskFigures {
+        TaskFigures {
+            timing: self.timing.snapshot(),
+            stops: self.stops.as_ref().map(|s| s.stops.read()),
+        }
+    }
+}
+
+/// One task's figures for its `EVT TASK` line.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TaskFigures {
+    /// Its timing (the paper's Tables 3 and 4).
+    pub timing: TaskStats,
+    /// How its stops braked (the Pulse Generator only).
+    pub stops: Option<StopTally>,
+}
 
 /// Digital inputs and outputs of the controller (the input and output words).
 pub const SIGNALS: usize = 32;
@@ -54,8 +89,10 @@ pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
 }
 
 /// The `EVT TASK` body of one task (the paper's Tables 3 and 4 plus a latency histogram, for
-/// its periodic cycles; then the count and execution times of its event-released cycles).
-pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
+/// its periodic cycles; then the count and execution times of its event-released cycles; for
+/// the Pulse Generator, its stops braked with a FIFO flush and behind the queue).
+pub fn task_line(spec: &TaskSpec, figures: &TaskFigures) -> String {
+    let stats = &figures.timing;
     let period = Summary::of(&stats.period);
     let exec = Summary::of(&stats.exec);
     let latency = Summary::of(&stats.latency);
@@ -63,7 +100,7 @@ pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
     let mut line = format!(
         "{} prio={} period_ms={} cycles={} overruns={} missed={} per_avg_us={} per_min_us={} \
          per_max_us={} exec_avg_us={} exec_max_us={} lat_avg_us={} lat_p99_us={} lat_max_us={} \
-         ev_cycles={} ev_exec_avg_us={} ev_exec_max_us={} lat_hist=",
+         ev_cycles={} ev_exec_avg_us={} ev_exec_max_us={} ",
         spec.name,
         spec.priority,
         Num(spec.period_us as f64 / 1000.0),
@@ -82,6 +119,14 @@ pub fn task_line(spec: &TaskSpec, stats: &TaskStats) -> String {
         Num(event_exec.avg_us),
         Num(event_exec.max_us),
     );
+    if let Some(stops) = figures.stops {
+        let _ = write!(
+            line,
+            "stops_flushed={} stops_behind_queue={} ",
+            stops.flushed, stops.behind_queue
+        );
+    }
+    line.push_str("lat_hist=");
     let mut first = true;
     for (upper_us, count) in power_of_two_bins(&stats.latency) {
         let _ = write!(line, "{}{upper_us}:{count}", if first { "" } else { "," });
@@ -117,6 +162,7 @@ pub fn power_of_two_bins(h: &wrc_rt::Histogram) -> Vec<(u64, u64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::atomic::Ordering;
 
     #[test]
     fn bins_hold_their_samples() {
@@ -147,7 +193,7 @@ mod tests {
     #[test]
     fn task_line_of_an_idle_task_is_all_zero() {
         let spec = TaskSpec::new("pulse_generator", 20, 10_000);
-        let line = task_line(&spec, &TaskStats::default());
+        let line = task_line(&spec, &TaskFigures::default());
         assert!(
             line.starts_with("pulse_generator prio=20 period_ms=10 cycles=0"),
             "{line}"
@@ -163,10 +209,30 @@ mod tests {
         let cell = StatsCell::new();
         cell.record_event(12_000);
         cell.record_event(4_000);
+        let cell = TaskCell::new(Arc::new(cell), None);
         let line = task_line(&TaskSpec::new("ethernet", 45, 100_000), &cell.snapshot());
         assert!(line.contains(" cycles=0 "), "{line}");
         assert!(
             line.contains(" ev_cycles=2 ev_exec_avg_us=8 ev_exec_max_us=12 "),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn the_pulse_generators_line_counts_its_stops_by_how_they_braked() {
+        let shared = Arc::new(Shared::default());
+        let cell = TaskCell::new(Arc::new(StatsCell::new()), Some(shared.clone()));
+        let spec = TaskSpec::new("pulse_generator", 20, 10_000);
+        let line = task_line(&spec, &cell.snapshot());
+        assert!(
+            line.ends_with(" stops_flushed=0 stops_behind_queue=0 lat_hist="),
+            "{line}"
+        );
+        shared.stops.flushed.fetch_add(3, Ordering::Relaxed);
+        shared.stops.behind_queue.fetch_add(1, Ordering::Relaxed);
+        let line = task_line(&spec, &cell.snapshot());
+        assert!(
+            line.contains(" ev_exec_max_us=0 stops_flushed=3 stops_behind_queue=1 lat_hist="),
             "{line}"
         );
     }

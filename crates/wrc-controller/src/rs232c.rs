@@ -178,13 +178,19 @@ mod tests {
     use std::os::fd::AsRawFd;
 
     use wrc_config::Config;
+    use wrc_protocol::ReplyTo;
     use wrc_rt::ipc::Semaphore;
     use wrc_rt::wake::{FdWake, Waiter};
     use wrc_rt::{Clock, MonotonicClock};
 
     use crate::clients::Routes;
-    use crate::messages::{Incoming, SourceId};
+    use crate::messages::{Incoming, SourceId, Urgent};
     use crate::shared::Shared;
+
+    /// A deadline no test reaches unless it fails [ns].
+    fn far() -> u64 {
+        MonotonicClock.now_ns() + 20_000_000_000
+    }
 
     /// A pseudo-terminal: the master end (the pendant's side) and the slave's path.
     fn pty() -> (File, std::path::PathBuf) {
@@ -210,74 +216,185 @@ mod tests {
         (master, path.to_str().unwrap().into())
     }
 
+    /// Whether the master has a byte to read within `timeout_ms` [ms].
+    fn readable(master: &File, timeout_ms: i32) -> bool {
+        let mut fds = libc::pollfd {
+            fd: master.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        // SAFETY: one valid pollfd that lives across the call.
+        unsafe { libc::poll(&mut fds, 1, timeout_ms) == 1 }
+    }
+
     /// Read one line from the master, waiting at most 5 s (a failure bound) for each byte.
     fn read_line(master: &mut File) -> String {
         let mut line = Vec::new();
         let mut byte = [0u8; 1];
         while !line.ends_with(b"\n") {
-            let mut fds = libc::pollfd {
-                fd: master.as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            };
-            // SAFETY: one valid pollfd that lives across the call.
-            assert_eq!(unsafe { libc::poll(&mut fds, 1, 5_000) }, 1, "no reply");
+            assert!(readable(master, 5_000), "no reply");
             assert_eq!(master.read(&mut byte).unwrap(), 1);
             line.push(byte[0]);
         }
         String::from_utf8(line).unwrap().trim_end().to_string()
     }
 
-    #[test]
-    fn a_pendant_line_is_routed_and_its_reply_written_in_event_cycles() {
-        let far = || MonotonicClock.now_ns() + 20_000_000_000;
-        let (mut master, path) = pty();
-        let port = open_serial(&path, 115_200, Parity::None).unwrap();
-        let config = Config::embedded_default();
-        let incoming = Arc::new(MessageQueue::new(8));
-        let routes = Routes {
-            incoming: incoming.clone(),
-            urgent: Arc::new(MessageQueue::new(8)),
-            wake: Arc::new(Semaphore::new(0)),
-            store: Arc::new(MessageQueue::new(8)),
-        };
-        let pendant = ClientSet::new(
-            SourceId::PENDANT,
-            1,
-            true,
-            config.robot.clone(),
-            Arc::new(Shared::default()),
-            routes,
-        );
-        let mut wake = FdWake::new(Rs232c::TOKENS).unwrap();
-        let replies = Arc::new(MessageQueue::with_notify(8, wake.notifier()));
-        let mut task = Rs232c::new(Some(port), pendant, replies.clone())
-            .released_by(wake.registry())
-            .unwrap();
+    /// `body` with its `*HH` checksum and a newline, as a pendant sends it.
+    fn with_checksum(body: &str) -> Vec<u8> {
+        let sum = body.bytes().fold(0u8, |a, b| a ^ b);
+        format!("{body}*{sum:02X}\n").into_bytes()
+    }
 
-        master.write_all(b"4 STATUS\n").unwrap();
-        // The tty layer may hand the line over in pieces: an event cycle per piece.
-        let mut routed = None;
-        for _ in 0..9 {
-            assert!(
-                wake.wait_until_ns(far()),
-                "the line did not release the task"
+    /// The task as `controller::start` builds it, on the slave end of a pty, with the
+    /// queues it routes to.
+    struct Rig {
+        master: File,
+        task: Rs232c,
+        wake: FdWake,
+        replies: Arc<MessageQueue<OutLine>>,
+        incoming: Arc<MessageQueue<Incoming>>,
+        urgent: Arc<MessageQueue<Urgent>>,
+        urgent_wake: Arc<Semaphore>,
+    }
+
+    impl Rig {
+        fn new() -> Rig {
+            let (master, path) = pty();
+            let port = open_serial(&path, 115_200, Parity::None).unwrap();
+            let config = Config::embedded_default();
+            let incoming = Arc::new(MessageQueue::new(8));
+            let urgent = Arc::new(MessageQueue::new(8));
+            let urgent_wake = Arc::new(Semaphore::new(0));
+            let routes = Routes {
+                incoming: incoming.clone(),
+                urgent: urgent.clone(),
+                wake: urgent_wake.clone(),
+                store: Arc::new(MessageQueue::new(8)),
+            };
+            let pendant = ClientSet::new(
+                SourceId::PENDANT,
+                1,
+                true,
+                config.robot.clone(),
+                Arc::new(Shared::default()),
+                routes,
             );
-            task.step(Release::Event);
-            if let Ok(Incoming::Request(from, request)) = incoming.try_recv() {
-                routed = Some((from, request));
-                break;
+            let wake = FdWake::new(Rs232c::TOKENS).unwrap();
+            let replies = Arc::new(MessageQueue::with_notify(8, wake.notifier()));
+            let task = Rs232c::new(Some(port), pendant, replies.clone())
+                .released_by(wake.registry())
+                .unwrap();
+            Rig {
+                master,
+                task,
+                wake,
+                replies,
+                incoming,
+                urgent,
+                urgent_wake,
             }
         }
-        let (from, request) = routed.expect("the line was routed");
+
+        /// Send `bytes` from the pendant and run the event cycles its input releases until
+        /// `routed` says it has arrived (the tty layer may hand a line over in pieces: an
+        /// event cycle per piece).
+        fn send_until<T>(&mut self, bytes: &[u8], mut routed: impl FnMut(&Rig) -> Option<T>) -> T {
+            self.master.write_all(bytes).unwrap();
+            for _ in 0..bytes.len() {
+                assert!(
+                    self.wake.wait_until_ns(far()),
+                    "the line did not release the task"
+                );
+                self.task.step(Release::Event);
+                if let Some(got) = routed(self) {
+                    return got;
+                }
+            }
+            panic!("{:?} was never routed", String::from_utf8_lossy(bytes));
+        }
+
+        /// Run the event cycles the pendant's input releases until a line comes back on it
+        /// (a reply the task wrote at once); that line.
+        fn cycle_until_reply(&mut self) -> String {
+            let deadline = far();
+            while MonotonicClock.now_ns() < deadline {
+                if self.wake.wait_until_ns(0) {
+                    self.task.step(Release::Event);
+                } else if readable(&self.master, 10) {
+                    return read_line(&mut self.master);
+                }
+            }
+            panic!("no reply on the line");
+        }
+    }
+
+    #[test]
+    fn a_pendant_line_is_routed_and_its_reply_written_in_event_cycles() {
+        let mut rig = Rig::new();
+        let (from, request) = rig.send_until(b"4 STATUS\n", |r| match r.incoming.try_recv() {
+            Ok(Incoming::Request(from, request)) => Some((from, request)),
+            _ => None,
+        });
         assert_eq!((from.kind(), request.id), (SourceId::PENDANT, Some(4)));
 
-        replies.try_send(OutLine::new(from, b"ACK 4\n")).unwrap();
+        rig.replies
+            .try_send(OutLine::new(from, b"ACK 4\n"))
+            .unwrap();
         assert!(
-            wake.wait_until_ns(far()),
+            rig.wake.wait_until_ns(far()),
             "the reply did not release the task"
         );
-        task.step(Release::Event);
-        assert_eq!(read_line(&mut master), "ACK 4");
+        rig.task.step(Release::Event);
+        assert_eq!(read_line(&mut rig.master), "ACK 4");
+    }
+
+    #[test]
+    fn estop_and_stop_from_the_pendant_overtake_a_full_request_queue() {
+        let mut rig = Rig::new();
+        // The Command Interpreter is busy: its request queue is full.
+        while rig
+            .incoming
+            .try_send(Incoming::Disconnected(SourceId::NONE))
+            .is_ok()
+        {}
+        // ESTOP (with a checksum, as a pendant sends it) and STOP (without) go to the urgent
+        // path in the event cycle their line completes, each with one post of its semaphore.
+        let estop = rig.send_until(&with_checksum("7 ESTOP"), |r| r.urgent.try_recv().ok());
+        assert_eq!(rig.urgent_wake.count(), 1);
+        let stop = rig.send_until(b"STOP\n", |r| r.urgent.try_recv().ok());
+        assert_eq!(rig.urgent_wake.count(), 2);
+        let pendant = |u: &Urgent| match u {
+            Urgent::Estop(from, _) | Urgent::Stop(from, _) => from.kind() == SourceId::PENDANT,
+            Urgent::Fault(_) => false,
+        };
+        assert!(pendant(&estop) && pendant(&stop), "{estop:?} {stop:?}");
+        // Their replies (ACK from the Command Interpreter's bookkeeping) carry a checksum
+        // exactly when the request did.
+        assert!(matches!(
+            estop,
+            Urgent::Estop(
+                _,
+                ReplyTo {
+                    id: Some(7),
+                    checksum: true
+                }
+            )
+        ));
+        assert!(matches!(
+            stop,
+            Urgent::Stop(
+                _,
+                ReplyTo {
+                    id: None,
+                    checksum: false
+                }
+            )
+        ));
+        // An ordinary request after them is refused as busy at once: the first line the
+        // pendant gets, so neither ESTOP nor STOP was refused.
+        rig.master.write_all(&with_checksum("8 SPEED 50")).unwrap();
+        let busy = rig.cycle_until_reply();
+        assert!(busy.starts_with("NAK 8 121 "), "{busy}");
+        assert_eq!(rig.incoming.len(), rig.incoming.capacity());
     }
 }

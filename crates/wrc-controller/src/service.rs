@@ -106,16 +106,31 @@ impl Service {
 
     /// Serve every queued request and the wafer cell's events, and free retired programs
     /// (public for tests).
+    ///
+    /// The wafer cell's events are applied before each request is answered: the Command
+    /// Interpreter sends a job's map change (a commit, a mapping, the job's end) before the
+    /// reply that tells the client the job is done, so whatever a client asks after that
+    /// reply (`WAFERS`, the next `GET`) finds the change queued here and sees it applied.
     pub fn step(&mut self) {
+        self.apply_cell_events();
         while let Ok(request) = self.links.requests.try_recv() {
+            self.apply_cell_events();
             self.handle(request);
         }
         while self.links.retired.try_recv().is_ok() {}
+        self.apply_cell_events();
+        if let Some(cell) = self.cell.as_mut() {
+            cell.poll();
+        }
+    }
+
+    /// Apply every wafer-cell event the Command Interpreter has queued (mappings, commits,
+    /// job ends, a lost wafer).
+    fn apply_cell_events(&mut self) {
         if let Some(cell) = self.cell.as_mut() {
             while let Ok(event) = self.links.cell_events.try_recv() {
                 cell.on_event(event);
             }
-            cell.poll();
         }
     }
 
@@ -211,14 +226,7 @@ impl Service {
                 station,
                 slot,
             } => match self.cell.as_mut() {
-                Some(cell) => {
-                    // The Command Interpreter reports a job's end before it lets the program
-                    // ask for the next one: take that report first.
-                    while let Ok(event) = self.links.cell_events.try_recv() {
-                        cell.on_event(event);
-                    }
-                    cell.job(from, to, kind, &station, slot)
-                }
+                Some(cell) => cell.job(from, to, kind, &station, slot),
                 None => self.no_cell(from, to),
             },
             StoreRequest::Tasks { from, to } => {
@@ -398,4 +406,177 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     }
     fs::rename(&tmp, path)?;
     fs::File::open(dir)?.sync_all()
+}
+
+#[cfg(test)]
+mod tests {
+    //! The service thread stepped by hand, with the test playing the Command Interpreter
+    //! (its cell events) and a host (its requests) through the queues.
+
+    use std::sync::atomic::Ordering;
+    use std::sync::Arc;
+
+    use wrc_config::{Config, HandConfig};
+    use wrc_protocol::{ReplyTo, StationName};
+    use wrc_rt::ipc::MessageQueue;
+
+    use super::Service;
+    use crate::cell_service::CellService;
+    use crate::messages::cell_job::{CellEvent, JobKind, JobOffer, MAX_MAP_SLOTS};
+    use crate::messages::{OutLine, Outputs, SourceId, StoreLinks, StoreRequest};
+    use crate::shared::Shared;
+
+    const HOST: SourceId = SourceId(0x1000_0001);
+
+    struct Rig {
+        service: Service,
+        links: StoreLinks,
+        network: Arc<MessageQueue<OutLine>>,
+        _dir: tempfile::TempDir,
+    }
+
+    impl Rig {
+        /// A service with the demo cell (every slot unknown), a homed robot at rest and the
+        /// load ports' interlock (input 14) asserted.
+        fn new() -> Rig {
+            let dir = tempfile::tempdir().unwrap();
+            let robot = Config::embedded_default().robot;
+            let shared = Arc::new(Shared::default());
+            shared.homed.store(true, Ordering::Release);
+            shared.inputs[0].store(1 << 14, Ordering::Release);
+            for (c, p) in shared
+                .commanded
+                .iter()
+                .zip(robot.joints_to_pulses(&robot.home()))
+            {
+                c.store(p, Ordering::Release);
+            }
+            let cell = CellService::open(
+                &robot,
+                &dir.path().join("stations.toml"),
+                &dir.path().join("wafers.toml"),
+                shared,
+                HandConfig::default(),
+            )
+            .unwrap();
+            let links = StoreLinks::new();
+            let network = Arc::new(MessageQueue::new(256));
+            let out = Outputs {
+                network: network.clone(),
+                serial: Arc::new(MessageQueue::new(16)),
+            };
+            let service = Service::new(&dir.path().join("programs"), robot, links.clone(), out)
+                .unwrap()
+                .with_cell(cell);
+            Rig {
+                service,
+                links,
+                network,
+                _dir: dir,
+            }
+        }
+
+        fn request(&self, request: StoreRequest) {
+            self.links.requests.try_send(request).ok().unwrap();
+        }
+
+        fn wafers(&self, id: u32) {
+            self.request(StoreRequest::Wafers {
+                from: HOST,
+                to: ReplyTo {
+                    id: Some(id),
+                    checksum: false,
+                },
+            });
+        }
+
+        /// The host's replies (events left out).
+        fn replies(&self) -> Vec<String> {
+            std::iter::from_fn(|| self.network.try_recv().ok())
+                .map(|l| String::from_utf8_lossy(l.bytes()).trim_end().to_string())
+                .filter(|l| !l.starts_with("EVT"))
+                .collect()
+        }
+    }
+
+    /// Pins the bug where `WAFERS` sent right after a job's `INF` could show the map from
+    /// before the job: a step answered the queued requests before it applied the queued
+    /// cell events, although the Command Interpreter had sent the map change first.
+    #[test]
+    fn a_request_sent_after_a_jobs_reply_sees_the_map_change_sent_before_that_reply() {
+        let mut r = Rig::new();
+        // MAP LP1: the Command Interpreter reports the scan and the job's end, then `INF`;
+        // the host's WAFERS comes after the INF, and the service wakes to find both.
+        let mut codes = [0u8; MAX_MAP_SLOTS];
+        codes[..25].fill(1);
+        let map = [
+            CellEvent::Mapped {
+                station_index: 0,
+                count: 25,
+                codes,
+            },
+            CellEvent::Ended {
+                kind: JobKind::Map,
+                started: true,
+                code: None,
+                sensed: false,
+            },
+        ];
+        for event in map {
+            r.links.cell_events.try_send(event).ok().unwrap();
+        }
+        r.wafers(8);
+        r.service.step();
+        let replies = r.replies();
+        assert!(
+            replies[0].starts_with("ACK 8 hand=- LP1=W1..W25 LP2=?x25 "),
+            "{replies:?}"
+        );
+
+        // GET LP1 3: planned and handed over; the Command Interpreter reports the commit and
+        // the end, then `INF 20 W3`; the host asks WAFERS and then GETs again.
+        r.request(StoreRequest::Job {
+            from: HOST,
+            to: ReplyTo {
+                id: Some(20),
+                checksum: false,
+            },
+            kind: JobKind::Get,
+            station: StationName::new("LP1").unwrap(),
+            slot: 3,
+        });
+        r.service.step();
+        assert!(r.replies().is_empty(), "the GET is not refused");
+        assert!(matches!(r.links.jobs.try_recv(), Ok(JobOffer::Start(_))));
+        let get = [
+            CellEvent::Commit,
+            CellEvent::Ended {
+                kind: JobKind::Get,
+                started: true,
+                code: None,
+                sensed: true,
+            },
+        ];
+        for event in get {
+            r.links.cell_events.try_send(event).ok().unwrap();
+        }
+        r.wafers(21);
+        r.request(StoreRequest::Job {
+            from: HOST,
+            to: ReplyTo {
+                id: Some(22),
+                checksum: false,
+            },
+            kind: JobKind::Get,
+            station: StationName::new("LP1").unwrap(),
+            slot: 4,
+        });
+        r.service.step();
+        let replies = r.replies();
+        assert!(
+            replies[0].starts_with("ACK 21 hand=W3 LP1=W1,W2,-,W4..W25 "),
+            "{replies:?}"
+        );
+        assert!(replies[1].starts_with("NAK 22 133 "), "{replies:?}");
+    }
 }

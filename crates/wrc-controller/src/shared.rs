@@ -46,6 +46,8 @@ pub struct Shared {
     pub urgent_read_ns: AtomicU64,
     /// When the Pulse Generator pushed the first decelerating batch of the latest stop.
     pub decel_ns: AtomicU64,
+    /// How the Pulse Generator's stops braked: with a FIFO flush or behind the queue.
+    pub stops: StopCounts,
     /// The I/O Monitor has read the inputs at least once (`inputs` are real).
     pub io_ready: AtomicBool,
     /// The wafer map has a wafer on the hand (set by the cell service).
@@ -73,6 +75,7 @@ impl Default for Shared {
             first_pulse_ns: AtomicU64::new(0),
             urgent_read_ns: AtomicU64::new(0),
             decel_ns: AtomicU64::new(0),
+            stops: StopCounts::default(),
             io_ready: AtomicBool::new(false),
             hand_wafer: AtomicBool::new(false),
             stop_notify: OnceLock::new(),
@@ -128,6 +131,39 @@ impl Shared {
     pub fn commanded_pulses(&self) -> [i64; MAX_AXES] {
         std::array::from_fn(|i| self.commanded[i].load(Ordering::Acquire))
     }
+}
+
+/// Stops the Pulse Generator has braked, by how the brake reached the board (counted from
+/// start-up; `TASKS` reports them on the Pulse Generator's line).
+#[derive(Debug, Default)]
+pub struct StopCounts {
+    /// Stops braked with a FIFO flush: the board skipped the periods queued ahead and
+    /// executed the first braking period next [stops].
+    pub flushed: AtomicU64,
+    /// Stops braked behind the queued periods, the flush not usable (a robot on several
+    /// boards, a flush still pending, a board period beginning at every try, no room in the
+    /// FIFO): the board executed up to [`crate::pulse_generator::FIFO_LEAD`] queued periods
+    /// first [stops].
+    pub behind_queue: AtomicU64,
+}
+
+impl StopCounts {
+    /// The counts now.
+    pub fn read(&self) -> StopTally {
+        StopTally {
+            flushed: self.flushed.load(Ordering::Relaxed),
+            behind_queue: self.behind_queue.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// A reading of [`StopCounts`] [stops].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StopTally {
+    /// Braked with a FIFO flush.
+    pub flushed: u64,
+    /// Braked behind the queued periods.
+    pub behind_queue: u64,
 }
 
 /// What a stop request asks of the Pulse Generator, weakest first (a stronger request

@@ -17,7 +17,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 use wrc_config::Config;
 use wrc_controller::controller::{self, CellFiles, Options, Running};
-use wrc_controller::shared::Shared;
+use wrc_controller::shared::{Shared, StopTally};
 use wrc_protocol::sim_stream;
 use wrc_robot::MAX_AXES;
 use wrc_rt::RealtimeMode;
@@ -516,6 +516,9 @@ struct Condition {
     no_stream_brake: u32,
     /// Runs in which the controller had not stamped the ESTOP's read time.
     read_unstamped: u32,
+    /// How the controller's stops braked (its count from start-up: each condition has a
+    /// controller of its own).
+    stops: StopTally,
 }
 
 /// Counts request ids on one connection.
@@ -651,7 +654,7 @@ struct Bench<'a> {
 fn measure_condition(bench: &Bench, running: &Running, what: &str) -> anyhow::Result<Condition> {
     let addr = running.tcp.context("no TCP port")?;
     let shared = running.shared().clone();
-    std::thread::scope(|scope| {
+    let mut condition = std::thread::scope(|scope| {
         scope
             .spawn(|| {
                 raise_this_thread(bench.fifo);
@@ -659,7 +662,9 @@ fn measure_condition(bench: &Bench, running: &Running, what: &str) -> anyhow::Re
             })
             .join()
             .unwrap_or_else(|_| Err(anyhow::anyhow!("the timing thread panicked")))
-    })
+    })?;
+    condition.stops = shared.stops.read();
+    Ok(condition)
 }
 
 fn measure_from_client(
@@ -849,6 +854,8 @@ fn measure(
                 "not_in_cruise": c.not_in_cruise,
                 "no_stream_deceleration": c.no_stream_brake,
                 "estop_read_unstamped": c.read_unstamped,
+                "stops_flushed": c.stops.flushed,
+                "stops_behind_queue": c.stops.behind_queue,
                 "refused_get_codes": c.get_codes,
             })
         };
@@ -1071,6 +1078,14 @@ impl Table {
              the {DECEL_CONFIRM} next datagrams too (runs not in cruise at the send: {} idle, {} \
              flood; no deceleration seen: {} idle, {} flood).",
             idle.not_in_cruise, flood.not_in_cruise, idle.no_stream_brake, flood.no_stream_brake
+        );
+        println!(
+            "2-4: stops braked with a FIFO flush (the brake in the board's next period): {} idle, \
+             {} flood; behind the queued periods (no flush): {} idle, {} flood.",
+            idle.stops.flushed,
+            flood.stops.flushed,
+            idle.stops.behind_queue,
+            flood.stops.behind_queue
         );
         if idle.read_unstamped + flood.read_unstamped > 0 {
             println!(

@@ -28,6 +28,7 @@ mod motion;
 mod program;
 mod requests;
 mod reset;
+mod standstill;
 mod urgent;
 
 pub use urgent::UrgentPath;
@@ -90,7 +91,12 @@ pub struct CommandInterpreter<B: MotionBoard> {
     /// Whether a HOLD is braking, or holds the motions of the open tickets.
     hold: motion::Hold,
     tickets: [Option<Ticket>; MAX_TICKETS],
-    waiters: [Option<(SourceId, ReplyTo)>; MAX_WAITERS],
+    waiters: [Option<motion::Waiter>; MAX_WAITERS],
+    /// Whether the last stop has ended on the board (the arm stands still).
+    standstill: standstill::Standstill,
+    /// Move ends the Pulse Generator reported while a stop had not ended on the board yet,
+    /// in the order they came: taken once the arm stands still.
+    parked: [Option<MoveDone>; MAX_TICKETS],
     next_ticket: u32,
     /// Joints where the last accepted move ends (validation reference).
     planned_end: Joints,
@@ -122,6 +128,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// A Command Interpreter for `robot` on `board`, talking through `links`.
     pub fn new(robot: Robot, board: B, shared: Arc<Shared>, links: CommandLinks) -> Self {
         let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
+        let standstill = standstill::Standstill::new(
+            shared.stop_epoch.load(Ordering::Acquire),
+            board.period_us(),
+        );
         CommandInterpreter {
             robot,
             board,
@@ -130,6 +140,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             hold: motion::Hold::None,
             tickets: [None; MAX_TICKETS],
             waiters: [None; MAX_WAITERS],
+            standstill,
+            parked: [None; MAX_TICKETS],
             next_ticket: 1,
             planned_end,
             buf: ReplyBuf::new(),
@@ -153,16 +165,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// MOVING, STOPPING and HELD end when nothing is open, queued, in flight or stopping:
-    /// then the state becomes IDLE (now, before a reply that tells a client the motion
-    /// ended goes out, so the client's next request sees it). Whether the robot is at rest.
+    /// MOVING, STOPPING and HELD end when nothing is open, queued, in flight or stopping
+    /// and the arm stands still ([`Self::stands_still`]): then the state becomes IDLE (now,
+    /// before a reply that tells a client the motion ended goes out, so the client's next
+    /// request sees it). Whether the robot is at rest.
     pub(super) fn settle_state(&mut self) -> bool {
         let at_rest = !self.outstanding()
             && self.job.is_none()
             && self.io.orders.is_empty()
-            && self.shared.in_flight.load(Ordering::Acquire) == 0
-            && self.shared.stopped_epoch.load(Ordering::Acquire)
-                == self.shared.stop_epoch.load(Ordering::Acquire);
+            && self.stands_still();
         if at_rest
             && matches!(
                 self.shared.state(),
@@ -172,6 +183,33 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.set_state(RobotState::Idle);
         }
         at_rest
+    }
+
+    /// Whether the arm stands still: the Pulse Generator has nothing in flight and is at
+    /// rest in the current stop epoch, and, after a stop, the board has executed the brake's
+    /// every period and its encoders are on their commanded counts ([`standstill`]) — the
+    /// rule a completed move's end is reported by.
+    pub(super) fn stands_still(&mut self) -> bool {
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        let generator_at_rest = self.shared.in_flight.load(Ordering::Acquire) == 0
+            && self.shared.stopped_epoch.load(Ordering::Acquire) == epoch;
+        let (board, feedback, shared) = (&self.board, &mut self.feedback, &self.shared);
+        self.standstill
+            .update(epoch, generator_at_rest, self.now_ns, || {
+                board.read_feedback(feedback).is_ok()
+                    && standstill::board_at_rest(feedback, &shared.commanded_pulses())
+            })
+    }
+
+    /// The alarm's code in ERROR or ESTOP.
+    fn alarm(&self) -> Option<Code> {
+        match self.shared.state() {
+            RobotState::Error | RobotState::Estop => Some(
+                Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16)
+                    .unwrap_or(Code::MotionFault),
+            ),
+            _ => None,
+        }
     }
 
     pub(super) fn owner(&self) -> SourceId {
@@ -220,7 +258,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.handle_urgent(u);
         }
         while let Ok(d) = self.io.done.try_recv() {
-            self.handle_done(d);
+            self.take_done(d);
         }
         while let Ok(incoming) = self.io.incoming.try_recv() {
             match incoming {
@@ -243,15 +281,21 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.retire = Some(e.into_inner());
             }
         }
-        let stopped = self.shared.in_flight.load(Ordering::Acquire) == 0
-            && self.shared.stopped_epoch.load(Ordering::Acquire)
-                == self.shared.stop_epoch.load(Ordering::Acquire);
-        // A HOLD is HELD once its brake has come to rest, until RESUME, a stop or the end
-        // of whatever waited on its motions (ABORT of a program) leaves nothing open.
+        let stopped = self.stands_still();
+        if stopped {
+            self.take_parked();
+        }
+        // A HOLD is HELD once its brake has come to rest on the board, until RESUME, a stop
+        // or the end of whatever waited on its motions (ABORT of a program) leaves nothing
+        // open; a brake that ended on the last motion's target held nothing.
         if self.hold == motion::Hold::Braking && stopped {
-            self.hold = motion::Hold::Held;
-            self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
-            self.set_state(RobotState::Held);
+            if self.outstanding() {
+                self.hold = motion::Hold::Held;
+                self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+                self.set_state(RobotState::Held);
+            } else {
+                self.hold = motion::Hold::None;
+            }
         }
         if self.hold == motion::Hold::Held && !self.outstanding() {
             self.hold = motion::Hold::None;
@@ -259,18 +303,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if self.settle_state() {
             self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
             for i in 0..MAX_WAITERS {
-                if let Some((from, to)) = self.waiters[i].take() {
-                    let line = match self.shared.state() {
-                        RobotState::Error | RobotState::Estop => {
-                            let code = Code::from_number(
-                                self.shared.error_code.load(Ordering::Acquire) as u16,
-                            )
-                            .unwrap_or(Code::MotionFault);
-                            self.buf.abs(to, code, code.text())
-                        }
-                        _ => self.buf.inf(to, ""),
+                if let Some(w) = self.waiters[i].take() {
+                    // The stop that ended the motions it waited for, or the alarm now.
+                    let line = match w.ended.or_else(|| self.alarm()) {
+                        Some(code) => self.buf.abs(w.to, code, code.text()),
+                        None => self.buf.inf(w.to, ""),
                     };
-                    deliver(&self.io.out, from, line);
+                    deliver(&self.io.out, w.from, line);
                 }
             }
         }

@@ -1,5 +1,7 @@
 //! The motion runner of the Command Interpreter: tickets of accepted motions, orders to the
-//! Velocity Generator, their ends (INF/ABS), WAIT, and aborting everything on a stop.
+//! Velocity Generator, their ends (INF/ABS), WAIT, and aborting everything on a stop. A move
+//! end the Pulse Generator reports while a stop has not ended on the board waits until the
+//! arm stands still ([`super::standstill`]); so does WAIT.
 
 use std::sync::atomic::Ordering;
 
@@ -7,7 +9,7 @@ use wrc_board::MotionBoard;
 use wrc_protocol::{Code, Event, ReplyTo};
 use wrc_robot::Joints;
 
-use super::{deliver, CommandInterpreter, MAX_TICKETS, MAX_WAITERS};
+use super::{deliver, CommandInterpreter, MAX_TICKETS};
 use crate::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome, SourceId};
 use crate::shared::{RobotState, StopKind};
 
@@ -25,6 +27,15 @@ pub(super) struct Ticket {
     pub(super) resume: MoveKind,
     /// The Pulse Generator reported it held (it was braking when HOLD came).
     pub(super) held: bool,
+}
+
+/// A client's `WAIT`, answered once the arm stands still and nothing is open or queued.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Waiter {
+    pub(super) from: SourceId,
+    pub(super) to: ReplyTo,
+    /// The stop or alarm that ended the motions it waited for abnormally: its `ABS` code.
+    pub(super) ended: Option<Code>,
 }
 
 /// Where a HOLD stands.
@@ -55,7 +66,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.tickets.iter().any(Option::is_some)
     }
 
-    /// Abort every accepted motion and WAIT with ABS `code`.
+    /// Abort every accepted motion with ABS `code` now; every WAIT gets ABS `code` once the
+    /// arm stands still.
     pub(super) fn abort_all(&mut self, code: Code, text: &str) {
         self.hold = Hold::None;
         if self.job.is_some() {
@@ -70,11 +82,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 deliver(&self.io.out, t.from, line);
             }
         }
-        for i in 0..MAX_WAITERS {
-            if let Some((from, to)) = self.waiters[i].take() {
-                let line = self.buf.abs(to, code, text);
-                deliver(&self.io.out, from, line);
-            }
+        for w in self.waiters.iter_mut().flatten() {
+            w.ended.get_or_insert(code);
         }
         if self.program.is_some() {
             self.end_program(Some((code, text)));
@@ -146,6 +155,30 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.set_state(RobotState::Moving);
     }
 
+    /// A move's end from the Velocity or Pulse Generator: taken now, or, while STOPPING
+    /// for a stop that has not ended on the board (the brake's last periods are still
+    /// queued there), once the arm stands still: a HOLD's brake that ends on the target
+    /// answers `INF` then, and the motions it holds are held then.
+    pub(super) fn take_done(&mut self, done: MoveDone) {
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        if self.shared.state() == RobotState::Stopping && self.standstill.stopping(epoch) {
+            if let Some(slot) = self.parked.iter_mut().find(|p| p.is_none()) {
+                *slot = Some(done);
+                return;
+            }
+        }
+        self.handle_done(done);
+    }
+
+    /// The move ends parked during a stop, in the order they came (the arm stands still).
+    pub(super) fn take_parked(&mut self) {
+        for i in 0..MAX_TICKETS {
+            if let Some(done) = self.parked[i].take() {
+                self.handle_done(done);
+            }
+        }
+    }
+
     pub(super) fn handle_done(&mut self, done: MoveDone) {
         let Some(i) = self
             .tickets
@@ -205,7 +238,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
         }
         for w in self.waiters.iter_mut() {
-            if w.is_some_and(|w| w.0 == source) {
+            if w.is_some_and(|w| w.from == source) {
                 *w = None;
             }
         }

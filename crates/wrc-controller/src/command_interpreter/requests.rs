@@ -217,7 +217,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         );
                     }
                 }
-                if self.shared.in_flight.load(Ordering::Acquire) != 0 {
+                // The board re-reads its position at a RESET: only once it has executed
+                // every period pushed and stands still.
+                if !self.stands_still() {
                     return self.nak(
                         from,
                         to,
@@ -262,7 +264,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);
                 match self.waiters.iter().position(Option::is_none) {
-                    Some(i) => self.waiters[i] = Some((from, to)),
+                    Some(i) => {
+                        self.waiters[i] = Some(super::motion::Waiter {
+                            from,
+                            to,
+                            ended: None,
+                        })
+                    }
                     None => {
                         let line = self.buf.abs(to, Code::Busy, "too many clients waiting");
                         deliver(&self.io.out, from, line);

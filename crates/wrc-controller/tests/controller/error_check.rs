@@ -1,14 +1,15 @@
 //! Error Check's overrun policy: overruns of the watched (motion-path) tasks stop a motion,
 //! overruns at rest stop nothing, and without watched tasks (not real-time) nothing does.
+//! A fault the urgent queue has no room for is reported when it has.
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Mapping};
+use wrc_board::{DpramBoard, Expect, Fault, Mapping};
 use wrc_config::Config;
 use wrc_controller::error_check::{ErrorCheck, Limits};
-use wrc_controller::messages::Urgent;
+use wrc_controller::messages::{SourceId, Urgent};
 use wrc_controller::shared::{RobotState, Shared};
 use wrc_protocol::Code;
 use wrc_rt::ipc::{MessageQueue, Semaphore};
@@ -16,11 +17,12 @@ use wrc_rt::stats::CycleSample;
 use wrc_rt::StatsCell;
 
 struct Rig {
-    _sim: SimBoard,
+    sim: SimBoard,
     ec: ErrorCheck<DpramBoard>,
     shared: Arc<Shared>,
     urgent: Arc<MessageQueue<Urgent>>,
     cell: Arc<StatsCell>,
+    owner_lost: Arc<AtomicBool>,
 }
 
 fn rig(watched: bool) -> Rig {
@@ -37,6 +39,7 @@ fn rig(watched: bool) -> Rig {
     if watched {
         let _ = stats.set(vec![cell.clone()]);
     }
+    let owner_lost = Arc::new(AtomicBool::new(false));
     let ec = ErrorCheck::new(
         board,
         config.robot.axes().len(),
@@ -44,15 +47,16 @@ fn rig(watched: bool) -> Rig {
         urgent.clone(),
         Arc::new(Semaphore::new(0)),
         Limits::for_robot(&config.robot),
-        Arc::new(AtomicBool::new(false)),
+        owner_lost.clone(),
         stats,
     );
     Rig {
-        _sim: sim,
+        sim,
         ec,
         shared,
         urgent,
         cell,
+        owner_lost,
     }
 }
 
@@ -65,6 +69,18 @@ impl Rig {
                 ..Default::default()
             });
         }
+    }
+
+    /// Fill the urgent queue, as a burst of STOP lines from the hosts would before the
+    /// urgent path takes them.
+    fn fill_urgent(&self) {
+        let stop = Urgent::Stop(SourceId::NONE, Default::default());
+        while self.urgent.try_send(stop).is_ok() {}
+    }
+
+    /// Empty the urgent queue (the urgent path took everything); what was on it.
+    fn drain_urgent(&self) -> Vec<Urgent> {
+        std::iter::from_fn(|| self.urgent.try_recv().ok()).collect()
     }
 
     fn fault(&self) -> Option<u16> {
@@ -122,4 +138,39 @@ fn without_real_time_overruns_are_no_fault() {
     r.overrun(50);
     r.ec.step();
     assert_eq!(r.fault(), None);
+}
+
+/// Pins the bug where a fault found while the urgent queue was full was marked reported
+/// and dropped: the E-stop input pressed during a burst of STOPs, whose brake had made the
+/// state STOPPING, went unreported until that brake had ended.
+#[test]
+fn the_estop_input_found_while_the_urgent_queue_is_full_is_reported_next_period() {
+    let mut r = rig(false);
+    r.shared.set_state(RobotState::Moving);
+    r.fill_urgent();
+    r.sim.apply_fault(Fault::Estop { on: true });
+    r.sim.step();
+    r.ec.step();
+    // The burst is taken and stops the robot; the fault had no room.
+    r.shared.set_state(RobotState::Stopping);
+    let burst = r.drain_urgent();
+    assert!(
+        burst.iter().all(|u| matches!(u, Urgent::Stop(..))),
+        "{burst:?}"
+    );
+    r.ec.step();
+    assert_eq!(r.fault(), Some(Code::EstopInput.number()));
+}
+
+/// The same bug for a lost controlling client, whose flag the check had already cleared.
+#[test]
+fn a_lost_controlling_client_found_while_the_urgent_queue_is_full_is_reported_next_period() {
+    let mut r = rig(false);
+    r.shared.set_state(RobotState::Moving);
+    r.fill_urgent();
+    r.owner_lost.store(true, Ordering::Release);
+    r.ec.step();
+    r.drain_urgent();
+    r.ec.step();
+    assert_eq!(r.fault(), Some(Code::ClientLost.number()));
 }

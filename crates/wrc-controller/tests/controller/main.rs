@@ -2,5 +2,7 @@
 
 mod alloc;
 mod error_check;
+mod estop_input;
 mod ethernet;
 mod pipeline;
+mod stop_end;

@@ -1,22 +1,23 @@
-//! Velocity Generator → pulse ring → Pulse Generator → board FIFO → simulated board, stepped
-//! by hand on one thread (10 ms Pulse Generator periods, Velocity Generator every 5th).
+//! Velocity Generator → pulse ring → Pulse Generator → board FIFO → simulated board(s),
+//! stepped by hand on one thread (10 ms Pulse Generator periods, Velocity Generator every
+//! 5th).
 
 use std::sync::Arc;
 
 use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
+use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard, MultiBoard};
 use wrc_config::Config;
 use wrc_controller::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome};
 use wrc_controller::pulse_generator::PulseGenerator;
-use wrc_controller::shared::Shared;
+use wrc_controller::shared::{Shared, StopKind, StopTally};
 use wrc_controller::velocity_generator::VelocityGenerator;
 use wrc_motion::VelocityGenerator as Generator;
 use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
 
 struct Rig {
-    sim: SimBoard,
-    host: DpramBoard,
-    pg: PulseGenerator<DpramBoard>,
+    sims: Vec<SimBoard>,
+    host: MultiBoard<DpramBoard>,
+    pg: PulseGenerator<MultiBoard<DpramBoard>>,
     vg: VelocityGenerator,
     orders: Arc<MessageQueue<MoveOrder>>,
     done: Arc<MessageQueue<MoveDone>>,
@@ -26,14 +27,42 @@ struct Rig {
 }
 
 impl Rig {
+    /// The robot on the configuration's one board.
     fn new() -> Rig {
         let config = Config::embedded_default();
-        let settings = SimSettings::from_config(&config, &config.boards[0]);
-        let mapping = Mapping::anonymous().unwrap();
-        let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
-        sim.step();
-        let pg_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
-        let host = DpramBoard::attach(mapping, Expect::default()).unwrap();
+        let board = config.boards[0].clone();
+        Rig::on_boards(&config, &[board])
+    }
+
+    /// The robot on two boards, two axes each: a flush cannot be armed on both at once.
+    fn on_two_boards() -> Rig {
+        let config = Config::embedded_default();
+        let mut first = config.boards[0].clone();
+        let mut second = first.clone();
+        first.axes = vec![0, 1];
+        second.id = 1;
+        second.axes = vec![2, 3];
+        Rig::on_boards(&config, &[first, second])
+    }
+
+    fn on_boards(config: &Config, boards: &[wrc_config::BoardConfig]) -> Rig {
+        let mut sims = Vec::new();
+        let (mut pg_boards, mut host_boards) = (Vec::new(), Vec::new());
+        let mut axis_map = vec![(0, 0); config.robot.axis_count()];
+        for (b, board) in boards.iter().enumerate() {
+            let settings = SimSettings::from_config(config, board);
+            let mapping = Mapping::anonymous().unwrap();
+            let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+            sim.step();
+            sims.push(sim);
+            pg_boards.push(DpramBoard::attach(mapping.share(), Expect::default()).unwrap());
+            host_boards.push(DpramBoard::attach(mapping, Expect::default()).unwrap());
+            for (channel, &axis) in board.axes.iter().enumerate() {
+                axis_map[axis] = (b, channel);
+            }
+        }
+        let pg_board = MultiBoard::new(pg_boards, &axis_map).unwrap();
+        let host = MultiBoard::new(host_boards, &axis_map).unwrap();
         let mut fb = Feedback::default();
         host.read_feedback(&mut fb).unwrap();
         let mut generator = Generator::new(config.robot.clone(), config.motion).unwrap();
@@ -67,7 +96,7 @@ impl Rig {
             resume_rx,
         );
         Rig {
-            sim,
+            sims,
             host,
             pg,
             vg,
@@ -87,7 +116,9 @@ impl Rig {
         }
         self.pg.step();
         let before = self.feedback();
-        self.sim.step();
+        for sim in &mut self.sims {
+            sim.step();
+        }
         let after = self.feedback();
         let mut inc = [0i64; 16];
         for (i, v) in inc.iter_mut().enumerate().take(4) {
@@ -174,8 +205,7 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
     assert!(cruise > 1000, "cruising at {cruise} pulse/period");
     // The stop arrives between two periods (as from the Command Interpreter's urgent path).
     let stop_at = rig.increments.len();
-    rig.shared
-        .request_stop(wrc_controller::shared::StopKind::Stop);
+    rig.shared.request_stop(StopKind::Stop);
     let done = rig.run_until_done(500);
     assert_eq!(
         done,
@@ -206,6 +236,14 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
         wrc_controller::pulse_generator::FIFO_LEAD as u32 - 1,
         "the board skipped the periods queued ahead"
     );
+    assert_eq!(
+        rig.shared.stops.read(),
+        StopTally {
+            flushed: 1,
+            behind_queue: 0
+        },
+        "counted as a stop braked with a flush"
+    );
     assert!(inc[inc.len() - 1] == 0);
     // Books: the board's commanded position equals everything the Pulse Generator pushed.
     let fb = rig.feedback();
@@ -234,9 +272,55 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
     assert_eq!(rig.feedback().axes[0].commanded, 0);
 }
 
+#[test]
+fn on_two_boards_a_stop_brakes_behind_the_queued_periods_and_is_counted() {
+    let mut rig = Rig::on_two_boards();
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 170.0; // long cruise on J1 (board 0)
+    target[3] = 250.0; // and Z (board 1)
+    rig.order(1, MoveKind::Joints(target));
+    for _ in 0..60 {
+        rig.period();
+    }
+    let cruise = rig.increments.last().unwrap()[0];
+    assert!(cruise > 1000, "cruising at {cruise} pulse/period");
+    let stop_at = rig.increments.len();
+    rig.shared.request_stop(StopKind::Stop);
+    let done = rig.run_until_done(500);
+    assert_eq!(done.outcome, MoveOutcome::Stopped);
+    for _ in 0..10 {
+        rig.period();
+    }
+    let inc: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
+    // No flush: the board executes the period queued ahead (here one: it runs right after
+    // the Pulse Generator), then the brake, which never speeds up again.
+    assert_eq!(fb_discarded(&rig), 0, "nothing was skipped");
+    assert!(
+        inc[stop_at] >= cruise - 1 && inc[stop_at + 1] < cruise,
+        "{:?}",
+        &inc[stop_at - 2..stop_at + 6]
+    );
+    assert!(inc[stop_at..].windows(2).all(|w| w[1] <= w[0]));
+    assert_eq!(
+        rig.shared.stops.read(),
+        StopTally {
+            flushed: 0,
+            behind_queue: 1
+        },
+        "counted as a stop braked behind the queue"
+    );
+    // Books: both boards executed everything the Pulse Generator pushed.
+    let fb = rig.feedback();
+    let commanded = rig.shared.commanded_pulses();
+    for (axis, (a, c)) in fb.axes.iter().zip(commanded).take(4).enumerate() {
+        assert_eq!(a.commanded, c, "axis {axis}");
+    }
+    assert_eq!(fb.underruns(), 0);
+}
+
 /// Periods the board skipped on axis 0 (a flush).
 fn fb_discarded(rig: &Rig) -> u32 {
-    rig.host
+    rig.host.boards()[0]
         .dpram()
         .load(wrc_board::layout::axis_base(0) + wrc_board::layout::axis::DISCARDED)
 }

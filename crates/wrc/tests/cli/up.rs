@@ -342,6 +342,27 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
     assert_eq!(host.ask("RESET"), "ACK");
     assert!(host.status().starts_with("ACK state=IDLE"));
     assert_eq!(host.motion(6, "MOVJ 0 90 0 0"), "INF 6");
+
+    // TASKS counts both stops on the Pulse Generator's line: with a FIFO flush on this one
+    // board, unless a board period began at every try (then behind the queue).
+    assert_eq!(host.ask("9 TASKS"), "ACK 9 tasks=8");
+    let pg = host
+        .seen
+        .iter()
+        .find(|l| l.starts_with("EVT TASK pulse_generator "))
+        .expect("the Pulse Generator's line");
+    let count = |key: &str| -> u64 {
+        pg.split_whitespace()
+            .find_map(|w| w.strip_prefix(key)?.strip_prefix('='))
+            .unwrap_or_else(|| panic!("no {key} in {pg}"))
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(
+        count("stops_flushed") + count("stops_behind_queue"),
+        2,
+        "{pg}"
+    );
 }
 
 #[test]

@@ -1,0 +1,316 @@
+//! A stopped or held motion ends when the arm stands still on the board: Command Interpreter
+//! → Velocity Generator → pulse ring → Pulse Generator → board FIFO → simulated board,
+//! stepped by hand on one thread (10 ms Pulse Generator periods; the Velocity Generator and
+//! the Command Interpreter every 5th, and the Command Interpreter also in the cycle a
+//! request or a move's end releases, as its thread runs it).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
+use wrc_config::Config;
+use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
+use wrc_controller::messages::{
+    Incoming, MoveDone, MoveOrder, OutLine, Outputs, SourceId, StoreLinks,
+};
+use wrc_controller::pulse_generator::PulseGenerator;
+use wrc_controller::shared::Shared;
+use wrc_controller::velocity_generator::VelocityGenerator;
+use wrc_motion::VelocityGenerator as Generator;
+use wrc_protocol::{Command, Request};
+use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
+use wrc_rt::Release;
+
+const PERIOD_NS: u64 = 10_000_000;
+const HOST: SourceId = SourceId(0x1000_0001);
+
+struct Rig {
+    sim: SimBoard,
+    host: DpramBoard,
+    ci: CommandInterpreter<DpramBoard>,
+    pg: PulseGenerator<DpramBoard>,
+    vg: VelocityGenerator,
+    incoming: Arc<MessageQueue<Incoming>>,
+    done: Arc<MessageQueue<MoveDone>>,
+    network: Arc<MessageQueue<OutLine>>,
+    shared: Arc<Shared>,
+    /// Board periods run.
+    k: u64,
+    /// Every line the host received, in order.
+    lines: Vec<String>,
+    /// The board as it stood when the last period's lines were written (before its own
+    /// period ran).
+    told_at: Feedback,
+}
+
+impl Rig {
+    /// The tasks on one simulated board, the robot homed where the board stands.
+    fn new() -> Rig {
+        let config = Config::embedded_default();
+        let settings = SimSettings::from_config(&config, &config.boards[0]);
+        let mapping = Mapping::anonymous().unwrap();
+        let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+        sim.step();
+        let pg_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+        let ci_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+        let host = DpramBoard::attach(mapping, Expect::default()).unwrap();
+        let mut fb = Feedback::default();
+        host.read_feedback(&mut fb).unwrap();
+        let mut generator = Generator::new(config.robot.clone(), config.motion).unwrap();
+        let mut start = [0i64; 16];
+        for (i, s) in start.iter_mut().enumerate().take(4) {
+            *s = fb.axes[i].commanded;
+        }
+        generator.set_position_pulses(&start).unwrap();
+        let shared = Arc::new(Shared::default());
+        for (c, s) in shared.commanded.iter().zip(start) {
+            c.store(s, Ordering::Release);
+        }
+        shared.homed.store(true, Ordering::Release);
+        let (tx, rx) = spsc::channel(12);
+        let (resume_tx, resume_rx) = mailbox(generator.state());
+        let orders = Arc::new(MessageQueue::<MoveOrder>::new(32));
+        let done = Arc::new(MessageQueue::new(64));
+        let incoming = Arc::new(MessageQueue::new(16));
+        let network = Arc::new(MessageQueue::new(256));
+        let pg = PulseGenerator::new(
+            pg_board,
+            rx,
+            shared.clone(),
+            done.clone(),
+            resume_tx,
+            generator.clone(),
+        );
+        let vg = VelocityGenerator::new(
+            generator,
+            orders.clone(),
+            tx,
+            shared.clone(),
+            done.clone(),
+            resume_rx,
+        );
+        let ci = CommandInterpreter::new(
+            config.robot.clone(),
+            ci_board,
+            shared.clone(),
+            CommandLinks {
+                incoming: incoming.clone(),
+                urgent: Arc::new(MessageQueue::new(4)),
+                forwarded: Arc::new(MessageQueue::new(4)),
+                orders,
+                done: done.clone(),
+                out: Outputs {
+                    network: network.clone(),
+                    serial: Arc::new(MessageQueue::new(16)),
+                },
+                owner_lost: Arc::new(AtomicBool::new(false)),
+                store: StoreLinks::new(),
+            },
+        );
+        Rig {
+            sim,
+            host,
+            ci,
+            pg,
+            vg,
+            incoming,
+            done,
+            network,
+            shared,
+            k: 0,
+            lines: Vec::new(),
+            told_at: fb,
+        }
+    }
+
+    fn now_ns(&self) -> u64 {
+        1_000_000_000 + self.k * PERIOD_NS
+    }
+
+    /// The lines the host received since the last call.
+    fn take_lines(&mut self) -> Vec<String> {
+        let new: Vec<String> = std::iter::from_fn(|| self.network.try_recv().ok())
+            .map(|l| String::from_utf8_lossy(l.bytes()).trim_end().to_string())
+            .collect();
+        self.lines.extend(new.iter().cloned());
+        new
+    }
+
+    /// A request from the host, handled in the Command Interpreter cycle it releases; a
+    /// stop request releases the Pulse Generator at once, an order the Velocity Generator.
+    fn send(&mut self, id: u32, command: Command) -> Vec<String> {
+        let request = Request {
+            id: Some(id),
+            command,
+            checksum: false,
+        };
+        self.incoming
+            .try_send(Incoming::Request(HOST, request))
+            .unwrap();
+        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
+        self.ci.step_released(self.now_ns(), false);
+        if self.shared.stop_epoch.load(Ordering::Acquire) != epoch {
+            self.pg.step_released(Release::Event);
+        }
+        self.vg.step();
+        self.take_lines()
+    }
+
+    /// One 10 ms board period: the Velocity Generator and the Command Interpreter every
+    /// 5th, the Pulse Generator, the Command Interpreter again if a move's end released
+    /// it, then the board. The lines the host received meanwhile.
+    fn period(&mut self) -> Vec<String> {
+        if self.k % 5 == 0 {
+            self.vg.step();
+            self.ci.step_released(self.now_ns(), true);
+        }
+        self.pg.step();
+        if !self.done.is_empty() {
+            self.ci.step_released(self.now_ns(), false);
+        }
+        let lines = self.take_lines();
+        self.told_at = self.feedback();
+        self.sim.step();
+        self.k += 1;
+        lines
+    }
+
+    fn feedback(&self) -> Feedback {
+        let mut fb = Feedback::default();
+        self.host.read_feedback(&mut fb).unwrap();
+        fb
+    }
+
+    /// Where the board's axes have been commanded to [pulse].
+    fn board_commanded(&self) -> [i64; 4] {
+        let fb = self.feedback();
+        std::array::from_fn(|i| fb.axes[i].commanded)
+    }
+}
+
+/// When the last period's lines were written, the board had executed every period the Pulse
+/// Generator pushed, and every encoder was on its commanded count.
+fn assert_at_rest(r: &Rig, what: &str) {
+    let fb = r.told_at;
+    let pushed = r.shared.commanded_pulses();
+    for (i, a) in fb.axes[..4].iter().enumerate() {
+        assert_eq!(
+            a.commanded, pushed[i],
+            "{what}: the end came with periods still queued on axis {i}"
+        );
+        assert_eq!(
+            a.encoder, a.commanded,
+            "{what}: the end came before axis {i} was in position"
+        );
+    }
+}
+
+fn movj(j1: f64) -> Command {
+    let mut joints = [0.0; 16];
+    joints[..4].copy_from_slice(&[j1, 30.0, 0.0, 250.0]);
+    Command::MovJ { joints, count: 4 }
+}
+
+/// One way to stop a motion, and how a host sees its end.
+struct Case {
+    stop: Command,
+    /// The aborted motion's ABS, at once.
+    aborted: Option<&'static str>,
+    /// The lines that tell the end (each the start of a line): the replies of a WAIT sent
+    /// before the stop (2) and of one sent during the brake (4), and the state the end
+    /// leaves (ESTOP's is set at once).
+    ends: &'static [&'static str],
+}
+
+/// Pins the bug where a stopped or held motion's end came while the board still had the
+/// brake's last periods queued (the Pulse Generator reports a brake once it has pushed it):
+/// after STOP, ESTOP or HOLD in the middle of a long move, the end a host sees — WAIT's reply,
+/// the state IDLE or HELD — comes only when the board has executed every period pushed and
+/// stands still, and no pulse follows it. The aborted motion's own `ABS` comes at once.
+#[test]
+fn a_stopped_or_held_motion_ends_when_the_board_stands_still() {
+    let cases = [
+        Case {
+            stop: Command::Stop,
+            aborted: Some("ABS 1 200"),
+            ends: &["ABS 2 200", "INF 4", "EVT STATE IDLE"],
+        },
+        Case {
+            stop: Command::Estop,
+            aborted: Some("ABS 1 201"),
+            ends: &["ABS 2 201", "ABS 4 201"],
+        },
+        Case {
+            stop: Command::Hold,
+            aborted: None,
+            ends: &["EVT STATE HELD"],
+        },
+    ];
+    for case in cases {
+        let stop = case.stop;
+        let mut r = Rig::new();
+        let start = r.board_commanded();
+        assert_eq!(r.send(1, movj(170.0)), ["ACK 1", "EVT STATE MOVING"]);
+        // Cruising on J1 (from -75 to 170 deg).
+        for _ in 0..60 {
+            r.period();
+        }
+        let cruise = r.board_commanded()[0] - start[0];
+        assert!(cruise > 10_000, "{stop:?}: j1 moved {cruise} pulses");
+        assert_eq!(r.send(2, Command::Wait), ["ACK 2"]);
+        let lines = r.send(3, stop);
+        assert_eq!(lines[0], "ACK 3", "{stop:?}: {lines:?}");
+        // STOP and ESTOP abort the motion at once (its ABS); its brake goes on.
+        if let Some(abs) = case.aborted {
+            assert!(
+                lines.iter().any(|l| l.starts_with(abs)),
+                "{stop:?}: {lines:?}"
+            );
+        }
+        let is_end = |l: &String| case.ends.iter().any(|e| l.starts_with(e));
+        assert!(
+            !lines.iter().any(is_end),
+            "{stop:?}: the end came with the stop request: {lines:?}"
+        );
+        r.period();
+        assert_eq!(r.send(4, Command::Wait), ["ACK 4"]);
+        // Every period that tells an end finds the board at rest.
+        let mut periods = 0;
+        while !case
+            .ends
+            .iter()
+            .all(|e| r.lines.iter().any(|l| l.starts_with(e)))
+        {
+            let lines = r.period();
+            if lines.iter().any(is_end) {
+                assert_at_rest(&r, &format!("{stop:?}: {lines:?}"));
+            }
+            periods += 1;
+            assert!(periods < 500, "{stop:?}: no end within 500 periods");
+        }
+        let end = r.board_commanded();
+        for _ in 0..10 {
+            let lines = r.period();
+            assert!(
+                !lines.iter().any(|l| l.starts_with("EVT STATE")),
+                "{stop:?}: {lines:?}"
+            );
+        }
+        assert_eq!(r.board_commanded(), end, "{stop:?}: pulses after the end");
+        assert!(
+            end[0] - start[0] < 245_000,
+            "{stop:?}: stopped short of the target"
+        );
+        if case.aborted.is_none() {
+            // Held: the motion and both WAITs are still open.
+            assert!(
+                !r.lines
+                    .iter()
+                    .any(|l| l.starts_with("INF") || l.starts_with("ABS")),
+                "{stop:?}: {:?}",
+                r.lines
+            );
+        }
+    }
+}

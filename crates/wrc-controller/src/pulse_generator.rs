@@ -132,9 +132,14 @@ pub struct PulseGenerator<B: MotionBoard> {
     decel_pending: bool,
     pending: Option<Batch>,
     fifo_depth: usize,
-    /// A completed move reported once the board has executed its last period: (ticket,
-    /// periods to wait).
-    completing: Option<(u32, usize)>,
+    /// A move (completed, or stopped or held by a brake) reported once the board has
+    /// executed its last period and its motors have settled: (ticket, outcome, periods to
+    /// wait).
+    completing: Option<(u32, MoveOutcome, usize)>,
+    /// The stop epoch is at rest once the move `completing` ends (a stop's brake, or a
+    /// move whose end the board was still executing when the stop came): `stopped_epoch`
+    /// is published then, not before.
+    epoch_pending: bool,
     feedback: Feedback,
     history: History,
     /// The brake pushed before a flush ended the stop (reported by the next cycle's loop).
@@ -171,6 +176,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             pending: None,
             fifo_depth,
             completing: None,
+            epoch_pending: false,
             feedback: Feedback::default(),
             history: History::new(last),
             brake_end: None,
@@ -344,7 +350,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     }
                 }
                 self.resume.write(self.last);
-                self.shared.stopped_epoch.store(epoch, Ordering::Release);
+                if self.completing.is_some() {
+                    self.epoch_pending = true;
+                } else {
+                    self.shared.stopped_epoch.store(epoch, Ordering::Release);
+                }
             }
         }
         let lead = if braking_now && release == Release::Event {
@@ -394,15 +404,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
             self.ticket = batch.ticket;
             if batch.last {
-                if let Some((ticket, _)) = self.completing.take() {
-                    self.report(ticket, MoveOutcome::Completed);
-                }
-                // The board executes it FIFO_LEAD periods from now; then the motors settle.
-                self.completing = Some((batch.ticket, FIFO_LEAD + 1 + IN_POSITION_PERIODS));
+                self.complete(batch.ticket, MoveOutcome::Completed);
                 self.ticket = 0;
             }
         }
-        if let Some((ticket, left)) = self.completing {
+        if let Some((ticket, outcome, left)) = self.completing {
             // Executed by the board; then in position (every encoder on its commanded
             // count) unless another move follows at once, or the settling time is over.
             let executed = left <= IN_POSITION_PERIODS + 1;
@@ -410,10 +416,16 @@ impl<B: MotionBoard> PulseGenerator<B> {
             if executed && (left <= 1 || next_move || self.in_position()) {
                 self.completing = None;
                 // At rest before the end is reported: whoever hears of it sees no motion.
+                if self.epoch_pending {
+                    self.epoch_pending = false;
+                    self.shared
+                        .stopped_epoch
+                        .store(self.epoch_seen, Ordering::Release);
+                }
                 self.publish_in_flight();
-                self.report(ticket, MoveOutcome::Completed);
+                self.report(ticket, outcome);
             } else {
-                self.completing = Some((ticket, left - 1));
+                self.completing = Some((ticket, outcome, left - 1));
             }
         }
         self.publish_in_flight();
@@ -430,8 +442,20 @@ impl<B: MotionBoard> PulseGenerator<B> {
         }
     }
 
-    /// The brake's last period was pushed: report the move held, stopped or (a brake that
-    /// ended on the target) completed.
+    /// The last period of move `ticket` was pushed: it ends with `outcome` once the board
+    /// has executed it ([`FIFO_LEAD`] periods from now) and its motors have settled
+    /// ([`IN_POSITION_PERIODS`] at most). A move still completing ends now (the board
+    /// executes in order).
+    fn complete(&mut self, ticket: u32, outcome: MoveOutcome) {
+        if let Some((ticket, outcome, _)) = self.completing.take() {
+            self.report(ticket, outcome);
+        }
+        self.completing = Some((ticket, outcome, FIFO_LEAD + 1 + IN_POSITION_PERIODS));
+    }
+
+    /// The brake's last period was pushed: the move ends held, stopped or (a brake that
+    /// ended on the target) completed by the rule a completed move ends by, and the stop
+    /// epoch is at rest then ([`PulseGenerator::complete`]).
     fn brake_finished(&mut self, status: Status) {
         self.stopping = false;
         let outcome = match (status, self.stop_kind) {
@@ -440,12 +464,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
             (_, StopKind::Hold) => MoveOutcome::Held,
             (_, StopKind::Stop | StopKind::Estop) => MoveOutcome::Stopped,
         };
-        self.report(self.ticket, outcome);
+        self.complete(self.ticket, outcome);
+        self.epoch_pending = true;
         self.ticket = 0;
         self.resume.write(self.last);
-        self.shared
-            .stopped_epoch
-            .store(self.epoch_seen, Ordering::Release);
     }
 
     /// Every axis's encoder on its commanded count (a torn read counts as not yet).

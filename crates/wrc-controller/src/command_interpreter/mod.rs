@@ -28,7 +28,6 @@ mod motion;
 mod program;
 mod requests;
 mod reset;
-mod standstill;
 mod urgent;
 
 pub use urgent::UrgentPath;
@@ -92,11 +91,6 @@ pub struct CommandInterpreter<B: MotionBoard> {
     hold: motion::Hold,
     tickets: [Option<Ticket>; MAX_TICKETS],
     waiters: [Option<motion::Waiter>; MAX_WAITERS],
-    /// Whether the last stop has ended on the board (the arm stands still).
-    standstill: standstill::Standstill,
-    /// Move ends the Pulse Generator reported while a stop had not ended on the board yet,
-    /// in the order they came: taken once the arm stands still.
-    parked: [Option<MoveDone>; MAX_TICKETS],
     next_ticket: u32,
     /// Joints where the last accepted move ends (validation reference).
     planned_end: Joints,
@@ -128,10 +122,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// A Command Interpreter for `robot` on `board`, talking through `links`.
     pub fn new(robot: Robot, board: B, shared: Arc<Shared>, links: CommandLinks) -> Self {
         let planned_end = robot.pulses_to_joints(&shared.commanded_pulses());
-        let standstill = standstill::Standstill::new(
-            shared.stop_epoch.load(Ordering::Acquire),
-            board.period_us(),
-        );
         CommandInterpreter {
             robot,
             board,
@@ -140,8 +130,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             hold: motion::Hold::None,
             tickets: [None; MAX_TICKETS],
             waiters: [None; MAX_WAITERS],
-            standstill,
-            parked: [None; MAX_TICKETS],
             next_ticket: 1,
             planned_end,
             buf: ReplyBuf::new(),
@@ -186,19 +174,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// Whether the arm stands still: the Pulse Generator has nothing in flight and is at
-    /// rest in the current stop epoch, and, after a stop, the board has executed the brake's
-    /// every period and its encoders are on their commanded counts ([`standstill`]) — the
-    /// rule a completed move's end is reported by.
-    pub(super) fn stands_still(&mut self) -> bool {
-        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
-        let generator_at_rest = self.shared.in_flight.load(Ordering::Acquire) == 0
-            && self.shared.stopped_epoch.load(Ordering::Acquire) == epoch;
-        let (board, feedback, shared) = (&self.board, &mut self.feedback, &self.shared);
-        self.standstill
-            .update(epoch, generator_at_rest, self.now_ns, || {
-                board.read_feedback(feedback).is_ok()
-                    && standstill::board_at_rest(feedback, &shared.commanded_pulses())
-            })
+    /// rest in the current stop epoch. It publishes both only once the board has executed
+    /// every period pushed and its encoders are on their commanded counts (or the settling
+    /// time is over), after a stop's brake as after a completed move.
+    pub(super) fn stands_still(&self) -> bool {
+        self.shared.in_flight.load(Ordering::Acquire) == 0
+            && self.shared.stopped_epoch.load(Ordering::Acquire)
+                == self.shared.stop_epoch.load(Ordering::Acquire)
     }
 
     /// The alarm's code in ERROR or ESTOP.
@@ -258,7 +240,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.handle_urgent(u);
         }
         while let Ok(d) = self.io.done.try_recv() {
-            self.take_done(d);
+            self.handle_done(d);
         }
         while let Ok(incoming) = self.io.incoming.try_recv() {
             match incoming {
@@ -282,9 +264,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
         }
         let stopped = self.stands_still();
-        if stopped {
-            self.take_parked();
-        }
         // A HOLD is HELD once its brake has come to rest on the board, until RESUME, a stop
         // or the end of whatever waited on its motions (ABORT of a program) leaves nothing
         // open; a brake that ended on the last motion's target held nothing.

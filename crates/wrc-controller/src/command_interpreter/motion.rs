@@ -1,7 +1,7 @@
 //! The motion runner of the Command Interpreter: tickets of accepted motions, orders to the
-//! Velocity Generator, their ends (INF/ABS), WAIT, and aborting everything on a stop. A move
-//! end the Pulse Generator reports while a stop has not ended on the board waits until the
-//! arm stands still ([`super::standstill`]); so does WAIT.
+//! Velocity Generator, their ends (INF/ABS), WAIT, and aborting everything on a stop. The
+//! Pulse Generator reports a move's end once the arm stands still on the board, a stopped or
+//! held one too; WAIT is answered then.
 
 use std::sync::atomic::Ordering;
 
@@ -153,30 +153,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let line = self.buf.ack(to, "");
         deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
-    }
-
-    /// A move's end from the Velocity or Pulse Generator: taken now, or, while STOPPING
-    /// for a stop that has not ended on the board (the brake's last periods are still
-    /// queued there), once the arm stands still: a HOLD's brake that ends on the target
-    /// answers `INF` then, and the motions it holds are held then.
-    pub(super) fn take_done(&mut self, done: MoveDone) {
-        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
-        if self.shared.state() == RobotState::Stopping && self.standstill.stopping(epoch) {
-            if let Some(slot) = self.parked.iter_mut().find(|p| p.is_none()) {
-                *slot = Some(done);
-                return;
-            }
-        }
-        self.handle_done(done);
-    }
-
-    /// The move ends parked during a stop, in the order they came (the arm stands still).
-    pub(super) fn take_parked(&mut self) {
-        for i in 0..MAX_TICKETS {
-            if let Some(done) = self.parked[i].take() {
-                self.handle_done(done);
-            }
-        }
     }
 
     pub(super) fn handle_done(&mut self, done: MoveDone) {

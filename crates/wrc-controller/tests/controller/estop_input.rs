@@ -7,8 +7,9 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
+use crate::motion::{sim_board, Motion};
 use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Fault, Feedback, Mapping, MotionBoard};
+use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use wrc_controller::error_check::{ErrorCheck, Limits};
@@ -18,9 +19,8 @@ use wrc_controller::messages::{
 use wrc_controller::pulse_generator::PulseGenerator;
 use wrc_controller::shared::{RobotState, Shared};
 use wrc_controller::velocity_generator::VelocityGenerator;
-use wrc_motion::VelocityGenerator as Generator;
 use wrc_protocol::{Code, Parser};
-use wrc_rt::ipc::{mailbox, spsc, MessageQueue, Semaphore};
+use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::{Clock, MonotonicClock, Release};
 
 /// Requests the Command Interpreter's queue holds in this rig.
@@ -60,51 +60,22 @@ impl Rig {
         let robot = config.robot.clone();
         let settings = SimSettings::from_config(&config, &config.boards[0]);
         assert!(settings.io.estop_input.is_some(), "the board has an E-stop");
-        let mapping = Mapping::anonymous().unwrap();
-        let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
-        sim.step();
+        let (sim, mapping) = sim_board(&config, &config.boards[0]);
         let attach = || DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
         let host = attach();
-        let mut fb = Feedback::default();
-        host.read_feedback(&mut fb).unwrap();
-        let mut start = [0i64; 16];
-        for (i, s) in start.iter_mut().enumerate().take(robot.axis_count()) {
-            *s = fb.axes[i].commanded;
-        }
-        let shared = Arc::new(Shared::default());
-        for (c, s) in shared.commanded.iter().zip(start) {
-            c.store(s, Ordering::Release);
-        }
-        shared.homed.store(true, Ordering::Release);
-        let mut generator = Generator::new(robot.clone(), config.motion).unwrap();
-        generator.set_position_pulses(&start).unwrap();
-
-        let (ring_tx, ring_rx) = spsc::channel(12);
-        let (resume_tx, resume_rx) = mailbox(generator.state());
-        let orders = Arc::new(MessageQueue::new(32));
-        let done = Arc::new(MessageQueue::new(64));
+        let Motion {
+            pg,
+            vg,
+            shared,
+            orders,
+            done,
+        } = Motion::at_rest(&config, attach());
         let incoming = Arc::new(MessageQueue::new(QUEUE));
         let urgent = Arc::new(MessageQueue::new(8));
         let urgent_wake = Arc::new(Semaphore::new(0));
         let forwarded = Arc::new(MessageQueue::new(8));
         let network = Arc::new(MessageQueue::new(256));
         let owner_lost = Arc::new(AtomicBool::new(false));
-        let pg = PulseGenerator::new(
-            attach(),
-            ring_rx,
-            shared.clone(),
-            done.clone(),
-            resume_tx,
-            generator.clone(),
-        );
-        let vg = VelocityGenerator::new(
-            generator,
-            orders.clone(),
-            ring_tx,
-            shared.clone(),
-            done.clone(),
-            resume_rx,
-        );
         let ec = ErrorCheck::new(
             attach(),
             robot.axis_count(),

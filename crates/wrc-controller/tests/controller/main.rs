@@ -4,5 +4,6 @@ mod alloc;
 mod error_check;
 mod estop_input;
 mod ethernet;
+mod motion;
 mod pipeline;
 mod stop_end;

@@ -4,15 +4,16 @@
 
 use std::sync::Arc;
 
-use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard, MultiBoard};
+use crate::motion::{sim_board, Motion};
+use wrc_board::sim::SimBoard;
+use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard, MultiBoard};
 use wrc_config::Config;
 use wrc_controller::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome};
 use wrc_controller::pulse_generator::PulseGenerator;
 use wrc_controller::shared::{Shared, StopKind, StopTally};
 use wrc_controller::velocity_generator::VelocityGenerator;
-use wrc_motion::VelocityGenerator as Generator;
-use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
+use wrc_robot::Joints;
+use wrc_rt::ipc::MessageQueue;
 
 struct Rig {
     sims: Vec<SimBoard>,
@@ -50,10 +51,7 @@ impl Rig {
         let (mut pg_boards, mut host_boards) = (Vec::new(), Vec::new());
         let mut axis_map = vec![(0, 0); config.robot.axis_count()];
         for (b, board) in boards.iter().enumerate() {
-            let settings = SimSettings::from_config(config, board);
-            let mapping = Mapping::anonymous().unwrap();
-            let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
-            sim.step();
+            let (sim, mapping) = sim_board(config, board);
             sims.push(sim);
             pg_boards.push(DpramBoard::attach(mapping.share(), Expect::default()).unwrap());
             host_boards.push(DpramBoard::attach(mapping, Expect::default()).unwrap());
@@ -63,38 +61,13 @@ impl Rig {
         }
         let pg_board = MultiBoard::new(pg_boards, &axis_map).unwrap();
         let host = MultiBoard::new(host_boards, &axis_map).unwrap();
-        let mut fb = Feedback::default();
-        host.read_feedback(&mut fb).unwrap();
-        let mut generator = Generator::new(config.robot.clone(), config.motion).unwrap();
-        let mut start = [0i64; 16];
-        for (i, s) in start.iter_mut().enumerate().take(4) {
-            *s = fb.axes[i].commanded;
-        }
-        generator.set_position_pulses(&start).unwrap();
-        let shared = Arc::new(Shared::default());
-        for (c, s) in shared.commanded.iter().zip(start) {
-            c.store(s, std::sync::atomic::Ordering::Release);
-        }
-        let (tx, rx) = spsc::channel(12);
-        let (resume_tx, resume_rx) = mailbox(generator.state());
-        let orders = Arc::new(MessageQueue::new(16));
-        let done = Arc::new(MessageQueue::new(64));
-        let pg = PulseGenerator::new(
-            pg_board,
-            rx,
-            shared.clone(),
-            done.clone(),
-            resume_tx,
-            generator.clone(),
-        );
-        let vg = VelocityGenerator::new(
-            generator,
-            orders.clone(),
-            tx,
-            shared.clone(),
-            done.clone(),
-            resume_rx,
-        );
+        let Motion {
+            pg,
+            vg,
+            shared,
+            orders,
+            done,
+        } = Motion::at_rest(config, pg_board);
         Rig {
             sims,
             host,
@@ -106,6 +79,27 @@ impl Rig {
             k: 0,
             increments: Vec::new(),
         }
+    }
+
+    /// Move to `target` (ticket 1), STOP it in cruise after 60 periods, between two periods
+    /// (as from the Command Interpreter's urgent path), run to its end and 10 periods more:
+    /// J1's cruise increment, the period the stop came before, the end, and J1's increment
+    /// in every period [pulse].
+    fn stop_in_cruise(&mut self, target: Joints) -> (i64, usize, MoveDone, Vec<i64>) {
+        self.order(1, MoveKind::Joints(target));
+        for _ in 0..60 {
+            self.period();
+        }
+        let cruise = self.increments.last().unwrap()[0];
+        assert!(cruise > 1000, "cruising at {cruise} pulse/period");
+        let stop_at = self.increments.len();
+        self.shared.request_stop(StopKind::Stop);
+        let done = self.run_until_done(500);
+        for _ in 0..10 {
+            self.period();
+        }
+        let inc = self.increments.iter().map(|i| i[0]).collect();
+        (cruise, stop_at, done, inc)
     }
 
     /// One 10 ms period: the Velocity Generator every 5th, then the Pulse Generator, then
@@ -197,16 +191,7 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
     let mut rig = Rig::new();
     let mut target = Config::embedded_default().robot.home();
     target[0] = 170.0; // long cruise on J1
-    rig.order(1, MoveKind::Joints(target));
-    for _ in 0..60 {
-        rig.period();
-    }
-    let cruise = rig.increments.last().unwrap()[0];
-    assert!(cruise > 1000, "cruising at {cruise} pulse/period");
-    // The stop arrives between two periods (as from the Command Interpreter's urgent path).
-    let stop_at = rig.increments.len();
-    rig.shared.request_stop(StopKind::Stop);
-    let done = rig.run_until_done(500);
+    let (cruise, stop_at, done, inc) = rig.stop_in_cruise(target);
     assert_eq!(
         done,
         MoveDone {
@@ -214,10 +199,6 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
             outcome: MoveOutcome::Stopped
         }
     );
-    for _ in 0..10 {
-        rig.period();
-    }
-    let inc: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
     // The board skips what was queued before the stop (a FIFO flush) and decelerates in its
     // very next period, from the period it had reached, and never speeds up again.
     assert!(
@@ -278,20 +259,8 @@ fn on_two_boards_a_stop_brakes_behind_the_queued_periods_and_is_counted() {
     let mut target = Config::embedded_default().robot.home();
     target[0] = 170.0; // long cruise on J1 (board 0)
     target[3] = 250.0; // and Z (board 1)
-    rig.order(1, MoveKind::Joints(target));
-    for _ in 0..60 {
-        rig.period();
-    }
-    let cruise = rig.increments.last().unwrap()[0];
-    assert!(cruise > 1000, "cruising at {cruise} pulse/period");
-    let stop_at = rig.increments.len();
-    rig.shared.request_stop(StopKind::Stop);
-    let done = rig.run_until_done(500);
+    let (cruise, stop_at, done, inc) = rig.stop_in_cruise(target);
     assert_eq!(done.outcome, MoveOutcome::Stopped);
-    for _ in 0..10 {
-        rig.period();
-    }
-    let inc: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
     // No flush: the board executes the period queued ahead (here one: it runs right after
     // the Pulse Generator), then the brake, which never speeds up again.
     assert_eq!(fb_discarded(&rig), 0, "nothing was skipped");

@@ -7,19 +7,17 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use wrc_board::sim::{SimBoard, SimSettings};
-use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
+use crate::motion::{sim_board, Motion};
+use wrc_board::sim::SimBoard;
+use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
-use wrc_controller::messages::{
-    Incoming, MoveDone, MoveOrder, OutLine, Outputs, SourceId, StoreLinks,
-};
+use wrc_controller::messages::{Incoming, MoveDone, OutLine, Outputs, SourceId, StoreLinks};
 use wrc_controller::pulse_generator::PulseGenerator;
 use wrc_controller::shared::Shared;
 use wrc_controller::velocity_generator::VelocityGenerator;
-use wrc_motion::VelocityGenerator as Generator;
 use wrc_protocol::{Command, Request};
-use wrc_rt::ipc::{mailbox, spsc, MessageQueue};
+use wrc_rt::ipc::MessageQueue;
 use wrc_rt::Release;
 
 const PERIOD_NS: u64 = 10_000_000;
@@ -48,48 +46,20 @@ impl Rig {
     /// The tasks on one simulated board, the robot homed where the board stands.
     fn new() -> Rig {
         let config = Config::embedded_default();
-        let settings = SimSettings::from_config(&config, &config.boards[0]);
-        let mapping = Mapping::anonymous().unwrap();
-        let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
-        sim.step();
-        let pg_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
-        let ci_board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
-        let host = DpramBoard::attach(mapping, Expect::default()).unwrap();
+        let (sim, mapping) = sim_board(&config, &config.boards[0]);
+        let attach = || DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+        let (ci_board, host) = (attach(), attach());
         let mut fb = Feedback::default();
         host.read_feedback(&mut fb).unwrap();
-        let mut generator = Generator::new(config.robot.clone(), config.motion).unwrap();
-        let mut start = [0i64; 16];
-        for (i, s) in start.iter_mut().enumerate().take(4) {
-            *s = fb.axes[i].commanded;
-        }
-        generator.set_position_pulses(&start).unwrap();
-        let shared = Arc::new(Shared::default());
-        for (c, s) in shared.commanded.iter().zip(start) {
-            c.store(s, Ordering::Release);
-        }
-        shared.homed.store(true, Ordering::Release);
-        let (tx, rx) = spsc::channel(12);
-        let (resume_tx, resume_rx) = mailbox(generator.state());
-        let orders = Arc::new(MessageQueue::<MoveOrder>::new(32));
-        let done = Arc::new(MessageQueue::new(64));
+        let Motion {
+            pg,
+            vg,
+            shared,
+            orders,
+            done,
+        } = Motion::at_rest(&config, attach());
         let incoming = Arc::new(MessageQueue::new(16));
         let network = Arc::new(MessageQueue::new(256));
-        let pg = PulseGenerator::new(
-            pg_board,
-            rx,
-            shared.clone(),
-            done.clone(),
-            resume_tx,
-            generator.clone(),
-        );
-        let vg = VelocityGenerator::new(
-            generator,
-            orders.clone(),
-            tx,
-            shared.clone(),
-            done.clone(),
-            resume_rx,
-        );
         let ci = CommandInterpreter::new(
             config.robot.clone(),
             ci_board,

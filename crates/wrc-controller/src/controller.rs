@@ -18,7 +18,7 @@ use wrc_rt::ipc::{mailbox, spsc, MessageQueue, Semaphore};
 use wrc_rt::{RealtimeMode, RunningRuntime, Runtime, RuntimeOptions, SchedReport, StopReport};
 
 use crate::clients::{ClientSet, Routes};
-use wrc_rt::wake::Wake;
+use crate::host::{Host, HostWake, RealHost};
 
 use crate::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use crate::error_check::{ErrorCheck, Limits};
@@ -81,6 +81,9 @@ pub enum StartError {
     /// A board could not be opened.
     #[error("motion board: {0}")]
     Board(#[from] wrc_board::OpenError),
+    /// A simulated board (under virtual time) could not be made.
+    #[error("simulated board: {0}")]
+    SimBoard(#[from] wrc_board::sim::SimError),
     /// The boards do not fit the robot's axes.
     #[error("motion boards: {0}")]
     Boards(#[from] wrc_board::MultiError),
@@ -221,11 +224,37 @@ impl Drop for Running {
     }
 }
 
-/// Start the controller for `config` with `options`.
-pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> {
+/// The controller assembled on a [`Host`], before it runs: what the runtime's caller still
+/// has to start or hand on.
+pub(crate) struct Assembled<W> {
+    pub shared: Arc<Shared>,
+    pub tcp: Option<SocketAddr>,
+    /// Overrun statistics Error Check watches (set once the runtime says it is real-time).
+    pub watched: Arc<OnceLock<Vec<Arc<wrc_rt::StatsCell>>>>,
+    /// The `TASKS` query's cells (set once the runtime has its tasks).
+    pub task_cells: crate::queries::TaskCells,
+    /// The urgent path's blocking half.
+    pub urgent: UrgentPath,
+    /// The service thread's state and its waiter.
+    pub service: Service,
+    pub service_wake: W,
+    /// Releases the Ethernet task (a client wrote to it).
+    pub ethernet: Arc<dyn wrc_rt::Notify>,
+    /// The Command Interpreter's task: the urgent path runs at its priority.
+    pub ci_priority: u8,
+    pub quit: Arc<AtomicBool>,
+}
+
+/// Build the eight tasks of Table 1 with their queues on `host`, with the boards `open`
+/// makes (called once per task that drives them).
+pub(crate) fn assemble<H: Host>(
+    host: &mut H,
+    config: &Config,
+    options: &Options,
+    open: &dyn Fn() -> Result<MultiBoard<DpramBoard>, StartError>,
+) -> Result<Assembled<H::Wake>, StartError> {
     let robot = config.robot.clone();
     let axis_count = robot.axis_count();
-    let open = || open_boards(config, &options.boards, options.board_wait);
     let pg_board = open()?;
     let ec_board = open()?;
     let io_board = open()?;
@@ -290,10 +319,10 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     // The Command Interpreter, the Velocity Generator and the service thread are released
     // by their messages as well as by their periods (the queues notify their consumer); the
     // Pulse Generator by every stop request.
-    let ci_wake = Wake::new();
-    let vg_wake = Wake::new();
-    let pg_wake = Wake::new();
-    let service_wake = Wake::new();
+    let ci_wake = host.wake("command_interpreter", None)?;
+    let vg_wake = host.wake("velocity_generator", None)?;
+    let pg_wake = host.wake("pulse_generator", None)?;
+    let service_wake = host.wake("service", None)?;
     shared.notify_stops(pg_wake.notifier());
     let orders = Arc::new(MessageQueue::with_notify(
         crate::command_interpreter::MAX_TICKETS,
@@ -308,15 +337,12 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     let wake = Arc::new(Semaphore::new(0));
     // The Ethernet and RS232C tasks are released by their sockets or tty and by every line
     // pushed into their reply queues, as well as by their periods.
-    let waiter = |task: &'static str, tokens| {
-        wrc_rt::wake::FdWake::new(tokens).map_err(|reason| StartError::Waiter { task, reason })
-    };
-    let ethernet_wake = waiter("ethernet", Ethernet::tokens(MAX_HOSTS, MAX_GUIS))?;
-    let rs232c_wake = waiter("rs232c", Rs232c::TOKENS)?;
+    let ethernet_wake = host.wake("ethernet", Some(Ethernet::tokens(MAX_HOSTS, MAX_GUIS)))?;
+    let rs232c_wake = host.wake("rs232c", Some(Rs232c::TOKENS))?;
     let network_out = Arc::new(MessageQueue::with_notify(4096, ethernet_wake.notifier()));
     let serial_out = Arc::new(MessageQueue::with_notify(256, rs232c_wake.notifier()));
     let owner_lost = Arc::new(AtomicBool::new(false));
-    let stats = Arc::new(OnceLock::new());
+    let watched = Arc::new(OnceLock::new());
     let task_cells: crate::queries::TaskCells = Arc::new(OnceLock::new());
     let links = StoreLinks::notifying(service_wake.notifier(), ci_wake.notifier());
     let outputs = Outputs {
@@ -360,11 +386,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
                 .expect("Table 1 task")
         })
     };
-    let mut runtime = Runtime::new(RuntimeOptions {
-        realtime: options.realtime,
-        ..Default::default()
-    });
-    runtime.add(
+    host.add(
         spec("error_check"),
         ErrorCheck::new(
             ec_board,
@@ -374,10 +396,10 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             wake.clone(),
             Limits::for_robot(&robot),
             owner_lost.clone(),
-            stats.clone(),
+            watched.clone(),
         ),
-    );
-    runtime.add_released(
+    )?;
+    host.add_released(
         spec("pulse_generator"),
         PulseGenerator::new(
             pg_board,
@@ -388,8 +410,8 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             generator.clone(),
         ),
         pg_wake,
-    );
-    runtime.add(
+    )?;
+    host.add(
         spec("simulator_manager"),
         SimulatorManager::new(
             sm_board,
@@ -398,8 +420,8 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             udp,
             options.sim_addr,
         ),
-    );
-    runtime.add_released(
+    )?;
+    host.add_released(
         spec("velocity_generator"),
         VelocityGenerator::new(
             generator.clone(),
@@ -410,7 +432,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             resume_rx,
         ),
         vg_wake,
-    );
+    )?;
     let forwarded = Arc::new(MessageQueue::with_notify(
         urgent.capacity(),
         ci_wake.notifier(),
@@ -432,15 +454,15 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
-    runtime.add_released(spec("command_interpreter"), interpreter, ci_wake);
-    runtime.add(
+    host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
+    host.add(
         spec("io_monitor"),
         IoMonitor::new(
             io_board,
             shared.clone(),
             vec![network_out.clone(), serial_out.clone()],
         ),
-    );
+    )?;
     let hosts = ClientSet::new(
         SourceId::TCP,
         MAX_HOSTS,
@@ -457,13 +479,17 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         shared.clone(),
         routes.clone(),
     );
-    let ethernet = Ethernet::new(tcp, unix, hosts, guis, network_out)
-        .released_by(ethernet_wake.registry())
-        .map_err(|reason| StartError::Waiter {
-            task: "ethernet",
-            reason,
-        })?;
-    runtime.add_released(spec("ethernet"), ethernet, ethernet_wake);
+    let mut ethernet = Ethernet::new(tcp, unix, hosts, guis, network_out);
+    if let Some(registry) = ethernet_wake.registry() {
+        ethernet = ethernet
+            .released_by(registry)
+            .map_err(|reason| StartError::Waiter {
+                task: "ethernet",
+                reason,
+            })?;
+    }
+    let ethernet_notify = ethernet_wake.notifier();
+    host.add_released(spec("ethernet"), ethernet, ethernet_wake)?;
     let pendant = ClientSet::new(
         SourceId::PENDANT,
         1,
@@ -472,15 +498,63 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         shared.clone(),
         routes,
     );
-    let rs232c = Rs232c::new(serial, pendant, serial_out)
-        .released_by(rs232c_wake.registry())
-        .map_err(|reason| StartError::Waiter {
-            task: "rs232c",
-            reason,
-        })?;
-    runtime.add_released(spec("rs232c"), rs232c, rs232c_wake);
+    let mut rs232c = Rs232c::new(serial, pendant, serial_out);
+    if let Some(registry) = rs232c_wake.registry() {
+        rs232c = rs232c
+            .released_by(registry)
+            .map_err(|reason| StartError::Waiter {
+                task: "rs232c",
+                reason,
+            })?;
+    }
+    host.add_released(spec("rs232c"), rs232c, rs232c_wake)?;
 
-    let running = runtime.start()?;
+    let quit = Arc::new(AtomicBool::new(false));
+    let urgent = UrgentPath {
+        wake,
+        urgent,
+        forwarded,
+        shared: shared.clone(),
+        quit: quit.clone(),
+    };
+    Ok(Assembled {
+        shared,
+        tcp: tcp_addr,
+        watched,
+        task_cells,
+        urgent,
+        service: store,
+        service_wake,
+        ethernet: ethernet_notify,
+        ci_priority: spec("command_interpreter").priority,
+        quit,
+    })
+}
+
+/// The `TASKS` query's cells for `tasks` (the Pulse Generator's line also says how its stops
+/// braked).
+pub(crate) fn query_cells(
+    tasks: Vec<(wrc_rt::TaskSpec, Arc<wrc_rt::StatsCell>)>,
+    shared: &Arc<Shared>,
+) -> Vec<(wrc_rt::TaskSpec, TaskCell)> {
+    tasks
+        .into_iter()
+        .map(|(spec, timing)| {
+            let stops = (spec.name == "pulse_generator").then(|| shared.clone());
+            (spec, TaskCell::new(timing, stops))
+        })
+        .collect()
+}
+
+/// Start the controller for `config` with `options`.
+pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> {
+    let mut host = RealHost(Runtime::new(RuntimeOptions {
+        realtime: options.realtime,
+        ..Default::default()
+    }));
+    let open = || open_boards(config, &options.boards, options.board_wait);
+    let parts = assemble(&mut host, config, options, &open)?;
+    let running = host.0.start()?;
     if running.scheduling().is_realtime() {
         // Error Check stops a motion on overruns of the motion path only, and only when the
         // tasks really run real-time: an ordinary process on a busy machine overruns, which
@@ -491,32 +565,18 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             .filter(|(spec, _)| MOTION_PATH.contains(&spec.name.as_str()))
             .map(|(_, cell)| cell)
             .collect();
-        let _ = stats.set(watched);
+        let _ = parts.watched.set(watched);
     } else {
         eprintln!(
             "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
         );
     }
-    // The Pulse Generator's line also says how its stops braked.
-    let cells = running
-        .task_cells()
-        .into_iter()
-        .map(|(spec, timing)| {
-            let stops = (spec.name == "pulse_generator").then(|| shared.clone());
-            (spec, TaskCell::new(timing, stops))
-        })
-        .collect();
-    let _ = task_cells.set(cells);
-    let quit = Arc::new(AtomicBool::new(false));
-    let path = UrgentPath {
-        wake,
-        urgent,
-        forwarded,
-        shared: shared.clone(),
-        quit: quit.clone(),
-    };
-    let ci_priority = spec("command_interpreter").priority;
+    let _ = parts
+        .task_cells
+        .set(query_cells(running.task_cells(), &parts.shared));
+    let ci_priority = parts.ci_priority;
     let realtime = options.realtime;
+    let path = parts.urgent;
     let urgent_thread = std::thread::Builder::new()
         .name("wrc-urgent".into())
         .spawn(move || {
@@ -529,7 +589,9 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             path.run()
         })
         .ok();
-    let store_quit = quit.clone();
+    let store_quit = parts.quit.clone();
+    let store = parts.service;
+    let service_wake = parts.service_wake;
     let store_thread = std::thread::Builder::new()
         .name("wrc-service".into())
         .spawn(move || {
@@ -547,9 +609,9 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         runtime: Some(running),
         urgent: urgent_thread,
         store: store_thread,
-        quit,
-        shared,
-        tcp: tcp_addr,
+        quit: parts.quit,
+        shared: parts.shared,
+        tcp: parts.tcp,
         socket: options.socket.clone(),
         sim_addr: options.sim_addr,
     })

@@ -22,7 +22,6 @@ use wrc_lang::{Program, Severity};
 use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo};
 use wrc_robot::Robot;
 use wrc_rt::clock::monotonic_now_ns;
-use wrc_rt::wake::Wake;
 use wrc_rt::Waiter;
 
 use crate::cell_service::CellService;
@@ -97,7 +96,7 @@ impl Service {
 
     /// Serve requests until `quit`, released by `wake` (notified by the request and event
     /// queues of [`StoreLinks::notifying`]) or every 50 ms at the latest.
-    pub fn run(mut self, quit: Arc<AtomicBool>, mut wake: Wake) {
+    pub fn run(mut self, quit: Arc<AtomicBool>, mut wake: impl Waiter) {
         while !quit.load(Ordering::Acquire) {
             self.step();
             let _ = wake.wait_until_ns(monotonic_now_ns() + POLL_NS);

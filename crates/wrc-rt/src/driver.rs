@@ -172,6 +172,11 @@ impl<C: Clock, T: Task, W: Waiter> TaskDriver<C, T, W> {
         &self.schedule
     }
 
+    /// The waiter, if the task is released by events.
+    pub fn waiter(&self) -> Option<&W> {
+        self.waiter.as_ref()
+    }
+
     /// The task.
     pub fn task_mut(&mut self) -> &mut T {
         &mut self.task

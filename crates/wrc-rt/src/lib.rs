@@ -46,6 +46,7 @@ pub mod schedule;
 pub mod stats;
 pub mod table;
 pub mod task;
+pub mod virtual_time;
 pub mod wake;
 
 pub use clock::{Clock, MockClock, MonotonicClock};

@@ -4,8 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
@@ -228,24 +227,7 @@ fn run_cell_board(
 ) -> anyhow::Result<ExitCode> {
     // SIGINT/SIGTERM are taken by a thread of their own (sigwait), so they are blocked here
     // before any thread exists; threads inherit the mask.
-    let signals = crate::up::termination_signals();
-    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
-    unsafe {
-        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    let stopper = stop.clone();
-    std::thread::Builder::new()
-        .name("signals".into())
-        .spawn(move || {
-            let mut sig: libc::c_int = 0;
-            // SAFETY: waits for one of the blocked signals in `signals`.
-            unsafe {
-                libc::sigwait(&signals, &mut sig);
-            }
-            stopper.store(true, Ordering::Relaxed);
-        })
-        .context("cannot start the signal thread")?;
+    let stop = crate::up::stop_on_signals()?;
     let saver = WorldSaver::spawn(world_path.clone(), |line| {
         eprintln!("wrc board-sim: {line}")
     })

@@ -10,6 +10,7 @@ use crate::compile;
 use crate::plan;
 use crate::run as run_program;
 use crate::send;
+use crate::sim;
 use crate::ui;
 use crate::up;
 
@@ -34,6 +35,10 @@ enum Command {
     /// Compile a robot-language program, upload it to a running controller, run it and
     /// print what it prints until it ends.
     Run(run_program::RunArgs),
+    /// Run the controller and its simulated boards under virtual time: a program as fast
+    /// as the CPU allows (`wrc sim PROGRAM.wrl`), or a host session at a multiple of real
+    /// time (`wrc sim --listen ADDR --rate X`).
+    Sim(sim::SimArgs),
     /// Plan a move offline and print its per-period pulses as CSV (no controller needed).
     Plan(plan::PlanArgs),
     /// Compile a robot program (.wrl): diagnostics, or its bytecode listing or JSON.
@@ -43,6 +48,9 @@ enum Command {
     BoardSim(board_sim::BoardSimArgs),
     /// Measure: `wrc bench rt` runs the real-time task set and prints the paper's Tables 3-5.
     Bench(bench::BenchArgs),
+    /// Inspect a recorded trace: `wrc trace info FILE` prints what it holds, `wrc trace plot
+    /// FILE` draws its positions, velocities, state and I/O over time as SVG.
+    Trace(crate::trace::TraceArgs),
 }
 
 /// Parse the command line and run the subcommand; the exit code is the subcommand's.
@@ -53,9 +61,11 @@ pub fn run() -> anyhow::Result<ExitCode> {
         Command::Ui(args) => ui::run(args),
         Command::Send(args) => send::run(args),
         Command::Run(args) => run_program::run(args),
+        Command::Sim(args) => sim::run(args),
         Command::Plan(args) => plan::run(args),
         Command::Compile(args) => compile::run(args),
         Command::BoardSim(args) => board_sim::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Trace(args) => crate::trace::run(args),
     }
 }

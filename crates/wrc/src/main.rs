@@ -13,6 +13,8 @@ mod plan;
 mod plot;
 mod run;
 mod send;
+mod sim;
+mod trace;
 mod ui;
 mod up;
 

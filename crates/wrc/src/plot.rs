@@ -8,7 +8,8 @@ use wrc_robot::Robot;
 
 use crate::plan::Row;
 
-const COLOURS: [RGBColor; 6] = [
+/// Line colours, one per axis in axis order (wrapping after six).
+pub(crate) const COLOURS: [RGBColor; 6] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),

@@ -5,7 +5,7 @@
 //! the controller cannot be reached.
 
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -34,44 +34,49 @@ pub struct RunArgs {
     timeout: f64,
 }
 
-/// Run `wrc run`.
-pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
-    if !(args.timeout > 0.0 && args.timeout.is_finite()) {
-        bail!("--timeout must be a positive number of seconds");
-    }
-    let config = Config::load(args.config.as_deref())?;
-    let source = std::fs::read_to_string(&args.file)
-        .with_context(|| format!("cannot read {}", args.file.display()))?;
-    let file = args.file.display().to_string();
-    let stem = args
-        .file
+/// A program checked here and ready to upload.
+pub(crate) struct Checked {
+    /// The name it is stored under.
+    pub name: ProgramName,
+    /// The `UPLOAD` request with the program's text, ending with its `.` line.
+    pub upload: String,
+}
+
+/// Compile `file` here against `config` (diagnostics on stderr) and make its upload under
+/// `name` (default: the file's stem). `Err(code)`: it does not compile (exit 2).
+pub(crate) fn check(
+    file: &Path,
+    name: Option<&str>,
+    config: &Config,
+) -> anyhow::Result<Result<Checked, ExitCode>> {
+    let source =
+        std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let shown = file.display().to_string();
+    let stem = file
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("program");
-    let name_text = args.name.clone().unwrap_or_else(|| stem.to_string());
-    let Some(name) = ProgramName::new(&name_text) else {
+    let name_text = name.unwrap_or(stem);
+    let Some(name) = ProgramName::new(name_text) else {
         bail!(
             "\"{name_text}\" cannot name a program (1-32 letters, digits, _ or -); give one with --name"
         );
     };
 
-    let compiled = wrc_lang::compile(&source, &file, &config.robot);
+    let compiled = wrc_lang::compile(&source, &shown, &config.robot);
     for d in &compiled.diagnostics {
-        eprint!("{}", d.render(&file, &source));
+        eprint!("{}", d.render(&shown, &source));
     }
     if compiled.program.is_none() || compiled.diagnostics.iter().any(|d| d.is_error()) {
-        eprintln!("wrc: {file} does not compile; nothing sent");
-        return Ok(ExitCode::from(2));
+        eprintln!("wrc: {shown} does not compile; nothing sent");
+        return Ok(Err(ExitCode::from(2)));
     }
     if source.lines().any(|l| l.len() > wrc_protocol::MAX_LINE) {
         bail!(
-            "{file} has a line longer than {} bytes, which the protocol cannot carry",
+            "{shown} has a line longer than {} bytes, which the protocol cannot carry",
             wrc_protocol::MAX_LINE
         );
     }
-
-    let (mut reader, mut writer) =
-        crate::connection::connect(&args.addr, Duration::from_secs_f64(args.timeout))?;
     let mut upload = format!("1 UPLOAD {name}\n");
     for line in source.lines() {
         // A line that is exactly "." would end the upload early; a leading space keeps its
@@ -84,61 +89,119 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         }
     }
     upload.push_str(".\n");
-    writer.write_all(upload.as_bytes())?;
-    writer.flush()?;
+    Ok(Ok(Checked { name, upload }))
+}
 
-    // RUN only once this text is stored: never an older program of the same name.
-    let mut line = String::new();
-    loop {
-        line.clear();
-        let n = reader
-            .read_line(&mut line)
-            .context("no reply to the upload before the timeout")?;
-        if n == 0 {
-            bail!("the controller closed the connection during the upload");
-        }
-        let l = line.trim_end();
-        if let Some(diag) = l.strip_prefix("EVT DIAG ") {
-            eprintln!("{diag}");
-        } else if l.starts_with("ACK 1") {
-            break;
-        } else if l.starts_with("NAK") {
-            eprintln!("wrc: the controller refused the program: {l}");
-            return Ok(ExitCode::from(1));
-        }
-    }
-    writer.write_all(format!("2 RUN {name}\n").as_bytes())?;
-    writer.flush()?;
+/// The `RUN` request of a checked program, sent once its upload is acknowledged.
+pub(crate) fn run_request(name: &ProgramName) -> String {
+    format!("2 RUN {name}\n")
+}
 
-    loop {
-        line.clear();
-        let n = reader
-            .read_line(&mut line)
-            .context("no reply from the controller before the timeout")?;
-        if n == 0 {
-            bail!("the controller closed the connection before the program ended");
+/// Where a program's conversation with the controller stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Phase {
+    /// The upload is sent; waiting for its `ACK 1`.
+    Uploading,
+    /// `RUN` is sent; printing what the program prints until it ends.
+    Running,
+}
+
+/// What a line from the controller means for the conversation.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Heard {
+    /// Nothing to do.
+    Nothing,
+    /// The upload is stored: send `RUN` now.
+    Stored,
+    /// The conversation is over with this exit code.
+    Ended(ExitCode),
+}
+
+/// Take one line `l` from the controller in `phase`: print what `wrc run` prints (`PRINT`
+/// events and the final line on stdout, diagnostics and refusals on stderr).
+pub(crate) fn hear(phase: Phase, l: &str) -> Heard {
+    let mut words = l.splitn(3, ' ');
+    let kind = words.next().unwrap_or("");
+    let id = words.next().unwrap_or("");
+    match phase {
+        Phase::Uploading => {
+            if let Some(diag) = l.strip_prefix("EVT DIAG ") {
+                eprintln!("{diag}");
+            } else if l.starts_with("ACK 1") {
+                return Heard::Stored;
+            } else if l.starts_with("NAK") {
+                eprintln!("wrc: the controller refused the program: {l}");
+                return Heard::Ended(ExitCode::from(1));
+            }
+            Heard::Nothing
         }
-        let l = line.trim_end();
-        let mut words = l.splitn(3, ' ');
-        let kind = words.next().unwrap_or("");
-        let id = words.next().unwrap_or("");
-        match (kind, id) {
-            ("EVT", "PRINT") => println!("{}", words.next().unwrap_or("")),
-            ("EVT", "DIAG") => eprintln!("{}", words.next().unwrap_or("")),
-            ("EVT", _) | ("ACK", _) => {}
+        Phase::Running => match (kind, id) {
+            ("EVT", "PRINT") => {
+                println!("{}", words.next().unwrap_or(""));
+                Heard::Nothing
+            }
+            ("EVT", "DIAG") => {
+                eprintln!("{}", words.next().unwrap_or(""));
+                Heard::Nothing
+            }
             ("NAK", _) => {
                 eprintln!("wrc: refused: {l}");
-                return Ok(ExitCode::from(1));
+                Heard::Ended(ExitCode::from(1))
             }
             ("INF", "2") => {
                 println!("{l}");
-                return Ok(ExitCode::SUCCESS);
+                Heard::Ended(ExitCode::SUCCESS)
             }
             ("ABS", _) => {
                 println!("{l}");
-                return Ok(ExitCode::from(1));
+                Heard::Ended(ExitCode::from(1))
             }
-            _ => {}
+            _ => Heard::Nothing,
+        },
+    }
+}
+
+/// Run `wrc run`.
+pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    if !(args.timeout > 0.0 && args.timeout.is_finite()) {
+        bail!("--timeout must be a positive number of seconds");
+    }
+    let config = Config::load(args.config.as_deref())?;
+    let checked = match check(&args.file, args.name.as_deref(), &config)? {
+        Ok(checked) => checked,
+        Err(code) => return Ok(code),
+    };
+    let (mut reader, mut writer) =
+        crate::connection::connect(&args.addr, Duration::from_secs_f64(args.timeout))?;
+    writer.write_all(checked.upload.as_bytes())?;
+    writer.flush()?;
+
+    // RUN only once this text is stored: never an older program of the same name.
+    let mut phase = Phase::Uploading;
+    let mut line = String::new();
+    loop {
+        line.clear();
+        let what = match phase {
+            Phase::Uploading => "no reply to the upload before the timeout",
+            Phase::Running => "no reply from the controller before the timeout",
+        };
+        let n = reader.read_line(&mut line).context(what)?;
+        if n == 0 {
+            match phase {
+                Phase::Uploading => bail!("the controller closed the connection during the upload"),
+                Phase::Running => {
+                    bail!("the controller closed the connection before the program ended")
+                }
+            }
+        }
+        match hear(phase, line.trim_end()) {
+            Heard::Nothing => {}
+            Heard::Stored => {
+                writer.write_all(run_request(&checked.name).as_bytes())?;
+                writer.flush()?;
+                phase = Phase::Running;
+            }
+            Heard::Ended(code) => return Ok(code),
         }
     }
 }

@@ -5,7 +5,8 @@ use std::net::SocketAddr;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitCode, Stdio};
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
@@ -71,6 +72,31 @@ pub(crate) fn termination_signals() -> libc::sigset_t {
         libc::sigaddset(&mut set, libc::SIGTERM);
         set
     }
+}
+
+/// Block SIGINT and SIGTERM in this thread and every thread spawned after it, and take
+/// them on a thread of their own: the returned flag is set when one arrives. Call it before
+/// any other thread exists.
+pub(crate) fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
+    let signals = termination_signals();
+    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
+    unsafe {
+        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let stopper = stop.clone();
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            let mut sig: libc::c_int = 0;
+            // SAFETY: waits for one of the blocked signals in `signals`.
+            unsafe {
+                libc::sigwait(&signals, &mut sig);
+            }
+            stopper.store(true, Ordering::Relaxed);
+        })
+        .context("cannot start the signal thread")?;
+    Ok(stop)
 }
 
 /// Whether this process may run threads under SCHED_FIFO (a probe thread tries it).

@@ -35,12 +35,23 @@ impl UrgentPath {
     pub fn run(self) {
         while !self.quit.load(Ordering::Acquire) {
             if self.wake.wait_timeout(Duration::from_millis(100)) {
-                while let Ok(urgent) = self.urgent.try_recv() {
-                    self.shared.request_stop(urgent.stop_kind());
-                    // Sized like the urgent queue: a message taken from it always fits.
-                    let _ = self.forwarded.try_send(urgent);
-                }
+                self.forward();
             }
+        }
+    }
+
+    /// Take every count the semaphore holds and request the stop of every emergency queued
+    /// (under virtual time, where this is a task released by the semaphore's count).
+    pub fn drain(&self) {
+        while self.wake.try_wait() {}
+        self.forward();
+    }
+
+    fn forward(&self) {
+        while let Ok(urgent) = self.urgent.try_recv() {
+            self.shared.request_stop(urgent.stop_kind());
+            // Sized like the urgent queue: a message taken from it always fits.
+            let _ = self.forwarded.try_send(urgent);
         }
     }
 }

@@ -7,3 +7,4 @@ mod ethernet;
 mod motion;
 mod pipeline;
 mod stop_end;
+mod virtual_time;

@@ -1,0 +1,416 @@
+//! The whole controller under virtual time: the eight tasks of Table 1, the urgent path, the
+//! service thread's work and the simulated boards (servo, I/O, vacuum, mapping sensor,
+//! watchdog, the wafer cell) stepped in this process by one deterministic scheduler
+//! ([`wrc_rt::virtual_time`]), as fast as the CPU allows or at a multiple of real time.
+//!
+//! The task code is the code `wrc up` runs on real-time threads ([`crate::controller`]
+//! assembles both on a [`crate::host::Host`]); what changes is the clock and who releases
+//! the tasks:
+//!
+//! | part | real time | virtual time |
+//! |---|---|---|
+//! | tasks of Table 1 | SCHED_FIFO threads | the scheduler, priority order, same periods |
+//! | event release (queues, stop requests) | futex / epoll | a flag the scheduler reads |
+//! | sockets, tty | epoll wakes Ethernet and RS232C | read at their period, or at once after [`Simulation::notify_network`] |
+//! | urgent path | a thread on the semaphore | a task released when the semaphore holds a count |
+//! | service thread | a thread, woken or every 50 ms | a task at the lowest priority, same release |
+//! | simulated board | `wrc board-sim` process at its own clock | a task above all others at the board period |
+//!
+//! A cycle takes no virtual time. With the same configuration, files and requests at the
+//! same virtual times, two runs make the same calls in the same order: the same pulses reach
+//! the board and the same replies the clients. Benchmark timestamps (`Shared::now_ns`) stay
+//! on the host's clock: they measure this process, not the robot.
+
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::net::SocketAddr;
+use std::os::unix::net::UnixStream;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Instant;
+
+use wrc_board::driver::Mapping;
+use wrc_board::sim::cell::SimCell;
+use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::{DpramBoard, Expect, MultiBoard};
+use wrc_config::Config;
+use wrc_rt::virtual_time::{Pace, VirtualRuntime};
+use wrc_rt::{CycleContext, Notify, TaskSpec};
+
+use crate::controller::{assemble, query_cells, Options, StartError};
+use crate::host::VirtualHost;
+use crate::shared::Shared;
+
+/// Where virtual time starts [ns] (one second, so that no time a task computes is 0).
+pub const START_NS: u64 = 1_000_000_000;
+
+/// The paper priority of the simulated boards: above every task (hardware does not wait).
+const BOARD_PRIORITY: u8 = 1;
+/// The paper priority of the service thread's work: below every task of Table 1.
+const SERVICE_PRIORITY: u8 = 90;
+/// The service thread's longest wait between two looks at its queues [µs].
+const SERVICE_PERIOD_US: u64 = 50_000;
+
+/// The controller and its simulated boards on virtual time.
+pub struct Simulation {
+    runtime: VirtualRuntime,
+    shared: Arc<Shared>,
+    ethernet: Arc<dyn Notify>,
+    boards: Vec<Arc<Mutex<SimBoard>>>,
+    pulse_log: PulseLog,
+    wall_start: Instant,
+    /// The TCP address actually bound (with the real port when 0 was asked).
+    pub tcp: Option<SocketAddr>,
+    /// The local GUI socket.
+    pub socket: Option<PathBuf>,
+}
+
+impl std::fmt::Debug for Simulation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Simulation")
+            .field("runtime", &self.runtime)
+            .field("tcp", &self.tcp)
+            .field("socket", &self.socket)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What board 0 executed, when asked for ([`Simulation::record_pulses`]): the virtual time
+/// [ns] and each axis's commanded position [pulse] after every board period.
+#[derive(Debug, Default)]
+struct PulseRecorder {
+    on: std::sync::atomic::AtomicBool,
+    rows: Mutex<Vec<(u64, Vec<i64>)>>,
+}
+
+type PulseLog = Arc<PulseRecorder>;
+
+/// A task that steps one simulated board.
+struct BoardTask {
+    board: Arc<Mutex<SimBoard>>,
+    log: Option<PulseLog>,
+}
+
+impl wrc_rt::Task for BoardTask {
+    fn cycle(&mut self, ctx: &CycleContext) {
+        let mut board = lock(&self.board);
+        board.step();
+        // The cell's event was for `wrc board-sim`'s log and world file; here the world is
+        // read directly ([`Simulation::board`]).
+        let _ = board.take_cell_event();
+        if let Some(log) = self.log.as_ref().filter(|l| l.on.load(Ordering::Relaxed)) {
+            let pulses = (0..4)
+                .filter_map(|ch| board.axis(ch).map(|a| a.commanded()))
+                .collect();
+            log.rows
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push((ctx.woke_ns, pulses));
+        }
+    }
+}
+
+fn lock(board: &Mutex<SimBoard>) -> MutexGuard<'_, SimBoard> {
+    // One thread: never contended; a poisoned lock still holds a usable board.
+    board.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Simulation {
+    /// Build the controller of `config` with `options` (its `boards`, `board_wait`,
+    /// `realtime` and `serial` are not used: the boards are simulated here) on virtual time
+    /// starting at [`START_NS`]. `cell`: the simulated wafer cell on board 0 (the stations
+    /// must be those of `options.cell`).
+    pub fn start(
+        config: &Config,
+        options: &Options,
+        cell: Option<SimCell>,
+    ) -> Result<Simulation, StartError> {
+        let mut boards = Vec::with_capacity(config.boards.len());
+        let mut maps = Vec::with_capacity(config.boards.len());
+        let mut cell = cell;
+        for board in &config.boards {
+            let map = Mapping::anonymous()?;
+            let shared_map = map.share();
+            let mut sim = SimBoard::new(map, &SimSettings::from_config(config, board), 1)?;
+            if let Some(c) = cell.take() {
+                sim.attach_cell(c)?;
+            }
+            maps.push((board.id, board.axes.len(), shared_map));
+            boards.push(Arc::new(Mutex::new(sim)));
+        }
+        let open = || -> Result<MultiBoard<DpramBoard>, StartError> {
+            let mut opened = Vec::with_capacity(maps.len());
+            let mut map = vec![(0usize, 0usize); config.robot.axis_count()];
+            for (b, ((id, axes, mapping), board)) in maps.iter().zip(&config.boards).enumerate() {
+                let expect = Expect {
+                    board_id: Some(*id),
+                    axis_count: Some(*axes as u32),
+                    period_us: None,
+                };
+                opened.push(DpramBoard::attach(mapping.share(), expect)?);
+                for (channel, &axis) in board.axes.iter().enumerate() {
+                    if let Some(m) = map.get_mut(axis) {
+                        *m = (b, channel);
+                    }
+                }
+            }
+            Ok(MultiBoard::new(opened, &map)?)
+        };
+        let mut host = VirtualHost(VirtualRuntime::new(START_NS));
+        let pulse_log = PulseLog::default();
+        for (board, sim) in config.boards.iter().zip(&boards) {
+            let period_us = u64::from(lock(sim).period_us());
+            host.0.add(
+                TaskSpec::new(format!("board{}", board.id), BOARD_PRIORITY, period_us),
+                BoardTask {
+                    board: sim.clone(),
+                    log: (board.id == config.boards[0].id).then(|| pulse_log.clone()),
+                },
+            )?;
+        }
+        let parts = assemble(&mut host, config, options, &open)?;
+        let mut runtime = host.0;
+        let urgent = parts.urgent;
+        let posted = urgent.wake.clone();
+        runtime.add_polled(
+            TaskSpec::new("urgent_path", parts.ci_priority, SERVICE_PERIOD_US),
+            move |_: &CycleContext| urgent.drain(),
+            move || posted.count() > 0,
+        )?;
+        let mut service = parts.service;
+        runtime.add_released(
+            TaskSpec::new("service", SERVICE_PRIORITY, SERVICE_PERIOD_US),
+            move |_: &CycleContext| service.step(),
+            &parts.service_wake,
+        )?;
+        let tasks: Vec<_> = runtime
+            .task_cells()
+            .into_iter()
+            .filter(|(spec, _)| {
+                wrc_rt::TaskTable::paper_table1().get(&spec.name).is_some()
+                    || config.tasks.get(&spec.name).is_some()
+            })
+            .collect();
+        let _ = parts.task_cells.set(query_cells(tasks, &parts.shared));
+        // Power-on: every task has run its first cycle (the I/O Monitor has read the inputs,
+        // Error Check has looked at the boards) before a client is served, as under
+        // `wrc up`, where the boards start before the controller and clients come later.
+        let longest_ns = runtime
+            .task_cells()
+            .iter()
+            .map(|(spec, _)| spec.period_ns())
+            .max()
+            .unwrap_or(0);
+        runtime.run_for_ns(longest_ns);
+        Ok(Simulation {
+            runtime,
+            shared: parts.shared,
+            ethernet: parts.ethernet,
+            boards,
+            pulse_log,
+            wall_start: Instant::now(),
+            tcp: parts.tcp,
+            socket: options.socket.clone(),
+        })
+    }
+
+    /// Run as fast as the CPU allows, or no faster than a multiple of real time.
+    pub fn set_pace(&mut self, pace: Pace) {
+        self.runtime.set_pace(pace);
+    }
+
+    /// Run one cycle (the most urgent task due); returns the task's name.
+    pub fn step(&mut self) -> &str {
+        self.runtime.step().0
+    }
+
+    /// Run every cycle due up to `t_ns` [ns, virtual].
+    pub fn run_until_ns(&mut self, t_ns: u64) {
+        self.runtime.run_until_ns(t_ns);
+    }
+
+    /// Run for `ns` [ns] of virtual time.
+    pub fn run_for_ns(&mut self, ns: u64) {
+        self.runtime.run_for_ns(ns);
+    }
+
+    /// Now [ns, virtual; starts at [`START_NS`]].
+    pub fn now_ns(&self) -> u64 {
+        self.runtime.now_ns()
+    }
+
+    /// Virtual time since the start, power-on included [s].
+    pub fn virtual_s(&self) -> f64 {
+        self.runtime.elapsed_ns() as f64 / 1e9
+    }
+
+    /// Wall time since the start [s].
+    pub fn wall_s(&self) -> f64 {
+        self.wall_start.elapsed().as_secs_f64()
+    }
+
+    /// A client wrote to the controller: the Ethernet task runs at this instant (as epoll
+    /// would release it) instead of at its next period.
+    pub fn notify_network(&self) {
+        self.ethernet.notify();
+    }
+
+    /// The shared state.
+    pub fn shared(&self) -> &Arc<Shared> {
+        &self.shared
+    }
+
+    /// Simulated board `index` (its DPRAM, servo axes and cell).
+    pub fn board(&self, index: usize) -> Option<MutexGuard<'_, SimBoard>> {
+        self.boards.get(index).map(|b| lock(b))
+    }
+
+    /// Record (or stop recording) what board 0 executes: every board period's virtual
+    /// time and commanded positions, kept until [`Simulation::take_pulses`].
+    pub fn record_pulses(&self, on: bool) {
+        self.pulse_log.on.store(on, Ordering::Relaxed);
+    }
+
+    /// Take what board 0 executed since the last call while recording: (virtual time [ns],
+    /// commanded position of each axis [pulse]) per board period (the pulse stream, for
+    /// comparing runs).
+    pub fn take_pulses(&self) -> Vec<(u64, Vec<i64>)> {
+        std::mem::take(
+            &mut *self
+                .pulse_log
+                .rows
+                .lock()
+                .unwrap_or_else(|e| e.into_inner()),
+        )
+    }
+
+    /// Every task's statistics (virtual: exact periods, no latency).
+    pub fn task_stats(&self) -> Vec<wrc_rt::TaskSnapshot> {
+        self.runtime.snapshot()
+    }
+
+    /// The robot has nothing moving or pending (every stop executed, no move in flight).
+    pub fn at_rest(&self) -> bool {
+        self.shared.stopped_epoch.load(Ordering::Acquire)
+            == self.shared.stop_epoch.load(Ordering::Acquire)
+            && self.shared.in_flight.load(Ordering::Acquire) == 0
+    }
+}
+
+/// A client of a [`Simulation`] on its local socket: what it sends reaches the Ethernet
+/// task at the virtual instant it is sent; what the controller writes is read between
+/// cycles.
+#[derive(Debug)]
+pub struct SimClient {
+    stream: UnixStream,
+    pending: Vec<u8>,
+    lines: VecDeque<String>,
+}
+
+/// Why a [`SimClient`] got no line.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// The socket failed.
+    #[error("the simulated controller's socket: {0}")]
+    Io(#[from] std::io::Error),
+    /// The controller closed the connection.
+    #[error("the simulated controller closed the connection")]
+    Closed,
+    /// Nothing came within the virtual time allowed.
+    #[error("no line from the simulated controller within {0:.3} s of virtual time")]
+    Timeout(f64),
+    /// The simulation has no local socket.
+    #[error("the simulation has no local socket to connect to")]
+    NoSocket,
+}
+
+impl SimClient {
+    /// Read what the controller has written so far (non-blocking).
+    fn fill(&mut self) -> Result<(), ClientError> {
+        let mut buf = [0u8; 4096];
+        loop {
+            match self.stream.read(&mut buf) {
+                Ok(0) => return Err(ClientError::Closed),
+                Ok(n) => self.pending.extend_from_slice(&buf[..n]),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e.into()),
+            }
+        }
+        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=end).collect();
+            self.lines
+                .push_back(String::from_utf8_lossy(&line).trim_end().to_string());
+        }
+        Ok(())
+    }
+}
+
+impl Simulation {
+    /// Connect a client to the local socket (accepted at this instant).
+    pub fn connect(&mut self) -> Result<SimClient, ClientError> {
+        let path = self.socket.as_ref().ok_or(ClientError::NoSocket)?;
+        let stream = UnixStream::connect(path)?;
+        stream.set_nonblocking(true)?;
+        self.notify_network();
+        Ok(SimClient {
+            stream,
+            pending: Vec::new(),
+            lines: VecDeque::new(),
+        })
+    }
+
+    /// Send `text` (one or more lines, each ending with `\n`) from `client` now.
+    pub fn send(&mut self, client: &mut SimClient, text: &str) -> Result<(), ClientError> {
+        // Whole lines at once, as a host writes them; the socket's buffer is far larger than
+        // a request or an upload of the protocol's lines.
+        client.stream.set_nonblocking(false)?;
+        let sent = client.stream.write_all(text.as_bytes());
+        client.stream.set_nonblocking(true)?;
+        sent?;
+        self.notify_network();
+        Ok(())
+    }
+
+    /// The next line the controller writes to `client`, running the simulation for at most
+    /// `within_ns` [ns] of virtual time.
+    pub fn next_line(
+        &mut self,
+        client: &mut SimClient,
+        within_ns: u64,
+    ) -> Result<String, ClientError> {
+        let until = self.now_ns().saturating_add(within_ns);
+        loop {
+            if let Some(line) = client.lines.pop_front() {
+                return Ok(line);
+            }
+            if self.now_ns() > until {
+                return Err(ClientError::Timeout(within_ns as f64 / 1e9));
+            }
+            // Only the Ethernet task writes to clients.
+            if self.step() == "ethernet" {
+                client.fill()?;
+            }
+        }
+    }
+
+    /// Send the request `line` (no `\n`) and return the first `ACK` or `NAK` that follows,
+    /// within `within_ns` [ns] of virtual time; other lines are skipped.
+    pub fn ask(
+        &mut self,
+        client: &mut SimClient,
+        line: &str,
+        within_ns: u64,
+    ) -> Result<String, ClientError> {
+        self.send(client, &format!("{line}\n"))?;
+        let until = self.now_ns().saturating_add(within_ns);
+        loop {
+            let left = until.saturating_sub(self.now_ns());
+            let reply = self.next_line(client, left)?;
+            if reply.starts_with("ACK") || reply.starts_with("NAK") {
+                return Ok(reply);
+            }
+        }
+    }
+}

@@ -1,0 +1,211 @@
+//! The whole controller under virtual time ([`wrc_controller::simulation`]): the bundled
+//! 25-wafer program on the demo cell with the map checked against the simulated cell's
+//! ground truth, and two runs with the same inputs that must be byte-identical.
+//!
+//! These run the embedded default configuration unchanged (Table 1's periods, the demo
+//! cell's speeds): virtual time makes the 6-minute cycle cost seconds.
+
+use std::path::{Path, PathBuf};
+
+use wrc_board::sim::cell::SimCell;
+use wrc_board::wrc_cell::{SlotCode, Stations};
+use wrc_config::Config;
+use wrc_controller::controller::{CellFiles, Options};
+use wrc_controller::simulation::{SimClient, Simulation, START_NS};
+use wrc_rt::RealtimeMode;
+
+/// Virtual time any single reply may take [ns].
+const REPLY_NS: u64 = 5_000_000_000;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The controller of the embedded default configuration with the demo cell, its state in
+/// `dir`.
+fn demo(dir: &Path) -> Simulation {
+    let config = Config::embedded_default();
+    let stations_path = dir.join("stations.toml");
+    Stations::embedded_demo()
+        .save_atomic(&stations_path)
+        .unwrap();
+    let cell = SimCell::new(
+        &config,
+        &config.boards[0],
+        Stations::load(&stations_path).unwrap(),
+    )
+    .unwrap();
+    let options = Options {
+        tcp: None,
+        socket: Some(dir.join("wrc.sock")),
+        // Nobody listens; datagrams to a closed port are dropped.
+        sim_addr: "127.0.0.1:9".parse().unwrap(),
+        serial: None,
+        realtime: RealtimeMode::Off,
+        boards: Vec::new(),
+        board_wait: std::time::Duration::ZERO,
+        programs: dir.join("programs"),
+        cell: Some(CellFiles {
+            stations: stations_path,
+            wafers: dir.join("wafers.toml"),
+        }),
+    };
+    Simulation::start(&config, &options, Some(cell)).unwrap()
+}
+
+/// Upload `text` as program `name`, run it, and return every line heard until it ended
+/// (its `INF` or `ABS` last), each with the virtual time it came at [ns].
+fn run_program(
+    sim: &mut Simulation,
+    host: &mut SimClient,
+    name: &str,
+    text: &str,
+) -> Vec<(u64, String)> {
+    let mut upload = format!("1 UPLOAD {name}\n");
+    for line in text.lines() {
+        upload.push_str(line);
+        upload.push('\n');
+    }
+    upload.push_str(".\n");
+    sim.send(host, &upload).unwrap();
+    let mut heard = Vec::new();
+    loop {
+        let l = sim.next_line(host, REPLY_NS).unwrap();
+        heard.push((sim.now_ns() - START_NS, l.clone()));
+        if l.starts_with("ACK 1") {
+            break;
+        }
+        assert!(!l.starts_with("NAK"), "{heard:?}");
+    }
+    sim.send(host, &format!("2 RUN {name}\n")).unwrap();
+    loop {
+        // A transfer's motions take seconds; none takes a minute.
+        let l = sim.next_line(host, 60_000_000_000).unwrap();
+        heard.push((sim.now_ns() - START_NS, l.clone()));
+        if l.starts_with("INF 2") || l.starts_with("ABS") || l.starts_with("NAK") {
+            return heard;
+        }
+    }
+}
+
+/// The map's occupancy of `station` in a `WAFERS` reply: `1` a wafer, `0` empty.
+fn map_codes(wafers: &str, station: &str) -> String {
+    let list = wafers
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix(&format!("{station}=")))
+        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    let mut codes = String::new();
+    for tok in list.split(',') {
+        let (tok, times) = match tok.rsplit_once('x') {
+            Some((t, n)) if !t.is_empty() && n.parse::<usize>().is_ok() => (t, n.parse().unwrap()),
+            _ => (tok, 1),
+        };
+        let (c, n) = match tok.split_once("..") {
+            Some((a, b)) => {
+                let a: usize = a.trim_start_matches('W').parse().unwrap();
+                let b: usize = b.trim_start_matches('W').parse().unwrap();
+                ('1', b - a + 1)
+            }
+            None if tok == "-" => ('0', 1),
+            None => ('1', 1),
+        };
+        codes.extend(std::iter::repeat_n(c, n * times));
+    }
+    codes
+}
+
+/// The simulated cell's occupancy of `station`: `1` a wafer, `0` empty.
+fn truth_codes(sim: &Simulation, station: &str) -> String {
+    let board = sim.board(0).unwrap();
+    let world = board.cell().unwrap().world();
+    world
+        .map_station(station)
+        .unwrap()
+        .iter()
+        .map(|c| match c {
+            SlotCode::Absent => '0',
+            SlotCode::Present => '1',
+            SlotCode::Double => '2',
+            SlotCode::Cross => 'X',
+        })
+        .collect()
+}
+
+#[test]
+fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = demo(dir.path());
+    let mut host = sim.connect().unwrap();
+    let program = std::fs::read_to_string(repo().join("examples/wafer_cycle.wrl")).unwrap();
+    let heard: Vec<String> = run_program(&mut sim, &mut host, "wafer_cycle", &program)
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect();
+    let last = heard.last().unwrap();
+    assert_eq!(last, "INF 2", "{heard:#?}");
+    let prints: Vec<&String> = heard
+        .iter()
+        .filter(|l| l.starts_with("EVT PRINT"))
+        .collect();
+    for n in 1..=25 {
+        let line = format!("EVT PRINT wafer {n} of 25: LP1 slot {n} -> AL -> LP2 slot {n}");
+        assert_eq!(prints[n - 1], &line);
+    }
+    assert_eq!(prints[25], "EVT PRINT all 25 wafers are in LP2");
+    // The map and the cell agree, wafer for wafer.
+    let wafers = sim.ask(&mut host, "WAFERS", REPLY_NS).unwrap();
+    assert!(
+        wafers.starts_with("ACK hand=- LP1=-x25 LP2=W1..W25 AL=- "),
+        "{wafers}"
+    );
+    for station in ["LP1", "LP2", "AL"] {
+        assert_eq!(
+            map_codes(&wafers, station),
+            truth_codes(&sim, station),
+            "{station}: {wafers}"
+        );
+    }
+    assert_eq!(truth_codes(&sim, "LP2"), "1".repeat(25));
+    let board = sim.board(0).unwrap();
+    let world = board.cell().unwrap().world();
+    assert_eq!(world.hand(), None);
+    assert!(world.lost().is_empty(), "{}", world.to_text());
+    drop(board);
+    // The cycle took minutes of robot time: virtual time, not a shortened cell.
+    assert!(sim.virtual_s() > 120.0, "{} s", sim.virtual_s());
+}
+
+/// One run of a short session: a program with motion, I/O and a wafer transfer, then a
+/// status request; everything heard, with its virtual time, and the pulse stream.
+fn session(dir: &Path) -> (Vec<String>, Vec<(u64, Vec<i64>)>) {
+    let mut sim = demo(dir);
+    sim.record_pulses(true);
+    let mut host = sim.connect().unwrap();
+    let program = "SPEED 80\nHOME\nMAP \"LP1\"\nMAP \"LP2\"\nGET \"LP1\", 3\nPUT \"LP2\", 3\n\
+                   MOVEJ JOINTS(30, 60, -90, 100)\nOUT 5, 1\nDELAY 0.25\nOUT 5, 0\n\
+                   PRINT \"at\", HERE()\nEND\n";
+    let mut heard: Vec<String> = run_program(&mut sim, &mut host, "session", program)
+        .into_iter()
+        .map(|(t, l)| format!("{t} {l}"))
+        .collect();
+    for ask in ["STATUS", "WAFERS", "IO"] {
+        heard.push(sim.ask(&mut host, ask, REPLY_NS).unwrap());
+    }
+    assert!(
+        heard.iter().any(|l| l.ends_with("INF 2")),
+        "the session ended badly: {heard:#?}"
+    );
+    (heard, sim.take_pulses())
+}
+
+#[test]
+fn two_runs_with_the_same_inputs_are_identical_pulse_for_pulse_and_byte_for_byte() {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (heard_a, pulses_a) = session(a.path());
+    let (heard_b, pulses_b) = session(b.path());
+    assert_eq!(heard_a, heard_b);
+    // The arm moved (HOME, the transfer, the MOVEJ): a stream worth comparing.
+    assert!(pulses_a.len() > 500, "{} periods", pulses_a.len());
+    assert!(pulses_a.windows(2).any(|w| w[0].1 != w[1].1));
+    assert_eq!(pulses_a, pulses_b);
+}

@@ -1,0 +1,294 @@
+//! `wrc sim`: the controller and its simulated boards under virtual time
+//! ([`wrc_controller::simulation`]).
+//!
+//! - `wrc sim PROGRAM.wrl` runs a robot-language program as `wrc run` does against
+//!   `wrc up` (same checks, same output on stdout, same exit codes), as fast as the CPU
+//!   allows, and says on stderr how much virtual time it took in how much wall time.
+//! - `wrc sim --listen ADDR --rate X` serves the host protocol on `ADDR` with virtual time
+//!   running at X times real time, until SIGINT or SIGTERM: host software tested faster (or
+//!   slower) than real time.
+//!
+//! The state (programs, stations, wafer map) lives in `--state-dir`, by default a new
+//! temporary directory removed at the end. The simulated cell starts from the stations'
+//! `[station.sim]` wafers.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use wrc_board::sim::cell::SimCell;
+use wrc_board::wrc_cell::Stations;
+use wrc_config::Config;
+use wrc_controller::controller::{CellFiles, Options};
+use wrc_controller::simulation::{ClientError, Simulation};
+use wrc_rt::virtual_time::Pace;
+use wrc_rt::RealtimeMode;
+
+use crate::run::{self as run_program, Heard, Phase};
+
+/// Arguments of `wrc sim`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// The robot-language program (`.wrl`) to run from start to end.
+    #[arg(required_unless_present = "listen", conflicts_with = "listen")]
+    program: Option<PathBuf>,
+    /// Serve the host protocol on this TCP address instead, until SIGINT/SIGTERM.
+    #[arg(long, value_name = "ADDR")]
+    listen: Option<SocketAddr>,
+    /// With --listen: virtual seconds per real second (1 = real time, 10 = ten times faster).
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "listen")]
+    rate: f64,
+    /// Robot configuration (TOML); default: the embedded paper robot.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Stations file (TOML) [default: STATE_DIR/stations.toml, written from the built-in
+    /// demo cell when missing].
+    #[arg(long, value_name = "FILE")]
+    stations: Option<PathBuf>,
+    /// Programs, stations and the wafer map live here [default: a new temporary directory,
+    /// removed at the end].
+    #[arg(long, value_name = "DIR")]
+    state_dir: Option<PathBuf>,
+    /// Store the program under this name instead of the file's name.
+    #[arg(long)]
+    name: Option<String>,
+    /// Give up after this much virtual time [s].
+    #[arg(long, value_name = "S", default_value_t = 3600.0)]
+    timeout: f64,
+    /// Simulator datagrams go to this UDP address.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7200")]
+    sim_addr: SocketAddr,
+    /// Write every line exchanged with the controller, with its virtual time [s], here.
+    #[arg(long, value_name = "FILE")]
+    transcript: Option<PathBuf>,
+    /// Write the position every axis of board 0 was commanded [pulse] at each board period
+    /// here (CSV).
+    #[arg(long, value_name = "FILE")]
+    pulses: Option<PathBuf>,
+}
+
+/// A state directory that is removed at the end when it was made here.
+struct StateDir {
+    path: PathBuf,
+    temporary: bool,
+}
+
+impl Drop for StateDir {
+    fn drop(&mut self) {
+        if self.temporary {
+            let _ = std::fs::remove_dir_all(&self.path);
+        }
+    }
+}
+
+fn state_dir(given: Option<&Path>) -> anyhow::Result<StateDir> {
+    let (path, temporary) = match given {
+        Some(p) => (p.to_path_buf(), false),
+        None => {
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.subsec_nanos())
+                .unwrap_or(0);
+            let p = std::env::temp_dir().join(format!("wrc-sim-{}-{nanos}", std::process::id()));
+            (p, true)
+        }
+    };
+    std::fs::create_dir_all(&path)
+        .with_context(|| format!("cannot create the state directory {}", path.display()))?;
+    Ok(StateDir { path, temporary })
+}
+
+/// Build the simulation: the controller on virtual time with its boards, and the simulated
+/// cell on board 0 when it drives every robot axis.
+fn simulation(args: &SimArgs, config: &Config, dir: &Path) -> anyhow::Result<Simulation> {
+    let stations_path = args
+        .stations
+        .clone()
+        .unwrap_or_else(|| dir.join("stations.toml"));
+    if !stations_path.exists() {
+        Stations::embedded_demo().save_atomic(&stations_path)?;
+    }
+    let cell = match config.boards.first() {
+        Some(board) if (0..config.robot.axis_count()).all(|axis| board.axes.contains(&axis)) => {
+            let stations = Stations::load(&stations_path)?;
+            Some(
+                SimCell::new(config, board, stations)
+                    .with_context(|| format!("stations {}", stations_path.display()))?,
+            )
+        }
+        _ => None,
+    };
+    let options = Options {
+        tcp: args.listen,
+        socket: Some(dir.join("wrc.sock")),
+        sim_addr: args.sim_addr,
+        serial: None,
+        realtime: RealtimeMode::Off,
+        boards: Vec::new(),
+        board_wait: std::time::Duration::ZERO,
+        programs: dir.join("programs"),
+        cell: Some(CellFiles {
+            stations: stations_path,
+            wafers: dir.join("wafers.toml"),
+        }),
+    };
+    Simulation::start(config, &options, cell).context("the simulated controller could not start")
+}
+
+/// Run `wrc sim`.
+pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
+    if !(args.timeout > 0.0 && args.timeout.is_finite()) {
+        bail!("--timeout must be a positive number of seconds");
+    }
+    if !(args.rate > 0.0 && args.rate.is_finite()) {
+        bail!("--rate must be a positive number (virtual seconds per real second)");
+    }
+    let config = Config::load(args.config.as_deref())?;
+    match &args.program {
+        Some(program) => run_file(&args, &config, program),
+        None => listen(&args, &config),
+    }
+}
+
+/// What was exchanged and executed, for `--transcript` and `--pulses`.
+struct Records {
+    transcript: Option<std::io::BufWriter<std::fs::File>>,
+    pulses: Option<std::io::BufWriter<std::fs::File>>,
+}
+
+impl Records {
+    fn open(args: &SimArgs, sim: &Simulation) -> anyhow::Result<Records> {
+        let create = |p: &Option<PathBuf>| -> anyhow::Result<_> {
+            p.as_ref()
+                .map(|p| {
+                    std::fs::File::create(p)
+                        .map(std::io::BufWriter::new)
+                        .with_context(|| format!("cannot create {}", p.display()))
+                })
+                .transpose()
+        };
+        let records = Records {
+            transcript: create(&args.transcript)?,
+            pulses: create(&args.pulses)?,
+        };
+        sim.record_pulses(records.pulses.is_some());
+        Ok(records)
+    }
+
+    /// `text`'s lines, sent (`>`) or received (`<`) now.
+    fn line(&mut self, sim: &Simulation, arrow: &str, text: &str) -> anyhow::Result<()> {
+        if let Some(w) = &mut self.transcript {
+            for l in text.lines() {
+                writeln!(w, "{:.3} {arrow} {l}", sim.virtual_s())?;
+            }
+        }
+        Ok(())
+    }
+
+    /// What board 0 executed since the last call.
+    fn pulses(&mut self, sim: &Simulation) -> anyhow::Result<()> {
+        if let Some(w) = &mut self.pulses {
+            for (t_ns, pulses) in sim.take_pulses() {
+                let t = t_ns.saturating_sub(wrc_controller::simulation::START_NS) as f64 / 1e9;
+                write!(w, "{t:.3}")?;
+                for p in pulses {
+                    write!(w, ",{p}")?;
+                }
+                writeln!(w)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(mut self, sim: &Simulation) -> anyhow::Result<()> {
+        self.pulses(sim)?;
+        for w in [self.transcript, self.pulses].into_iter().flatten() {
+            w.into_inner().map_err(|e| e.into_error())?;
+        }
+        Ok(())
+    }
+}
+
+fn run_file(args: &SimArgs, config: &Config, program: &Path) -> anyhow::Result<ExitCode> {
+    let checked = match run_program::check(program, args.name.as_deref(), config)? {
+        Ok(checked) => checked,
+        Err(code) => return Ok(code),
+    };
+    let dir = state_dir(args.state_dir.as_deref())?;
+    let mut sim = simulation(args, config, &dir.path)?;
+    let mut records = Records::open(args, &sim)?;
+    let mut client = sim.connect()?;
+    sim.send(&mut client, &checked.upload)?;
+    records.line(&sim, ">", &checked.upload)?;
+    let mut phase = Phase::Uploading;
+    let limit_ns = sim.now_ns() + (args.timeout * 1e9) as u64;
+    let code = loop {
+        let line = match sim.next_line(&mut client, limit_ns.saturating_sub(sim.now_ns())) {
+            Ok(line) => line,
+            Err(ClientError::Timeout(_)) => {
+                eprintln!(
+                    "wrc sim: the program did not end within {} s of virtual time (--timeout)",
+                    args.timeout
+                );
+                break ExitCode::from(1);
+            }
+            Err(e) => return Err(e.into()),
+        };
+        records.line(&sim, "<", &line)?;
+        records.pulses(&sim)?;
+        match run_program::hear(phase, &line) {
+            Heard::Nothing => {}
+            Heard::Stored => {
+                let request = run_program::run_request(&checked.name);
+                sim.send(&mut client, &request)?;
+                records.line(&sim, ">", &request)?;
+                phase = Phase::Running;
+            }
+            Heard::Ended(code) => break code,
+        }
+    };
+    records.finish(&sim)?;
+    report(&sim);
+    Ok(code)
+}
+
+/// The virtual and wall durations, on stderr.
+fn report(sim: &Simulation) {
+    let (virt, wall) = (sim.virtual_s(), sim.wall_s());
+    eprintln!(
+        "wrc sim: {virt:.3} s of virtual time in {wall:.3} s of wall time ({:.1}x real time)",
+        virt / wall.max(1e-9)
+    );
+}
+
+fn listen(args: &SimArgs, config: &Config) -> anyhow::Result<ExitCode> {
+    let stop = crate::up::stop_on_signals()?;
+    let dir = state_dir(args.state_dir.as_deref())?;
+    let mut sim = simulation(args, config, &dir.path)?;
+    let mut records = Records::open(args, &sim)?;
+    sim.set_pace(Pace::Rate(args.rate));
+    if let Some(tcp) = sim.tcp {
+        println!("wrc sim: host protocol on tcp {tcp}");
+    }
+    if let Some(socket) = &sim.socket {
+        println!("wrc sim: local GUI socket {}", socket.display());
+    }
+    println!(
+        "wrc sim: virtual time at {}x real time; state in {}; Ctrl-C or SIGTERM ends it",
+        args.rate,
+        dir.path.display()
+    );
+    let _ = std::io::stdout().flush();
+    while !stop.load(Ordering::Relaxed) {
+        sim.run_for_ns(100_000_000);
+        records.pulses(&sim)?;
+    }
+    records.finish(&sim)?;
+    println!("wrc sim: stopped");
+    report(&sim);
+    Ok(ExitCode::SUCCESS)
+}

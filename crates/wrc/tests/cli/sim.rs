@@ -1,0 +1,169 @@
+//! `wrc sim`: a program run under virtual time prints what `wrc run` prints, twice the same
+//! to the byte (transcript and pulse stream); bad input is refused; `--listen` serves a host
+//! session at a multiple of real time.
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::{text, wait_until, wrc};
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+}
+
+#[test]
+fn a_program_runs_under_virtual_time_and_twice_gives_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = example("fig7_ptp.wrl");
+    let run = |n: usize| {
+        let (t, p) = (
+            dir.path().join(format!("transcript{n}.txt")),
+            dir.path().join(format!("pulses{n}.csv")),
+        );
+        let out = wrc(&[
+            "sim",
+            program.to_str().unwrap(),
+            "--transcript",
+            t.to_str().unwrap(),
+            "--pulses",
+            p.to_str().unwrap(),
+        ]);
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{stdout}\n{stderr}");
+        (
+            stdout,
+            stderr,
+            std::fs::read(t).unwrap(),
+            std::fs::read(p).unwrap(),
+        )
+    };
+    let (stdout, stderr, transcript, pulses) = run(1);
+    // What `wrc run` prints against `wrc up`.
+    assert_eq!(
+        stdout,
+        "Fig. 7 PTP done at POSE(173.205081, 300, 100, 0)\nINF 2\n"
+    );
+    assert!(
+        stderr.contains("s of virtual time in") && stderr.contains("s of wall time"),
+        "{stderr}"
+    );
+    let transcript_text = String::from_utf8_lossy(&transcript);
+    assert!(
+        transcript_text.contains("> 2 RUN fig7_ptp"),
+        "{transcript_text}"
+    );
+    assert!(transcript_text.contains("< INF 2"), "{transcript_text}");
+    // The pulse stream: every board period of board 0 with its four axes, ending on the
+    // target (J1 30°, J2 60°, J3 -90°, Z 100 mm in pulses).
+    let rows: Vec<&str> = std::str::from_utf8(&pulses).unwrap().lines().collect();
+    assert!(rows.len() > 50, "{} rows", rows.len());
+    assert_eq!(rows[0].split(',').count(), 5, "{}", rows[0]);
+    let (_, _, transcript2, pulses2) = run(2);
+    assert!(transcript == transcript2, "the transcripts differ");
+    assert!(pulses == pulses2, "the pulse streams differ");
+}
+
+#[test]
+fn a_program_that_does_not_compile_or_a_bad_option_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.wrl");
+    std::fs::write(&bad, "MOVEJ 1, 2\n").unwrap();
+    let out = wrc(&["sim", bad.to_str().unwrap()]);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("does not compile; nothing sent"),
+        "{stderr}"
+    );
+
+    let program = example("fig7_ptp.wrl");
+    let out = wrc(&["sim", program.to_str().unwrap(), "--timeout", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).1.contains("--timeout must be a positive number"));
+    let out = wrc(&["sim", "--listen", "127.0.0.1:0", "--rate", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).1.contains("--rate must be a positive number"));
+    let out = wrc(&["sim"]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn a_program_that_would_run_forever_ends_at_its_virtual_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let forever = dir.path().join("forever.wrl");
+    std::fs::write(&forever, "WHILE 1 = 1\n  DELAY 1\nENDWHILE\n").unwrap();
+    let out = wrc(&["sim", forever.to_str().unwrap(), "--timeout", "30"]);
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("did not end within 30 s of virtual time"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn listen_serves_a_host_session_faster_than_real_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--rate",
+            "20",
+            "--state-dir",
+        ])
+        .arg(dir.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(out.read_line(&mut line).unwrap() > 0, "wrc sim ended early");
+        if let Some(a) = line.trim().strip_prefix("wrc sim: host protocol on tcp ") {
+            break a.to_string();
+        }
+    };
+    let stream = wait_until("wrc sim's port", || {
+        std::net::TcpStream::connect(&addr).map_err(|e| e.to_string())
+    });
+    let mut reader = BufReader::new(stream.try_clone().unwrap());
+    let mut writer = stream;
+    let mut heard = Vec::new();
+    for (id, request) in [(1, "HOME"), (2, "MOVJ 30 60 -90 100")] {
+        writer
+            .write_all(format!("{id} {request}\n").as_bytes())
+            .unwrap();
+        while !heard
+            .iter()
+            .any(|l: &String| l.starts_with(&format!("INF {id}")))
+        {
+            line.clear();
+            assert!(reader.read_line(&mut line).unwrap() > 0, "{heard:?}");
+            assert!(
+                !line.starts_with("NAK") && !line.starts_with("ABS"),
+                "{line}"
+            );
+            heard.push(line.trim().to_string());
+        }
+    }
+    // SIGTERM ends it cleanly, saying how far virtual time got.
+    // SAFETY: kill with the pid of a child we spawned and have not reaped.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+    }
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(status.success(), "{rest}\n{err}");
+    assert!(rest.contains("wrc sim: stopped"), "{rest}");
+    assert!(err.contains("s of virtual time in"), "{err}");
+}

@@ -66,6 +66,8 @@ pub enum ConfigError {
 pub struct Config {
     /// Where it came from: a path, or [`EMBEDDED_NAME`].
     pub source: String,
+    /// The text it was parsed from (a trace carries it, so a replay runs the same robot).
+    pub text: String,
     /// The robot.
     pub robot: Robot,
     /// Velocity generator settings.
@@ -77,6 +79,29 @@ pub struct Config {
     pub tasks: wrc_rt::TaskTable,
     /// The hand's signals (`[hand]`; defaults when absent).
     pub hand: HandConfig,
+    /// The trace recorder (`[trace]`; defaults when absent).
+    pub trace: TraceConfig,
+}
+
+/// The trace recorder's settings (`[trace]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceConfig {
+    /// Seconds of per-period samples kept and saved (1 to 3600) [s].
+    pub seconds: f64,
+    /// Requests and replies kept (100 to 1 000 000) [messages].
+    pub messages: usize,
+    /// Save the last `seconds` when an alarm, an E-stop or a fault is raised.
+    pub save_on_alarm: bool,
+}
+
+impl Default for TraceConfig {
+    fn default() -> Self {
+        TraceConfig {
+            seconds: 30.0,
+            messages: 10_000,
+            save_on_alarm: true,
+        }
+    }
 }
 
 impl Config {
@@ -107,7 +132,9 @@ impl Config {
             file: file.to_string(),
             message: e.to_string().trim_end().replace('\n', "\n  "),
         })?;
-        raw.into_config(file)
+        let mut config = raw.into_config(file)?;
+        config.text = text.to_string();
+        Ok(config)
     }
 }
 

@@ -20,6 +20,27 @@ pub(crate) struct RawConfig {
     task: Vec<crate::tasks::RawTask>,
     #[serde(default)]
     hand: crate::hand::RawHand,
+    #[serde(default)]
+    trace: RawTrace,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawTrace {
+    seconds: f64,
+    messages: i64,
+    save_on_alarm: bool,
+}
+
+impl Default for RawTrace {
+    fn default() -> Self {
+        let d = crate::TraceConfig::default();
+        RawTrace {
+            seconds: d.seconds,
+            messages: d.messages as i64,
+            save_on_alarm: d.save_on_alarm,
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -182,8 +203,34 @@ impl RawConfig {
         };
         motion.validate().map_err(|e| invalid(e.key, e.reason))?;
         let boards = crate::board::boards(self.board, &robot, file)?;
+        let t = self.trace;
+        if !(t.seconds.is_finite() && (1.0..=3600.0).contains(&t.seconds)) {
+            return Err(invalid(
+                "trace.seconds".into(),
+                format!(
+                    "{} is out of range: use 1 to 3600 s of recording",
+                    t.seconds
+                ),
+            ));
+        }
+        if !(100..=1_000_000).contains(&t.messages) {
+            return Err(invalid(
+                "trace.messages".into(),
+                format!(
+                    "{} is out of range: use 100 to 1000000 messages",
+                    t.messages
+                ),
+            ));
+        }
+        let trace = crate::TraceConfig {
+            seconds: t.seconds,
+            messages: t.messages as usize,
+            save_on_alarm: t.save_on_alarm,
+        };
         Ok(Config {
             source: file.to_string(),
+            text: String::new(),
+            trace,
             robot,
             motion,
             boards,

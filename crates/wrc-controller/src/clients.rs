@@ -31,7 +31,9 @@ use wrc_rt::wake::{FdRegistry, Token};
 
 use crate::messages::cell_job::JobKind;
 use crate::messages::{Incoming, OutLine, SourceId, StoreRequest, Urgent};
+use crate::recorder::MessageTap;
 use crate::shared::Shared;
+use wrc_trace::Direction;
 
 /// Bytes of output kept per client before it counts as not reading.
 pub const OUT_CAP: usize = 64 * 1024;
@@ -127,6 +129,10 @@ pub struct ClientSet {
     poll: Option<(FdRegistry, Token)>,
     /// Clients dropped because they stopped reading their replies.
     pub dropped_slow: u64,
+    /// The trace recorder's tap: every line read and delivered.
+    tap: Option<MessageTap>,
+    /// The owning task's cycle time, for the recorder [ns].
+    now_ns: u64,
 }
 
 impl ClientSet {
@@ -165,7 +171,19 @@ impl ClientSet {
             read_buf: Box::new([0; 4096]),
             poll: None,
             dropped_slow: 0,
+            tap: None,
+            now_ns: 0,
         }
+    }
+
+    /// Record every request line read and every line delivered into `tap`.
+    pub fn set_trace(&mut self, tap: MessageTap) {
+        self.tap = Some(tap);
+    }
+
+    /// The owning task's cycle began at `now_ns` [ns] (the time its records carry).
+    pub fn set_time(&mut self, now_ns: u64) {
+        self.now_ns = now_ns;
     }
 
     /// Watch every client of this set with the task's waiter: slot `i` under token
@@ -330,13 +348,21 @@ impl ClientSet {
             routes,
             buf,
             shared,
+            tap,
+            now_ns,
             ..
         } = self;
         let slot = &mut slots[i];
         while let Some(line) = slot.reader.read(&mut input) {
+            if let (Some(tap), Ok(text)) = (tap.as_mut(), &line) {
+                tap.push(*now_ns, Direction::Request, slot.source, text);
+            }
             if slot.uploading {
                 let source = slot.source;
                 if let Some(bytes) = upload_line(source, &mut slot.uploading, line, routes, buf) {
+                    if let Some(tap) = tap.as_mut() {
+                        tap.push(*now_ns, Direction::Reply, source, bytes);
+                    }
                     let _ = Self::push_out(slot, bytes);
                 }
                 continue;
@@ -357,6 +383,9 @@ impl ClientSet {
                 },
             };
             if let Some(bytes) = reply {
+                if let Some(tap) = tap.as_mut() {
+                    tap.push(*now_ns, Direction::Reply, slot.source, bytes);
+                }
                 let _ = Self::push_out(slot, bytes);
             }
         }
@@ -366,6 +395,17 @@ impl ClientSet {
     /// client for [`SourceId::NONE`]); lines for other kinds of client are ignored, so the
     /// task that drains a shared queue hands each line to every set once.
     pub fn deliver(&mut self, line: &OutLine) {
+        if let Some(tap) = self.tap.as_mut() {
+            // Lines for this set's clients; a line for every client once, by the host set
+            // (every set gets its copy).
+            let mine = match line.to {
+                SourceId::NONE => self.kind == SourceId::TCP,
+                to => to.kind() == self.kind,
+            };
+            if mine {
+                tap.push(self.now_ns, Direction::Reply, line.to, line.bytes());
+            }
+        }
         if line.to == SourceId::NONE {
             for slot in self.slots.iter_mut().filter(|s| s.stream.is_some()) {
                 let _ = Self::push_out(slot, line.bytes());
@@ -529,6 +569,7 @@ fn route<'b>(
         | Command::Delete(_)
         | Command::Robot
         | Command::Tasks
+        | Command::TraceSave(_)
         | Command::Stn
         | Command::Teach(_)
         | Command::Wafers
@@ -541,6 +582,7 @@ fn route<'b>(
                 Command::Delete(name) => StoreRequest::Delete { from, to, name },
                 Command::Robot => StoreRequest::Robot { from, to },
                 Command::Tasks => StoreRequest::Tasks { from, to },
+                Command::TraceSave(name) => StoreRequest::TraceSave { from, to, name },
                 Command::Stn => StoreRequest::Stn { from, to },
                 Command::Teach(name) => StoreRequest::Teach { from, to, name },
                 Command::Wafers => StoreRequest::Wafers { from, to },

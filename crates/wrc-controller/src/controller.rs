@@ -60,6 +60,8 @@ pub struct Options {
     pub board_wait: Duration,
     /// Where robot-language programs are stored (created if missing).
     pub programs: PathBuf,
+    /// Where the trace recorder saves (created if missing); `None`: no recorder.
+    pub traces: Option<PathBuf>,
     /// The wafer cell's files: the stations file (written from the embedded demo cell when
     /// missing) and the wafer map; `None`: no stations (`STN`, `TEACH`, `WAFERS` are refused).
     pub cell: Option<CellFiles>,
@@ -118,6 +120,14 @@ pub enum StartError {
     /// The stations file or the wafer map is unusable.
     #[error("wafer cell: {0}")]
     Cell(#[from] crate::cell_service::CellError),
+    /// The trace directory could not be made.
+    #[error("cannot use the trace directory {path}: {reason}")]
+    Traces {
+        /// The directory.
+        path: String,
+        /// Why.
+        reason: std::io::Error,
+    },
     /// The program directory could not be used.
     #[error("cannot use the program directory {path}: {reason}")]
     Programs {
@@ -252,6 +262,8 @@ pub(crate) fn assemble<H: Host>(
     config: &Config,
     options: &Options,
     open: &dyn Fn() -> Result<MultiBoard<DpramBoard>, StartError>,
+    clock: wrc_trace::ClockKind,
+    world_toml: Option<String>,
 ) -> Result<Assembled<H::Wake>, StartError> {
     let robot = config.robot.clone();
     let axis_count = robot.axis_count();
@@ -370,6 +382,33 @@ pub(crate) fn assemble<H: Host>(
         )?),
         None => store,
     };
+    // The trace recorder: samples from the Pulse Generator, lines from the Ethernet task's
+    // two client sets and the pendant's.
+    let (store, taps) = match &options.traces {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).map_err(|reason| StartError::Traces {
+                path: dir.display().to_string(),
+                reason,
+            })?;
+            let mut origin = crate::recorder::Origin::read(
+                config,
+                &options.programs,
+                options.cell.as_ref().map(|c| c.stations.as_path()),
+                options.cell.as_ref().map(|c| c.wafers.as_path()),
+            );
+            origin.start_pulses = start[..axis_count].to_vec();
+            origin.clock = Some(clock);
+            origin.world_toml = world_toml;
+            let (recorder, samples, messages) =
+                crate::recorder::recorder(config, origin, dir.clone(), 3);
+            (store.with_recorder(recorder), Some((samples, messages)))
+        }
+        None => (store, None),
+    };
+    let (sample_tap, mut message_taps) = match taps {
+        Some((s, m)) => (Some(s), m),
+        None => (None, Vec::new()),
+    };
     let routes = Routes {
         incoming: incoming.clone(),
         urgent: urgent.clone(),
@@ -399,18 +438,18 @@ pub(crate) fn assemble<H: Host>(
             watched.clone(),
         ),
     )?;
-    host.add_released(
-        spec("pulse_generator"),
-        PulseGenerator::new(
-            pg_board,
-            ring_rx,
-            shared.clone(),
-            done.clone(),
-            resume_tx,
-            generator.clone(),
-        ),
-        pg_wake,
-    )?;
+    let mut pulse_generator = PulseGenerator::new(
+        pg_board,
+        ring_rx,
+        shared.clone(),
+        done.clone(),
+        resume_tx,
+        generator.clone(),
+    );
+    if let Some(tap) = sample_tap {
+        pulse_generator = pulse_generator.with_trace(tap);
+    }
+    host.add_released(spec("pulse_generator"), pulse_generator, pg_wake)?;
     host.add(
         spec("simulator_manager"),
         SimulatorManager::new(
@@ -480,6 +519,10 @@ pub(crate) fn assemble<H: Host>(
         routes.clone(),
     );
     let mut ethernet = Ethernet::new(tcp, unix, hosts, guis, network_out);
+    let pendant_tap = message_taps.pop();
+    if let (Some(guis), Some(hosts)) = (message_taps.pop(), message_taps.pop()) {
+        ethernet.set_trace(hosts, guis);
+    }
     if let Some(registry) = ethernet_wake.registry() {
         ethernet = ethernet
             .released_by(registry)
@@ -499,6 +542,9 @@ pub(crate) fn assemble<H: Host>(
         routes,
     );
     let mut rs232c = Rs232c::new(serial, pendant, serial_out);
+    if let Some(tap) = pendant_tap {
+        rs232c.set_trace(tap);
+    }
     if let Some(registry) = rs232c_wake.registry() {
         rs232c = rs232c
             .released_by(registry)
@@ -553,7 +599,14 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         ..Default::default()
     }));
     let open = || open_boards(config, &options.boards, options.board_wait);
-    let parts = assemble(&mut host, config, options, &open)?;
+    let parts = assemble(
+        &mut host,
+        config,
+        options,
+        &open,
+        wrc_trace::ClockKind::Monotonic,
+        None,
+    )?;
     let running = host.0.start()?;
     if running.scheduling().is_realtime() {
         // Error Check stops a motion on overruns of the motion path only, and only when the

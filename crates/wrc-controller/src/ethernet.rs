@@ -27,6 +27,7 @@ use wrc_rt::ipc::MessageQueue;
 
 use crate::clients::{ClientSet, Stream};
 use crate::messages::OutLine;
+use crate::recorder::MessageTap;
 
 /// The waiter's token of the TCP listener.
 const TCP_LISTENER: Token = 0;
@@ -162,8 +163,18 @@ impl Ethernet {
     }
 }
 
+impl Ethernet {
+    /// Record every line read and delivered: hosts into `hosts`, GUIs into `guis`.
+    pub fn set_trace(&mut self, hosts: MessageTap, guis: MessageTap) {
+        self.hosts.set_trace(hosts);
+        self.guis.set_trace(guis);
+    }
+}
+
 impl Task for Ethernet {
     fn cycle(&mut self, ctx: &CycleContext) {
+        self.hosts.set_time(ctx.woke_ns);
+        self.guis.set_time(ctx.woke_ns);
         self.step(ctx.release);
     }
 }

@@ -19,6 +19,7 @@ pub mod io_monitor;
 pub mod messages;
 pub mod pulse_generator;
 pub mod queries;
+pub mod recorder;
 pub mod rs232c;
 pub mod service;
 pub mod shared;

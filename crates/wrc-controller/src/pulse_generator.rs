@@ -26,7 +26,9 @@ use wrc_rt::ipc::spsc::SpscReceiver;
 use wrc_rt::{CycleContext, Release, Task};
 
 use crate::messages::{Batch, MoveDone, MoveOutcome};
+use crate::recorder::SampleTap;
 use crate::shared::{Shared, StopKind};
+use wrc_trace::Sample;
 
 /// Periods kept queued in the board FIFO ahead of the board: a late wake-up of up to this
 /// many periods does not starve an axis, and a stop reaches the motors at most this many
@@ -144,6 +146,8 @@ pub struct PulseGenerator<B: MotionBoard> {
     history: History,
     /// The brake pushed before a flush ended the stop (reported by the next cycle's loop).
     brake_end: Option<Status>,
+    /// The trace recorder's tap: one sample per period.
+    trace: Option<(SampleTap, Sample)>,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -180,7 +184,36 @@ impl<B: MotionBoard> PulseGenerator<B> {
             feedback: Feedback::default(),
             history: History::new(last),
             brake_end: None,
+            trace: None,
         }
+    }
+
+    /// Record one sample per period into `tap` (commanded and encoder pulses, I/O, state,
+    /// FIFO level, wake-up latency).
+    pub fn with_trace(mut self, tap: SampleTap) -> Self {
+        self.trace = Some((tap, Sample::default()));
+        self
+    }
+
+    /// This period's sample, at the grid point `t_ns`, `latency_ns` late.
+    fn record(&mut self, t_ns: u64, latency_ns: u64) {
+        let Some((tap, sample)) = self.trace.as_mut() else {
+            return;
+        };
+        sample.t_ns = t_ns;
+        sample.latency_ns = latency_ns.min(u64::from(u32::MAX)) as u32;
+        for (c, s) in sample.commanded.iter_mut().zip(&self.shared.commanded) {
+            *c = s.load(Ordering::Relaxed);
+        }
+        if self.board.read_feedback(&mut self.feedback).is_ok() {
+            let n = self.feedback.axis_count.min(MAX_AXES);
+            for (a, f) in sample.actual.iter_mut().zip(&self.feedback.axes[..n]) {
+                *a = f.encoder;
+            }
+            sample.fifo_level = self.feedback.axes[0].fifo_level.min(u32::from(u16::MAX)) as u16;
+        }
+        crate::recorder::shared_part(sample, &self.shared);
+        tap.push(sample);
     }
 
     fn queued(&self) -> usize {
@@ -497,5 +530,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
 impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
     fn cycle(&mut self, ctx: &CycleContext) {
         self.step_released(ctx.release);
+        if ctx.release == Release::Period {
+            self.record(
+                ctx.scheduled_ns,
+                ctx.woke_ns.saturating_sub(ctx.scheduled_ns),
+            );
+        }
     }
 }

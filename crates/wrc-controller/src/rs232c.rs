@@ -134,6 +134,11 @@ impl Rs232c {
         Rs232c { pendant, replies }
     }
 
+    /// Record every line read from and delivered to the pendant into `tap`.
+    pub fn set_trace(&mut self, tap: crate::recorder::MessageTap) {
+        self.pendant.set_trace(tap);
+    }
+
     /// Tokens the task's [`FdWake`](wrc_rt::wake::FdWake) needs (the pendant's line).
     pub const TOKENS: usize = 1;
 
@@ -167,6 +172,7 @@ impl Rs232c {
 
 impl Task for Rs232c {
     fn cycle(&mut self, ctx: &CycleContext) {
+        self.pendant.set_time(ctx.woke_ns);
         self.step(ctx.release);
     }
 }

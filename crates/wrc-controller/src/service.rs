@@ -55,6 +55,7 @@ pub struct Service {
     period_ms: f64,
     tasks: TaskCells,
     cell: Option<CellService>,
+    recorder: Option<crate::recorder::Recorder>,
 }
 
 impl Service {
@@ -76,6 +77,7 @@ impl Service {
             period_ms: 0.0,
             tasks: TaskCells::default(),
             cell: None,
+            recorder: None,
         })
     }
 
@@ -84,6 +86,18 @@ impl Service {
         cell.connect(self.out.clone(), self.links.clone());
         self.cell = Some(cell);
         self
+    }
+
+    /// Also keep the trace recorder: drain it every step (saving the last seconds when an
+    /// alarm is raised) and answer `TRACE SAVE`.
+    pub fn with_recorder(mut self, recorder: crate::recorder::Recorder) -> Service {
+        self.recorder = Some(recorder);
+        self
+    }
+
+    /// The trace recorder, if kept (for `wrc sim --trace` and tests).
+    pub fn recorder_mut(&mut self) -> Option<&mut crate::recorder::Recorder> {
+        self.recorder.as_mut()
     }
 
     /// Also answer `ROBOT` (with the Pulse Generator's period [ms]) and `TASKS` (from the
@@ -111,6 +125,7 @@ impl Service {
     /// reply that tells the client the job is done, so whatever a client asks after that
     /// reply (`WAFERS`, the next `GET`) finds the change queued here and sees it applied.
     pub fn step(&mut self) {
+        self.record();
         self.apply_cell_events();
         while let Ok(request) = self.links.requests.try_recv() {
             self.apply_cell_events();
@@ -140,6 +155,51 @@ impl Service {
     fn reply_nak(&mut self, from: SourceId, to: ReplyTo, code: Code, text: &str) {
         let line = self.buf.nak(to, code, text);
         self.out.send(from, line);
+    }
+
+    /// Drain the trace recorder; an alarm's trace is saved and logged.
+    fn record(&mut self) {
+        let Some(recorder) = self.recorder.as_mut() else {
+            return;
+        };
+        match recorder.drain() {
+            None => {}
+            Some(Ok(saved)) => eprintln!(
+                "wrc: trace of the last {:.1} s before the alarm saved in {}",
+                saved.seconds,
+                saved.path.display()
+            ),
+            Some(Err(e)) => eprintln!("wrc: the alarm's trace could not be saved: {e}"),
+        }
+    }
+
+    /// `TRACE SAVE [<name>]`.
+    fn save_trace(&mut self, from: SourceId, to: ReplyTo, name: Option<ProgramName>) {
+        self.record();
+        let Some(recorder) = self.recorder.as_mut() else {
+            let text = "this controller keeps no trace (no trace directory)";
+            return self.reply_nak(from, to, Code::NotAvailable, text);
+        };
+        let reason = format!("TRACE SAVE from {}", source_label(from));
+        match recorder.save_named(name.as_ref().map(|n| n.as_str()), &reason) {
+            Ok(saved) => {
+                let line = self.buf.ack(
+                    to,
+                    format_args!(
+                        "file={} samples={} messages={} seconds={:.3}",
+                        saved.path.display(),
+                        saved.samples,
+                        saved.messages,
+                        saved.seconds
+                    ),
+                );
+                self.out.send(from, line);
+            }
+            Err(e) => {
+                let text = format!("the trace could not be saved: {e}");
+                self.reply_nak(from, to, Code::Internal, &text);
+            }
+        }
     }
 
     fn handle(&mut self, request: StoreRequest) {
@@ -228,6 +288,7 @@ impl Service {
                 Some(cell) => cell.job(from, to, kind, &station, slot),
                 None => self.no_cell(from, to),
             },
+            StoreRequest::TraceSave { from, to, name } => self.save_trace(from, to, name),
             StoreRequest::Tasks { from, to } => {
                 let tasks = self.tasks.get().map(Vec::as_slice).unwrap_or_default();
                 for (spec, cell) in tasks {
@@ -405,6 +466,16 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     }
     fs::rename(&tmp, path)?;
     fs::File::open(dir)?.sync_all()
+}
+
+/// Who asked, for a trace's reason.
+fn source_label(from: SourceId) -> &'static str {
+    match from.kind() {
+        SourceId::TCP => "a host",
+        SourceId::GUI => "the GUI",
+        SourceId::PENDANT => "the pendant",
+        _ => "the controller",
+    }
 }
 
 #[cfg(test)]

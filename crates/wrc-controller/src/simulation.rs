@@ -59,6 +59,7 @@ pub struct Simulation {
     ethernet: Arc<dyn Notify>,
     boards: Vec<Arc<Mutex<SimBoard>>>,
     pulse_log: PulseLog,
+    service: Arc<Mutex<crate::service::Service>>,
     wall_start: Instant,
     /// The TCP address actually bound (with the real port when 0 was asked).
     pub tcp: Option<SocketAddr>,
@@ -169,7 +170,17 @@ impl Simulation {
                 },
             )?;
         }
-        let parts = assemble(&mut host, config, options, &open)?;
+        let world_toml = boards
+            .first()
+            .and_then(|b| lock(b).cell().map(|c| c.world().to_text()));
+        let parts = assemble(
+            &mut host,
+            config,
+            options,
+            &open,
+            wrc_trace::ClockKind::Virtual,
+            world_toml,
+        )?;
         let mut runtime = host.0;
         let urgent = parts.urgent;
         let posted = urgent.wake.clone();
@@ -178,10 +189,11 @@ impl Simulation {
             move |_: &CycleContext| urgent.drain(),
             move || posted.count() > 0,
         )?;
-        let mut service = parts.service;
+        let service = Arc::new(Mutex::new(parts.service));
+        let stepped = service.clone();
         runtime.add_released(
             TaskSpec::new("service", SERVICE_PRIORITY, SERVICE_PERIOD_US),
-            move |_: &CycleContext| service.step(),
+            move |_: &CycleContext| stepped.lock().unwrap_or_else(|e| e.into_inner()).step(),
             &parts.service_wake,
         )?;
         let tasks: Vec<_> = runtime
@@ -209,6 +221,7 @@ impl Simulation {
             ethernet: parts.ethernet,
             boards,
             pulse_log,
+            service,
             wall_start: Instant::now(),
             tcp: parts.tcp,
             socket: options.socket.clone(),
@@ -283,6 +296,13 @@ impl Simulation {
                 .lock()
                 .unwrap_or_else(|e| e.into_inner()),
         )
+    }
+
+    /// Everything the trace recorder holds now, with `reason` (`None`: the controller was
+    /// started without a trace directory).
+    pub fn trace(&self, reason: &str) -> Option<wrc_trace::TraceFile> {
+        let mut service = self.service.lock().unwrap_or_else(|e| e.into_inner());
+        service.recorder_mut().map(|r| r.snapshot(reason))
     }
 
     /// Every task's statistics (virtual: exact periods, no latency).
@@ -395,8 +415,9 @@ impl Simulation {
         }
     }
 
-    /// Send the request `line` (no `\n`) and return the first `ACK` or `NAK` that follows,
-    /// within `within_ns` [ns] of virtual time; other lines are skipped.
+    /// Send the request `line` (no `\n`) and return its `ACK` or `NAK` (the first one with
+    /// the request's id, or the first one at all for a request without an id), within
+    /// `within_ns` [ns] of virtual time; other lines are skipped.
     pub fn ask(
         &mut self,
         client: &mut SimClient,
@@ -404,11 +425,17 @@ impl Simulation {
         within_ns: u64,
     ) -> Result<String, ClientError> {
         self.send(client, &format!("{line}\n"))?;
+        let id = line
+            .split(' ')
+            .next()
+            .filter(|w| !w.is_empty() && w.bytes().all(|b| b.is_ascii_digit()));
         let until = self.now_ns().saturating_add(within_ns);
         loop {
             let left = until.saturating_sub(self.now_ns());
             let reply = self.next_line(client, left)?;
-            if reply.starts_with("ACK") || reply.starts_with("NAK") {
+            let mut words = reply.split(' ');
+            let kind = words.next().unwrap_or("");
+            if (kind == "ACK" || kind == "NAK") && id.is_none_or(|id| words.next() == Some(id)) {
                 return Ok(reply);
             }
         }

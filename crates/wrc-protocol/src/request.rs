@@ -152,6 +152,9 @@ pub enum Command {
     Abort,
     /// `DELETE <name>`.
     Delete(ProgramName),
+    /// `TRACE SAVE [<name>]`: the trace file's name (a program-like name), or a name made
+    /// from the time.
+    TraceSave(Option<ProgramName>),
 }
 
 impl Command {
@@ -183,6 +186,7 @@ impl Command {
             Command::Programs => Verb::Programs,
             Command::Robot => Verb::Robot,
             Command::Tasks => Verb::Tasks,
+            Command::TraceSave(_) => Verb::Trace,
             Command::Stn => Verb::Stn,
             Command::Teach(_) => Verb::Teach,
             Command::Wafers => Verb::Wafers,
@@ -385,6 +389,14 @@ pub enum ParseError {
     /// A program name with characters other than letters, digits, `_` and `-`, or too long.
     #[error("program name \"{0}\" must be 1-32 letters, digits, _ or -")]
     BadProgramName(Token),
+    /// `TRACE` with an action other than `SAVE`.
+    #[error("TRACE knows one action, SAVE (TRACE SAVE [<name>]), not \"{0}\"")]
+    TraceAction(Token),
+    /// A trace name with characters other than letters, digits, `_` and `-`, or too long.
+    #[error(
+        "trace name \"{0}\" must be 1-32 letters, digits, _ or - (it is saved as <name>.wrctrace)"
+    )]
+    BadTraceName(Token),
     /// A station name with characters other than letters, digits, `_` and `-`, or too long.
     #[error("station name \"{0}\" must be 1-16 letters, digits, _ or -")]
     BadStationName(Token),
@@ -435,6 +447,8 @@ impl ParseError {
             | ParseError::BadPosture(_)
             | ParseError::BadSwitch(_)
             | ParseError::BadProgramName(_)
+            | ParseError::BadTraceName(_)
+            | ParseError::TraceAction(_)
             | ParseError::BadStationName(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::SlotNumber(_) => Code::SlotUnknown,
@@ -695,6 +709,18 @@ impl Parser {
             Verb::Programs => simple(Command::Programs),
             Verb::Robot => simple(Command::Robot),
             Verb::Tasks => simple(Command::Tasks),
+            Verb::Trace => {
+                args.between(1, 2)?;
+                if !args.words[0].eq_ignore_ascii_case(b"SAVE") {
+                    return Err(ParseError::TraceAction(Token::new(args.words[0])));
+                }
+                match args.words.get(1) {
+                    None => Ok(Command::TraceSave(None)),
+                    Some(word) => ProgramName::new(as_str(word))
+                        .map(|n| Command::TraceSave(Some(n)))
+                        .ok_or_else(|| ParseError::BadTraceName(Token::new(word))),
+                }
+            }
             Verb::Stn => simple(Command::Stn),
             Verb::Teach => station_name(args).map(Command::Teach),
             Verb::Wafers => simple(Command::Wafers),

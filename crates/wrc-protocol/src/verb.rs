@@ -68,6 +68,8 @@ pub enum Verb {
     Robot,
     /// `TASKS`: the real-time tasks' measured timing.
     Tasks,
+    /// `TRACE SAVE`: write the trace recorder's last seconds to a file.
+    Trace,
     /// `STN`: list the stations.
     Stn,
     /// `TEACH`: store the current pose as a station's taught pose.
@@ -132,6 +134,7 @@ impl Verb {
         Verb::Delete,
         Verb::Robot,
         Verb::Tasks,
+        Verb::Trace,
         Verb::Stn,
         Verb::Teach,
         Verb::Wafers,
@@ -236,6 +239,13 @@ impl Verb {
             Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, true),
             Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, false),
             Verb::Tasks => v("TASKS", "", "the real-time tasks' timing", false, false),
+            Verb::Trace => v(
+                "TRACE",
+                "SAVE [<name>]",
+                "save the trace recorder's last seconds to a file",
+                false,
+                false,
+            ),
             Verb::Stn => v("STN", "", "list the stations", false, false),
             Verb::Teach => v(
                 "TEACH",

@@ -157,6 +157,7 @@ fn start_controller(
         boards: vec![dir.join("board0.dpram")],
         board_wait: Duration::from_secs(10),
         programs: dir.join("programs"),
+        traces: None,
         cell: Some(CellFiles {
             stations: dir.join("stations.toml"),
             wafers: dir.join("wafers.toml"),

@@ -135,6 +135,7 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
         boards: vec![dir.join("board0.dpram")],
         board_wait: Duration::from_secs(10),
         programs: dir.join("programs"),
+        traces: None,
         cell: None,
     };
     let running = controller::start(config, &options).context("the controller could not start")?;

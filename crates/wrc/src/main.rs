@@ -15,6 +15,7 @@ mod run;
 mod send;
 mod sim;
 mod trace;
+mod trace_replay;
 mod ui;
 mod up;
 

@@ -21,7 +21,7 @@ use std::sync::atomic::Ordering;
 use anyhow::{bail, Context};
 use clap::Args;
 use wrc_board::sim::cell::SimCell;
-use wrc_board::wrc_cell::Stations;
+use wrc_board::wrc_cell::{Stations, World};
 use wrc_config::Config;
 use wrc_controller::controller::{CellFiles, Options};
 use wrc_controller::simulation::{ClientError, Simulation};
@@ -65,15 +65,20 @@ pub struct SimArgs {
     /// Write every line exchanged with the controller, with its virtual time [s], here.
     #[arg(long, value_name = "FILE")]
     transcript: Option<PathBuf>,
+    /// Save the session's trace (every period and every line, from the start) here at the
+    /// end, for `wrc trace replay`, `plot` and the GUI.
+    #[arg(long, value_name = "FILE")]
+    trace: Option<PathBuf>,
     /// Write the position every axis of board 0 was commanded [pulse] at each board period
     /// here (CSV).
     #[arg(long, value_name = "FILE")]
     pulses: Option<PathBuf>,
 }
 
-/// A state directory that is removed at the end when it was made here.
-struct StateDir {
-    path: PathBuf,
+/// A state directory that is removed at the end when it was made here (a new temporary
+/// one).
+pub(crate) struct StateDir {
+    pub path: PathBuf,
     temporary: bool,
 }
 
@@ -85,7 +90,7 @@ impl Drop for StateDir {
     }
 }
 
-fn state_dir(given: Option<&Path>) -> anyhow::Result<StateDir> {
+pub(crate) fn state_dir(given: Option<&Path>) -> anyhow::Result<StateDir> {
     let (path, temporary) = match given {
         Some(p) => (p.to_path_buf(), false),
         None => {
@@ -105,32 +110,58 @@ fn state_dir(given: Option<&Path>) -> anyhow::Result<StateDir> {
 /// Build the simulation: the controller on virtual time with its boards, and the simulated
 /// cell on board 0 when it drives every robot axis.
 fn simulation(args: &SimArgs, config: &Config, dir: &Path) -> anyhow::Result<Simulation> {
-    let stations_path = args
-        .stations
-        .clone()
-        .unwrap_or_else(|| dir.join("stations.toml"));
+    build(
+        config,
+        dir,
+        args.stations.clone(),
+        None,
+        args.listen,
+        args.sim_addr,
+    )
+}
+
+/// The controller of `config` on virtual time, its state in `dir`: stations from
+/// `stations` (default `dir/stations.toml`, written from the demo cell when missing), the
+/// simulated cell from `world` (a world file's text; default: the stations' `[station.sim]`
+/// wafers), the host protocol on `tcp` if given.
+pub(crate) fn build(
+    config: &Config,
+    dir: &Path,
+    stations: Option<PathBuf>,
+    world: Option<&str>,
+    tcp: Option<SocketAddr>,
+    sim_addr: SocketAddr,
+) -> anyhow::Result<Simulation> {
+    let stations_path = stations.unwrap_or_else(|| dir.join("stations.toml"));
     if !stations_path.exists() {
         Stations::embedded_demo().save_atomic(&stations_path)?;
     }
     let cell = match config.boards.first() {
         Some(board) if (0..config.robot.axis_count()).all(|axis| board.axes.contains(&axis)) => {
             let stations = Stations::load(&stations_path)?;
-            Some(
-                SimCell::new(config, board, stations)
-                    .with_context(|| format!("stations {}", stations_path.display()))?,
-            )
+            let cell = SimCell::new(config, board, stations)
+                .with_context(|| format!("stations {}", stations_path.display()))?;
+            Some(match world {
+                Some(text) => {
+                    let world = World::from_text(text, cell.stations())
+                        .context("the simulated cell's ground truth")?;
+                    cell.with_world(world)
+                }
+                None => cell,
+            })
         }
         _ => None,
     };
     let options = Options {
-        tcp: args.listen,
+        tcp,
         socket: Some(dir.join("wrc.sock")),
-        sim_addr: args.sim_addr,
+        sim_addr,
         serial: None,
         realtime: RealtimeMode::Off,
         boards: Vec::new(),
         board_wait: std::time::Duration::ZERO,
         programs: dir.join("programs"),
+        traces: Some(dir.join("traces")),
         cell: Some(CellFiles {
             stations: stations_path,
             wafers: dir.join("wafers.toml"),
@@ -147,7 +178,14 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
     if !(args.rate > 0.0 && args.rate.is_finite()) {
         bail!("--rate must be a positive number (virtual seconds per real second)");
     }
-    let config = Config::load(args.config.as_deref())?;
+    let mut config = Config::load(args.config.as_deref())?;
+    if args.trace.is_some() {
+        // The whole session, not the last seconds: as long as it may run (memory grows with
+        // it: about 29 kB per second at 10 ms, docs/trace.md).
+        config.trace.seconds = config.trace.seconds.max(args.timeout.min(3600.0));
+        config.trace.messages = config.trace.messages.max(50_000);
+        config.trace.save_on_alarm = false;
+    }
     match &args.program {
         Some(program) => run_file(&args, &config, program),
         None => listen(&args, &config),
@@ -252,8 +290,29 @@ fn run_file(args: &SimArgs, config: &Config, program: &Path) -> anyhow::Result<E
         }
     };
     records.finish(&sim)?;
+    save_trace(args, &sim)?;
     report(&sim);
     Ok(code)
+}
+
+/// `--trace`: the session's trace, saved.
+fn save_trace(args: &SimArgs, sim: &Simulation) -> anyhow::Result<()> {
+    let Some(path) = &args.trace else {
+        return Ok(());
+    };
+    let trace = sim
+        .trace("wrc sim --trace")
+        .context("the simulated controller keeps no trace")?;
+    let began = std::time::Instant::now();
+    trace.save(path)?;
+    eprintln!(
+        "wrc sim: trace of {} periods and {} lines saved in {} ({:.1} ms)",
+        trace.samples.len(),
+        trace.messages.len(),
+        path.display(),
+        began.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(())
 }
 
 /// The virtual and wall durations, on stderr.
@@ -288,6 +347,7 @@ fn listen(args: &SimArgs, config: &Config) -> anyhow::Result<ExitCode> {
         records.pulses(&sim)?;
     }
     records.finish(&sim)?;
+    save_trace(args, &sim)?;
     println!("wrc sim: stopped");
     report(&sim);
     Ok(ExitCode::SUCCESS)

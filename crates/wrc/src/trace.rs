@@ -29,6 +29,11 @@ enum TraceAction {
     /// Print what a trace holds: why it was saved, its period and axes, its time span, its
     /// samples and messages, the states and errors seen.
     Info(InfoArgs),
+    /// Ask a running controller to save its trace (TRACE SAVE) and print where it went.
+    Save(crate::trace_replay::SaveArgs),
+    /// Run a recorded session again under virtual time and report the first period where
+    /// what the controller does differs from the recording (none, for a trace of this build).
+    Replay(crate::trace_replay::ReplayArgs),
 }
 
 /// Arguments of `wrc trace plot`.
@@ -60,6 +65,8 @@ pub fn run(args: TraceArgs) -> anyhow::Result<ExitCode> {
     match args.action {
         TraceAction::Plot(args) => plot(args),
         TraceAction::Info(args) => info(args),
+        TraceAction::Save(args) => crate::trace_replay::save(args),
+        TraceAction::Replay(args) => crate::trace_replay::replay(args),
     }
 }
 

@@ -392,6 +392,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         boards: boards.clone(),
         board_wait: Duration::from_secs(10),
         programs: args.state_dir.join("programs"),
+        traces: Some(args.state_dir.join("traces")),
         cell: Some(CellFiles {
             stations: args
                 .stations

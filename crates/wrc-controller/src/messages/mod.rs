@@ -319,6 +319,15 @@ pub enum StoreRequest {
         /// Where the replies go.
         to: ReplyTo,
     },
+    /// `TRACE SAVE [<name>]`: write the trace recorder's last seconds to a file.
+    TraceSave {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+        /// The file's name (`<name>.wrctrace` in the trace directory); `None`: from the time.
+        name: Option<ProgramName>,
+    },
     /// `STN`: list the stations.
     Stn {
         /// The requesting connection.

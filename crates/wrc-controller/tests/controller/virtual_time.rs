@@ -45,6 +45,7 @@ fn demo(dir: &Path) -> Simulation {
         boards: Vec::new(),
         board_wait: std::time::Duration::ZERO,
         programs: dir.join("programs"),
+        traces: Some(dir.join("traces")),
         cell: Some(CellFiles {
             stations: stations_path,
             wafers: dir.join("wafers.toml"),
@@ -208,4 +209,71 @@ fn two_runs_with_the_same_inputs_are_identical_pulse_for_pulse_and_byte_for_byte
     assert!(pulses_a.len() > 500, "{} periods", pulses_a.len());
     assert!(pulses_a.windows(2).any(|w| w[0].1 != w[1].1));
     assert_eq!(pulses_a, pulses_b);
+}
+
+#[test]
+fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = demo(dir.path());
+    let mut host = sim.connect().unwrap();
+    assert_eq!(sim.ask(&mut host, "1 HOME", REPLY_NS).unwrap(), "ACK 1");
+    sim.run_for_ns(2_000_000_000);
+    let reply = sim.ask(&mut host, "2 TRACE SAVE first", REPLY_NS).unwrap();
+    let path = dir.path().join("traces/first.wrctrace");
+    assert!(
+        reply.starts_with(&format!("ACK 2 file={} samples=", path.display())),
+        "{reply}"
+    );
+    let trace = wrc_trace::TraceFile::load(&path).unwrap();
+    // 2.1 s since power-on, one sample per 10 ms period, and the requests with their
+    // replies.
+    assert!(
+        (200..=215).contains(&trace.samples.len()),
+        "{}",
+        trace.samples.len()
+    );
+    assert!(trace.meta.from_start);
+    assert_eq!(trace.meta.clock, wrc_trace::ClockKind::Virtual);
+    assert_eq!(trace.meta.axis_names, ["j1", "j2", "j3", "z"]);
+    let lines: Vec<String> = trace
+        .messages
+        .iter()
+        .map(|m| m.text().into_owned())
+        .collect();
+    assert!(lines.contains(&"1 HOME".to_string()), "{lines:?}");
+    assert!(lines.contains(&"ACK 1".to_string()), "{lines:?}");
+    assert!(lines.contains(&"INF 1".to_string()), "{lines:?}");
+    // A bad name is refused and nothing is written.
+    let reply = sim.ask(&mut host, "3 TRACE SAVE ../x", REPLY_NS).unwrap();
+    assert!(reply.starts_with("NAK 3 106 trace name"), "{reply}");
+    let reply = sim.ask(&mut host, "4 TRACE LOAD x", REPLY_NS).unwrap();
+    assert!(
+        reply.starts_with("NAK 4 106 TRACE knows one action"),
+        "{reply}"
+    );
+
+    // An E-stop during a move: the recorder saves the seconds before it by itself.
+    sim.send(&mut host, "5 MOVJ 30 60 -90 100\n").unwrap();
+    sim.run_for_ns(300_000_000);
+    assert_eq!(sim.ask(&mut host, "6 ESTOP", REPLY_NS).unwrap(), "ACK 6");
+    sim.run_for_ns(500_000_000);
+    let saved: Vec<_> = std::fs::read_dir(dir.path().join("traces"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.starts_with("estop-"))
+        .collect();
+    assert_eq!(saved.len(), 1, "{saved:?}");
+    let trace = wrc_trace::TraceFile::load(&dir.path().join("traces").join(&saved[0])).unwrap();
+    assert!(
+        trace.meta.reason.starts_with("estop "),
+        "{}",
+        trace.meta.reason
+    );
+    let last = trace.samples.last().unwrap();
+    assert_eq!(trace.meta.state_name(last.state), "ESTOP");
+    // It holds the move before the E-stop: the arm was moving.
+    assert!(trace
+        .samples
+        .windows(2)
+        .any(|w| w[0].commanded[0] != w[1].commanded[0]));
 }

@@ -167,3 +167,96 @@ fn listen_serves_a_host_session_faster_than_real_time() {
     assert!(rest.contains("wrc sim: stopped"), "{rest}");
     assert!(err.contains("s of virtual time in"), "{err}");
 }
+
+#[test]
+fn a_session_trace_replays_identically_and_a_changed_one_is_caught_at_its_period() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("session.wrctrace");
+    let program = example("pick_place.wrl");
+    let out = wrc(&[
+        "sim",
+        program.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{:?}", text(&out));
+    let out = wrc(&["trace", "replay", trace.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("replay identical: "), "{stdout}");
+
+    // The same trace with one encoder count changed in the middle of the run.
+    let mut recorded = wrc_trace::TraceFile::load(&trace).unwrap();
+    let n = recorded.samples.len() / 2;
+    recorded.samples[n].actual[1] += 7;
+    let t_s = (recorded.samples[n].t_ns - 1_000_000_000) as f64 / 1e9;
+    let changed = dir.path().join("changed.wrctrace");
+    recorded.save(&changed).unwrap();
+    let out = wrc(&["trace", "replay", changed.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout.starts_with(&format!("first difference at t = {t_s:.3} s")),
+        "{stdout}"
+    );
+
+    // A trace that does not hold the session from its start cannot be replayed.
+    recorded.meta.from_start = false;
+    recorded.save(&changed).unwrap();
+    let out = wrc(&["trace", "replay", changed.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).1.contains("not the session from its start"));
+}
+
+#[test]
+fn wrc_trace_save_asks_a_running_controller() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args([
+            "sim",
+            "--listen",
+            "127.0.0.1:0",
+            "--rate",
+            "20",
+            "--state-dir",
+        ])
+        .arg(dir.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    let addr = loop {
+        line.clear();
+        assert!(out.read_line(&mut line).unwrap() > 0, "wrc sim ended early");
+        if let Some(a) = line.trim().strip_prefix("wrc sim: host protocol on tcp ") {
+            break a.to_string();
+        }
+    };
+    let saved = wait_until("a trace saved through wrc trace save", || {
+        let o = wrc(&["trace", "save", "mine", "--addr", &addr]);
+        if o.status.success() {
+            Ok(text(&o).0)
+        } else {
+            Err(format!("{:?}", text(&o)))
+        }
+    });
+    let path = dir.path().join("traces/mine.wrctrace");
+    assert!(
+        saved.starts_with(&format!("file={} samples=", path.display())),
+        "{saved}"
+    );
+    let info = wrc(&["trace", "info", path.to_str().unwrap()]);
+    assert!(info.status.success());
+    assert!(
+        text(&info).0.contains("TRACE SAVE from a host"),
+        "{:?}",
+        text(&info)
+    );
+    // SAFETY: kill with the pid of a child we spawned and have not reaped.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+    }
+    assert!(child.wait().unwrap().success());
+}

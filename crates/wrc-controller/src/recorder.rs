@@ -1,0 +1,338 @@
+//! The trace recorder (docs/trace.md): what the controller did in the last seconds, kept in
+//! memory and written to a file on demand (`TRACE SAVE`) or when an alarm, an E-stop or a
+//! fault is raised.
+//!
+//! - The Pulse Generator pushes one [`Sample`] per period (commanded and actual pulses of
+//!   every axis, inputs, outputs, state, error code, FIFO level, its wake-up latency) into a
+//!   [`SampleTap`]; each client set of the Ethernet and RS232C tasks pushes every request
+//!   line it reads and every line it delivers into a [`MessageTap`]. The taps are lock-free
+//!   single-producer queues made before the tasks start: pushing copies a fixed-size record,
+//!   never allocates, never blocks (a full queue counts the loss).
+//! - The [`Recorder`] lives on the service thread (not real-time): it drains the taps into a
+//!   bounded [`Ring`] (allocated once, at start-up, for `[trace] seconds` and `messages`),
+//!   watches the samples for a state that turns to ERROR or ESTOP, and writes trace files
+//!   atomically into the trace directory.
+//!
+//! A trace carries what a replay needs to run the session again under virtual time: the
+//! configuration text, the stations, the wafer map, the simulated cell's ground truth and
+//! the stored programs as they were when the controller started, and the commanded
+//! position then.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+use wrc_protocol::{Code, State};
+use wrc_trace::{ClockKind, Direction, Message, Meta, Ring, Sample, TraceError, TraceFile};
+
+use crate::messages::SourceId;
+use crate::shared::Shared;
+
+/// Samples the Pulse Generator may push between two drains by the service thread (10 s at
+/// 10 ms, 1 s at 1 ms).
+pub const SAMPLE_QUEUE: usize = 1024;
+/// Messages a client set may push between two drains.
+pub const MESSAGE_QUEUE: usize = 1024;
+
+/// The Pulse Generator's end of the recorder.
+pub struct SampleTap {
+    tx: rtrb::Producer<Sample>,
+    /// Samples lost because the service thread had not drained the queue.
+    pub dropped: u64,
+}
+
+impl SampleTap {
+    /// Record one period (a copy; never allocates or blocks).
+    pub fn push(&mut self, sample: &Sample) {
+        if self.tx.push(*sample).is_err() {
+            self.dropped += 1;
+        }
+    }
+}
+
+/// A client set's end of the recorder.
+pub struct MessageTap {
+    tx: rtrb::Producer<Message>,
+    /// Messages lost because the service thread had not drained the queue.
+    pub dropped: u64,
+}
+
+impl MessageTap {
+    /// Record `line` (a request read from `who`, or a line delivered to `who`) at `t_ns`
+    /// [ns] (a copy of at most 256 bytes; never allocates or blocks).
+    pub fn push(&mut self, t_ns: u64, direction: Direction, who: SourceId, line: &[u8]) {
+        let (source, client) = trace_source(who);
+        let message = Message::new(t_ns, direction, source, client, line);
+        if self.tx.push(message).is_err() {
+            self.dropped += 1;
+        }
+    }
+}
+
+/// The trace's source code and connection slot of `who`.
+pub fn trace_source(who: SourceId) -> (u8, u16) {
+    let slot = who.slot() as u16;
+    match who.kind() {
+        SourceId::TCP => (wrc_trace::SOURCE_HOST, slot),
+        SourceId::GUI => (wrc_trace::SOURCE_GUI, slot),
+        SourceId::PENDANT => (wrc_trace::SOURCE_PENDANT, slot),
+        _ if who == SourceId::PROGRAM => (wrc_trace::SOURCE_PROGRAM, 0),
+        _ => (wrc_trace::SOURCE_EVENT, 0),
+    }
+}
+
+/// What the controller looked like when it started: the part of a trace's [`Meta`] that
+/// does not change.
+#[derive(Debug, Clone, Default)]
+pub struct Origin {
+    /// The configuration text.
+    pub config_toml: String,
+    /// The stations file's text.
+    pub stations_toml: Option<String>,
+    /// The wafer map file's text.
+    pub wafers_toml: Option<String>,
+    /// The simulated cell's ground truth (virtual time only).
+    pub world_toml: Option<String>,
+    /// The stored programs (name, text).
+    pub programs: Vec<(String, String)>,
+    /// Commanded position of every axis [pulse].
+    pub start_pulses: Vec<i64>,
+    /// Virtual time or `CLOCK_MONOTONIC`.
+    pub clock: Option<ClockKind>,
+}
+
+impl Origin {
+    /// The files of a controller starting with `programs` and the cell `stations`/`wafers`
+    /// (missing files are `None`, unreadable programs skipped).
+    pub fn read(
+        config: &wrc_config::Config,
+        programs: &Path,
+        stations: Option<&Path>,
+        wafers: Option<&Path>,
+    ) -> Origin {
+        let read = |p: Option<&Path>| p.and_then(|p| std::fs::read_to_string(p).ok());
+        let mut stored: Vec<(String, String)> = std::fs::read_dir(programs)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter_map(|e| {
+                let path = e.path();
+                let name = path.file_stem()?.to_str()?.to_string();
+                (path.extension()? == "wrl")
+                    .then(|| std::fs::read_to_string(&path).ok().map(|t| (name, t)))?
+            })
+            .collect();
+        stored.sort();
+        Origin {
+            config_toml: config.text.clone(),
+            stations_toml: read(stations),
+            wafers_toml: read(wafers),
+            world_toml: None,
+            programs: stored,
+            start_pulses: Vec::new(),
+            clock: None,
+        }
+    }
+}
+
+/// A trace written to a file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Saved {
+    /// Where.
+    pub path: PathBuf,
+    /// Per-period samples in it.
+    pub samples: usize,
+    /// Requests and replies in it.
+    pub messages: usize,
+    /// The time it covers [s].
+    pub seconds: f64,
+}
+
+/// The non-real-time end: the ring, the alarm watch, the files.
+pub struct Recorder {
+    ring: Ring,
+    samples: rtrb::Consumer<Sample>,
+    messages: Vec<rtrb::Consumer<Message>>,
+    meta: Meta,
+    dir: PathBuf,
+    seconds: f64,
+    save_on_alarm: bool,
+    last_state: u8,
+    last_t_ns: u64,
+    saves: u32,
+}
+
+/// The recorder and the taps for the tasks: one sample tap, `message_taps` message taps.
+pub fn recorder(
+    config: &wrc_config::Config,
+    origin: Origin,
+    dir: PathBuf,
+    message_taps: usize,
+) -> (Recorder, SampleTap, Vec<MessageTap>) {
+    let period_ns = (config.motion.period_s * 1e9).round().max(1.0) as u64;
+    let (stx, srx) = rtrb::RingBuffer::new(SAMPLE_QUEUE);
+    let mut taps = Vec::with_capacity(message_taps);
+    let mut consumers = Vec::with_capacity(message_taps);
+    for _ in 0..message_taps {
+        let (tx, rx) = rtrb::RingBuffer::new(MESSAGE_QUEUE);
+        taps.push(MessageTap { tx, dropped: 0 });
+        consumers.push(rx);
+    }
+    let axis_names: Vec<&str> = config
+        .robot
+        .axes()
+        .iter()
+        .map(|a| a.name.as_str())
+        .collect();
+    let state_names: Vec<&str> = State::ALL.iter().map(|s| s.as_str()).collect();
+    let mut meta = Meta::new("", period_ns, &axis_names, &state_names);
+    meta.wrc_version = env!("CARGO_PKG_VERSION").to_string();
+    meta.clock = origin.clock.unwrap_or(ClockKind::Monotonic);
+    meta.config_toml = origin.config_toml;
+    meta.stations_toml = origin.stations_toml;
+    meta.wafers_toml = origin.wafers_toml;
+    meta.world_toml = origin.world_toml;
+    meta.programs = origin.programs;
+    meta.start_pulses = origin.start_pulses;
+    let ring = Ring::for_seconds(config.trace.seconds, period_ns, config.trace.messages);
+    let recorder = Recorder {
+        ring,
+        samples: srx,
+        messages: consumers,
+        meta,
+        dir,
+        seconds: config.trace.seconds,
+        save_on_alarm: config.trace.save_on_alarm,
+        last_state: State::Idle.to_u8(),
+        last_t_ns: 0,
+        saves: 0,
+    };
+    (
+        recorder,
+        SampleTap {
+            tx: stx,
+            dropped: 0,
+        },
+        taps,
+    )
+}
+
+impl Recorder {
+    /// Where traces are written.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Memory the ring holds [byte].
+    pub fn bytes(&self) -> usize {
+        self.ring.bytes()
+    }
+
+    /// Move what the tasks recorded into the ring. When a sample shows the state turning
+    /// to ERROR or ESTOP (an alarm, a fault, an E-stop) and `[trace] save_on_alarm` is on,
+    /// the last seconds are saved: the result says where, or why not.
+    pub fn drain(&mut self) -> Option<Result<Saved, TraceError>> {
+        let mut raised: Option<(u8, u16)> = None;
+        while let Ok(sample) = self.samples.pop() {
+            let alarm = |s: u8| s == State::Error.to_u8() || s == State::Estop.to_u8();
+            if alarm(sample.state) && !alarm(self.last_state) && raised.is_none() {
+                raised = Some((sample.state, sample.error_code));
+            }
+            self.last_state = sample.state;
+            self.last_t_ns = self.last_t_ns.max(sample.t_ns);
+            self.ring.push_sample(&sample);
+        }
+        for consumer in &mut self.messages {
+            while let Ok(message) = consumer.pop() {
+                self.last_t_ns = self.last_t_ns.max(message.t_ns);
+                self.ring.push_message(&message);
+            }
+        }
+        let (state, code) = raised.filter(|_| self.save_on_alarm)?;
+        let what = if state == State::Estop.to_u8() {
+            "estop"
+        } else {
+            "alarm"
+        };
+        let text = Code::from_number(code)
+            .map(|c| c.text().to_string())
+            .unwrap_or_default();
+        let reason = format!("{what} {code} {text}");
+        let name = format!("{what}-{code}-{}", self.stamp());
+        Some(self.save(&name, reason.trim_end()))
+    }
+
+    /// A name part from the controller clock [ms] and a counter (unique in a session).
+    fn stamp(&mut self) -> String {
+        self.saves += 1;
+        format!("{}ms-{}", self.last_t_ns / 1_000_000, self.saves)
+    }
+
+    /// Write the last `[trace] seconds` to `<dir>/<name>.wrctrace` (`name` made from the
+    /// time when `None`), atomically, with `reason` in it.
+    pub fn save_named(&mut self, name: Option<&str>, reason: &str) -> Result<Saved, TraceError> {
+        let name = match name {
+            Some(n) => n.to_string(),
+            None => format!("trace-{}", self.stamp()),
+        };
+        self.save(&name, reason)
+    }
+
+    fn save(&mut self, name: &str, reason: &str) -> Result<Saved, TraceError> {
+        let mut meta = self.meta.clone();
+        meta.reason = reason.to_string();
+        meta.saved_at_ns = self.last_t_ns;
+        meta.from_start = true;
+        let since = self.last_t_ns.saturating_sub((self.seconds * 1e9) as u64);
+        let mut trace = self.ring.snapshot(meta, Some(since));
+        canonical_order(&mut trace);
+        let path = self.dir.join(format!("{name}.wrctrace"));
+        trace.save(&path)?;
+        Ok(Saved {
+            path,
+            samples: trace.samples.len(),
+            messages: trace.messages.len(),
+            seconds: trace.duration_ns() as f64 / 1e9,
+        })
+    }
+
+    /// The last seconds as a trace, without writing it (for `wrc sim --trace` and tests).
+    pub fn snapshot(&mut self, reason: &str) -> TraceFile {
+        self.drain_quietly();
+        let mut meta = self.meta.clone();
+        meta.reason = reason.to_string();
+        meta.saved_at_ns = self.last_t_ns;
+        meta.from_start = true;
+        let mut trace = self.ring.snapshot(meta, None);
+        canonical_order(&mut trace);
+        trace
+    }
+
+    fn drain_quietly(&mut self) {
+        let save = std::mem::replace(&mut self.save_on_alarm, false);
+        let _ = self.drain();
+        self.save_on_alarm = save;
+    }
+}
+
+/// Put a trace's messages in time order, and at one instant the host set's lines (with
+/// every broadcast) first, then the GUIs', then the pendant's, each set's in the order they
+/// were read or delivered. The taps are drained one after another whenever the service
+/// thread runs, so the ring interleaves them by drain; this order does not depend on when
+/// the drains happened, so a replay that does the same thing records the same trace.
+fn canonical_order(trace: &mut TraceFile) {
+    let set = |source: u8| match source {
+        wrc_trace::SOURCE_GUI => 1,
+        wrc_trace::SOURCE_PENDANT => 2,
+        _ => 0,
+    };
+    trace.messages.sort_by_key(|m| (m.t_ns, set(m.source)));
+}
+
+/// Fill `sample` from the shared state (what the Pulse Generator does not read itself).
+pub fn shared_part(sample: &mut Sample, shared: &Arc<Shared>) {
+    sample.inputs = shared.inputs[0].load(Ordering::Relaxed);
+    sample.outputs = shared.outputs[0].load(Ordering::Relaxed);
+    sample.state = shared.state().to_u8();
+    sample.error_code = shared.error_code.load(Ordering::Relaxed) as u16;
+}

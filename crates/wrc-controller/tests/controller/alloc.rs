@@ -257,3 +257,41 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
         "allocations or frees in Command Interpreter cycles running a job"
     );
 }
+
+#[test]
+fn a_pulse_generator_cycle_recording_its_trace_sample_allocates_nothing() {
+    use wrc_rt::{CycleContext, Release, Task};
+    let config = Config::embedded_default();
+    let (mut sim, mapping) = crate::motion::sim_board(&config, &config.boards[0]);
+    let board = DpramBoard::attach(mapping.share(), Expect::default()).unwrap();
+    let motion = crate::motion::Motion::at_rest(&config, board);
+    let dir = tempfile::tempdir().unwrap();
+    let (mut recorder, tap, _) = wrc_controller::recorder::recorder(
+        &config,
+        wrc_controller::recorder::Origin::default(),
+        dir.path().to_path_buf(),
+        0,
+    );
+    let mut pg = motion.pg.with_trace(tap);
+    let ctx = |k: u64| CycleContext {
+        cycle: k,
+        scheduled_ns: 10_000_000 * k,
+        woke_ns: 10_000_000 * k + 1_000,
+        period_ns: 10_000_000,
+        release: Release::Period,
+    };
+    pg.cycle(&ctx(1));
+    sim.step();
+    let mut calls = 0;
+    for k in 2..200 {
+        calls += wrc_alloc_count::allocations_in(|| pg.cycle(&ctx(k)))
+            .0
+            .total();
+        sim.step();
+    }
+    assert_eq!(calls, 0, "the cycles allocated or freed");
+    // And what was recorded reaches the ring: 199 periods, 1 µs late each.
+    let trace = recorder.snapshot("test");
+    assert_eq!(trace.samples.len(), 199);
+    assert!(trace.samples.iter().all(|s| s.latency_ns == 1_000));
+}

@@ -21,6 +21,7 @@ import { fileURLToPath } from 'node:url';
 import net from 'node:net';
 import dgram from 'node:dgram';
 import { chromium } from 'playwright-core';
+import { encodeTrace } from './trace-fixture.mjs';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const webDir = resolve(here, '..');
@@ -290,6 +291,57 @@ async function setEditorText(page, text) {
   if (got.trim() !== text.trim()) throw new Error(`the editor holds ${JSON.stringify(got)}, not the program`);
 }
 
+/** The joint values the 3D view draws now (the simulator's read-back of its scene). */
+async function drawnPose(page) {
+  const p = await page.evaluate(() => window.wrc?.sim?.drawnPose() ?? null);
+  if (!p) throw new Error('the 3D view draws no robot (no WebGL, or ROBOT not answered)');
+  return p;
+}
+
+/** Move the trace scrubber to sample `i` as a drag would (an input event). */
+async function scrubTo(page, i) {
+  await page.locator(tid('trace-scrubber')).evaluate((el, v) => {
+    el.value = String(v);
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+  }, i);
+}
+
+/**
+ * A 3 s trace of the default robot at 10 ms: standing at home until 1 s, then J1 from -75° to
+ * 45° and Z up 50 mm until 2 s (MOVING), input 2 on from 1.5 s; MOVJ, its ACK and its INF.
+ */
+function fixtureTrace() {
+  const t0 = 5_000_000_000;
+  const samples = [];
+  for (let k = 0; k < 300; k++) {
+    const f = Math.min(1, Math.max(0, (k - 100) / 100));
+    const pulses = [Math.round((-75 + 120 * f) * 1000), 150_000, -75_000, Math.round(50 * f * 1000)];
+    samples.push({
+      tNs: t0 + k * 10_000_000,
+      commanded: pulses,
+      actual: pulses,
+      inputs: (k >= 150 ? 1 << 2 : 0) | (1 << 14),
+      outputs: 1 << 3,
+      state: k >= 100 && k < 200 ? 1 : 0,
+    });
+  }
+  const messages = [
+    { tNs: t0 + 1_000_000_000, direction: 'request', source: 0, client: 1, line: '5 MOVJ 45 150 -75 50' },
+    { tNs: t0 + 1_001_000_000, direction: 'reply', source: 0, client: 1, line: 'ACK 5' },
+    { tNs: t0 + 2_000_000_000, direction: 'reply', source: 0, client: 1, line: 'INF 5' },
+  ];
+  return encodeTrace({
+    meta: {
+      reason: 'e2e fixture',
+      axisNames: ['j1', 'j2', 'j3', 'z'],
+      configToml: readFileSync(join(repo, 'config', 'default.toml'), 'utf8'),
+      savedAtNs: t0 + 3_000_000_000,
+    },
+    samples,
+    messages,
+  });
+}
+
 async function shot(page, selector, file) {
   const path = join(outDir, file);
   if (selector) await page.locator(selector).screenshot({ path });
@@ -420,6 +472,78 @@ async function run() {
       await sleep(500); // let the 3D view draw the last pose
       await shot(page, '#panel-control', 'control.png');
       await shot(page, '#panel-simulator', 'simulator.png');
+    });
+
+    await step('Trace viewer: a corrupt file is refused with a sentence', async () => {
+      const bad = fixtureTrace();
+      bad[40] ^= 0x10; // inside the meta section
+      const path = join(stateDir, 'corrupt.wrctrace');
+      writeFileSync(path, bad);
+      await page.click(tid('tab-simulator'));
+      await page.setInputFiles(tid('trace-open'), path);
+      await page.waitForSelector(`${tid('trace-error')}:has-text("corrupt.wrctrace is corrupt: its meta section fails its CRC-32 check")`, {
+        timeout: STEP_MS,
+      });
+      if ((await page.locator(tid('trace-bar')).getAttribute('data-open')) !== '0') throw new Error('a corrupt trace was opened');
+    });
+
+    await step('Trace viewer: scrub a trace, the 3D view follows it; Close returns to live', async () => {
+      const path = join(stateDir, 'fixture.wrctrace');
+      writeFileSync(path, fixtureTrace());
+      await page.setInputFiles(tid('trace-open'), path);
+      await page.waitForSelector(`${tid('trace-bar')}[data-open="1"]`, { timeout: STEP_MS });
+      const error = (await page.locator(tid('trace-error')).textContent()) ?? '';
+      if (error) throw new Error(`the trace was refused: ${error}`);
+      const note = (await page.locator(tid('trace-note')).textContent()) ?? '';
+      if (note) throw new Error(`the trace is not drawn with its own robot: ${note}`);
+      await page.waitForSelector(`${tid('trace-state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+      const start = await drawnPose(page);
+      if (Math.abs(start.j1 - -75) > 0.01 || Math.abs(start.z) > 0.01) throw new Error(`sample 0 is drawn at ${JSON.stringify(start)}`);
+
+      await scrubTo(page, 150);
+      await page.waitForSelector(`${tid('trace-state')}[data-state="MOVING"]`, { timeout: STEP_MS });
+      const time = (await page.locator(tid('trace-time')).textContent()) ?? '';
+      if (!time.startsWith('1.500 s / 2.990 s')) throw new Error(`the time readout says ${JSON.stringify(time)}`);
+      const inputs = (await page.locator(tid('trace-inputs')).textContent()) ?? '';
+      if (inputs !== '0x00004004') throw new Error(`the inputs read ${inputs}, not 0x00004004`);
+      const current = page.locator(`${tid('trace-message')}[data-current="1"]`);
+      if ((await current.count()) !== 1) throw new Error('no message is highlighted at 1.5 s');
+      const currentText = (await current.textContent()) ?? '';
+      if (!currentText.includes('ACK 5')) throw new Error(`the highlighted message is ${JSON.stringify(currentText)}, not ACK 5`);
+      const listed = await page.locator(tid('trace-message')).count();
+      if (listed !== 3) throw new Error(`${listed} messages are listed within ±1 s of 1.5 s, not 3`);
+      // Half-way: J1 at -15°, Z at 25 mm.
+      const mid = await drawnPose(page);
+      if (Math.abs(mid.j1 - -15) > 0.01 || Math.abs(mid.z - 25) > 0.01) {
+        throw new Error(`the 3D view draws ${JSON.stringify(mid)} at 1.5 s, not j1 -15 and z 25`);
+      }
+      await sleep(300);
+      await shot(page, '#panel-simulator', 'trace-viewer.png');
+
+      // Play runs on from the scrubber in the trace's time and stops at its end (1.5 s later;
+      // a click can take longer than that on a loaded machine, so the end is not raced).
+      await page.click(tid('trace-play'));
+      await page.waitForSelector(`${tid('trace-play')}[data-playing="0"]`, { timeout: STEP_MS });
+      const last = await page.locator(tid('trace-scrubber')).inputValue();
+      if (last !== '299') throw new Error(`playing stopped at sample ${last}, not at the last (299)`);
+      const played = await drawnPose(page);
+      if (Math.abs(played.j1 - 45) > 0.01 || Math.abs(played.z - 50) > 0.01) {
+        throw new Error(`the 3D view draws ${JSON.stringify(played)} at the end, not j1 45 and z 50`);
+      }
+      await page.waitForSelector(`${tid('trace-state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+
+      await page.click(tid('trace-close'));
+      await page.waitForSelector(`${tid('trace-bar')}[data-open="0"]`, { timeout: STEP_MS });
+      // Live again: the drawn J1 is the controller's (the Control panel's current position).
+      await page.waitForFunction(
+        () => {
+          const live = Number(document.querySelector('[data-testid="current-axis-1"]')?.textContent ?? NaN);
+          const drawn = window.wrc?.sim?.drawnPose();
+          return drawn && Math.abs(drawn.j1 - live) < 0.01;
+        },
+        null,
+        { timeout: STEP_MS },
+      );
     });
 
     await step('Editor: compile a program with an error, see it inline and in the problems', async () => {
@@ -614,6 +738,38 @@ async function run() {
     await step('RESET clears the E-stop', async () => {
       await page.click(tid('reset'));
       await page.waitForSelector(`${tid('state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+    });
+
+    await step('Save trace: TRACE SAVE names a .wrctrace file, and the viewer opens it', async () => {
+      await page.fill(tid('trace-name'), 'e2e_session');
+      await page.click(tid('trace-save'));
+      await page.waitForSelector(`${tid('trace-saved')}[data-state="saved"], ${tid('trace-saved')}[data-state="refused"]`, {
+        timeout: STEP_MS,
+      });
+      const saved = page.locator(tid('trace-saved'));
+      const text = (await saved.textContent()) ?? '';
+      if ((await saved.getAttribute('data-state')) !== 'saved') throw new Error(`TRACE SAVE failed: ${text}`);
+      const file = (await saved.getAttribute('data-file')) ?? '';
+      if (!file.startsWith('/') || !file.endsWith('e2e_session.wrctrace')) {
+        throw new Error(`the saved file is ${JSON.stringify(file)}, not an absolute path ending in e2e_session.wrctrace`);
+      }
+      await page.waitForSelector(`${tid('command-log')}:has-text("file=${file}")`, { timeout: STEP_MS });
+      await shot(page, '.trace-card', 'trace-saved.png');
+
+      // The controller's own file, read by the GUI's reader.
+      await page.click(tid('tab-simulator'));
+      await page.setInputFiles(tid('trace-open'), file);
+      await page.waitForSelector(`${tid('trace-bar')}[data-open="1"], ${tid('trace-error')}:not(:empty)`, { timeout: STEP_MS });
+      const error = (await page.locator(tid('trace-error')).textContent()) ?? '';
+      if (error) throw new Error(`the viewer refuses the controller's trace: ${error}`);
+      const info = (await page.locator(tid('trace-file')).textContent()) ?? '';
+      if (!/TRACE SAVE/.test(info) || /; 0 samples/.test(info)) throw new Error(`the trace says ${JSON.stringify(info)}`);
+      // Its last sample: after RESET, standing.
+      const max = Number(await page.locator(tid('trace-scrubber')).getAttribute('max'));
+      await scrubTo(page, max);
+      await page.waitForSelector(`${tid('trace-state')}[data-state="IDLE"]`, { timeout: STEP_MS });
+      await shot(page, '#panel-simulator', 'trace-saved-viewer.png');
+      await page.click(tid('trace-close'));
     });
 
     if (pageErrors.length > 0) throw new Error(`errors in the page:\n  ${pageErrors.join('\n  ')}`);

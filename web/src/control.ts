@@ -400,7 +400,13 @@ function section(title: string, ...children: (Node | null)[]): HTMLElement {
   return h('section', { class: 'card' }, h('h3', {}, title), ...children);
 }
 
-export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Commander): ControlPanel {
+/** Mount the Control panel in `el`; `cards` (e.g. the Trace card) go above the command log. */
+export function mountControl(
+  el: HTMLElement,
+  model: ControllerModel,
+  cmd: Commander,
+  cards: readonly HTMLElement[] = [],
+): ControlPanel {
   el.classList.add('control-panel');
   el.replaceChildren();
 
@@ -633,7 +639,7 @@ export function mountControl(el: HTMLElement, model: ControllerModel, cmd: Comma
     raw,
   );
 
-  el.append(current, destination, jog, signals, logCard);
+  el.append(current, destination, jog, signals, ...cards, logCard);
 
   // ---- robot-dependent parts ----
   let axisCells: { pos: HTMLElement; pulses: HTMLElement }[] = [];

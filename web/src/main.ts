@@ -1,6 +1,6 @@
 // The app shell: the header (robot, connection, state, error, control lock, RESET and the
-// E-STOP), the Control panel on the left and the tabs [Simulator | Wafers | Editor | Plots] on
-// the right.
+// E-STOP), the Control panel on the left (with the Trace card) and the tabs
+// [Simulator (3D view and trace viewer) | Wafers | Editor | Plots] on the right.
 
 import './style.css';
 import { Connection, defaultUrl } from './connection';
@@ -9,6 +9,8 @@ import { mountEditor } from './editor';
 import { mountSimulator } from './simulator';
 import { mountPlots } from './plots';
 import { mountStations } from './stations';
+import { traceSaveCard } from './trace-save';
+import { mountTraceViewer } from './trace-viewer';
 import { mountWaferPanel } from './wafer-panel';
 import { createWaferStore, drawWafers } from './wafers';
 
@@ -63,7 +65,9 @@ function start(): void {
 
   // ---- body ----
   const controlEl = h('aside', { id: 'panel-control', class: 'panel' });
-  const simEl = h('div', { id: 'panel-simulator', class: 'panel tab-panel' });
+  const simEl = h('div', { id: 'panel-simulator', class: 'panel tab-panel sim-tab' });
+  const simView = h('div', { class: 'sim-view' });
+  simEl.append(simView);
   const wafersEl = h('div', { id: 'panel-wafers', class: 'panel tab-panel' });
   const editorEl = h('div', { id: 'panel-editor', class: 'panel tab-panel' });
   const plotsEl = h('div', { id: 'panel-plots', class: 'panel tab-panel' });
@@ -81,8 +85,9 @@ function start(): void {
   const right = h('main', { class: 'right' }, tabBar, h('div', { class: 'tab-body' }, simEl, wafersEl, editorEl, plotsEl));
   app.replaceChildren(header, h('div', { class: 'body' }, controlEl, right));
 
-  mountControl(controlEl, model, cmd);
-  const sim = mountSimulator(simEl, bus);
+  mountControl(controlEl, model, cmd, [traceSaveCard(model, cmd)]);
+  const sim = mountSimulator(simView, bus);
+  const traces = mountTraceViewer(simEl, sim, bus);
   const stations = mountStations(bus, sim);
   const wafers = createWaferStore(bus);
   drawWafers(wafers, stations, sim);
@@ -145,8 +150,8 @@ function start(): void {
   });
 
   window.addEventListener('beforeunload', () => bus.close());
-  // For debugging from the browser console.
-  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers };
+  // For debugging from the browser console; the e2e test reads the drawn pose (sim.drawnPose()).
+  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers, sim, traces };
 }
 
 start();

@@ -22,8 +22,11 @@ import {
   programAbsLine,
   replyRest,
   robotFromReply,
+  traceSaveOutcome,
+  traceSaveRequest,
   verbOf,
 } from './protocol';
+import type { FirstReply } from './bus';
 
 describe('parseLine', () => {
   it('parses ACK with id and fields', () => {
@@ -269,5 +272,55 @@ describe('requests', () => {
     expect(fmtNum(-45.1234)).toBe('-45.123');
     expect(fmtNum(12.5)).toBe('12.5');
     expect(fmtNum(-0.0001)).toBe('0');
+  });
+});
+
+describe('TRACE SAVE', () => {
+  /** The first reply as the connection makes it from a controller line. */
+  function first(line: string): FirstReply {
+    const l = parseLine(line);
+    if (l.kind === 'ACK') return { kind: 'ACK', id: l.id ?? 0, fields: l.fields, line: l.line };
+    if (l.kind === 'NAK') return { kind: 'NAK', id: l.id ?? 0, code: l.code, text: l.text, line: l.line };
+    throw new Error(`not a first reply: ${line}`);
+  }
+
+  it('names the trace only when asked, and refuses a name the controller would', () => {
+    expect(traceSaveRequest('')).toBe('TRACE SAVE');
+    expect(traceSaveRequest('  ')).toBe('TRACE SAVE');
+    expect(traceSaveRequest(' before_alarm-2 ')).toBe('TRACE SAVE before_alarm-2');
+    expect(verbOf(traceSaveRequest('x'))).toBe('TRACE');
+    expect(completesLater('TRACE SAVE')).toBe(false);
+    for (const bad of ['a b', 'x'.repeat(33), '../etc', 'a.wrctrace']) {
+      expect(() => traceSaveRequest(bad), bad).toThrow(/must be 1-32 letters, digits, _ or -/);
+    }
+  });
+
+  it('reads the file, counts and seconds of the ACK', () => {
+    expect(traceSaveOutcome(first('ACK 12 file=/var/lib/wrc/traces/t1.wrctrace samples=3000 messages=41 seconds=29.99'))).toEqual({
+      ok: true,
+      saved: { file: '/var/lib/wrc/traces/t1.wrctrace', samples: 3000, messages: 41, seconds: 29.99 },
+    });
+    // Fields in another order, and a path with blanks.
+    expect(traceSaveOutcome(first('ACK 3 samples=1 file=/tmp/my traces/a b.wrctrace seconds=0.01 messages=0'))).toEqual({
+      ok: true,
+      saved: { file: '/tmp/my traces/a b.wrctrace', samples: 1, messages: 0, seconds: 0.01 },
+    });
+    expect(traceSaveOutcome(first('ACK 4 file=/t/x.wrctrace'))).toEqual({
+      ok: true,
+      saved: { file: '/t/x.wrctrace', samples: null, messages: null, seconds: null },
+    });
+  });
+
+  it('gives the NAK text, and says so when an ACK names no file', () => {
+    expect(traceSaveOutcome(first('NAK 5 104 trace name "a b" must be 1-32 letters, digits, _ or -'))).toEqual({
+      ok: false,
+      text: '104 trace name "a b" must be 1-32 letters, digits, _ or -',
+    });
+    expect(traceSaveOutcome(first('NAK 6 100 unknown verb TRACE'))).toEqual({ ok: false, text: '100 unknown verb TRACE' });
+    expect(traceSaveOutcome(first('ACK 7 samples=3'))).toEqual({
+      ok: false,
+      text: "the controller's reply names no file: ACK 7 samples=3",
+    });
+    expect(traceSaveOutcome(first('ACK 8 file='))).toMatchObject({ ok: false });
   });
 });

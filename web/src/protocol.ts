@@ -1,7 +1,7 @@
 // Pure parsing and formatting of the controller's line protocol (docs/protocol.md) for the
 // browser: no DOM, no sockets, so every function here is unit-tested on plain strings.
 
-import type { AxisInfo, RobotInfo, RobotState } from './bus';
+import type { AxisInfo, FirstReply, RobotInfo, RobotState } from './bus';
 
 /** One line from `wrc ui`, classified. */
 export type Line =
@@ -289,9 +289,60 @@ export function formatRequest(id: number, request: string): string {
   return `${id} ${request.trim()}`;
 }
 
+/** Names of programs and trace files: 1-32 letters, digits, `_` or `-`. */
+const NAME = /^[A-Za-z0-9_-]{1,32}$/;
+
 /** Program names: 1-32 letters, digits, `_` or `-`. */
 export function isProgramName(name: string): boolean {
-  return /^[A-Za-z0-9_-]{1,32}$/.test(name);
+  return NAME.test(name);
+}
+
+/** The request that saves the controller's trace: `TRACE SAVE`, or `TRACE SAVE <name>`. */
+export function traceSaveRequest(name: string): string {
+  const n = name.trim();
+  if (n === '') return 'TRACE SAVE';
+  if (!NAME.test(n)) throw new Error(`trace name "${n}" must be 1-32 letters, digits, _ or -`);
+  return `TRACE SAVE ${n}`;
+}
+
+/** What `TRACE SAVE` wrote, from its `ACK`. */
+export interface TraceSaved {
+  /** Absolute path of the trace file on the controller's computer. */
+  file: string;
+  /** Samples and messages in the file, and the time its samples span [s] (null: not given). */
+  samples: number | null;
+  messages: number | null;
+  seconds: number | null;
+}
+
+/** A trace saved, or why not (the NAK's code and text, or what was wrong with the ACK). */
+export type TraceSaveOutcome = { ok: true; saved: TraceSaved } | { ok: false; text: string };
+
+/**
+ * The reply to `TRACE SAVE`: `ACK <id> file=<absolute path> samples=<n> messages=<m>
+ * seconds=<s>` or `NAK <id> <code> <text>`. The path runs to the next ` key=` or the end, so a
+ * path with blanks is kept whole.
+ */
+export function traceSaveOutcome(first: FirstReply): TraceSaveOutcome {
+  if (first.kind === 'NAK') return { ok: false, text: `${first.code} ${first.text}`.trim() };
+  const rest = stripChecksum(first.line);
+  const m = /(?:^|[ \t])file=(.*?)(?=[ \t]+[A-Za-z_][A-Za-z0-9_]*=|[ \t]*$)/.exec(rest);
+  const file = m?.[1] ?? '';
+  if (file === '') return { ok: false, text: `the controller's reply names no file: ${first.line}` };
+  const count = (v: string | undefined): number | null => {
+    if (v === undefined || v === '') return null;
+    const n = Number(v);
+    return Number.isFinite(n) ? n : null;
+  };
+  return {
+    ok: true,
+    saved: {
+      file,
+      samples: count(first.fields.samples),
+      messages: count(first.fields.messages),
+      seconds: count(first.fields.seconds),
+    },
+  };
 }
 
 /**

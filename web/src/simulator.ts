@@ -1,5 +1,6 @@
 // Simulator panel (the paper's Fig. 5): a three.js view of the robot built from `ROBOT`
-// (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample).
+// (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample), or, while
+// the trace viewer has a trace open, the recorded robot at its scrubber (showRecorded).
 //
 // Scene units are millimetres in the robot's base frame, Z up (camera.up = +Z): the floor is
 // the z = 0 plane, x/y as in the kinematics (crates/wrc-robot/src/kinematics.rs). Heights the
@@ -37,6 +38,18 @@ export interface StationSpec {
   color?: string;
 }
 
+/** A recorded pose to draw instead of the live robot (the trace viewer at its scrubber). */
+export interface RecordedFrame {
+  /** The robot recorded; the drawing is rebuilt only when this object changes. */
+  robot: RobotInfo;
+  /** Axis positions [deg | mm], in `robot.axes` order. */
+  positions: number[];
+  /** The state the arm is tinted with (null: untinted). */
+  state: RobotState | null;
+  /** What the overlay says: which trace, where in it. */
+  label: string;
+}
+
 export interface SimulatorHandle {
   /** Call when the panel is shown or its size changed. */
   resize(): void;
@@ -51,6 +64,16 @@ export interface SimulatorHandle {
    * stations change, not per frame.
    */
   setStationWafers(discs: readonly WaferDisc[]): void;
+  /**
+   * Draw a recorded robot and pose instead of the live one, until called with null: then the
+   * live robot and its latest datagram again. Live datagrams keep being counted meanwhile.
+   */
+  showRecorded(frame: RecordedFrame | null): void;
+  /**
+   * The joint values the 3D view draws now [deg, deg, deg, mm], read back from the scene
+   * (for tests and the console); null before a robot is known or without WebGL.
+   */
+  drawnPose(): ArmPose | null;
   /** Remove the view and stop everything (not needed by the app; for tests and reuse). */
   dispose(): void;
 }
@@ -239,6 +262,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     clearStations() {},
     setWafer() {},
     setStationWafers() {},
+    showRecorded() {},
+    drawnPose: () => null,
     dispose() {
       root.remove();
     },
@@ -312,6 +337,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   let waferOnHand = true;
   let latest: SimSample | null = null;
   let applied: SimSample | null = null;
+  /** While set, the view draws this instead of the live datagrams. */
+  let recorded: RecordedFrame | null = null;
   let state: RobotState = 'IDLE';
   let dirty = true;
   let disposed = false;
@@ -471,6 +498,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   }
 
   function applyState(s: RobotState): void {
+    state = s;
     const t = TINTS[s];
     for (const m of tinted) m.apply(t);
     jointMat.color.set(JOINT_COLOR[s]);
@@ -529,9 +557,18 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     const r = model?.robot ?? bus.robot();
     line(overlay, 'robot', r ? r.name : '—');
     if (!connected) line(overlay, 'link', 'disconnected', 'sim-warn');
-    const s = applied;
+    const s = recorded === null ? applied : null;
     const rate = stats.rate(now);
-    if (s) {
+    if (recorded !== null) {
+      line(overlay, 'trace', recorded.label, 'sim-warn');
+      const st = recorded.state;
+      line(overlay, 'state', st ?? '—', st ? `sim-state sim-state-${st}` : '');
+      if (model) {
+        const tcp = forwardTcp(model.robot, armPose(model.axes, recorded.positions));
+        line(overlay, 'TCP', `${fmt(tcp.x)} ${fmt(tcp.y)} ${fmt(tcp.z)} mm`);
+        line(overlay, 'yaw', `${fmt(tcp.yaw, 2)}°`);
+      }
+    } else if (s) {
       line(overlay, 'state', s.state, `sim-state sim-state-${s.state}`);
       line(overlay, 'homed', s.homed ? 'yes' : 'no', s.homed ? '' : 'sim-warn');
       line(overlay, 'TCP', `${fmt(s.x)} ${fmt(s.y)} ${fmt(s.z)} mm`);
@@ -559,7 +596,10 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
 
   // Bus.
   const unsubs = [
-    bus.onRobot((r) => setRobot(r)),
+    // A recorded frame keeps its own robot; the live one is drawn again when it ends.
+    bus.onRobot((r) => {
+      if (recorded === null) setRobot(r);
+    }),
     bus.onSample((s) => {
       latest = s;
       stats.push(s, performance.now());
@@ -620,13 +660,10 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     const visible = el.isConnected && root.offsetParent !== null;
     if (!visible) return;
     if (width === 0) resize();
-    if (latest !== applied && latest !== null) {
+    if (recorded === null && latest !== applied && latest !== null) {
       applied = latest;
       if (model) pose(armPose(model.axes, applied.positions));
-      if (applied.state !== state) {
-        state = applied.state;
-        applyState(state);
-      }
+      if (applied.state !== state) applyState(applied.state);
       dirty = true;
     }
     if (controls.update()) dirty = true;
@@ -712,6 +749,35 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     dirty = true;
   }
 
+  function showRecorded(frame: RecordedFrame | null): void {
+    recorded = frame;
+    if (frame !== null) {
+      if (model?.robot !== frame.robot) setRobot(frame.robot);
+      if (model) pose(armPose(model.axes, frame.positions));
+      applyState(frame.state ?? 'IDLE');
+    } else {
+      const live = bus.robot();
+      if (live && model?.robot !== live) setRobot(live);
+      // The next frame applies the latest datagram again.
+      applied = null;
+      if (model) pose(armPose(model.axes, latest?.positions ?? homePositions(model.robot)));
+      applyState(latest?.state ?? 'IDLE');
+    }
+    dirty = true;
+    updateOverlay(performance.now());
+  }
+
+  function drawnPose(): ArmPose | null {
+    if (!model) return null;
+    const deg = THREE.MathUtils.RAD2DEG;
+    return {
+      j1: model.shoulder.rotation.z * deg,
+      j2: model.elbow.rotation.z * deg,
+      j3: model.wrist.rotation.z * deg,
+      z: model.lift.position.z - BASE_H - SHOULDER_Z,
+    };
+  }
+
   resize();
   updateOverlay(performance.now());
 
@@ -733,6 +799,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       dirty = true;
     },
     setStationWafers,
+    showRecorded,
+    drawnPose,
     dispose() {
       if (disposed) return;
       disposed = true;

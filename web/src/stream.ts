@@ -3,6 +3,7 @@
 // successive samples into pulses per period and stream statistics.
 
 import type { RobotState, SimSample } from './bus';
+import { getI64, getU64, setI64, setU64 } from './le64';
 
 /** `WRCS`. */
 const MAGIC = [0x57, 0x52, 0x43, 0x53];
@@ -15,8 +16,6 @@ export const SIM_MAX_AXES = 16;
 
 /** The stream's state byte: index 0 to 5 (`HELD` is 5, after `ESTOP`; names as in `STATUS`). */
 export const SIM_STATES: readonly RobotState[] = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP', 'HELD'];
-
-const TWO_32 = 4294967296;
 
 /**
  * Decode one version 1 datagram. Returns null for anything that is not exactly a valid
@@ -51,9 +50,8 @@ function decodeV1(buf: ArrayBuffer): SimSample | null {
   if (homedByte > 1) return null;
   for (const o of [25, 26, 27, 36, 37, 38, 39]) if (v.getUint8(o) !== 0) return null;
 
-  // hi·2^32 is exact; adding lo rounds once, so the result is the correctly rounded value.
-  const u64 = (o: number): number => v.getUint32(o + 4, true) * TWO_32 + v.getUint32(o, true);
-  const i64 = (o: number): number => v.getInt32(o + 4, true) * TWO_32 + v.getUint32(o, true);
+  const u64 = (o: number): number => getU64(v, o);
+  const i64 = (o: number): number => getI64(v, o);
 
   const positions = new Array<number>(n);
   const pulses = new Array<number>(n);
@@ -89,17 +87,8 @@ export function encodeSample(s: SimSample): ArrayBuffer {
   v.setUint16(4, SIM_STREAM_VERSION, true);
   v.setUint8(6, n);
   v.setUint8(7, Math.max(0, SIM_STATES.indexOf(s.state)));
-  const setU64 = (o: number, x: number): void => {
-    v.setUint32(o, x % TWO_32 >>> 0, true);
-    v.setUint32(o + 4, Math.floor(x / TWO_32) >>> 0, true);
-  };
-  const setI64 = (o: number, x: number): void => {
-    const hi = Math.floor(x / TWO_32);
-    v.setUint32(o, (x - hi * TWO_32) >>> 0, true);
-    v.setInt32(o + 4, hi, true);
-  };
-  setU64(8, s.seq);
-  setU64(16, s.timeNs);
+  setU64(v, 8, s.seq);
+  setU64(v, 16, s.timeNs);
   v.setUint8(24, s.homed ? 1 : 0);
   v.setUint32(28, s.inputs >>> 0, true);
   v.setUint32(32, s.outputs >>> 0, true);
@@ -109,7 +98,7 @@ export function encodeSample(s: SimSample): ArrayBuffer {
   v.setFloat64(64, s.yaw, true);
   for (let i = 0; i < n; i++) {
     v.setFloat64(SIM_HEADER_LEN + 8 * i, s.positions[i] ?? 0, true);
-    setI64(SIM_HEADER_LEN + 8 * n + 8 * i, s.pulses[i] ?? 0);
+    setI64(v, SIM_HEADER_LEN + 8 * n + 8 * i, s.pulses[i] ?? 0);
   }
   return buf;
 }

@@ -6,6 +6,7 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
+use crate::wafer_cycle::KillOnDrop;
 use crate::{text, wait_until, wrc};
 
 fn example(name: &str) -> PathBuf {
@@ -122,6 +123,9 @@ fn listen_serves_a_host_session_faster_than_real_time() {
         .spawn()
         .unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut stderr = child.stderr.take().unwrap();
+    // Killed if the test fails before it ends the process itself.
+    let mut child = KillOnDrop(child);
     let mut line = String::new();
     let addr = loop {
         line.clear();
@@ -156,13 +160,13 @@ fn listen_serves_a_host_session_faster_than_real_time() {
     // SIGTERM ends it cleanly, saying how far virtual time got.
     // SAFETY: kill with the pid of a child we spawned and have not reaped.
     unsafe {
-        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+        libc::kill(child.0.id() as libc::pid_t, libc::SIGTERM);
     }
-    let status = child.wait().unwrap();
+    let status = child.0.wait().unwrap();
     let mut rest = String::new();
     std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
     let mut err = String::new();
-    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    std::io::Read::read_to_string(&mut stderr, &mut err).unwrap();
     assert!(status.success(), "{rest}\n{err}");
     assert!(rest.contains("wrc sim: stopped"), "{rest}");
     assert!(err.contains("s of virtual time in"), "{err}");
@@ -226,6 +230,8 @@ fn wrc_trace_save_asks_a_running_controller() {
         .spawn()
         .unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap());
+    // Killed if the test fails before it ends the process itself.
+    let mut child = KillOnDrop(child);
     let mut line = String::new();
     let addr = loop {
         line.clear();
@@ -256,7 +262,7 @@ fn wrc_trace_save_asks_a_running_controller() {
     );
     // SAFETY: kill with the pid of a child we spawned and have not reaped.
     unsafe {
-        libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+        libc::kill(child.0.id() as libc::pid_t, libc::SIGTERM);
     }
-    assert!(child.wait().unwrap().success());
+    assert!(child.0.wait().unwrap().success());
 }

@@ -133,7 +133,7 @@ fn check_against_truth(host: &mut Client, world: &Path, when: &str) {
 }
 
 /// A process killed when the test ends, passed or failed (the board, every `wrc up`).
-struct KillOnDrop(Child);
+pub(crate) struct KillOnDrop(pub(crate) Child);
 
 impl Drop for KillOnDrop {
     fn drop(&mut self) {

@@ -517,7 +517,8 @@ async function run() {
       if (Math.abs(mid.j1 - -15) > 0.01 || Math.abs(mid.z - 25) > 0.01) {
         throw new Error(`the 3D view draws ${JSON.stringify(mid)} at 1.5 s, not j1 -15 and z 25`);
       }
-      await sleep(300);
+      // The pose is in the scene; two animation frames later it is on the canvas.
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
       await shot(page, '#panel-simulator', 'trace-viewer.png');
 
       // Play runs on from the scrubber in the trace's time and stops at its end (1.5 s later;

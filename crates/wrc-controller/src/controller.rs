@@ -83,6 +83,9 @@ pub enum StartError {
     /// A board could not be opened.
     #[error("motion board: {0}")]
     Board(#[from] wrc_board::OpenError),
+    /// The simulated wafer cell (under virtual time) does not fit the stations or robot.
+    #[error("simulated cell: {0}")]
+    SimCell(String),
     /// A simulated board (under virtual time) could not be made.
     #[error("simulated board: {0}")]
     SimBoard(#[from] wrc_board::sim::SimError),
@@ -390,17 +393,17 @@ pub(crate) fn assemble<H: Host>(
                 path: dir.display().to_string(),
                 reason,
             })?;
-            let mut origin = crate::recorder::Origin::read(
+            let mut meta = crate::recorder::session_meta(
                 config,
                 &options.programs,
                 options.cell.as_ref().map(|c| c.stations.as_path()),
                 options.cell.as_ref().map(|c| c.wafers.as_path()),
             );
-            origin.start_pulses = start[..axis_count].to_vec();
-            origin.clock = Some(clock);
-            origin.world_toml = world_toml;
+            meta.start_pulses = start[..axis_count].to_vec();
+            meta.clock = clock;
+            meta.world_toml = world_toml;
             let (recorder, samples, messages) =
-                crate::recorder::recorder(config, origin, dir.clone(), 3);
+                crate::recorder::recorder(config, meta, dir.clone(), 3);
             (store.with_recorder(recorder), Some((samples, messages)))
         }
         None => (store, None),

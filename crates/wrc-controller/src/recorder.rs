@@ -23,7 +23,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_protocol::{Code, State};
-use wrc_trace::{ClockKind, Direction, Message, Meta, Ring, Sample, TraceError, TraceFile};
+use wrc_trace::{Direction, Message, Meta, Ring, Sample, TraceError, TraceFile};
 
 use crate::messages::SourceId;
 use crate::shared::Shared;
@@ -81,58 +81,45 @@ pub fn trace_source(who: SourceId) -> (u8, u16) {
     }
 }
 
-/// What the controller looked like when it started: the part of a trace's [`Meta`] that
-/// does not change.
-#[derive(Debug, Clone, Default)]
-pub struct Origin {
-    /// The configuration text.
-    pub config_toml: String,
-    /// The stations file's text.
-    pub stations_toml: Option<String>,
-    /// The wafer map file's text.
-    pub wafers_toml: Option<String>,
-    /// The simulated cell's ground truth (virtual time only).
-    pub world_toml: Option<String>,
-    /// The stored programs (name, text).
-    pub programs: Vec<(String, String)>,
-    /// Commanded position of every axis [pulse].
-    pub start_pulses: Vec<i64>,
-    /// Virtual time or `CLOCK_MONOTONIC`.
-    pub clock: Option<ClockKind>,
-}
-
-impl Origin {
-    /// The files of a controller starting with `programs` and the cell `stations`/`wafers`
-    /// (missing files are `None`, unreadable programs skipped).
-    pub fn read(
-        config: &wrc_config::Config,
-        programs: &Path,
-        stations: Option<&Path>,
-        wafers: Option<&Path>,
-    ) -> Origin {
-        let read = |p: Option<&Path>| p.and_then(|p| std::fs::read_to_string(p).ok());
-        let mut stored: Vec<(String, String)> = std::fs::read_dir(programs)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .filter_map(|e| {
-                let path = e.path();
-                let name = path.file_stem()?.to_str()?.to_string();
-                (path.extension()? == "wrl")
-                    .then(|| std::fs::read_to_string(&path).ok().map(|t| (name, t)))?
-            })
-            .collect();
-        stored.sort();
-        Origin {
-            config_toml: config.text.clone(),
-            stations_toml: read(stations),
-            wafers_toml: read(wafers),
-            world_toml: None,
-            programs: stored,
-            start_pulses: Vec::new(),
-            clock: None,
-        }
-    }
+/// The part of every trace's [`Meta`] that does not change during a session, for a
+/// controller of `config` starting with the programs in `programs` and the cell files
+/// `stations` and `wafers` (missing files are `None`, unreadable programs skipped). The
+/// caller adds what only it knows: the clock, the commanded position at the start, the
+/// simulated cell's ground truth.
+pub fn session_meta(
+    config: &wrc_config::Config,
+    programs: &Path,
+    stations: Option<&Path>,
+    wafers: Option<&Path>,
+) -> Meta {
+    let read = |p: Option<&Path>| p.and_then(|p| std::fs::read_to_string(p).ok());
+    let mut stored: Vec<(String, String)> = std::fs::read_dir(programs)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let path = e.path();
+            let name = path.file_stem()?.to_str()?.to_string();
+            (path.extension()? == "wrl")
+                .then(|| std::fs::read_to_string(&path).ok().map(|t| (name, t)))?
+        })
+        .collect();
+    stored.sort();
+    let period_ns = (config.motion.period_s * 1e9).round().max(1.0) as u64;
+    let axis_names: Vec<&str> = config
+        .robot
+        .axes()
+        .iter()
+        .map(|a| a.name.as_str())
+        .collect();
+    let state_names: Vec<&str> = State::ALL.iter().map(|s| s.as_str()).collect();
+    let mut meta = Meta::new("", period_ns, &axis_names, &state_names);
+    meta.wrc_version = env!("CARGO_PKG_VERSION").to_string();
+    meta.config_toml = config.text.clone();
+    meta.stations_toml = read(stations);
+    meta.wafers_toml = read(wafers);
+    meta.programs = stored;
+    meta
 }
 
 /// A trace written to a file.
@@ -162,14 +149,14 @@ pub struct Recorder {
     saves: u32,
 }
 
-/// The recorder and the taps for the tasks: one sample tap, `message_taps` message taps.
+/// The recorder of a session described by `meta` ([`session_meta`]) for `config`, saving
+/// into `dir`, and the taps for the tasks: one sample tap, `message_taps` message taps.
 pub fn recorder(
     config: &wrc_config::Config,
-    origin: Origin,
+    meta: Meta,
     dir: PathBuf,
     message_taps: usize,
 ) -> (Recorder, SampleTap, Vec<MessageTap>) {
-    let period_ns = (config.motion.period_s * 1e9).round().max(1.0) as u64;
     let (stx, srx) = rtrb::RingBuffer::new(SAMPLE_QUEUE);
     let mut taps = Vec::with_capacity(message_taps);
     let mut consumers = Vec::with_capacity(message_taps);
@@ -178,23 +165,7 @@ pub fn recorder(
         taps.push(MessageTap { tx, dropped: 0 });
         consumers.push(rx);
     }
-    let axis_names: Vec<&str> = config
-        .robot
-        .axes()
-        .iter()
-        .map(|a| a.name.as_str())
-        .collect();
-    let state_names: Vec<&str> = State::ALL.iter().map(|s| s.as_str()).collect();
-    let mut meta = Meta::new("", period_ns, &axis_names, &state_names);
-    meta.wrc_version = env!("CARGO_PKG_VERSION").to_string();
-    meta.clock = origin.clock.unwrap_or(ClockKind::Monotonic);
-    meta.config_toml = origin.config_toml;
-    meta.stations_toml = origin.stations_toml;
-    meta.wafers_toml = origin.wafers_toml;
-    meta.world_toml = origin.world_toml;
-    meta.programs = origin.programs;
-    meta.start_pulses = origin.start_pulses;
-    let ring = Ring::for_seconds(config.trace.seconds, period_ns, config.trace.messages);
+    let ring = Ring::for_seconds(config.trace.seconds, meta.period_ns, config.trace.messages);
     let recorder = Recorder {
         ring,
         samples: srx,
@@ -279,13 +250,8 @@ impl Recorder {
     }
 
     fn save(&mut self, name: &str, reason: &str) -> Result<Saved, TraceError> {
-        let mut meta = self.meta.clone();
-        meta.reason = reason.to_string();
-        meta.saved_at_ns = self.last_t_ns;
-        meta.from_start = true;
         let since = self.last_t_ns.saturating_sub((self.seconds * 1e9) as u64);
-        let mut trace = self.ring.snapshot(meta, Some(since));
-        canonical_order(&mut trace);
+        let trace = self.trace(reason, Some(since));
         let path = self.dir.join(format!("{name}.wrctrace"));
         trace.save(&path)?;
         Ok(Saved {
@@ -296,16 +262,22 @@ impl Recorder {
         })
     }
 
-    /// The last seconds as a trace, without writing it (for `wrc sim --trace` and tests).
-    pub fn snapshot(&mut self, reason: &str) -> TraceFile {
-        self.drain_quietly();
+    /// The ring since `since_ns` as a trace saved for `reason`, its messages in
+    /// [`canonical_order`].
+    fn trace(&self, reason: &str, since_ns: Option<u64>) -> TraceFile {
         let mut meta = self.meta.clone();
         meta.reason = reason.to_string();
         meta.saved_at_ns = self.last_t_ns;
         meta.from_start = true;
-        let mut trace = self.ring.snapshot(meta, None);
+        let mut trace = self.ring.snapshot(meta, since_ns);
         canonical_order(&mut trace);
         trace
+    }
+
+    /// The last seconds as a trace, without writing it (for `wrc sim --trace` and tests).
+    pub fn snapshot(&mut self, reason: &str) -> TraceFile {
+        self.drain_quietly();
+        self.trace(reason, None)
     }
 
     fn drain_quietly(&mut self) {

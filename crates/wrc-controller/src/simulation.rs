@@ -25,20 +25,22 @@ use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::net::SocketAddr;
 use std::os::unix::net::UnixStream;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
 use std::time::Instant;
 
 use wrc_board::driver::Mapping;
 use wrc_board::sim::cell::SimCell;
 use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board::wrc_cell::{Stations, World};
 use wrc_board::{DpramBoard, Expect, MultiBoard};
 use wrc_config::Config;
 use wrc_rt::virtual_time::{Pace, VirtualRuntime};
-use wrc_rt::{CycleContext, Notify, TaskSpec};
+use wrc_rt::{CycleContext, Notify, RealtimeMode, TaskSpec};
 
-use crate::controller::{assemble, query_cells, Options, StartError};
+use crate::controller::{assemble, query_cells, CellFiles, Options, StartError};
 use crate::host::VirtualHost;
 use crate::shared::Shared;
 
@@ -51,6 +53,15 @@ const BOARD_PRIORITY: u8 = 1;
 const SERVICE_PRIORITY: u8 = 90;
 /// The service thread's longest wait between two looks at its queues [µs].
 const SERVICE_PERIOD_US: u64 = 50_000;
+
+/// Where [`Simulation::in_state_dir`] takes the simulated cell from.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SimCellFrom<'a> {
+    /// The stations file (default: `dir/stations.toml`).
+    pub stations: Option<&'a Path>,
+    /// The ground truth, as a world file's text (default: the stations' sim wafers).
+    pub world: Option<&'a str>,
+}
 
 /// The controller and its simulated boards on virtual time.
 pub struct Simulation {
@@ -226,6 +237,66 @@ impl Simulation {
             tcp: parts.tcp,
             socket: options.socket.clone(),
         })
+    }
+
+    /// The controller of `config` with its state in `dir` (programs, wafer map, traces,
+    /// the local socket `dir/wrc.sock`): stations from `cell.stations` (default
+    /// `dir/stations.toml`, written from the built-in demo cell when missing), the simulated
+    /// cell on board 0 (when it drives every robot axis) from `cell.world` (a world file's
+    /// text; default: the stations' `[station.sim]` wafers), the host protocol on `tcp`.
+    pub fn in_state_dir(
+        config: &Config,
+        dir: &Path,
+        cell: SimCellFrom<'_>,
+        tcp: Option<SocketAddr>,
+        sim_addr: SocketAddr,
+    ) -> Result<Simulation, StartError> {
+        let stations_path = cell
+            .stations
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| dir.join("stations.toml"));
+        if !stations_path.exists() {
+            Stations::embedded_demo()
+                .save_atomic(&stations_path)
+                .map_err(crate::cell_service::CellError::from)?;
+        }
+        let sim_cell = match config.boards.first() {
+            Some(board)
+                if (0..config.robot.axis_count()).all(|axis| board.axes.contains(&axis)) =>
+            {
+                let stations =
+                    Stations::load(&stations_path).map_err(crate::cell_service::CellError::from)?;
+                let bad = |e: &dyn std::fmt::Display| {
+                    StartError::SimCell(format!("stations {}: {e}", stations_path.display()))
+                };
+                let sim_cell = SimCell::new(config, board, stations).map_err(|e| bad(&e))?;
+                Some(match cell.world {
+                    Some(text) => {
+                        let world = World::from_text(text, sim_cell.stations())
+                            .map_err(|e| bad(&format!("the cell's ground truth: {e}")))?;
+                        sim_cell.with_world(world)
+                    }
+                    None => sim_cell,
+                })
+            }
+            _ => None,
+        };
+        let options = Options {
+            tcp,
+            socket: Some(dir.join("wrc.sock")),
+            sim_addr,
+            serial: None,
+            realtime: RealtimeMode::Off,
+            boards: Vec::new(),
+            board_wait: Duration::ZERO,
+            programs: dir.join("programs"),
+            traces: Some(dir.join("traces")),
+            cell: Some(CellFiles {
+                stations: stations_path,
+                wafers: dir.join("wafers.toml"),
+            }),
+        };
+        Simulation::start(config, &options, sim_cell)
     }
 
     /// Run as fast as the CPU allows, or no faster than a multiple of real time.

@@ -20,13 +20,9 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use wrc_board::sim::cell::SimCell;
-use wrc_board::wrc_cell::{Stations, World};
 use wrc_config::Config;
-use wrc_controller::controller::{CellFiles, Options};
-use wrc_controller::simulation::{ClientError, Simulation};
+use wrc_controller::simulation::{ClientError, SimCellFrom, Simulation};
 use wrc_rt::virtual_time::Pace;
-use wrc_rt::RealtimeMode;
 
 use crate::run::{self as run_program, Heard, Phase};
 
@@ -132,42 +128,12 @@ pub(crate) fn build(
     tcp: Option<SocketAddr>,
     sim_addr: SocketAddr,
 ) -> anyhow::Result<Simulation> {
-    let stations_path = stations.unwrap_or_else(|| dir.join("stations.toml"));
-    if !stations_path.exists() {
-        Stations::embedded_demo().save_atomic(&stations_path)?;
-    }
-    let cell = match config.boards.first() {
-        Some(board) if (0..config.robot.axis_count()).all(|axis| board.axes.contains(&axis)) => {
-            let stations = Stations::load(&stations_path)?;
-            let cell = SimCell::new(config, board, stations)
-                .with_context(|| format!("stations {}", stations_path.display()))?;
-            Some(match world {
-                Some(text) => {
-                    let world = World::from_text(text, cell.stations())
-                        .context("the simulated cell's ground truth")?;
-                    cell.with_world(world)
-                }
-                None => cell,
-            })
-        }
-        _ => None,
+    let cell = SimCellFrom {
+        stations: stations.as_deref(),
+        world,
     };
-    let options = Options {
-        tcp,
-        socket: Some(dir.join("wrc.sock")),
-        sim_addr,
-        serial: None,
-        realtime: RealtimeMode::Off,
-        boards: Vec::new(),
-        board_wait: std::time::Duration::ZERO,
-        programs: dir.join("programs"),
-        traces: Some(dir.join("traces")),
-        cell: Some(CellFiles {
-            stations: stations_path,
-            wafers: dir.join("wafers.toml"),
-        }),
-    };
-    Simulation::start(config, &options, cell).context("the simulated controller could not start")
+    Simulation::in_state_dir(config, dir, cell, tcp, sim_addr)
+        .context("the simulated controller could not start")
 }
 
 /// Run `wrc sim`.

@@ -268,7 +268,7 @@ fn a_pulse_generator_cycle_recording_its_trace_sample_allocates_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (mut recorder, tap, _) = wrc_controller::recorder::recorder(
         &config,
-        wrc_controller::recorder::Origin::default(),
+        wrc_controller::recorder::session_meta(&config, dir.path(), None, None),
         dir.path().to_path_buf(),
         0,
     );

@@ -7,12 +7,9 @@
 
 use std::path::{Path, PathBuf};
 
-use wrc_board::sim::cell::SimCell;
-use wrc_board::wrc_cell::{SlotCode, Stations};
+use wrc_board::wrc_cell::SlotCode;
 use wrc_config::Config;
-use wrc_controller::controller::{CellFiles, Options};
-use wrc_controller::simulation::{SimClient, Simulation, START_NS};
-use wrc_rt::RealtimeMode;
+use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation, START_NS};
 
 /// Virtual time any single reply may take [ns].
 const REPLY_NS: u64 = 5_000_000_000;
@@ -24,34 +21,10 @@ fn repo() -> PathBuf {
 /// The controller of the embedded default configuration with the demo cell, its state in
 /// `dir`.
 fn demo(dir: &Path) -> Simulation {
+    // Nobody listens on the simulator port; datagrams to a closed port are dropped.
+    let sim_addr = "127.0.0.1:9".parse().unwrap();
     let config = Config::embedded_default();
-    let stations_path = dir.join("stations.toml");
-    Stations::embedded_demo()
-        .save_atomic(&stations_path)
-        .unwrap();
-    let cell = SimCell::new(
-        &config,
-        &config.boards[0],
-        Stations::load(&stations_path).unwrap(),
-    )
-    .unwrap();
-    let options = Options {
-        tcp: None,
-        socket: Some(dir.join("wrc.sock")),
-        // Nobody listens; datagrams to a closed port are dropped.
-        sim_addr: "127.0.0.1:9".parse().unwrap(),
-        serial: None,
-        realtime: RealtimeMode::Off,
-        boards: Vec::new(),
-        board_wait: std::time::Duration::ZERO,
-        programs: dir.join("programs"),
-        traces: Some(dir.join("traces")),
-        cell: Some(CellFiles {
-            stations: stations_path,
-            wafers: dir.join("wafers.toml"),
-        }),
-    };
-    Simulation::start(&config, &options, Some(cell)).unwrap()
+    Simulation::in_state_dir(&config, dir, SimCellFrom::default(), None, sim_addr).unwrap()
 }
 
 /// Upload `text` as program `name`, run it, and return every line heard until it ended
@@ -211,13 +184,27 @@ fn two_runs_with_the_same_inputs_are_identical_pulse_for_pulse_and_byte_for_byte
     assert_eq!(pulses_a, pulses_b);
 }
 
+/// Run until `client` hears a line that starts with `prefix`.
+fn until_line(sim: &mut Simulation, client: &mut SimClient, prefix: &str) {
+    let mut heard = Vec::new();
+    loop {
+        let l = sim
+            .next_line(client, REPLY_NS)
+            .unwrap_or_else(|e| panic!("{e}: {heard:?}"));
+        if l.starts_with(prefix) {
+            return;
+        }
+        heard.push(l);
+    }
+}
+
 #[test]
 fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
     let dir = tempfile::tempdir().unwrap();
     let mut sim = demo(dir.path());
     let mut host = sim.connect().unwrap();
     assert_eq!(sim.ask(&mut host, "1 HOME", REPLY_NS).unwrap(), "ACK 1");
-    sim.run_for_ns(2_000_000_000);
+    until_line(&mut sim, &mut host, "INF 1");
     let reply = sim.ask(&mut host, "2 TRACE SAVE first", REPLY_NS).unwrap();
     let path = dir.path().join("traces/first.wrctrace");
     assert!(
@@ -225,11 +212,12 @@ fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
         "{reply}"
     );
     let trace = wrc_trace::TraceFile::load(&path).unwrap();
-    // 2.1 s since power-on, one sample per 10 ms period, and the requests with their
-    // replies.
+    // One sample per 10 ms period since power-on (the save came within a service period of
+    // the request), and the requests with their replies.
+    let periods = ((sim.now_ns() - START_NS) / 10_000_000) as usize;
     assert!(
-        (200..=215).contains(&trace.samples.len()),
-        "{}",
+        (periods.saturating_sub(6)..=periods).contains(&trace.samples.len()),
+        "{} samples in {periods} periods",
         trace.samples.len()
     );
     assert!(trace.meta.from_start);
@@ -253,15 +241,29 @@ fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
     );
 
     // An E-stop during a move: the recorder saves the seconds before it by itself.
-    sim.send(&mut host, "5 MOVJ 30 60 -90 100\n").unwrap();
-    sim.run_for_ns(300_000_000);
+    let traces = dir.path().join("traces");
+    let estop_traces = || -> Vec<String> {
+        std::fs::read_dir(&traces)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.starts_with("estop-"))
+            .collect()
+    };
+    let ack = sim
+        .ask(&mut host, "5 MOVJ 30 60 -90 100", REPLY_NS)
+        .unwrap();
+    assert_eq!(ack, "ACK 5");
+    until_line(&mut sim, &mut host, "EVT STATE MOVING");
+    // A few periods into the move.
+    sim.run_for_ns(100_000_000);
     assert_eq!(sim.ask(&mut host, "6 ESTOP", REPLY_NS).unwrap(), "ACK 6");
-    sim.run_for_ns(500_000_000);
-    let saved: Vec<_> = std::fs::read_dir(dir.path().join("traces"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| n.starts_with("estop-"))
-        .collect();
+    until_line(&mut sim, &mut host, "EVT STATE ESTOP");
+    // The service thread drains the recorder within its period (50 ms, virtual).
+    let until = sim.now_ns() + REPLY_NS;
+    while estop_traces().is_empty() && sim.now_ns() < until {
+        sim.step();
+    }
+    let saved = estop_traces();
     assert_eq!(saved.len(), 1, "{saved:?}");
     let trace = wrc_trace::TraceFile::load(&dir.path().join("traces").join(&saved[0])).unwrap();
     assert!(

@@ -105,9 +105,16 @@ fn a_program_that_would_run_forever_ends_at_its_virtual_timeout() {
     );
 }
 
-#[test]
-fn listen_serves_a_host_session_faster_than_real_time() {
-    let dir = tempfile::tempdir().unwrap();
+/// A `wrc sim --listen` at 20× real time on a free port, state in `dir`: the process
+/// (killed if the test fails first), its output and the address it serves.
+struct Listening {
+    child: KillOnDrop,
+    out: BufReader<std::process::ChildStdout>,
+    stderr: std::process::ChildStderr,
+    addr: String,
+}
+
+fn listen(dir: &Path) -> Listening {
     let mut child = Command::new(env!("CARGO_BIN_EXE_wrc"))
         .args([
             "sim",
@@ -117,15 +124,14 @@ fn listen_serves_a_host_session_faster_than_real_time() {
             "20",
             "--state-dir",
         ])
-        .arg(dir.path())
+        .arg(dir)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap());
-    let mut stderr = child.stderr.take().unwrap();
-    // Killed if the test fails before it ends the process itself.
-    let mut child = KillOnDrop(child);
+    let stderr = child.stderr.take().unwrap();
+    let child = KillOnDrop(child);
     let mut line = String::new();
     let addr = loop {
         line.clear();
@@ -134,6 +140,24 @@ fn listen_serves_a_host_session_faster_than_real_time() {
             break a.to_string();
         }
     };
+    Listening {
+        child,
+        out,
+        stderr,
+        addr,
+    }
+}
+
+#[test]
+fn listen_serves_a_host_session_faster_than_real_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let Listening {
+        mut child,
+        mut out,
+        mut stderr,
+        addr,
+    } = listen(dir.path());
+    let mut line = String::new();
     let stream = wait_until("wrc sim's port", || {
         std::net::TcpStream::connect(&addr).map_err(|e| e.to_string())
     });
@@ -215,31 +239,13 @@ fn a_session_trace_replays_identically_and_a_changed_one_is_caught_at_its_period
 #[test]
 fn wrc_trace_save_asks_a_running_controller() {
     let dir = tempfile::tempdir().unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args([
-            "sim",
-            "--listen",
-            "127.0.0.1:0",
-            "--rate",
-            "20",
-            "--state-dir",
-        ])
-        .arg(dir.path())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut out = BufReader::new(child.stdout.take().unwrap());
-    // Killed if the test fails before it ends the process itself.
-    let mut child = KillOnDrop(child);
-    let mut line = String::new();
-    let addr = loop {
-        line.clear();
-        assert!(out.read_line(&mut line).unwrap() > 0, "wrc sim ended early");
-        if let Some(a) = line.trim().strip_prefix("wrc sim: host protocol on tcp ") {
-            break a.to_string();
-        }
-    };
+    // Its output stays open (bound, unread) until it has stopped.
+    let Listening {
+        mut child,
+        addr,
+        out: _out,
+        stderr: _stderr,
+    } = listen(dir.path());
     let saved = wait_until("a trace saved through wrc trace save", || {
         let o = wrc(&["trace", "save", "mine", "--addr", &addr]);
         if o.status.success() {

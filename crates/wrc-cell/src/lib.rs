@@ -72,8 +72,8 @@ pub use station::{
 pub use stations::{stn_line, Stations, StationsError, DEMO_NAME, DEMO_TOML};
 pub use transfer::{plan, plan_get, plan_put, Step, TransferKind};
 pub use wafer_map::{
-    Location, MappingChanges, Reconciled, SlotFault, SlotState, Transfer, WaferId, WaferMap,
-    WaferMapError, FORMAT_VERSION,
+    parse_slot_list, Location, MappingChanges, Reconciled, SlotFault, SlotState, Transfer, WaferId,
+    WaferMap, WaferMapError, FORMAT_VERSION,
 };
 pub use world::{
     Mismatch, SlotContent, Tracking, World, WorldError, WorldEvent, SEAT_TOLERANCE_DEG,

@@ -1183,6 +1183,41 @@ fn compact_slots(slots: &[SlotState]) -> String {
     parts.join(",")
 }
 
+/// The slots of one station's list in a `WAFERS` reply (`W1,-x2,W3..W25,?,D,X`): the
+/// inverse of the reply's compaction, for host software and tests that read the map back.
+/// `None` for text that is not such a list (an unknown token, a falling or empty run, a
+/// repeat of 0).
+pub fn parse_slot_list(text: &str) -> Option<Vec<SlotState>> {
+    let mut slots = Vec::new();
+    for part in text.split(',') {
+        if let Some((a, b)) = part.split_once("..") {
+            let (a, b) = (WaferId::parse(a)?, WaferId::parse(b)?);
+            if b.0 < a.0 {
+                return None;
+            }
+            slots.extend((a.0..=b.0).map(|n| SlotState::Wafer(WaferId(n))));
+            continue;
+        }
+        // `tokxn`: a repeat (wafer ids never repeat, so `W…x` is not one).
+        let (token, times) = match part.rsplit_once('x') {
+            Some((t, n)) if !t.starts_with(['W', 'w']) => (t, n.parse::<usize>().ok()?),
+            _ => (part, 1),
+        };
+        if times == 0 {
+            return None;
+        }
+        let state = match token {
+            "?" => SlotState::Unknown,
+            "-" => SlotState::Empty,
+            "D" => SlotState::Fault(SlotFault::Double),
+            "X" => SlotState::Fault(SlotFault::Cross),
+            w => SlotState::Wafer(WaferId::parse(w)?),
+        };
+        slots.extend(std::iter::repeat_n(state, times));
+    }
+    Some(slots)
+}
+
 fn file_token(state: SlotState) -> String {
     match state {
         SlotState::Unknown => "?".into(),

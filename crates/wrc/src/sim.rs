@@ -9,8 +9,10 @@
 //!   slower) than real time.
 //!
 //! The state (programs, stations, wafer map) lives in `--state-dir`, by default a new
-//! temporary directory removed at the end. The simulated cell starts from the stations'
-//! `[station.sim]` wafers.
+//! temporary directory removed at the end. The simulated cell (its ground truth) starts from
+//! `STATE_DIR/world.toml` when that exists, else from the stations' `[station.sim]` wafers,
+//! and is saved there at the end: runs in one state directory go on from where the last one
+//! left the wafers, in the map and in the cell alike (as `wrc up` keeps them).
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -45,8 +47,8 @@ pub struct SimArgs {
     /// demo cell when missing].
     #[arg(long, value_name = "FILE")]
     stations: Option<PathBuf>,
-    /// Programs, stations and the wafer map live here [default: a new temporary directory,
-    /// removed at the end].
+    /// Programs, stations, the wafer map and the simulated cell (world.toml) live here
+    /// [default: a new temporary directory, removed at the end].
     #[arg(long, value_name = "DIR")]
     state_dir: Option<PathBuf>,
     /// Store the program under this name instead of the file's name.
@@ -106,14 +108,40 @@ pub(crate) fn state_dir(given: Option<&Path>) -> anyhow::Result<StateDir> {
 /// Build the simulation: the controller on virtual time with its boards, and the simulated
 /// cell on board 0 when it drives every robot axis.
 fn simulation(args: &SimArgs, config: &Config, dir: &Path) -> anyhow::Result<Simulation> {
+    let world_path = dir.join(WORLD_FILE);
+    let world = match std::fs::read_to_string(&world_path) {
+        Ok(text) => Some(text),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", world_path.display())),
+    };
     build(
         config,
         dir,
         args.stations.clone(),
-        None,
+        world.as_deref(),
         args.listen,
         args.sim_addr,
     )
+}
+
+/// The simulated cell's ground truth in a state directory (the name `wrc up` uses).
+const WORLD_FILE: &str = "world.toml";
+
+/// Keep the simulated cell's ground truth in `dir` for the next run (atomically), unless
+/// `dir` is a temporary one about to be removed.
+fn save_world(sim: &Simulation, dir: &StateDir) -> anyhow::Result<()> {
+    if dir.temporary {
+        return Ok(());
+    }
+    let Some(text) = sim
+        .board(0)
+        .and_then(|b| b.cell().map(|c| c.world().to_text()))
+    else {
+        return Ok(());
+    };
+    let path = dir.path.join(WORLD_FILE);
+    wrc_board::wrc_cell::write_atomic(&path, text.as_bytes())
+        .with_context(|| format!("cannot save the simulated cell in {}", path.display()))
 }
 
 /// The controller of `config` on virtual time, its state in `dir`: stations from
@@ -257,6 +285,7 @@ fn run_file(args: &SimArgs, config: &Config, program: &Path) -> anyhow::Result<E
     };
     records.finish(&sim)?;
     save_trace(args, &sim)?;
+    save_world(&sim, &dir)?;
     report(&sim);
     Ok(code)
 }
@@ -314,6 +343,7 @@ fn listen(args: &SimArgs, config: &Config) -> anyhow::Result<ExitCode> {
     }
     records.finish(&sim)?;
     save_trace(args, &sim)?;
+    save_world(&sim, &dir)?;
     println!("wrc sim: stopped");
     report(&sim);
     Ok(ExitCode::SUCCESS)

@@ -535,6 +535,25 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
         s(&[w(u32::MAX - 1), w(u32::MAX), w(0)]),
         "W4294967294,W4294967295,W0"
     );
+    // Read back: every list above is the slots it was made of.
+    for slots in [
+        vec![w(1), w(2), w(3), w(5), w(6), w(7), w(8)],
+        vec![w(3), w(2), w(1), SlotState::Empty],
+        vec![
+            SlotState::Empty,
+            SlotState::Empty,
+            SlotState::Unknown,
+            SlotState::Fault(SlotFault::Double),
+            SlotState::Fault(SlotFault::Double),
+            SlotState::Fault(SlotFault::Cross),
+        ],
+        vec![w(u32::MAX - 1), w(u32::MAX), w(0)],
+    ] {
+        assert_eq!(parse_slot_list(&s(&slots)), Some(slots));
+    }
+    for bad in ["", "W3..W1", "-x0", "Q", "Wx2", "W1..", "-x", "W1,,W2"] {
+        assert_eq!(parse_slot_list(bad), None, "{bad:?}");
+    }
 
     // Worst case for the demo cell: every place full, no run compresses, 5-digit ids, plus
     // the longest pending transfer: within the documented 461 bytes.
@@ -731,5 +750,26 @@ proptest! {
     #[test]
     fn any_text_parses_or_errs(text in "\\PC{0,200}") {
         let _ = WaferMap::from_text(&text, "m");
+    }
+}
+
+fn slot_state() -> impl Strategy<Value = SlotState> {
+    prop_oneof![
+        Just(SlotState::Unknown),
+        Just(SlotState::Empty),
+        Just(SlotState::Fault(SlotFault::Double)),
+        Just(SlotState::Fault(SlotFault::Cross)),
+        // Few ids, so that rising runs of 3 and more come often.
+        (1u32..6).prop_map(|n| SlotState::Wafer(WaferId(n))),
+    ]
+}
+
+proptest! {
+    #![proptest_config(seeded(512))]
+
+    /// A station's `WAFERS` list reads back as the slots it was written from.
+    #[test]
+    fn a_slot_list_reads_back_as_its_slots(slots in proptest::collection::vec(slot_state(), 1..30)) {
+        prop_assert_eq!(parse_slot_list(&compact_slots(&slots)), Some(slots));
     }
 }

@@ -6,5 +6,7 @@ mod estop_input;
 mod ethernet;
 mod motion;
 mod pipeline;
+mod sessions;
 mod stop_end;
+mod vhost;
 mod virtual_time;

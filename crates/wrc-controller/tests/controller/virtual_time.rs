@@ -5,27 +5,14 @@
 //! These run the embedded default configuration unchanged (Table 1's periods, the demo
 //! cell's speeds): virtual time makes the 6-minute cycle cost seconds.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use wrc_board::wrc_cell::SlotCode;
-use wrc_config::Config;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation, START_NS};
+
+use crate::vhost::{demo, map_codes, repo, truth_codes};
 
 /// Virtual time any single reply may take [ns].
 const REPLY_NS: u64 = 5_000_000_000;
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// The controller of the embedded default configuration with the demo cell, its state in
-/// `dir`.
-fn demo(dir: &Path) -> Simulation {
-    // Nobody listens on the simulator port; datagrams to a closed port are dropped.
-    let sim_addr = "127.0.0.1:9".parse().unwrap();
-    let config = Config::embedded_default();
-    Simulation::in_state_dir(&config, dir, SimCellFrom::default(), None, sim_addr).unwrap()
-}
 
 /// Upload `text` as program `name`, run it, and return every line heard until it ended
 /// (its `INF` or `ABS` last), each with the virtual time it came at [ns].
@@ -62,53 +49,10 @@ fn run_program(
     }
 }
 
-/// The map's occupancy of `station` in a `WAFERS` reply: `1` a wafer, `0` empty.
-fn map_codes(wafers: &str, station: &str) -> String {
-    let list = wafers
-        .split_whitespace()
-        .find_map(|w| w.strip_prefix(&format!("{station}=")))
-        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
-    let mut codes = String::new();
-    for tok in list.split(',') {
-        let (tok, times) = match tok.rsplit_once('x') {
-            Some((t, n)) if !t.is_empty() && n.parse::<usize>().is_ok() => (t, n.parse().unwrap()),
-            _ => (tok, 1),
-        };
-        let (c, n) = match tok.split_once("..") {
-            Some((a, b)) => {
-                let a: usize = a.trim_start_matches('W').parse().unwrap();
-                let b: usize = b.trim_start_matches('W').parse().unwrap();
-                ('1', b - a + 1)
-            }
-            None if tok == "-" => ('0', 1),
-            None => ('1', 1),
-        };
-        codes.extend(std::iter::repeat_n(c, n * times));
-    }
-    codes
-}
-
-/// The simulated cell's occupancy of `station`: `1` a wafer, `0` empty.
-fn truth_codes(sim: &Simulation, station: &str) -> String {
-    let board = sim.board(0).unwrap();
-    let world = board.cell().unwrap().world();
-    world
-        .map_station(station)
-        .unwrap()
-        .iter()
-        .map(|c| match c {
-            SlotCode::Absent => '0',
-            SlotCode::Present => '1',
-            SlotCode::Double => '2',
-            SlotCode::Cross => 'X',
-        })
-        .collect()
-}
-
 #[test]
 fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
     let dir = tempfile::tempdir().unwrap();
-    let mut sim = demo(dir.path());
+    let mut sim = demo(dir.path(), SimCellFrom::default());
     let mut host = sim.connect().unwrap();
     let program = std::fs::read_to_string(repo().join("examples/wafer_cycle.wrl")).unwrap();
     let heard: Vec<String> = run_program(&mut sim, &mut host, "wafer_cycle", &program)
@@ -152,7 +96,7 @@ fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
 /// One run of a short session: a program with motion, I/O and a wafer transfer, then a
 /// status request; everything heard, with its virtual time, and the pulse stream.
 fn session(dir: &Path) -> (Vec<String>, Vec<(u64, Vec<i64>)>) {
-    let mut sim = demo(dir);
+    let mut sim = demo(dir, SimCellFrom::default());
     sim.record_pulses(true);
     let mut host = sim.connect().unwrap();
     let program = "SPEED 80\nHOME\nMAP \"LP1\"\nMAP \"LP2\"\nGET \"LP1\", 3\nPUT \"LP2\", 3\n\
@@ -201,7 +145,7 @@ fn until_line(sim: &mut Simulation, client: &mut SimClient, prefix: &str) {
 #[test]
 fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
     let dir = tempfile::tempdir().unwrap();
-    let mut sim = demo(dir.path());
+    let mut sim = demo(dir.path(), SimCellFrom::default());
     let mut host = sim.connect().unwrap();
     assert_eq!(sim.ask(&mut host, "1 HOME", REPLY_NS).unwrap(), "ACK 1");
     until_line(&mut sim, &mut host, "INF 1");

@@ -1,6 +1,7 @@
-//! HOLD and RESUME through the host protocol of a real `wrc up`: a held motion brakes on its
-//! path and stays open (no INF/ABS), the state is HELD, RESUME continues it on the same path
-//! to the same target; a PTP, a straight line and a GET; STOP abandons a held motion.
+//! HOLD and RESUME through the host protocol of a real `wrc up`: a held PTP brakes on its
+//! joint line and stays open (no INF/ABS), the state is HELD, RESUME continues it to the
+//! same target. A held straight line, STOP of a held motion and a held GET run on virtual
+//! time in `wrc-controller`'s `sessions` tests.
 //!
 //! The hold is sent once the arm is seen moving (polled with STATUS and WHERE, bounded by a
 //! deadline that only a failure reaches), never after a sleep.
@@ -63,55 +64,4 @@ fn a_held_ptp_stays_on_its_joint_line_and_resumes_to_its_target() {
         assert!((e - t).abs() < 0.002, "{end:?}");
     }
     assert!(host.status().starts_with("ACK state=IDLE"));
-}
-
-#[test]
-fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
-    let c = Controller::start(&[]);
-    let mut host = c.client();
-    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
-    assert_eq!(host.motion(2, "HOME"), "INF 2");
-    assert_eq!(host.motion(3, "MOVP 300 -150 20 0"), "INF 3");
-    assert!(host.ask("SPEED 20").starts_with("ACK"));
-    let (a, b) = ((300.0, -150.0), (300.0, 150.0));
-    assert_eq!(host.ask("4 MOVL 300 150 20 0"), "ACK 4");
-    host.wait_moving("y past -100 mm", |_, _, y| y > -100.0);
-    hold(&mut host, 4);
-    let (_, x, y) = host.where_();
-    assert!(
-        (x - a.0).abs() < 0.01 && y > a.1 && y < b.1,
-        "held at {x} {y}"
-    );
-    assert_eq!(host.ask("RESUME"), "ACK");
-    assert_eq!(host.reply(), "INF 4");
-    let (_, x, y) = host.where_();
-    assert!((x - b.0).abs() < 0.01 && (y - b.1).abs() < 0.01, "{x} {y}");
-
-    // STOP while held ends the held motion.
-    assert_eq!(host.ask("5 MOVL 300 -150 20 0"), "ACK 5");
-    host.wait_moving("y back below 100 mm", |_, _, y| y < 100.0);
-    hold(&mut host, 5);
-    assert_eq!(host.ask("STOP"), "ACK");
-    assert!(host.reply().starts_with("ABS 5 200"));
-    until_state(&mut host, "IDLE", 5);
-    assert_eq!(host.ask("RESUME"), "NAK 129 no motion is held");
-}
-
-#[test]
-fn a_held_get_waits_and_resumes_to_take_its_wafer() {
-    let c = Controller::start(&[]);
-    let mut host = c.client();
-    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
-    assert_eq!(host.motion(2, "HOME"), "INF 2");
-    assert!(host.motion(3, "MAP LP1").starts_with("INF 3 LP1 1"));
-    let (start, _, _) = host.where_();
-    assert!(host.ask("SPEED 30").starts_with("ACK"));
-    assert_eq!(host.ask("4 GET LP1 2"), "ACK 4");
-    host.wait_moving("an axis 5 deg on its way", |j, _, _| {
-        j.iter().zip(&start).any(|(a, b)| (a - b).abs() > 5.0)
-    });
-    hold(&mut host, 4);
-    assert_eq!(host.ask("RESUME"), "ACK");
-    assert_eq!(host.reply(), "INF 4 W2");
-    assert!(host.ask("WAFERS").contains("hand=W2"));
 }

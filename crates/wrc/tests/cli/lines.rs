@@ -1,11 +1,10 @@
-//! Straight lines and the stations behind the robot, through the host protocol of a real
-//! `wrc up`: a line past a joint's range is refused before anything moves (NAK, or a
-//! program's runtime error) with the axis, where along the line and the pose; a refused
-//! GET leaves the robot where it was; and GET/PUT reach the buffer BF1, which only the left
-//! elbow reaches on a straight line (the robot starts with the right one).
+//! Straight lines through the host protocol of a real `wrc up`: a line past a joint's range
+//! is refused before anything moves (NAK, or a program's runtime error) with the axis, where
+//! along the line and the pose. GET/PUT at the buffer behind the robot (BF1, reached on a
+//! straight line only with the left elbow) run on virtual time in `wrc-controller`'s
+//! `sessions` tests.
 
 use crate::up::{Client, Controller};
-use crate::wafers::truth_codes;
 
 /// The joints from `WHERE` [deg, deg, deg, mm].
 fn joints(host: &mut Client) -> Vec<f64> {
@@ -58,41 +57,4 @@ fn a_line_past_the_shoulders_range_is_refused_before_anything_moves() {
     assert!(end.contains("axis j1 would go beyond its limits"), "{end}");
     assert!(!host.seen.iter().any(|l| l.contains("never")));
     assert_same_place(&before, &joints(&mut host));
-}
-
-#[test]
-fn get_and_put_reach_the_buffer_behind_the_robot_with_the_elbow_that_keeps_the_line_in_range() {
-    let c = Controller::start(&[]);
-    let world = c.dir_path().join("world.toml");
-    let mut host = c.client();
-    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
-    assert_eq!(host.motion(2, "HOME"), "INF 2");
-    assert!(joints(&mut host)[1] > 0.0, "HOME has the right elbow");
-    // From the right elbow, the mapping at BF1 goes to the left one: with the right, the
-    // shoulder would pass -180 deg on the straight line in.
-    assert_eq!(host.motion(3, "MAP BF1"), "INF 3 BF1 00000");
-    assert!(joints(&mut host)[1] < 0.0, "BF1 with the left elbow");
-    assert!(host.motion(4, "MAP LP1").starts_with("INF 4 LP1 1"));
-
-    // A GET refused (the slot is not mapped) moves nothing.
-    let before = joints(&mut host);
-    let r = host.ask("5 GET LP2 1");
-    assert!(r.starts_with("NAK 5 136 "), "{r}");
-    assert_same_place(&before, &joints(&mut host));
-
-    // LP1 slot 1 → BF1 slot 2, the approach at BF1 with the left elbow (J2 < 0).
-    assert_eq!(host.motion(6, "GET LP1 1"), "INF 6 W1");
-    assert_eq!(host.motion(7, "PUT BF1 2"), "INF 7 W1");
-    let at_bf1 = joints(&mut host);
-    assert!(at_bf1[1] < 0.0, "BF1 with the left elbow: {at_bf1:?}");
-    assert!(at_bf1[0] > -180.0 && at_bf1[0] < 180.0);
-    assert_eq!(truth_codes(&world, "BF1"), "01000");
-    let map = host.ask("8 WAFERS");
-    assert!(map.contains(" BF1=-,W1,-x3"), "{map}");
-
-    // And back: BF1 slot 2 → LP1 slot 1.
-    assert_eq!(host.motion(9, "GET BF1 2"), "INF 9 W1");
-    assert_eq!(host.motion(10, "PUT LP1 1"), "INF 10 W1");
-    assert_eq!(truth_codes(&world, "BF1"), "00000");
-    assert_eq!(truth_codes(&world, "LP1"), "1".repeat(25));
 }

@@ -1,9 +1,12 @@
 //! Robot-language programs on a running controller: upload, diagnostics, run, print, pause,
-//! runtime errors with their source line, STOP, the examples, and programs kept on disk.
+//! runtime errors with their source line, STOP, and programs kept on disk; `wrc run` of an
+//! example in real time, and every example under `wrc sim` (virtual time), the 25-wafer
+//! cycle and its return in one state directory.
 
 use std::path::Path;
 
 use super::up::{Client, Controller, STILL_PERIODS};
+use super::wafer_cycle::truth_codes;
 use super::{text, wrc};
 
 /// Upload `source` as `name`; returns every line up to and including the final ACK/NAK.
@@ -206,33 +209,72 @@ fn programs_are_kept_on_disk_across_restarts_and_can_be_deleted() {
 }
 
 #[test]
-fn the_examples_compile_and_run_on_the_simulated_robot() {
+fn wrc_run_runs_an_example_on_the_real_time_controller() {
     let c = Controller::start(&[]);
     let addr = format!("127.0.0.1:{}", c.port);
+    let fig7 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fig7_ptp.wrl");
+    let out = wrc(&["run", fig7.to_str().unwrap(), "--addr", &addr]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("Fig. 7 PTP done at POSE("), "{stdout}");
+    assert!(stdout.trim_end().ends_with("INF 2"), "{stdout}");
+}
+
+/// `wrc sim` of `program` in `state` (stdout, stderr); it must succeed.
+fn sim_ok(program: &Path, state: &Path) -> String {
+    let out = wrc(&[
+        "sim",
+        program.to_str().unwrap(),
+        "--state-dir",
+        state.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(
+        out.status.success(),
+        "{}: {stdout}{stderr}",
+        program.display()
+    );
+    assert!(stdout.trim_end().ends_with("INF 2"), "{stdout}");
+    assert!(stderr.contains("s of virtual time in"), "{stderr}");
+    stdout
+}
+
+#[test]
+fn every_example_runs_on_the_simulated_robot_and_the_wafer_programs_go_there_and_back() {
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
-    let mut ran = 0;
     let mut files: Vec<_> = std::fs::read_dir(&examples)
         .expect("examples/ exists")
         .flatten()
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|e| e == "wrl"))
-        // The wafer programs move all 25 wafers: wafer_cycle.rs runs them.
-        .filter(|p| {
-            !p.file_name()
-                .unwrap()
-                .to_string_lossy()
-                .starts_with("wafer_")
-        })
         .collect();
     files.sort();
-    for path in files {
-        let out = wrc(&["run", path.to_str().unwrap(), "--addr", &addr]);
-        let (stdout, stderr) = text(&out);
-        assert!(out.status.success(), "{}: {stdout}{stderr}", path.display());
-        assert!(stdout.trim_end().ends_with("INF 2"), "{stdout}");
-        ran += 1;
+    let (wafer, single): (Vec<_>, Vec<_>) = files.iter().partition(|p| {
+        p.file_name()
+            .unwrap()
+            .to_string_lossy()
+            .starts_with("wafer_")
+    });
+    // Each on a fresh cell, virtual time (the real-time path: the test above).
+    for path in &single {
+        let state = tempfile::tempdir().unwrap();
+        sim_ok(path, state.path());
     }
-    assert!(ran >= 3, "fig7, fig8 and pick-and-place at least");
+    assert!(single.len() >= 3, "fig7, fig8 and pick-and-place at least");
+    // The 25-wafer cycle, then the program that moves them back, in one state directory:
+    // the second run starts from the wafer map and the cell the first one left.
+    let state = tempfile::tempdir().unwrap();
+    let there = examples.join("wafer_cycle.wrl");
+    let back = examples.join("wafer_return.wrl");
+    assert_eq!(wafer, [&there, &back], "the wafer programs");
+    let out = sim_ok(&there, state.path());
+    assert!(out.contains("all 25 wafers are in LP2"), "{out}");
+    let world = state.path().join("world.toml");
+    assert_eq!(truth_codes(&world, "LP2"), "1".repeat(25));
+    let out = sim_ok(&back, state.path());
+    assert!(out.contains("all 25 wafers are back in LP1"), "{out}");
+    assert_eq!(truth_codes(&world, "LP1"), "1".repeat(25));
+    assert_eq!(truth_codes(&world, "LP2"), "0".repeat(25));
 }
 
 #[test]

@@ -13,9 +13,10 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
+use wrc_board::wrc_cell::{parse_slot_list, SlotFault, SlotState};
+
 use crate::up::{free_port, Client};
-use crate::wafers::{truth, truth_codes};
-use crate::{wait_until, BoardView};
+use crate::{text, wait_until, wrc, BoardView};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -63,33 +64,35 @@ fn map_codes(wafers: &str, station: &str) -> String {
         .split_whitespace()
         .find_map(|w| w.strip_prefix(&format!("{station}=")))
         .unwrap_or_else(|| panic!("no {station} in {wafers}"));
-    let mut codes = String::new();
-    for tok in list.split(',') {
-        let (tok, times) = match tok.rsplit_once('x') {
-            Some((t, n)) if n.parse::<usize>().is_ok() && !t.is_empty() => {
-                (t, n.parse::<usize>().unwrap())
-            }
-            _ => (tok, 1),
-        };
-        let (c, n) = match tok.split_once("..") {
-            Some((a, b)) => {
-                let a: usize = a.trim_start_matches('W').parse().unwrap();
-                let b: usize = b.trim_start_matches('W').parse().unwrap();
-                ('1', b - a + 1)
-            }
-            None => match tok {
-                "-" => ('0', 1),
-                "?" => ('?', 1),
-                "D" => ('2', 1),
-                "X" => ('X', 1),
-                _ => ('1', 1),
-            },
-        };
-        for _ in 0..n * times {
-            codes.push(c);
-        }
-    }
-    codes
+    parse_slot_list(list)
+        .unwrap_or_else(|| panic!("{station}'s list does not read: {wafers}"))
+        .iter()
+        .map(|s| match s {
+            SlotState::Wafer(_) => '1',
+            SlotState::Empty => '0',
+            SlotState::Unknown => '?',
+            SlotState::Fault(SlotFault::Double) => '2',
+            SlotState::Fault(SlotFault::Cross) => 'X',
+        })
+        .collect()
+}
+
+/// The ground truth: `wrc board-sim world` of the world file, one line per station
+/// (`LP1 11111…`) and the hand.
+fn truth(world: &Path) -> String {
+    let out = wrc(&["board-sim", "world", "--world", world.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    stdout
+}
+
+/// The ground truth's codes of `station` (spaces removed).
+pub(crate) fn truth_codes(world: &Path, station: &str) -> String {
+    truth(world)
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("{station} ")))
+        .unwrap_or_else(|| panic!("no {station} in the world: {}", truth(world)))
+        .replace(' ', "")
 }
 
 fn hand(wafers: &str) -> &str {

@@ -1,0 +1,322 @@
+//! Host sessions on virtual time ([`crate::vhost`]): the wafer handling, straight-line and
+//! HOLD scenarios that test the controller's logic, not real-time behaviour. They were
+//! process-level tests against `wrc up` (seconds of robot motion each, minutes of the suite);
+//! the same requests now run on the same task code under a virtual clock. What only real
+//! time shows (the processes, sockets, signals, the serial line, a board process killed)
+//! stays in the `wrc` crate's process-level tests.
+
+use wrc_controller::simulation::SimCellFrom;
+
+use crate::vhost::{map_codes, repo, VHost};
+
+fn expect_nak(host: &mut VHost, id: u32, line: &str, code: u32) -> String {
+    let reply = host.ask(&format!("{id} {line}"));
+    assert!(
+        reply.starts_with(&format!("NAK {id} {code} ")),
+        "{line}: expected NAK {code}, got {reply}"
+    );
+    reply
+}
+
+/// Ask `IO` until the controller's I/O Monitor reports input `n` as `on`: an injected
+/// sensor change reaches the controller at the I/O Monitor's next period.
+fn wait_input(host: &mut VHost, n: u32, on: bool) {
+    host.poll(&format!("input {n} {on} at the controller"), |host| {
+        let r = host.ask("IO");
+        let word = r
+            .split_whitespace()
+            .find_map(|f| f.strip_prefix("in="))
+            .and_then(|h| u32::from_str_radix(h, 16).ok());
+        if word.is_some_and(|w| (w >> n) & 1 == u32::from(on)) {
+            Ok(())
+        } else {
+            Err(r)
+        }
+    })
+}
+
+#[test]
+fn map_get_put_with_every_refusal_and_the_map_matches_the_cell() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    // Nothing moves before HOME.
+    expect_nak(&mut host, 2, "MAP LP1", 110);
+    assert_eq!(host.motion(3, "HOME"), "INF 3");
+
+    // Unmapped slots are refused; a mapping reports the cell's wafers.
+    expect_nak(&mut host, 4, "GET LP1 1", 136);
+    assert_eq!(
+        host.motion(5, "MAP LP1"),
+        format!("INF 5 LP1 {}", host.truth("LP1"))
+    );
+    assert_eq!(
+        host.motion(6, "MAP LP2"),
+        "INF 6 LP2 0000000000000000000000000"
+    );
+    assert_eq!(host.motion(7, "MAP AL"), "INF 7 AL 0");
+    let map = host.ask("8 WAFERS");
+    assert!(
+        map.starts_with("ACK 8 hand=- LP1=W1..W25 LP2=-x25 AL=- "),
+        "{map}"
+    );
+
+    // The refusals, each with its code; nothing moves.
+    expect_nak(&mut host, 10, "GET LP9 1", 130);
+    expect_nak(&mut host, 11, "GET LP1 26", 137);
+    expect_nak(&mut host, 12, "GET LP1 0", 137);
+    expect_nak(&mut host, 13, "GET LP2 1", 131);
+    expect_nak(&mut host, 14, "PUT LP2 1", 134);
+    expect_nak(&mut host, 15, "PUT LP1 1", 134);
+    expect_nak(&mut host, 16, "GET PM1 1", 136);
+
+    // GET: the wafer leaves LP1 slot 3 for the hand, in the map and in the cell.
+    assert_eq!(host.motion(20, "GET LP1 3"), "INF 20 W3");
+    assert_eq!(host.truth("LP1"), "1101111111111111111111111", "the cell");
+    assert!(!host.hand_empty());
+    expect_nak(&mut host, 21, "GET LP1 4", 133);
+    expect_nak(&mut host, 22, "PUT LP1 4", 132);
+    // The interlock (input 14, held by the board) closed: refused before anything moves.
+    host.inject("sensor-flip 14 on");
+    wait_input(&mut host, 14, false);
+    let r = expect_nak(&mut host, 23, "PUT LP2 1", 135);
+    assert!(r.contains("interlock"), "{r}");
+    host.inject("sensor-flip 14 off");
+    wait_input(&mut host, 14, true);
+
+    // PUT: into LP2 slot 1.
+    assert_eq!(host.motion(24, "PUT LP2 1"), "INF 24 W3");
+    assert_eq!(host.truth("LP2"), "1000000000000000000000000");
+    let map = host.ask("25 WAFERS");
+    assert!(
+        map.starts_with("ACK 25 hand=- LP1=W1,W2,-,W4..W25 LP2=W3,-x24 AL=- "),
+        "{map}"
+    );
+    for station in ["LP1", "LP2", "AL"] {
+        assert_eq!(map_codes(&map, station), host.truth(station), "{station}");
+    }
+    // A second mapping confirms the map: ids are kept.
+    assert_eq!(
+        host.motion(26, "MAP LP2"),
+        "INF 26 LP2 1000000000000000000000000"
+    );
+    assert!(host.ask("27 WAFERS").contains(" LP2=W3,-x24 "));
+    assert!(host.hand_empty());
+}
+
+#[test]
+fn a_program_maps_and_moves_wafers_with_get_and_put() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    host.send_raw(
+        "3 UPLOAD two\nMAP \"LP1\"\nMAP \"LP2\"\nFOR I = 1 TO 2\n  GET \"LP1\", I\n  \
+         PUT \"LP2\", I\n  PRINT \"moved\", I\nNEXT\nGET \"LP1\", 1\n.\n",
+    );
+    assert!(host.reply().starts_with("ACK 3 name=two "));
+    host.seen.clear();
+    // The last GET finds slot 1 empty: the program ends with the transfer's code.
+    let end = host.motion(4, "RUN two");
+    assert!(end.starts_with("ABS 4 131 two line 8: "), "{end}");
+    assert!(
+        host.seen.iter().any(|l| l == "EVT PRINT moved 2"),
+        "{:?}",
+        host.seen
+    );
+    assert_eq!(host.truth("LP1"), "0011111111111111111111111");
+    assert_eq!(host.truth("LP2"), "1100000000000000000000000");
+    let map = host.ask("5 WAFERS");
+    assert!(
+        map.starts_with("ACK 5 hand=- LP1=-x2,W3..W25 LP2=W1,W2,-x23 "),
+        "{map}"
+    );
+}
+
+#[test]
+fn mapping_reports_absent_double_and_cross_slotted_wafers_and_get_refuses_them() {
+    let scratch = tempfile::tempdir().unwrap();
+    let demo = std::fs::read_to_string(repo().join("config/stations.toml")).unwrap();
+    // LP2 holds a wafer, a double, a cross-slotted one, then nothing.
+    let cell = demo.replacen(
+        "wafers = \"00000 00000 00000 00000 00000\"",
+        "wafers = \"12X00 00000 00000 00000 00000\"",
+        1,
+    );
+    assert_ne!(cell, demo);
+    let stations = scratch.path().join("cell.toml");
+    std::fs::write(&stations, cell).unwrap();
+    let mut host = VHost::start_with(SimCellFrom {
+        stations: Some(&stations),
+        world: None,
+    });
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert_eq!(
+        host.motion(3, "MAP LP2"),
+        "INF 3 LP2 12X0000000000000000000000"
+    );
+    let map = host.ask("4 WAFERS");
+    assert!(map.contains(" LP2=W1,D,X,-x22 "), "{map}");
+    expect_nak(&mut host, 5, "GET LP2 2", 136);
+    expect_nak(&mut host, 6, "GET LP2 3", 136);
+    expect_nak(&mut host, 7, "GET LP2 4", 131);
+    assert_eq!(host.motion(8, "GET LP2 1"), "INF 8 W1");
+    assert_eq!(host.truth("LP2"), "02X0000000000000000000000");
+}
+
+#[test]
+fn abort_during_a_programs_get_stops_it_and_the_map_settles_from_the_sensor() {
+    let mut host = VHost::start();
+    // Nobody holds control: the program (and its GET) act for whoever started it.
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    host.send_raw("3 UPLOAD one\nMAP \"LP1\"\nGET \"LP1\", 1\nPRINT \"never\"\n.\n");
+    assert!(host.reply().starts_with("ACK 3 name=one "));
+    host.seen.clear();
+    assert_eq!(host.ask("4 RUN one"), "ACK 4");
+    // The GET has started once its pending transfer is announced.
+    host.until("EVT WAFER pending=get:LP1.1:");
+    assert_eq!(host.ask("5 ABORT"), "ACK 5");
+    let end = host.reply();
+    assert!(end.starts_with("ABS 4 200 one line 2: "), "{end}");
+    assert!(!host.seen.iter().any(|l| l.contains("never")));
+    // The robot comes to rest, and the map agrees with the cell.
+    assert!(host.motion(6, "WAIT").starts_with("INF 6"));
+    let map = host.poll("the map settled, no transfer pending", |host| {
+        let map = host.ask("7 WAFERS");
+        if map.contains("pending=") {
+            Err(map)
+        } else {
+            Ok(map)
+        }
+    });
+    // The ABORT came seconds before the hand could reach the wafer: the GET stopped with the
+    // program, so the wafer is still in its slot, in the cell and in the map.
+    assert!(host.hand_empty());
+    assert_eq!(host.truth("LP1"), "1".repeat(25));
+    assert!(map.starts_with("ACK 7 hand=- LP1=W1..W25 "), "{map}");
+}
+
+/// The joints from `WHERE` [deg, deg, deg, mm].
+fn joints(host: &mut VHost) -> Vec<f64> {
+    host.where_().0
+}
+
+fn assert_same_place(a: &[f64], b: &[f64]) {
+    for (x, y) in a.iter().zip(b) {
+        assert!((x - y).abs() < 0.002, "the robot moved: {a:?} → {b:?}");
+    }
+}
+
+#[test]
+fn get_and_put_reach_the_buffer_behind_the_robot_with_the_elbow_that_keeps_the_line_in_range() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(joints(&mut host)[1] > 0.0, "HOME has the right elbow");
+    // From the right elbow, the mapping at BF1 goes to the left one: with the right, the
+    // shoulder would pass -180 deg on the straight line in.
+    assert_eq!(host.motion(3, "MAP BF1"), "INF 3 BF1 00000");
+    assert!(joints(&mut host)[1] < 0.0, "BF1 with the left elbow");
+    assert!(host.motion(4, "MAP LP1").starts_with("INF 4 LP1 1"));
+
+    // A GET refused (the slot is not mapped) moves nothing.
+    let before = joints(&mut host);
+    let r = host.ask("5 GET LP2 1");
+    assert!(r.starts_with("NAK 5 136 "), "{r}");
+    assert_same_place(&before, &joints(&mut host));
+
+    // LP1 slot 1 → BF1 slot 2, the approach at BF1 with the left elbow (J2 < 0).
+    assert_eq!(host.motion(6, "GET LP1 1"), "INF 6 W1");
+    assert_eq!(host.motion(7, "PUT BF1 2"), "INF 7 W1");
+    let at_bf1 = joints(&mut host);
+    assert!(at_bf1[1] < 0.0, "BF1 with the left elbow: {at_bf1:?}");
+    assert!(at_bf1[0] > -180.0 && at_bf1[0] < 180.0);
+    assert_eq!(host.truth("BF1"), "01000");
+    let map = host.ask("8 WAFERS");
+    assert!(map.contains(" BF1=-,W1,-x3"), "{map}");
+
+    // And back: BF1 slot 2 → LP1 slot 1.
+    assert_eq!(host.motion(9, "GET BF1 2"), "INF 9 W1");
+    assert_eq!(host.motion(10, "PUT LP1 1"), "INF 10 W1");
+    assert_eq!(host.truth("BF1"), "00000");
+    assert_eq!(host.truth("LP1"), "1".repeat(25));
+}
+
+/// Read until `EVT STATE <state>`; fail on a final reply of `id` on the way.
+fn until_state(host: &mut VHost, state: &str, id: u32) {
+    let want = format!("EVT STATE {state}");
+    loop {
+        let l = host.line();
+        if l == want {
+            return;
+        }
+        assert!(
+            !l.starts_with(&format!("INF {id}")) && !l.starts_with(&format!("ABS {id}")),
+            "motion {id} ended while it should be held: {l}"
+        );
+    }
+}
+
+fn hold(host: &mut VHost, id: u32) {
+    assert_eq!(host.ask("HOLD"), "ACK");
+    until_state(host, "HELD", id);
+    assert!(host.status().starts_with("ACK state=HELD"));
+}
+
+#[test]
+fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert_eq!(host.motion(3, "MOVP 300 -150 20 0"), "INF 3");
+    assert!(host.ask("SPEED 20").starts_with("ACK"));
+    let (a, b) = ((300.0, -150.0), (300.0, 150.0));
+    assert_eq!(host.ask("4 MOVL 300 150 20 0"), "ACK 4");
+    host.wait_moving("y past -100 mm", |_, _, y| y > -100.0);
+    hold(&mut host, 4);
+    let (_, x, y) = host.where_();
+    assert!(
+        (x - a.0).abs() < 0.01 && y > a.1 && y < b.1,
+        "held at {x} {y}"
+    );
+    // Held means held: a second of virtual time later it has not moved.
+    host.sim.run_for_ns(1_000_000_000);
+    let (_, x2, y2) = host.where_();
+    assert!((x2 - x).abs() < 1e-3 && (y2 - y).abs() < 1e-3, "{x2} {y2}");
+    assert_eq!(host.ask("RESUME"), "ACK");
+    assert_eq!(host.reply(), "INF 4");
+    let (_, x, y) = host.where_();
+    assert!((x - b.0).abs() < 0.01 && (y - b.1).abs() < 0.01, "{x} {y}");
+
+    // STOP while held ends the held motion.
+    assert_eq!(host.ask("5 MOVL 300 -150 20 0"), "ACK 5");
+    host.wait_moving("y back below 100 mm", |_, _, y| y < 100.0);
+    hold(&mut host, 5);
+    assert_eq!(host.ask("STOP"), "ACK");
+    assert!(host.reply().starts_with("ABS 5 200"));
+    until_state(&mut host, "IDLE", 5);
+    assert_eq!(host.ask("RESUME"), "NAK 129 no motion is held");
+}
+
+#[test]
+fn a_held_get_waits_and_resumes_to_take_its_wafer() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3 LP1 1"));
+    let (start, _, _) = host.where_();
+    assert!(host.ask("SPEED 30").starts_with("ACK"));
+    assert_eq!(host.ask("4 GET LP1 2"), "ACK 4");
+    host.wait_moving("an axis 5 deg on its way", |j, _, _| {
+        j.iter().zip(&start).any(|(a, b)| (a - b).abs() > 5.0)
+    });
+    hold(&mut host, 4);
+    // The held GET neither ends nor takes the wafer while held (an INF 4 meanwhile would
+    // come before RESUME's ACK).
+    host.sim.run_for_ns(2_000_000_000);
+    assert!(host.hand_empty());
+    assert_eq!(host.ask("RESUME"), "ACK");
+    assert_eq!(host.reply(), "INF 4 W2");
+    assert!(host.ask("WAFERS").contains("hand=W2"));
+    assert!(!host.hand_empty());
+    assert_eq!(host.truth("LP1"), "1011111111111111111111111");
+}

@@ -1,0 +1,213 @@
+//! A host session with the whole controller on virtual time: the embedded default
+//! configuration and the demo cell, a client on the local socket, and the ground truth of
+//! the simulated cell read directly. The methods speak as the process-level tests' client
+//! does (`ask`, `motion`, `WHERE`, …); every wait is bounded in virtual time, so a test
+//! that fails ends at once and the wall clock never decides anything.
+
+use std::path::{Path, PathBuf};
+
+use wrc_board::wrc_cell::{parse_slot_list, slot_codes_string, SlotState};
+use wrc_board::Fault;
+use wrc_config::Config;
+use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
+
+/// Virtual time any single line may take to come [ns]: longer than any motion of the demo
+/// cell, far shorter than a program that hangs.
+pub const LINE_NS: u64 = 60_000_000_000;
+
+/// Virtual time a polled condition may take ([`VHost::poll`]) [ns].
+const PATIENCE_NS: u64 = 60_000_000_000;
+
+/// Virtual time between two probes of a polled condition [ns]: one Pulse Generator period.
+const POLL_NS: u64 = 10_000_000;
+
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The controller of the embedded default configuration with the demo cell (or the cell
+/// of `cell`), its state in `dir`.
+pub fn demo(dir: &Path, cell: SimCellFrom<'_>) -> Simulation {
+    // Nobody listens on the simulator port; datagrams to a closed port are dropped.
+    let sim_addr = "127.0.0.1:9".parse().unwrap();
+    let config = Config::embedded_default();
+    Simulation::in_state_dir(&config, dir, cell, None, sim_addr).unwrap()
+}
+
+/// The simulated cell's occupancy of `station`: `1` a wafer, `0` empty, `2` a double, `X`
+/// cross-slotted (as `MAP` reports it).
+pub fn truth_codes(sim: &Simulation, station: &str) -> String {
+    let board = sim.board(0).unwrap();
+    let world = board.cell().unwrap().world();
+    slot_codes_string(&world.map_station(station).unwrap())
+}
+
+/// The map's occupancy of `station` in a `WAFERS` reply: `1` a wafer, `0` empty.
+pub fn map_codes(wafers: &str, station: &str) -> String {
+    let list = wafers
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix(&format!("{station}=")))
+        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    parse_slot_list(list)
+        .unwrap_or_else(|| panic!("{station}'s list does not read: {wafers}"))
+        .iter()
+        .map(|s| match s {
+            SlotState::Wafer(_) => '1',
+            SlotState::Empty => '0',
+            _ => '?',
+        })
+        .collect()
+}
+
+/// One host on a simulated controller.
+pub struct VHost {
+    pub sim: Simulation,
+    client: SimClient,
+    /// Every line received, events included.
+    pub seen: Vec<String>,
+    _dir: tempfile::TempDir,
+}
+
+impl VHost {
+    /// The embedded default with the demo cell, in a fresh state directory.
+    pub fn start() -> VHost {
+        VHost::start_with(SimCellFrom::default())
+    }
+
+    /// The embedded default with the cell of `cell`, in a fresh state directory.
+    pub fn start_with(cell: SimCellFrom<'_>) -> VHost {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sim = demo(dir.path(), cell);
+        let client = sim.connect().unwrap();
+        VHost {
+            sim,
+            client,
+            seen: Vec::new(),
+            _dir: dir,
+        }
+    }
+
+    /// The next line, events included.
+    pub fn line(&mut self) -> String {
+        let l = self
+            .sim
+            .next_line(&mut self.client, LINE_NS)
+            .unwrap_or_else(|e| panic!("{e}; seen so far: {:?}", self.seen));
+        self.seen.push(l.clone());
+        l
+    }
+
+    /// Send `text` (whole lines) now.
+    pub fn send_raw(&mut self, text: &str) {
+        self.sim.send(&mut self.client, text).unwrap();
+    }
+
+    /// Send `line` and return the first reply that is not an event.
+    pub fn ask(&mut self, line: &str) -> String {
+        self.send_raw(&format!("{line}\n"));
+        self.reply()
+    }
+
+    /// The next line that is not an event.
+    pub fn reply(&mut self) -> String {
+        loop {
+            let l = self.line();
+            if !l.starts_with("EVT") {
+                return l;
+            }
+        }
+    }
+
+    /// Send a motion with `id`: expect ACK, then return the final INF/ABS.
+    pub fn motion(&mut self, id: u32, line: &str) -> String {
+        let ack = self.ask(&format!("{id} {line}"));
+        assert_eq!(ack, format!("ACK {id}"), "{line}");
+        self.reply()
+    }
+
+    /// Read until a line that starts with `prefix`, and return it.
+    pub fn until(&mut self, prefix: &str) -> String {
+        loop {
+            let l = self.line();
+            if l.starts_with(prefix) {
+                return l;
+            }
+        }
+    }
+
+    /// `WHERE`: the joints [deg, deg, deg, mm] and the hand's x and y [mm].
+    pub fn where_(&mut self) -> (Vec<f64>, f64, f64) {
+        let r = self.ask("WHERE");
+        let field = |k: &str| -> String {
+            r.split_whitespace()
+                .find_map(|w| w.strip_prefix(&format!("{k}=")).map(str::to_string))
+                .unwrap_or_else(|| panic!("no {k} in {r}"))
+        };
+        let joints = field("j").split(',').map(|v| v.parse().unwrap()).collect();
+        (
+            joints,
+            field("x").parse().unwrap(),
+            field("y").parse().unwrap(),
+        )
+    }
+
+    pub fn status(&mut self) -> String {
+        self.ask("STATUS")
+    }
+
+    /// Probe until it gives `Ok` and return its value, letting [`POLL_NS`] of virtual time
+    /// pass between two probes (a reply takes no virtual time: probing without it would
+    /// never see the robot move); fail, naming `what` and what the last probe saw, after
+    /// [`PATIENCE_NS`] of virtual time.
+    pub fn poll<T>(
+        &mut self,
+        what: &str,
+        mut probe: impl FnMut(&mut VHost) -> Result<T, String>,
+    ) -> T {
+        let until = self.sim.now_ns() + PATIENCE_NS;
+        loop {
+            match probe(self) {
+                Ok(value) => return value,
+                Err(last) if self.sim.now_ns() >= until => {
+                    panic!("waited {PATIENCE_NS} ns of virtual time in vain for {what}; last seen: {last}")
+                }
+                Err(_) => self.sim.run_for_ns(POLL_NS),
+            }
+        }
+    }
+
+    /// Poll STATUS and WHERE until the arm is MOVING and `moved(joints, x, y)` says it has
+    /// got far enough (`what`, for the failure message).
+    pub fn wait_moving(&mut self, what: &str, moved: impl Fn(&[f64], f64, f64) -> bool) {
+        self.poll(what, |host| {
+            let status = host.status();
+            if !status.contains("state=MOVING") {
+                return Err(status);
+            }
+            let (j, x, y) = host.where_();
+            if moved(&j, x, y) {
+                Ok(())
+            } else {
+                Err(format!("j={j:?} x={x} y={y}"))
+            }
+        })
+    }
+
+    /// Inject a board fault (`wrc board-sim inject`'s words: `sensor-flip 14 on`, …) into
+    /// board 0 now.
+    pub fn inject(&mut self, fault: &str) {
+        let fault: Fault = fault.parse().unwrap();
+        self.sim.board(0).unwrap().apply_fault(fault);
+    }
+
+    /// The simulated cell's occupancy of `station` ([`truth_codes`]).
+    pub fn truth(&self, station: &str) -> String {
+        truth_codes(&self.sim, station)
+    }
+
+    /// Whether the simulated cell's hand holds no wafer.
+    pub fn hand_empty(&self) -> bool {
+        let board = self.sim.board(0).unwrap();
+        board.cell().unwrap().world().hand().is_none()
+    }
+}

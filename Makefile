@@ -78,6 +78,7 @@ test-e2e: web check-toolchain
 bench: check-toolchain
 	$(CARGO) bench -p wrc-motion --bench velocity_generator
 	$(CARGO) bench -p wrc-lang --bench compile
+	$(CARGO) bench -p wrc-trace --bench trace
 
 # Real-time runtime benchmark (docs/realtime.md): the paper's Tables 3-5 with cyclictest in
 # the same run, idle and under load. Installs cyclictest (rt-tests) and stress-ng when root.

@@ -189,19 +189,22 @@ impl<B: MotionBoard> PulseGenerator<B> {
     }
 
     /// Record one sample per period into `tap` (commanded and encoder pulses, I/O, state,
-    /// FIFO level, wake-up latency).
+    /// FIFO level, wake-up latency, the previous cycle's execution time).
     pub fn with_trace(mut self, tap: SampleTap) -> Self {
         self.trace = Some((tap, Sample::default()));
         self
     }
 
-    /// This period's sample, at the grid point `t_ns`, `latency_ns` late.
-    fn record(&mut self, t_ns: u64, latency_ns: u64) {
+    /// This period's sample, at the grid point `ctx.scheduled_ns`: how late the cycle woke,
+    /// and how long the previous one ran.
+    fn record(&mut self, ctx: &CycleContext) {
         let Some((tap, sample)) = self.trace.as_mut() else {
             return;
         };
-        sample.t_ns = t_ns;
-        sample.latency_ns = latency_ns.min(u64::from(u32::MAX)) as u32;
+        let clamp = |ns: u64| ns.min(u64::from(u32::MAX)) as u32;
+        sample.t_ns = ctx.scheduled_ns;
+        sample.latency_ns = clamp(ctx.woke_ns.saturating_sub(ctx.scheduled_ns));
+        sample.exec_ns = clamp(ctx.previous_exec_ns);
         for (c, s) in sample.commanded.iter_mut().zip(&self.shared.commanded) {
             *c = s.load(Ordering::Relaxed);
         }
@@ -531,10 +534,7 @@ impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
     fn cycle(&mut self, ctx: &CycleContext) {
         self.step_released(ctx.release);
         if ctx.release == Release::Period {
-            self.record(
-                ctx.scheduled_ns,
-                ctx.woke_ns.saturating_sub(ctx.scheduled_ns),
-            );
+            self.record(ctx);
         }
     }
 }

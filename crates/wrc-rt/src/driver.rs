@@ -54,6 +54,8 @@ pub struct TaskDriver<C: Clock, T: Task, W: Waiter = NoWaiter> {
     events: rtrb::Producer<RtEvent>,
     stop: Arc<AtomicBool>,
     previous_wake_ns: Option<u64>,
+    /// The last periodic cycle's execution time [ns] ([`CycleContext::previous_exec_ns`]).
+    previous_exec_ns: u64,
 }
 
 impl<C: Clock, T: Task> TaskDriver<C, T> {
@@ -77,6 +79,7 @@ impl<C: Clock, T: Task> TaskDriver<C, T> {
             events,
             stop,
             previous_wake_ns: None,
+            previous_exec_ns: 0,
         }
     }
 }
@@ -100,6 +103,7 @@ impl<C: Clock, T: Task, W: Waiter> TaskDriver<C, T, W> {
             events: self.events,
             stop: self.stop,
             previous_wake_ns: self.previous_wake_ns,
+            previous_exec_ns: self.previous_exec_ns,
         }
     }
 
@@ -137,6 +141,7 @@ impl<C: Clock, T: Task, W: Waiter> TaskDriver<C, T, W> {
             woke_ns,
             period_ns: self.schedule.period_ns(),
             release,
+            previous_exec_ns: self.previous_exec_ns,
         };
         self.task.cycle(&ctx);
         let end_ns = self.clock.now_ns();
@@ -154,6 +159,7 @@ impl<C: Clock, T: Task, W: Waiter> TaskDriver<C, T, W> {
             missed_periods: outcome.missed_periods,
         };
         self.previous_wake_ns = Some(woke_ns);
+        self.previous_exec_ns = sample.exec_ns;
         self.stats.record(&sample);
         if outcome.overrun {
             // A full queue only loses the itemised event; the count is in the statistics.
@@ -219,9 +225,14 @@ mod tests {
         let clock = MockClock::new(1_000);
         let c = clock.clone();
         let mut wakes = Vec::new();
+        let previous = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let p = previous.clone();
         let (mut d, stats, mut rx, _) = driver(
             &clock,
-            move |ctx: &CycleContext| c.advance_ns(100 + ctx.cycle),
+            move |ctx: &CycleContext| {
+                p.lock().unwrap().push(ctx.previous_exec_ns);
+                c.advance_ns(100 + ctx.cycle)
+            },
             1_000,
         );
         for _ in 0..5 {
@@ -229,6 +240,8 @@ mod tests {
             assert_eq!(d.step(), Step::Ran);
         }
         assert_eq!(wakes, [2_000, 3_000, 4_000, 5_000, 6_000]);
+        // Each cycle is told how long the one before it ran.
+        assert_eq!(*previous.lock().unwrap(), [0, 100, 101, 102, 103]);
         let s = stats.snapshot();
         assert_eq!((s.cycles, s.overruns), (5, 0));
         assert_eq!((s.exec.min_ns(), s.exec.max_ns()), (Some(100), Some(104)));
@@ -374,6 +387,7 @@ mod tests {
                 woke_ns: 1_250,
                 period_ns: 1_000,
                 release: Release::Event,
+                previous_exec_ns: 1,
             }
         );
         // A notification releases the wait at once, at the current time.

@@ -28,6 +28,10 @@ pub struct CycleContext {
     pub period_ns: u64,
     /// Why it runs: its period or an event.
     pub release: Release,
+    /// How long the task's previous periodic cycle ran [ns, measured by the runtime from
+    /// its wake-up to its return]; 0 before the first one ended. A cycle cannot time itself
+    /// to its end; this is how a task records its own execution time (the trace does).
+    pub previous_exec_ns: u64,
 }
 
 /// One periodic real-time task. The runtime owns timing: it wakes the task on its grid (and,

@@ -279,6 +279,7 @@ fn a_pulse_generator_cycle_recording_its_trace_sample_allocates_nothing() {
         woke_ns: 10_000_000 * k + 1_000,
         period_ns: 10_000_000,
         release: Release::Period,
+        previous_exec_ns: 20_000,
     };
     pg.cycle(&ctx(1));
     sim.step();
@@ -290,8 +291,12 @@ fn a_pulse_generator_cycle_recording_its_trace_sample_allocates_nothing() {
         sim.step();
     }
     assert_eq!(calls, 0, "the cycles allocated or freed");
-    // And what was recorded reaches the ring: 199 periods, 1 µs late each.
+    // And what was recorded reaches the ring: 199 periods, 1 µs late each, each with the
+    // previous cycle's execution time the runtime measured.
     let trace = recorder.snapshot("test");
     assert_eq!(trace.samples.len(), 199);
-    assert!(trace.samples.iter().all(|s| s.latency_ns == 1_000));
+    assert!(trace
+        .samples
+        .iter()
+        .all(|s| s.latency_ns == 1_000 && s.exec_ns == 20_000));
 }

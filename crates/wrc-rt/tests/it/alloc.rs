@@ -105,6 +105,7 @@ fn the_benchmark_tasks_allocate_nothing() {
                     woke_ns: now,
                     period_ns: 1_000_000,
                     release: wrc_rt::Release::Period,
+                    previous_exec_ns: 20_000,
                 };
                 wrc_rt::Task::cycle(t, &ctx);
             }

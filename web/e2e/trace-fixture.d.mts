@@ -1,6 +1,10 @@
 // Types of trace-fixture.mjs (trace files built field by field, for the GUI's tests).
 
 export const STATE_NAMES: string[];
+/** The format version a file is written with unless told (2). */
+export const FORMAT_VERSION: number;
+/** The direction codes of a message record. */
+export const DIRECTION_CODES: { request: 0; reply: 1; opened: 2; closed: 3 };
 
 export interface FixtureMeta {
   wrcVersion?: string;
@@ -34,11 +38,13 @@ export interface FixtureSample {
 
 export interface FixtureMessage {
   tNs: number;
-  direction: 'request' | 'reply';
+  /** A name, or a code written as it is (a bad one, for a test). */
+  direction: 'request' | 'reply' | 'opened' | 'closed' | number;
   source?: number;
   client?: number;
   truncated?: boolean;
-  line: string;
+  /** Empty when absent (an opened or closed message). */
+  line?: string;
 }
 
 export function crc32Bitwise(bytes: Uint8Array): number;

@@ -1,4 +1,4 @@
-// Trace files built field by field as docs/trace.md lays them out (format version 1), for the
+// Trace files built field by field as docs/trace.md lays them out (format version 2), for the
 // GUI's tests: the unit tests of src/trace.ts and the browser end-to-end test, which writes
 // one into a temporary file and opens it in the trace viewer. Plain JavaScript (the e2e test
 // runs on Node without a TypeScript step); its types are in trace-fixture.d.mts.
@@ -10,6 +10,12 @@ const enc = new TextEncoder();
 
 /** The state names the controller writes (the numbers of `wrc_protocol::State`). */
 export const STATE_NAMES = ['IDLE', 'MOVING', 'STOPPING', 'ERROR', 'ESTOP', 'HELD'];
+
+/** The format version a file is written with unless told. */
+export const FORMAT_VERSION = 2;
+
+/** The direction codes of a message record. */
+export const DIRECTION_CODES = { request: 0, reply: 1, opened: 2, closed: 3 };
 
 /** CRC-32 (IEEE, reflected, as zlib) of `bytes`, one bit at a time. */
 export function crc32Bitwise(bytes) {
@@ -120,26 +126,32 @@ export function samplesBody(samples, axes, count = samples.length) {
   return b.bytes();
 }
 
-/** The messages body: a u64 count, then 15 bytes and the line per message. */
+/**
+ * The messages body: a u64 count, then 15 bytes and the line per message. A direction is a
+ * name (`request`, `reply`, `opened`, `closed`) or a code written as it is (to test a bad one);
+ * an opened or closed message's line defaults to empty.
+ */
 export function messagesBody(messages, count = messages.length) {
   const b = new Bytes().u64(count);
   for (const m of messages) {
-    const line = enc.encode(m.line);
-    b.u64(m.tNs).u8(m.direction === 'reply' ? 1 : 0).u8(m.source ?? 0).u16(m.client ?? 0);
+    const line = enc.encode(m.line ?? '');
+    const code = typeof m.direction === 'number' ? m.direction : DIRECTION_CODES[m.direction];
+    if (code === undefined) throw new Error(`no direction code for ${JSON.stringify(m.direction)}`);
+    b.u64(m.tNs).u8(code).u8(m.source ?? 0).u16(m.client ?? 0);
     b.u8(m.truncated ? 1 : 0).u16(line.length).raw(line);
   }
   return b.bytes();
 }
 
 /** The header (magic, version) and the given sections, in the order given. */
-export function traceBytes(sections, { version = 1, magic = 'WRCTRACE' } = {}) {
+export function traceBytes(sections, { version = FORMAT_VERSION, magic = 'WRCTRACE' } = {}) {
   const b = new Bytes().raw(enc.encode(magic)).u32(version);
   for (const s of sections) b.raw(s);
   return b.bytes();
 }
 
 /** A whole, valid trace file. */
-export function encodeTrace({ meta = {}, samples = [], messages = [], version = 1 } = {}) {
+export function encodeTrace({ meta = {}, samples = [], messages = [], version = FORMAT_VERSION } = {}) {
   const axes = (meta.axisNames ?? ['j1', 'j2', 'j3', 'z']).length;
   return traceBytes(
     [

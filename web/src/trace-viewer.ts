@@ -2,7 +2,8 @@
 // browser (trace.ts; nothing is sent anywhere), then a scrubber with play/pause and the time
 // [s] runs over its samples. While a trace is open the 3D view draws the recorded robot at the
 // scrubber (encoder pulses / pulses_per_unit, trace-robot.ts) instead of the live one, and
-// the bar shows the state, the I/O words and the requests and replies within ±1 s of it;
+// the bar shows the state, the I/O words and the messages within ±1 s of it (requests,
+// replies and events, clients connecting and connections closing);
 // **Close trace** returns the view to the live robot.
 
 import type { Bus } from './bus';
@@ -10,7 +11,7 @@ import { h } from './control';
 import { injectStyle } from './dom';
 import { parseState } from './protocol';
 import type { SimulatorHandle } from './simulator';
-import { byTime, hex32, messagesNear, readTrace, sourceName, type Trace, type TraceMessage } from './trace';
+import { byTime, describeMessage, hex32, messagesNear, readTrace, sourceName, type Trace, type TraceMessage } from './trace';
 import { positionsAt, traceRobot, type TraceRobot } from './trace-robot';
 
 /** Messages within this much of the scrubber are listed [ns]. */
@@ -41,6 +42,7 @@ label.btn.trace-open { display: inline-block; }
   border-radius: 3px; font: 11px/1.45 var(--mono, monospace); padding: 1px 4px; }
 .trace-message { display: flex; gap: 6px; white-space: pre; color: #9fb3c8; }
 .trace-message.reply { color: #8fd19e; }
+.trace-message.opened, .trace-message.closed { color: #7f8fa3; font-style: italic; }
 .trace-message.current { background: #3a2f10; color: #ffd27a; }
 .trace-message .dt { color: #5d6b7a; width: 64px; text-align: right; flex: none; }
 .trace-message .src { color: #5d6b7a; width: 64px; flex: none; overflow: hidden; }
@@ -256,7 +258,7 @@ export function mountTraceViewer(el: HTMLElement, sim: SimulatorHandle, bus: Pic
     if (key === listKey) return;
     listKey = key;
     if (from === to) {
-      list.replaceChildren(h('div', { class: 'none' }, 'no requests or replies within ±1 s'));
+      list.replaceChildren(h('div', { class: 'none' }, 'no messages within ±1 s'));
       return;
     }
     let current: HTMLElement | null = null;
@@ -264,18 +266,19 @@ export function mountTraceViewer(el: HTMLElement, sim: SimulatorHandle, bus: Pic
     for (let m = from; m < to; m++) {
       const msg = sorted[m] as TraceMessage;
       const isCurrent = m === near.current;
+      const shown = describeMessage(msg);
       const row = h(
         'div',
         {
           class: `trace-message ${msg.direction}${isCurrent ? ' current' : ''}`,
           'data-testid': 'trace-message',
+          'data-direction': msg.direction,
           'data-current': isCurrent ? '1' : '0',
-          title: `${msg.direction === 'request' ? 'received from' : 'sent to'} ${sourceName(msg.source)} client ${msg.client}` +
-            (msg.truncated ? '; longer than 256 bytes, cut' : ''),
+          title: shown.title,
         },
         h('span', { class: 'dt' }, offset(msg.tNs - tNs)),
-        h('span', { class: 'src' }, `${msg.direction === 'request' ? '→' : '←'} ${sourceName(msg.source)}`),
-        h('span', { class: 'line' }, msg.line + (msg.truncated ? '…' : '')),
+        h('span', { class: 'src' }, `${shown.arrow} ${sourceName(msg.source)}`),
+        h('span', { class: 'line' }, shown.text),
       );
       if (isCurrent) current = row;
       rows.push(row);

@@ -11,7 +11,19 @@ import {
   type FixtureMessage,
   type FixtureSample,
 } from '../e2e/trace-fixture.mjs';
-import { byTime, crc32, hex32, messagesNear, readTrace, sourceName, type Trace, type TraceRead } from './trace';
+import {
+  TRACE_FORMAT_VERSION,
+  byTime,
+  crc32,
+  describeMessage,
+  hex32,
+  messagesNear,
+  readTrace,
+  sourceName,
+  type Trace,
+  type TraceMessage,
+  type TraceRead,
+} from './trace';
 
 const enc = new TextEncoder();
 
@@ -151,15 +163,50 @@ describe('readTrace', () => {
     }
   });
 
+  it('reads format version 2, as the fixture writes it', () => {
+    expect(TRACE_FORMAT_VERSION).toBe(2);
+    expect(new DataView(valid().buffer).getUint32(8, true)).toBe(2);
+  });
+
   it('refuses every other format version, naming both', () => {
-    const newer = refusal(readTrace(encodeTrace({ version: 2 }), 'a.wrctrace'));
+    const newer = refusal(readTrace(encodeTrace({ version: 3 }), 'a.wrctrace'));
     expect(newer.kind).toBe('Version');
     expect(newer.message).toBe(
-      'a.wrctrace was written by a newer wrc (trace format 2); this GUI reads trace format 1 only: open it with a newer wrc',
+      'a.wrctrace was written by a newer wrc (trace format 3); this GUI reads trace format 2 only: open it with a newer wrc',
     );
-    const older = refusal(readTrace(encodeTrace({ version: 0 })));
+    const older = refusal(readTrace(encodeTrace({ version: 1 }), 'a.wrctrace'));
     expect(older.kind).toBe('Version');
-    expect(older.message).toContain('an older wrc (trace format 0)');
+    expect(older.message).toBe(
+      'a.wrctrace was written by an older wrc (trace format 1); this GUI reads trace format 2 only: read it with the wrc that wrote it',
+    );
+    const zero = refusal(readTrace(encodeTrace({ version: 0 })));
+    expect(zero.kind).toBe('Version');
+    expect(zero.message).toContain('an older wrc (trace format 0)');
+  });
+
+  it('reads the messages of a client connecting and of its connection closing, with empty lines', () => {
+    const session: FixtureMessage[] = [
+      { tNs: 1_000_000_000, direction: 'opened', source: 0, client: 3 },
+      { tNs: 1_015_000_000, direction: 'request', source: 0, client: 3, line: '1 MOVJ 60 0 0' },
+      { tNs: 1_016_000_000, direction: 'reply', source: 0, client: 3, line: 'ACK 1' },
+      { tNs: 1_017_000_000, direction: 'opened', source: 1, client: 7 },
+      { tNs: 1_020_000_000, direction: 'closed', source: 0, client: 3 },
+      { tNs: 1_030_000_000, direction: 'closed', source: 1, client: 7, line: '' },
+    ];
+    const t = trace(readTrace(encodeTrace({ meta: META, samples: SAMPLES, messages: session })));
+    expect(t.messages.map((m) => [m.direction, m.source, m.client, m.line])).toEqual([
+      ['opened', 0, 3, ''],
+      ['request', 0, 3, '1 MOVJ 60 0 0'],
+      ['reply', 0, 3, 'ACK 1'],
+      ['opened', 1, 7, ''],
+      ['closed', 0, 3, ''],
+      ['closed', 1, 7, ''],
+    ]);
+    expect(t.messages.every((m) => !m.truncated)).toBe(true);
+    // The codes as the document gives them: 2 opened, 3 closed.
+    const body = messagesBody(session.slice(0, 1));
+    expect(body[8 + 8]).toBe(2);
+    expect(messagesBody([{ tNs: 0, direction: 'closed' }])[8 + 8]).toBe(3);
   });
 
   it('says where a file cut anywhere ends', () => {
@@ -263,13 +310,18 @@ describe('readTrace', () => {
         'its messages section says 1000 messages, but holds room for at most',
       ],
       [
-        'a message direction of 2',
+        'a message direction of 4',
         (() => {
           const body = messagesBody(MESSAGES.slice(0, 1));
-          body[8 + 8] = 2;
+          body[8 + 8] = 4;
           return withSections(meta(), samples(), ['MESG', body], end());
         })(),
-        'a message has direction code 2; it is 0 or 1',
+        'a message has direction code 4; it is 0 to 3',
+      ],
+      [
+        'a message direction of 255',
+        withSections(meta(), samples(), ['MESG', messagesBody([{ tNs: 1, direction: 255, line: '' }])], end()),
+        'a message has direction code 255; it is 0 to 3',
       ],
       [
         'a line longer than 256 bytes',
@@ -340,6 +392,32 @@ describe('scrubbing', () => {
   it('keeps lines of one time in file order', () => {
     const same = [0, 1, 2].map((k) => ({ tNs: 5, direction: 'request' as const, source: 0, client: 0, truncated: false, line: `${k}` }));
     expect(byTime([{ ...same[0]!, tNs: 9 }, ...same]).map((m) => m.line)).toEqual(['0', '1', '2', '0']);
+  });
+
+  it('shows a request, a reply, a client connecting and a connection closing', () => {
+    const m = (direction: TraceMessage['direction'], line = '', truncated = false): TraceMessage => ({
+      tNs: 0,
+      direction,
+      source: 0,
+      client: 3,
+      truncated,
+      line,
+    });
+    expect(describeMessage(m('request', '1 HOME'))).toEqual({ arrow: '→', text: '1 HOME', title: 'received from host client 3' });
+    expect(describeMessage(m('reply', 'ACK 1'))).toEqual({ arrow: '←', text: 'ACK 1', title: 'sent to host client 3' });
+    expect(describeMessage(m('request', 'x'.repeat(256), true))).toEqual({
+      arrow: '→',
+      text: `${'x'.repeat(256)}…`,
+      title: 'received from host client 3; longer than 256 bytes, cut',
+    });
+    expect(describeMessage(m('opened'))).toEqual({ arrow: '⇢', text: 'client 3 connected', title: 'host client 3 connected' });
+    const closed = describeMessage({ ...m('closed'), source: 1, client: 7 });
+    expect(closed.arrow).toBe('⇠');
+    expect(closed.text).toBe('client 7 closed');
+    expect(closed.title).toBe('gui client 7: its connection closed (by the client or by the controller)');
+    // As the list draws them: arrow and source, then the text.
+    expect(`${describeMessage(m('opened')).arrow} ${sourceName(0)} ${describeMessage(m('opened')).text}`).toBe('⇢ host client 3 connected');
+    expect(`${closed.arrow} ${sourceName(0)} ${describeMessage(m('closed')).text}`).toBe('⇠ host client 3 closed');
   });
 
   it('formats I/O words and source names', () => {

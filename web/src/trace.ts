@@ -1,4 +1,4 @@
-// Trace files (docs/trace.md, format version 1) read in the browser, and the lookups the
+// Trace files (docs/trace.md, format version 2) read in the browser, and the lookups the
 // trace viewer scrubs with. `readTrace` mirrors the controller's reader (crates/wrc-trace,
 // format.rs): it returns a trace or one of the same five errors as a sentence naming the file,
 // never throws, and never trusts a length (a section is read only as far as the data goes,
@@ -11,7 +11,7 @@ import { getI64, getU64 } from './le64';
 /** The first 8 bytes of every trace file. */
 export const TRACE_MAGIC = 'WRCTRACE';
 /** The trace format this GUI reads; every other version is refused. */
-export const TRACE_FORMAT_VERSION = 1;
+export const TRACE_FORMAT_VERSION = 2;
 /** Most axes a trace has. */
 export const TRACE_MAX_AXES = 16;
 /** Longest line a message keeps [byte]. */
@@ -161,12 +161,20 @@ export class TraceSamples {
   }
 }
 
-/** Whether a message line was received (a request) or sent (a reply or an event). */
-export type TraceDirection = 'request' | 'reply';
+/**
+ * What a message records, by its direction code: a line received (0, a request), a line sent
+ * (1, a reply or an event), a client connecting (2, opened) or its connection closing, by the
+ * client or by the controller (3, closed). An opened or closed message has an empty line; its
+ * source and client say which connection.
+ */
+export type TraceDirection = 'request' | 'reply' | 'opened' | 'closed';
+
+/** The directions by their code in a file. */
+const DIRECTIONS: readonly TraceDirection[] = ['request', 'reply', 'opened', 'closed'];
 
 /** One protocol line received or sent. */
 export interface TraceMessage {
-  /** Controller clock when the line was received or sent [ns]. */
+  /** Controller clock when the line was received or sent, or the connection opened or closed [ns]. */
   tNs: number;
   direction: TraceDirection;
   /** 0 host on TCP, 1 GUI, 2 pendant, 3 program, 255 broadcast or event (see `sourceName`). */
@@ -175,7 +183,7 @@ export interface TraceMessage {
   client: number;
   /** The line was longer than 256 bytes and only its start is kept. */
   truncated: boolean;
-  /** The line without its LF (bytes that are not UTF-8 shown as U+FFFD). */
+  /** The line without its LF (bytes that are not UTF-8 shown as U+FFFD); empty when opened or closed. */
   line: string;
 }
 
@@ -202,6 +210,37 @@ export function sourceName(source: number): string {
       return 'event';
     default:
       return `source ${source}`;
+  }
+}
+
+/** How the trace viewer lists a message: an arrow, its text and a tooltip. */
+export interface MessageText {
+  /** `→` received, `←` sent, `⇢` a client connected, `⇠` a connection closed. */
+  arrow: string;
+  /** The line (`…` after one cut at 256 bytes), or what happened to the connection. */
+  text: string;
+  /** Who the line came from or went to, or which connection opened or closed. */
+  title: string;
+}
+
+/** What the trace viewer shows for `msg` (no DOM, so that it is unit-tested). */
+export function describeMessage(msg: TraceMessage): MessageText {
+  const who = `${sourceName(msg.source)} client ${msg.client}`;
+  const cut = msg.truncated ? '; longer than 256 bytes, cut' : '';
+  const line = msg.line + (msg.truncated ? '…' : '');
+  switch (msg.direction) {
+    case 'request':
+      return { arrow: '→', text: line, title: `received from ${who}${cut}` };
+    case 'reply':
+      return { arrow: '←', text: line, title: `sent to ${who}${cut}` };
+    case 'opened':
+      return { arrow: '⇢', text: `client ${msg.client} connected`, title: `${who} connected` };
+    case 'closed':
+      return {
+        arrow: '⇠',
+        text: `client ${msg.client} closed`,
+        title: `${who}: its connection closed (by the client or by the controller)`,
+      };
   }
 }
 
@@ -536,7 +575,10 @@ function decodeMessages(b: Body): TraceMessage[] {
   for (let i = 0; i < n; i++) {
     const tNs = b.u64('a message');
     const d = b.u8('a message');
-    if (d > 1) throw b.invalid(`a message has direction code ${d}; it is 0 or 1`);
+    const direction = DIRECTIONS[d];
+    if (direction === undefined) {
+      throw b.invalid(`a message has direction code ${d}; it is 0 to ${DIRECTIONS.length - 1}`);
+    }
     const source = b.u8('a message');
     const client = b.u16('a message');
     const truncated = b.bool("a message's truncated flag");
@@ -546,7 +588,7 @@ function decodeMessages(b: Body): TraceMessage[] {
     }
     // A line cut at 256 bytes may end inside a character: shown, not refused.
     const line = lenientUtf8.decode(b.bytesOf(len, 'a message'));
-    messages.push({ tNs, direction: d === 0 ? 'request' : 'reply', source, client, truncated, line });
+    messages.push({ tNs, direction, source, client, truncated, line });
   }
   b.finish();
   return messages;

@@ -238,6 +238,9 @@ impl ClientSet {
         slot.checksum = false;
         slot.uploading = false;
         slot.backed_up = false;
+        if let Some(tap) = &mut self.tap {
+            tap.push(self.now_ns, Direction::Opened, slot.source, b"");
+        }
         true
     }
 
@@ -271,6 +274,9 @@ impl ClientSet {
                 .routes
                 .incoming
                 .try_send(Incoming::Disconnected(slot.source));
+            if let Some(tap) = &mut self.tap {
+                tap.push(self.now_ns, Direction::Closed, slot.source, b"");
+            }
         }
         if slot.uploading {
             let _ = self

@@ -314,6 +314,12 @@ impl Simulation {
         self.runtime.run_until_ns(t_ns);
     }
 
+    /// Run every cycle due before `t_ns` [ns] and leave the clock at `t_ns`, with what is
+    /// due at it still to run ([`VirtualRuntime::run_before_ns`]).
+    pub fn run_before_ns(&mut self, t_ns: u64) {
+        self.runtime.run_before_ns(t_ns);
+    }
+
     /// Run for `ns` [ns] of virtual time.
     pub fn run_for_ns(&mut self, ns: u64) {
         self.runtime.run_for_ns(ns);
@@ -389,14 +395,44 @@ impl Simulation {
     }
 }
 
-/// A client of a [`Simulation`] on its local socket: what it sends reaches the Ethernet
-/// task at the virtual instant it is sent; what the controller writes is read between
-/// cycles.
+/// A client of a [`Simulation`] on its local socket (or its TCP port,
+/// [`Simulation::connect_tcp`]): what it sends reaches the Ethernet task at the virtual
+/// instant it is sent; what the controller writes is read between cycles.
 #[derive(Debug)]
 pub struct SimClient {
-    stream: UnixStream,
+    stream: ClientStream,
     pending: Vec<u8>,
     lines: VecDeque<String>,
+}
+
+/// The connection of a [`SimClient`].
+#[derive(Debug)]
+enum ClientStream {
+    Unix(UnixStream),
+    Tcp(std::net::TcpStream),
+}
+
+impl ClientStream {
+    fn set_nonblocking(&self, on: bool) -> std::io::Result<()> {
+        match self {
+            ClientStream::Unix(s) => s.set_nonblocking(on),
+            ClientStream::Tcp(s) => s.set_nonblocking(on),
+        }
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        match self {
+            ClientStream::Unix(s) => s.read(buf),
+            ClientStream::Tcp(s) => s.read(buf),
+        }
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        match self {
+            ClientStream::Unix(s) => s.write_all(bytes),
+            ClientStream::Tcp(s) => s.write_all(bytes),
+        }
+    }
 }
 
 /// Why a [`SimClient`] got no line.
@@ -411,8 +447,8 @@ pub enum ClientError {
     /// Nothing came within the virtual time allowed.
     #[error("no line from the simulated controller within {0:.3} s of virtual time")]
     Timeout(f64),
-    /// The simulation has no local socket.
-    #[error("the simulation has no local socket to connect to")]
+    /// The simulation has no local socket (or no TCP port, for a TCP client).
+    #[error("the simulation has no socket of that kind to connect to")]
     NoSocket,
 }
 
@@ -439,10 +475,25 @@ impl SimClient {
 }
 
 impl Simulation {
-    /// Connect a client to the local socket (accepted at this instant).
+    /// Connect a client to the local socket (accepted at this instant), as the GUI does.
     pub fn connect(&mut self) -> Result<SimClient, ClientError> {
         let path = self.socket.as_ref().ok_or(ClientError::NoSocket)?;
-        let stream = UnixStream::connect(path)?;
+        let stream = ClientStream::Unix(UnixStream::connect(path)?);
+        Ok(self.client(stream)?)
+    }
+
+    /// Connect a client to the host protocol's TCP port (accepted at this instant), as a
+    /// host does: the controller names it as a host (`tcp1`, …), not as the GUI.
+    pub fn connect_tcp(&mut self) -> Result<SimClient, ClientError> {
+        let addr = self.tcp.ok_or(ClientError::NoSocket)?;
+        let stream = std::net::TcpStream::connect(addr)?;
+        // Each line leaves at once (no Nagle wait for the previous one's ACK): on loopback
+        // it is readable when the write returns.
+        stream.set_nodelay(true)?;
+        Ok(self.client(ClientStream::Tcp(stream))?)
+    }
+
+    fn client(&mut self, stream: ClientStream) -> std::io::Result<SimClient> {
         stream.set_nonblocking(true)?;
         self.notify_network();
         Ok(SimClient {

@@ -17,7 +17,7 @@ use crate::{
 pub const MAGIC: [u8; 8] = *b"WRCTRACE";
 
 /// The trace format this build writes and reads; a reader refuses any other version.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// The longest section body a reader accepts [byte] (4 GiB): an hour of 16-axis samples
 /// at 1 ms is about 1 GiB.
@@ -158,6 +158,8 @@ fn direction_code(direction: Direction) -> u8 {
     match direction {
         Direction::Request => 0,
         Direction::Reply => 1,
+        Direction::Opened => 2,
+        Direction::Closed => 3,
     }
 }
 
@@ -556,9 +558,11 @@ fn decode_messages(b: &mut Body<'_>) -> Result<Vec<Message>, TraceError> {
         let direction = match b.u8("a message")? {
             0 => Direction::Request,
             1 => Direction::Reply,
+            2 => Direction::Opened,
+            3 => Direction::Closed,
             d => {
                 return Err(invalid(format!(
-                    "a message has direction code {d}; it is 0 or 1"
+                    "a message has direction code {d}; it is 0 to 3"
                 )))
             }
         };

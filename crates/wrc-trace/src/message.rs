@@ -30,13 +30,20 @@ pub fn source_name(source: u8) -> &'static str {
     }
 }
 
-/// Which way a line went.
+/// Which way a line went, or what happened to a connection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Direction {
     /// A request line the controller received.
     Request,
     /// A reply (or event) line the controller sent.
     Reply,
+    /// A client connected (the message's line is empty): a replay opens its connection
+    /// here.
+    Opened,
+    /// The client's connection closed, by the client or by the controller (line empty): a
+    /// replay closes it here, so that what a lost client causes (a stop, control released)
+    /// happens again.
+    Closed,
 }
 
 /// A protocol line, received or sent, with when and from whom.

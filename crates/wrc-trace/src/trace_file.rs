@@ -130,17 +130,14 @@ impl TraceFile {
                 let _ = writeln!(out, "duration: no samples");
             }
         }
-        let requests = self
-            .messages
-            .iter()
-            .filter(|x| x.direction == Direction::Request)
-            .count();
+        let count = |d: Direction| self.messages.iter().filter(|x| x.direction == d).count();
+        let (requests, replies) = (count(Direction::Request), count(Direction::Reply));
+        let (opened, closed) = (count(Direction::Opened), count(Direction::Closed));
         let _ = writeln!(out, "samples:  {}", self.samples.len());
         let _ = writeln!(
             out,
-            "messages: {} ({requests} requests, {} replies){}",
+            "messages: {} ({requests} requests, {replies} replies; {opened} connections opened, {closed} closed){}",
             self.messages.len(),
-            self.messages.len() - requests,
             if m.from_start {
                 ", from the session's start"
             } else {

@@ -4,7 +4,8 @@
 //! A replay rebuilds the controller the trace describes (its configuration text, stations,
 //! wafer map, stored programs and the simulated cell's ground truth at the start), sends
 //! every recorded request at the virtual instant it was read, with one local client per
-//! recorded connection, and compares what the replay does with what was recorded: every
+//! recorded connection (a host over TCP, the GUI on the local socket; opened and closed when
+//! the recording says it was: a lost client has the same effect again), and compares what the replay does with what was recorded: every
 //! sample (commanded and encoder pulses, inputs, outputs, state, error code, FIFO level; not
 //! the wake-up latency, which measures the host) and every line delivered. It reports the
 //! first period and the first line that differ, or that none does.
@@ -86,6 +87,20 @@ fn outputs(s: &Sample, axes: usize) -> (Vec<i64>, Vec<i64>, u32, u32, u8, u16, u
     )
 }
 
+/// A replay client for a recorded connection of `source`: a host over TCP (the controller
+/// names it `tcp<n>` as it did), anyone else on the local socket (the GUI's way; a recorded
+/// pendant is replayed there, named as the GUI).
+fn connect(
+    sim: &mut wrc_controller::simulation::Simulation,
+    source: u8,
+) -> anyhow::Result<SimClient> {
+    Ok(if source == wrc_trace::SOURCE_HOST {
+        sim.connect_tcp()?
+    } else {
+        sim.connect()?
+    })
+}
+
 /// Run `wrc trace replay`.
 pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let recorded = TraceFile::load(&args.file)?;
@@ -149,7 +164,8 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         state,
         stations,
         meta.world_toml.as_deref(),
-        None,
+        // Recorded hosts come back as hosts, on a free loopback port.
+        Some("127.0.0.1:0".parse().expect("an address")),
         "127.0.0.1:9".parse().expect("an address"),
     )?;
     let start: Vec<i64> = sim.shared().commanded_pulses()[..meta.axis_count()].to_vec();
@@ -160,25 +176,45 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         );
     }
 
-    // Every recorded request at the instant it was read, one client per connection.
+    // Every recorded input at the instant it came: a connection opened, a request read, a
+    // connection closed; one local client per recorded connection (a connection already open
+    // when the trace began opens at its first request).
     let mut clients: BTreeMap<(u8, u16), SimClient> = BTreeMap::new();
-    let requests: Vec<_> = recorded
+    let (mut requests, mut connections) = (0usize, 0usize);
+    for m in recorded
         .messages
         .iter()
-        .filter(|m| m.direction == Direction::Request)
-        .collect();
-    for m in &requests {
-        let t = at(m.t_ns);
-        if t > sim.now_ns() + 1 {
-            sim.run_until_ns(t - 1);
+        .filter(|m| m.direction != Direction::Reply)
+    {
+        // Given just before the cycles of its instant: the Ethernet task reads it at `t` in
+        // its priority turn, as it did in the recording.
+        sim.run_before_ns(at(m.t_ns));
+        let key = (m.source, m.client);
+        match m.direction {
+            Direction::Opened => {
+                clients.insert(key, connect(&mut sim, m.source)?);
+                connections += 1;
+            }
+            Direction::Closed => {
+                if clients.remove(&key).is_some() {
+                    // Dropped: the controller reads the end of the stream now.
+                    sim.notify_network();
+                }
+            }
+            Direction::Request | Direction::Reply => {
+                let client = match clients.entry(key) {
+                    std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+                    std::collections::btree_map::Entry::Vacant(e) => {
+                        connections += 1;
+                        e.insert(connect(&mut sim, m.source)?)
+                    }
+                };
+                let mut line = m.line().to_vec();
+                line.push(b'\n');
+                sim.send(client, &String::from_utf8_lossy(&line))?;
+                requests += 1;
+            }
         }
-        let client = match clients.entry((m.source, m.client)) {
-            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
-            std::collections::btree_map::Entry::Vacant(e) => e.insert(sim.connect()?),
-        };
-        let mut line = m.line().to_vec();
-        line.push(b'\n');
-        sim.send(client, &String::from_utf8_lossy(&line))?;
     }
     sim.run_until_ns(at(last.t_ns));
     let replayed = sim
@@ -213,7 +249,13 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         }
     }
     // Lines delivered, in order, within the recording's window.
+    // Lines before the instant the trace was saved: the reply to the request that saved it
+    // (and whatever came after it at that instant) is not in the recording.
     let end = at(last.t_ns);
+    let saved = match meta.saved_at_ns {
+        0 => u64::MAX,
+        t => at(t),
+    };
     let replies = |t: &TraceFile, shift: i128| -> Vec<(u64, String)> {
         t.messages
             .iter()
@@ -224,7 +266,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                     m.text().into_owned(),
                 )
             })
-            .filter(|(t, _)| *t <= end)
+            .filter(|(t, _)| *t <= end && *t < saved)
             .collect()
     };
     let (rec_lines, rep_lines) = (replies(&recorded, offset), replies(&replayed, 0));
@@ -252,8 +294,8 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     println!(
         "replay identical: {compared} periods and {} lines delivered, {} requests from {} connection(s), {:.3} s of virtual time",
         rec_lines.len(),
-        requests.len(),
-        clients.len(),
+        requests,
+        connections,
         sim.virtual_s()
     );
     Ok(ExitCode::SUCCESS)

@@ -136,14 +136,14 @@ fn a_wrong_magic_is_not_a_trace() {
 #[test]
 fn newer_and_older_formats_are_refused_with_a_clear_sentence() {
     let mut bytes = bytes_of(&sample_trace(3));
-    bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+    bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
     let err = read(&bytes).unwrap_err();
     assert!(
         matches!(
             err,
             TraceError::Version {
-                found: 2,
-                supported: 1,
+                found: 3,
+                supported: 2,
                 ..
             }
         ),
@@ -151,20 +151,23 @@ fn newer_and_older_formats_are_refused_with_a_clear_sentence() {
     );
     assert_eq!(
         err.to_string(),
-        "<stream> was written by a newer wrc (trace format 2); this wrc reads trace format 1 \
+        "<stream> was written by a newer wrc (trace format 3); this wrc reads trace format 2 \
          only: read it with a newer wrc"
     );
-    bytes[8..12].copy_from_slice(&0u32.to_le_bytes());
-    let err = read(&bytes).unwrap_err();
-    assert!(
-        matches!(err, TraceError::Version { found: 0, .. }),
-        "{err:?}"
-    );
-    assert!(
-        err.to_string()
-            .contains("written by an older wrc (trace format 0)"),
-        "{err}"
-    );
+    // Format 1 (before connections were recorded) is older.
+    for older in [1u32, 0] {
+        bytes[8..12].copy_from_slice(&older.to_le_bytes());
+        let err = read(&bytes).unwrap_err();
+        assert!(
+            matches!(err, TraceError::Version { found, .. } if found == older),
+            "{err:?}"
+        );
+        assert!(
+            err.to_string()
+                .contains(&format!("written by an older wrc (trace format {older})")),
+            "{err}"
+        );
+    }
 }
 
 #[test]
@@ -283,6 +286,20 @@ fn content_that_breaks_the_rules_is_invalid_even_with_a_good_crc() {
     let err = read(&bad).unwrap_err();
     assert!(matches!(err, TraceError::Invalid { .. }), "{err:?}");
     assert!(err.to_string().contains("samples of 93 bytes"), "{err}");
+    // A message whose direction is none of request, reply, opened, closed. The first
+    // message (the host's connection) starts after the section's tag, length and count:
+    // its direction follows its t_ns.
+    let messages_at = sections(&bytes)[2].1;
+    let direction_at = messages_at + 12 + 8 + 8;
+    assert_eq!(direction_code(&bytes, direction_at), 2, "opened");
+    let mut bad = bytes.clone();
+    bad[direction_at] = 4;
+    reseal(&mut bad, messages_at);
+    let err = read(&bad).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "<stream> is not a valid trace: a message has direction code 4; it is 0 to 3"
+    );
     // Sections out of order: a samples section where the meta belongs.
     let s = sections(&bytes);
     let mut swapped = bytes[..META_AT].to_vec();
@@ -293,6 +310,10 @@ fn content_that_breaks_the_rules_is_invalid_even_with_a_good_crc() {
             .contains("the meta section (tag \"META\") was expected"),
         "{err}"
     );
+}
+
+fn direction_code(bytes: &[u8], at: usize) -> u8 {
+    bytes[at]
 }
 
 #[test]
@@ -315,12 +336,12 @@ fn the_summary_says_what_the_trace_holds() {
     let summary = sample_trace(200).summary();
     for expected in [
         "reason:   TRACE SAVE",
-        "by wrc 0.1.0, trace format 1",
+        "by wrc 0.1.0, trace format 2",
         "virtual clock",
         "period:   10 ms, 4 axes (J1, J2, J3, Z)",
         "duration: 1.990 s (t = 0.000 s to 1.990 s)",
         "samples:  200",
-        "messages: 42 (21 requests, 21 replies), from the session's start",
+        "messages: 44 (21 requests, 21 replies; 1 connections opened, 1 closed), from the session's start",
         "states:   IDLE, MOVING",
         "errors:   206",
     ] {

@@ -50,7 +50,8 @@ pub fn sample_trace(n: u64) -> TraceFile {
             s
         })
         .collect();
-    let mut messages = Vec::new();
+    // A host connects before its first request and leaves after the last line.
+    let mut messages = vec![Message::new(4, Direction::Opened, SOURCE_HOST, 1, b"")];
     for k in (0..n).step_by(10) {
         let t = k * 10_000_000 + 5;
         messages.push(Message::new(
@@ -76,6 +77,13 @@ pub fn sample_trace(n: u64) -> TraceFile {
         b"EVT STATE MOVING",
     ));
     messages.push(Message::new(8, Direction::Request, 2, 3, &[b'x'; 300]));
+    messages.push(Message::new(
+        n * 10_000_000,
+        Direction::Closed,
+        SOURCE_HOST,
+        1,
+        b"",
+    ));
     TraceFile {
         meta,
         samples,

@@ -272,3 +272,111 @@ fn wrc_trace_save_asks_a_running_controller() {
     }
     assert!(child.0.wait().unwrap().success());
 }
+
+/// A TCP client of `wrc sim --listen` that keeps every line it heard.
+struct Line {
+    reader: BufReader<std::net::TcpStream>,
+    writer: std::net::TcpStream,
+    heard: Vec<String>,
+}
+
+impl Line {
+    fn connect(addr: &str) -> Line {
+        let stream = wait_until("wrc sim's port", || {
+            std::net::TcpStream::connect(addr).map_err(|e| e.to_string())
+        });
+        stream
+            .set_read_timeout(Some(std::time::Duration::from_secs(30)))
+            .unwrap();
+        Line {
+            reader: BufReader::new(stream.try_clone().unwrap()),
+            writer: stream,
+            heard: Vec::new(),
+        }
+    }
+
+    fn send(&mut self, line: &str) {
+        self.writer
+            .write_all(format!("{line}\n").as_bytes())
+            .unwrap();
+    }
+
+    /// Read until a line that starts with `prefix`; return it.
+    fn until(&mut self, prefix: &str) -> String {
+        loop {
+            let mut l = String::new();
+            let n = self.reader.read_line(&mut l).unwrap_or(0);
+            assert!(n > 0, "no {prefix:?}; heard {:?}", self.heard);
+            let l = l.trim_end().to_string();
+            self.heard.push(l.clone());
+            if l.starts_with(prefix) {
+                return l;
+            }
+        }
+    }
+}
+
+#[test]
+fn a_client_lost_mid_move_is_in_the_trace_and_its_loss_replays_identically() {
+    let dir = tempfile::tempdir().unwrap();
+    let Listening {
+        mut child,
+        out: _out,
+        stderr: _stderr,
+        addr,
+    } = listen(dir.path());
+    let mut watcher = Line::connect(&addr);
+    {
+        let mut owner = Line::connect(&addr);
+        owner.send("1 CONTROL");
+        owner.until("ACK 1");
+        owner.send("2 HOME");
+        owner.until("INF 2");
+        owner.send("3 MOVJ 170 30 0 250");
+        owner.until("ACK 3");
+        watcher.until("EVT STATE MOVING");
+    } // the owner's connection drops here, mid-move
+    watcher.until("EVT ERROR 208");
+    watcher.send("9 TRACE SAVE lost");
+    let saved = watcher.until("ACK 9");
+    let path = dir.path().join("traces/lost.wrctrace");
+    assert!(
+        saved.starts_with(&format!("ACK 9 file={}", path.display())),
+        "{saved}"
+    );
+    // SAFETY: kill with the pid of a child we spawned and have not reaped.
+    unsafe {
+        libc::kill(child.0.id() as libc::pid_t, libc::SIGTERM);
+    }
+    assert!(child.0.wait().unwrap().success());
+
+    // Two hosts connected, one closed: the recording says when.
+    let trace = wrc_trace::TraceFile::load(&path).unwrap();
+    let count = |d| {
+        trace
+            .messages
+            .iter()
+            .filter(|m| m.direction == d && m.source == wrc_trace::SOURCE_HOST)
+            .count()
+    };
+    use wrc_trace::Direction::{Closed, Opened};
+    assert_eq!((count(Opened), count(Closed)), (2, 1));
+    let info = wrc(&["trace", "info", path.to_str().unwrap()]);
+    assert!(
+        text(&info).0.contains("2 connections opened, 1 closed"),
+        "{:?}",
+        text(&info)
+    );
+    // The replay loses the owner at the same instant: the same E-stop of the move, the same
+    // 208, period for period.
+    let out = wrc(&["trace", "replay", path.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("replay identical: "), "{stdout}");
+    assert!(stdout.contains("from 2 connection(s)"), "{stdout}");
+    let replayed = trace
+        .messages
+        .iter()
+        .any(|m| m.text().starts_with("EVT ERROR 208"));
+    assert!(replayed, "the recording holds the loss's error");
+}

@@ -134,9 +134,14 @@ impl TraceFile {
         let (requests, replies) = (count(Direction::Request), count(Direction::Reply));
         let (opened, closed) = (count(Direction::Opened), count(Direction::Closed));
         let _ = writeln!(out, "samples:  {}", self.samples.len());
+        let connections = if opened + closed > 0 {
+            format!("; connections: {opened} opened, {closed} closed")
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             out,
-            "messages: {} ({requests} requests, {replies} replies; {opened} connections opened, {closed} closed){}",
+            "messages: {} ({requests} requests, {replies} replies{connections}){}",
             self.messages.len(),
             if m.from_start {
                 ", from the session's start"

@@ -341,7 +341,7 @@ fn the_summary_says_what_the_trace_holds() {
         "period:   10 ms, 4 axes (J1, J2, J3, Z)",
         "duration: 1.990 s (t = 0.000 s to 1.990 s)",
         "samples:  200",
-        "messages: 44 (21 requests, 21 replies; 1 connections opened, 1 closed), from the session's start",
+        "messages: 44 (21 requests, 21 replies; connections: 1 opened, 1 closed), from the session's start",
         "states:   IDLE, MOVING",
         "errors:   206",
     ] {

@@ -363,7 +363,7 @@ fn a_client_lost_mid_move_is_in_the_trace_and_its_loss_replays_identically() {
     assert_eq!((count(Opened), count(Closed)), (2, 1));
     let info = wrc(&["trace", "info", path.to_str().unwrap()]);
     assert!(
-        text(&info).0.contains("2 connections opened, 1 closed"),
+        text(&info).0.contains("connections: 2 opened, 1 closed"),
         "{:?}",
         text(&info)
     );

@@ -163,13 +163,13 @@ fn bad_files_and_windows_are_refused_with_one_clear_sentence() {
 
     let newer = dir.path().join("newer.wrctrace");
     let mut bytes = good.clone();
-    bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+    bytes[8..12].copy_from_slice(&(wrc_trace::FORMAT_VERSION + 1).to_le_bytes());
     std::fs::write(&newer, &bytes).unwrap();
     let newer = newer.to_str().unwrap();
     refused(
         &["trace", "info", newer],
         &format!(
-            "{newer} was written by a newer wrc (trace format 2); this wrc reads trace format 1"
+            "{newer} was written by a newer wrc (trace format 3); this wrc reads trace format 2"
         ),
     );
 

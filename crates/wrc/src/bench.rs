@@ -37,6 +37,10 @@ enum BenchWhat {
     /// 33, 66 and 100 % speed, stopped at peak acceleration and in cruise, ESTOP and STOP,
     /// from the output pulses, against the time-optimal brake.
     Stop(crate::bench_stop::StopArgs),
+    /// Wafer throughput on the demo cell: standard GET/PUT sequences, wafers per hour,
+    /// seconds per GET and PUT, moving vs waiting, and each transfer against the
+    /// time-optimal time of its path (virtual time; `--real-time` on `wrc up`).
+    Cell(crate::bench_cell::CellArgs),
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
     Ui(crate::bench_ui::UiBenchArgs),
@@ -75,6 +79,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Ui(args) => crate::bench_ui::run(args),
         BenchWhat::Motion(args) => crate::bench_motion::run(args),
         BenchWhat::Stop(args) => crate::bench_stop::run(args),
+        BenchWhat::Cell(args) => crate::bench_cell::run(args),
     }
 }
 

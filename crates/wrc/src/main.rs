@@ -1,6 +1,7 @@
 //! `wrc`: argument parsing and wiring of the wrc crates; no logic of its own.
 
 mod bench;
+mod bench_cell;
 mod bench_controller;
 mod bench_motion;
 mod bench_stop;

@@ -1,4 +1,5 @@
-//! `wrc bench stop`: the stopping table (ISO 10218-1 Annex B form) and its JSON.
+//! `wrc bench stop`: the stopping table (ISO 10218-1 Annex B form) and its JSON; `wrc bench
+//! cell`: the throughput of a short sequence in virtual time, its JSON and its bad input.
 
 use crate::{text, wrc};
 
@@ -55,4 +56,49 @@ fn a_bad_speed_is_named() {
     let (_, stderr) = text(&out);
     assert!(!out.status.success());
     assert!(stderr.contains("--speed"), "{stderr}");
+}
+
+#[test]
+fn bench_cell_prints_and_writes_the_throughput_of_a_short_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("cell.json");
+    let out = wrc(&[
+        "bench",
+        "cell",
+        "--wafers",
+        "1",
+        "--only",
+        "lp-lp",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(stdout.contains("virtual time"), "{stdout}");
+    assert!(stdout.contains("LP1 → LP2"), "{stdout}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(doc["mode"], "virtual");
+    let seq = &doc["sequences"][0];
+    assert_eq!(seq["sequence"], "lp-lp");
+    let transfers = seq["transfers"].as_array().unwrap();
+    let names: Vec<&str> = transfers
+        .iter()
+        .map(|t| t["request"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["GET LP1 1", "PUT LP2 1"]);
+    let total = seq["seconds"].as_f64().unwrap();
+    assert!((seq["wafers_per_hour"].as_f64().unwrap() - 3600.0 / total).abs() < 1e-6);
+    for t in transfers {
+        let s = t["seconds"].as_f64().unwrap();
+        assert!(t["moving_s"].as_f64().unwrap() <= s + 0.011, "{t}");
+        assert!(t["reference_s"].as_f64().unwrap() <= s, "{t}");
+        // The motion starts within two Pulse Generator periods of the request.
+        assert!(t["first_motion_s"].as_f64().unwrap() <= 0.02 + 1e-9, "{t}");
+    }
+    // Bad input: one sentence, exit 2.
+    let out = wrc(&["bench", "cell", "--wafers", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = wrc(&["bench", "cell", "--only", "lp-xx"]);
+    assert_eq!(out.status.code(), Some(2));
 }

@@ -227,13 +227,24 @@ impl RealTime {
                 }
             }
         };
-        stream.set_read_timeout(Some(Duration::from_secs_f64(PATIENCE_S)))?;
-        stream.set_nodelay(true)?;
-        Ok(RealTime {
-            child: child.take().expect("started"),
-            reader: BufReader::new(stream.try_clone()?),
-            writer: stream,
-        })
+        let mut child = child.take().expect("started");
+        // From here on a failure stops the controller before it is reported.
+        let configured = (|| -> std::io::Result<TcpStream> {
+            stream.set_read_timeout(Some(Duration::from_secs_f64(PATIENCE_S)))?;
+            stream.set_nodelay(true)?;
+            stream.try_clone()
+        })();
+        match configured {
+            Ok(reader) => Ok(RealTime {
+                child,
+                reader: BufReader::new(reader),
+                writer: stream,
+            }),
+            Err(e) => {
+                crate::up::stop_children(std::slice::from_mut(&mut child));
+                Err(e.into())
+            }
+        }
     }
 
     fn line(&mut self) -> anyhow::Result<String> {

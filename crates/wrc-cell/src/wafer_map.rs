@@ -164,6 +164,19 @@ pub enum SlotState {
     Fault(SlotFault),
 }
 
+impl SlotState {
+    /// The code a `MAP` of the slot reports when the map is right (`Present` for any
+    /// wafer); `None` for a slot the map does not know.
+    pub fn code(self) -> Option<SlotCode> {
+        match self {
+            SlotState::Unknown => None,
+            SlotState::Empty => Some(SlotCode::Absent),
+            SlotState::Wafer(_) => Some(SlotCode::Present),
+            SlotState::Fault(fault) => Some(fault.code()),
+        }
+    }
+}
+
 /// A transfer between a slot and the hand.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Transfer {

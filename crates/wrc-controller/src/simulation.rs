@@ -272,8 +272,9 @@ impl Simulation {
                 let sim_cell = SimCell::new(config, board, stations).map_err(|e| bad(&e))?;
                 Some(match cell.world {
                     Some(text) => {
-                        let world = World::from_text(text, sim_cell.stations())
-                            .map_err(|e| bad(&format!("the cell's ground truth: {e}")))?;
+                        let world = World::from_text(text, sim_cell.stations()).map_err(|e| {
+                            StartError::SimCell(format!("the cell's ground truth: {e}"))
+                        })?;
                         sim_cell.with_world(world)
                     }
                     None => sim_cell,

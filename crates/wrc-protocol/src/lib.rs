@@ -66,7 +66,7 @@ pub mod verb;
 pub use code::{Code, Severity};
 pub use line::{LineError, LineReader, MAX_LINE};
 pub use reply::{
-    Event, HelpBody, IoBody, Num, ReplyBuf, ReplyKind, ReplyTo, StatusBody, WhereBody,
+    reply_field, Event, HelpBody, IoBody, Num, ReplyBuf, ReplyKind, ReplyTo, StatusBody, WhereBody,
     REPLY_CAPACITY,
 };
 pub use request::{

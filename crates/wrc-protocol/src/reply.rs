@@ -12,6 +12,15 @@ use crate::request::{checksum, Rejected};
 use crate::state::State;
 use crate::verb::Verb;
 
+/// The value of the field `key=value` in a reply line (`ACK 7 state=IDLE homed=1 …`,
+/// `WHERE`'s `j=…`, `WAFERS`' `LP1=…`), for host software reading replies back; `None`
+/// when the line has no such field. Fields are separated by spaces; the first one named
+/// `key` counts.
+pub fn reply_field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
+    line.split_whitespace()
+        .find_map(|w| w.strip_prefix(key)?.strip_prefix('='))
+}
+
 /// Size of a [`ReplyBuf`] [bytes], including the checksum suffix and the LF.
 pub const REPLY_CAPACITY: usize = 512;
 
@@ -488,6 +497,27 @@ mod tests {
         id: None,
         checksum: false,
     };
+
+    #[test]
+    fn a_field_is_read_back_from_the_reply_that_wrote_it() {
+        let mut out = ReplyBuf::new();
+        let line = core::str::from_utf8(out.ack(
+            ReplyTo {
+                id: Some(7),
+                checksum: false,
+            },
+            "state=IDLE homed=1 speed=100 owner=none err=0",
+        ))
+        .unwrap()
+        .to_string();
+        assert_eq!(reply_field(&line, "state"), Some("IDLE"));
+        assert_eq!(reply_field(&line, "err"), Some("0"));
+        // A key is a whole name: `homed` is not `home`, and a missing field is None.
+        assert_eq!(reply_field(&line, "home"), None);
+        assert_eq!(reply_field(&line, "x"), None);
+        assert_eq!(reply_field("ACK hand=- LP1=-x25", "LP1"), Some("-x25"));
+        assert_eq!(reply_field("ACK a= b=2", "a"), Some(""));
+    }
     const ID7: ReplyTo = ReplyTo {
         id: Some(7),
         checksum: false,

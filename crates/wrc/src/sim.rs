@@ -122,6 +122,13 @@ fn simulation(args: &SimArgs, config: &Config, dir: &Path) -> anyhow::Result<Sim
         args.listen,
         args.sim_addr,
     )
+    .with_context(|| match &world {
+        Some(_) => format!(
+            "the simulated cell kept in {} (remove it to start from the stations' wafers)",
+            world_path.display()
+        ),
+        None => "the stations' simulated cell".to_string(),
+    })
 }
 
 /// The simulated cell's ground truth in a state directory (the name `wrc up` uses).

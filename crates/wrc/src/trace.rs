@@ -308,12 +308,7 @@ fn positions_panel(area: &Panel<'_>, trace: &TraceFile, window: &Window<'_>) -> 
             .label(format!("{name} actual"))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], light));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()?;
+    crate::plot::legend(&mut chart)?;
     Ok(())
 }
 

@@ -773,3 +773,13 @@ proptest! {
         prop_assert_eq!(parse_slot_list(&compact_slots(&slots)), Some(slots));
     }
 }
+
+#[test]
+fn a_slot_states_code_is_what_a_map_of_it_reports() {
+    assert_eq!(SlotState::Unknown.code(), None);
+    assert_eq!(SlotState::Empty.code(), Some(SlotCode::Absent));
+    assert_eq!(SlotState::Wafer(WaferId(9)).code(), Some(SlotCode::Present));
+    for fault in [SlotFault::Double, SlotFault::Cross] {
+        assert_eq!(SlotState::Fault(fault).code(), Some(fault.code()));
+    }
+}

@@ -6,6 +6,7 @@
 //! stays in the `wrc` crate's process-level tests.
 
 use wrc_controller::simulation::SimCellFrom;
+use wrc_protocol::reply_field;
 
 use crate::vhost::{map_codes, repo, VHost};
 
@@ -23,10 +24,7 @@ fn expect_nak(host: &mut VHost, id: u32, line: &str, code: u32) -> String {
 fn wait_input(host: &mut VHost, n: u32, on: bool) {
     host.poll(&format!("input {n} {on} at the controller"), |host| {
         let r = host.ask("IO");
-        let word = r
-            .split_whitespace()
-            .find_map(|f| f.strip_prefix("in="))
-            .and_then(|h| u32::from_str_radix(h, 16).ok());
+        let word = reply_field(&r, "in").and_then(|h| u32::from_str_radix(h, 16).ok());
         if word.is_some_and(|w| (w >> n) & 1 == u32::from(on)) {
             Ok(())
         } else {

@@ -6,10 +6,11 @@
 
 use std::path::{Path, PathBuf};
 
-use wrc_board::wrc_cell::{parse_slot_list, slot_codes_string, SlotState};
+use wrc_board::wrc_cell::{parse_slot_list, slot_codes_string, SlotCode};
 use wrc_board::Fault;
 use wrc_config::Config;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
+use wrc_protocol::reply_field;
 
 /// Virtual time any single line may take to come [ns]: longer than any motion of the demo
 /// cell, far shorter than a program that hangs.
@@ -42,20 +43,14 @@ pub fn truth_codes(sim: &Simulation, station: &str) -> String {
     slot_codes_string(&world.map_station(station).unwrap())
 }
 
-/// The map's occupancy of `station` in a `WAFERS` reply: `1` a wafer, `0` empty.
+/// The map's occupancy of `station` in a `WAFERS` reply, as `MAP` codes (`1` a wafer, `0`
+/// empty, `2`/`X` faults, `?` unknown): comparable with [`truth_codes`].
 pub fn map_codes(wafers: &str, station: &str) -> String {
-    let list = wafers
-        .split_whitespace()
-        .find_map(|w| w.strip_prefix(&format!("{station}=")))
-        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    let list = reply_field(wafers, station).unwrap_or_else(|| panic!("no {station} in {wafers}"));
     parse_slot_list(list)
         .unwrap_or_else(|| panic!("{station}'s list does not read: {wafers}"))
         .iter()
-        .map(|s| match s {
-            SlotState::Wafer(_) => '1',
-            SlotState::Empty => '0',
-            _ => '?',
-        })
+        .map(|s| s.code().map_or('?', SlotCode::as_char))
         .collect()
 }
 
@@ -138,11 +133,7 @@ impl VHost {
     /// `WHERE`: the joints [deg, deg, deg, mm] and the hand's x and y [mm].
     pub fn where_(&mut self) -> (Vec<f64>, f64, f64) {
         let r = self.ask("WHERE");
-        let field = |k: &str| -> String {
-            r.split_whitespace()
-                .find_map(|w| w.strip_prefix(&format!("{k}=")).map(str::to_string))
-                .unwrap_or_else(|| panic!("no {k} in {r}"))
-        };
+        let field = |k: &str| reply_field(&r, k).unwrap_or_else(|| panic!("no {k} in {r}"));
         let joints = field("j").split(',').map(|v| v.parse().unwrap()).collect();
         (
             joints,

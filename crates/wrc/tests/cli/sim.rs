@@ -89,6 +89,26 @@ fn a_program_that_does_not_compile_or_a_bad_option_is_refused() {
     assert!(text(&out).1.contains("--rate must be a positive number"));
     let out = wrc(&["sim"]);
     assert_eq!(out.status.code(), Some(2));
+
+    // A damaged simulated cell kept in the state directory is named, with what to do.
+    let state = dir.path().join("state");
+    std::fs::create_dir_all(&state).unwrap();
+    std::fs::write(state.join("world.toml"), "garbage = [\n").unwrap();
+    let out = wrc(&[
+        "sim",
+        program.to_str().unwrap(),
+        "--state-dir",
+        state.to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "the simulated cell kept in {}",
+            state.join("world.toml").display()
+        )) && stderr.contains("remove it"),
+        "{stderr}"
+    );
 }
 
 #[test]

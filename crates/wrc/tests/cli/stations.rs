@@ -2,11 +2,12 @@
 //! demo cell into the state directory, `STN` lists it, `TEACH` stores the current pose
 //! (atomically, surviving a restart), `WAFERS` reports the wafer map.
 
+use wrc_protocol::reply_field;
+
 use crate::up::Controller;
 
 fn field(line: &str, key: &str) -> f64 {
-    line.split_whitespace()
-        .find_map(|w| w.strip_prefix(&format!("{key}=")))
+    reply_field(line, key)
         .unwrap_or_else(|| panic!("no {key} in {line}"))
         .parse()
         .unwrap()

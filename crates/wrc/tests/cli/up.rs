@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
+use wrc_protocol::reply_field;
+
 use crate::{wait_until, BoardView};
 
 /// Board periods (10 ms each) that a test watches the arm after a stop to see nothing move.
@@ -189,11 +191,7 @@ impl Client {
 
     pub(crate) fn where_(&mut self) -> (Vec<f64>, f64, f64) {
         let r = self.ask("WHERE");
-        let field = |k: &str| -> String {
-            r.split_whitespace()
-                .find_map(|w| w.strip_prefix(&format!("{k}=")).map(str::to_string))
-                .unwrap_or_else(|| panic!("no {k} in {r}"))
-        };
+        let field = |k: &str| reply_field(&r, k).unwrap_or_else(|| panic!("no {k} in {r}"));
         let joints = field("j").split(',').map(|v| v.parse().unwrap()).collect();
         (
             joints,
@@ -352,8 +350,7 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
         .find(|l| l.starts_with("EVT TASK pulse_generator "))
         .expect("the Pulse Generator's line");
     let count = |key: &str| -> u64 {
-        pg.split_whitespace()
-            .find_map(|w| w.strip_prefix(key)?.strip_prefix('='))
+        reply_field(pg, key)
             .unwrap_or_else(|| panic!("no {key} in {pg}"))
             .parse()
             .unwrap()

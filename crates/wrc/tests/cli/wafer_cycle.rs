@@ -13,7 +13,8 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use wrc_board::wrc_cell::{parse_slot_list, SlotFault, SlotState};
+use wrc_board::wrc_cell::{parse_slot_list, SlotCode};
+use wrc_protocol::reply_field;
 
 use crate::up::{free_port, Client};
 use crate::{text, wait_until, wrc, BoardView};
@@ -60,20 +61,11 @@ fn fast_cell(dir: &Path) -> (PathBuf, PathBuf) {
 /// The map's occupancy of `station` from a `WAFERS` reply: `1` a wafer, `0` empty, `?`
 /// unknown, `2`/`X` faults.
 fn map_codes(wafers: &str, station: &str) -> String {
-    let list = wafers
-        .split_whitespace()
-        .find_map(|w| w.strip_prefix(&format!("{station}=")))
-        .unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    let list = reply_field(wafers, station).unwrap_or_else(|| panic!("no {station} in {wafers}"));
     parse_slot_list(list)
         .unwrap_or_else(|| panic!("{station}'s list does not read: {wafers}"))
         .iter()
-        .map(|s| match s {
-            SlotState::Wafer(_) => '1',
-            SlotState::Empty => '0',
-            SlotState::Unknown => '?',
-            SlotState::Fault(SlotFault::Double) => '2',
-            SlotState::Fault(SlotFault::Cross) => 'X',
-        })
+        .map(|s| s.code().map_or('?', SlotCode::as_char))
         .collect()
 }
 
@@ -96,10 +88,7 @@ pub(crate) fn truth_codes(world: &Path, station: &str) -> String {
 }
 
 fn hand(wafers: &str) -> &str {
-    wafers
-        .split_whitespace()
-        .find_map(|w| w.strip_prefix("hand="))
-        .unwrap()
+    reply_field(wafers, "hand").unwrap()
 }
 
 /// The map (after any start-up reconciliation) agrees with the cell: every station's

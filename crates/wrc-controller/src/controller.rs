@@ -338,7 +338,9 @@ pub(crate) fn assemble<H: Host>(
     let vg_wake = host.wake("velocity_generator", None)?;
     let pg_wake = host.wake("pulse_generator", None)?;
     let service_wake = host.wake("service", None)?;
+    let io_wake = host.wake("io_monitor", None)?;
     shared.notify_stops(pg_wake.notifier());
+    shared.notify_outputs(io_wake.notifier());
     let orders = Arc::new(MessageQueue::with_notify(
         crate::command_interpreter::MAX_TICKETS,
         vg_wake.notifier(),
@@ -496,14 +498,19 @@ pub(crate) fn assemble<H: Host>(
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
+    let ci_applied = ci_wake.notifier();
     host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
-    host.add(
+    // Released by every output request, so a vacuum valve opens at once; it releases the
+    // Command Interpreter, which waits for the valve in a transfer.
+    host.add_released(
         spec("io_monitor"),
         IoMonitor::new(
             io_board,
             shared.clone(),
             vec![network_out.clone(), serial_out.clone()],
-        ),
+        )
+        .with_applied(ci_applied),
+        io_wake,
     )?;
     let hosts = ClientSet::new(
         SourceId::TCP,

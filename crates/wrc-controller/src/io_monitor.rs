@@ -1,6 +1,8 @@
 //! I/O Monitor task (Table 1: priority 45, 100 ms): reads every board's digital inputs,
 //! publishes each changed bit as `EVT INPUT <n> <0|1>` to every client, and applies the
-//! outputs the Command Interpreter requested (OUT).
+//! outputs the Command Interpreter requested (OUT, a transfer's vacuum valve). Released by
+//! its period and by every output request ([`Shared::set_output`]), so an output is applied
+//! at once; it then releases the Command Interpreter, which may be waiting for it.
 //!
 //! Real-time promise: DPRAM reads and writes and lock-free queue sends only; no allocation,
 //! no blocking, no printing.
@@ -11,6 +13,7 @@ use std::sync::Arc;
 
 use wrc_board::MotionBoard;
 use wrc_rt::ipc::MessageQueue;
+use wrc_rt::Notify;
 use wrc_rt::{CycleContext, Task};
 
 use crate::messages::{OutLine, SourceId};
@@ -23,6 +26,7 @@ pub struct IoMonitor<B: MotionBoard> {
     events: Vec<Arc<MessageQueue<OutLine>>>,
     previous: [u32; 4],
     first: bool,
+    applied: Option<Arc<dyn Notify>>,
 }
 
 impl<B: MotionBoard> IoMonitor<B> {
@@ -34,7 +38,14 @@ impl<B: MotionBoard> IoMonitor<B> {
             events,
             previous: [0; 4],
             first: true,
+            applied: None,
         }
+    }
+
+    /// Wake `notify` (the Command Interpreter) whenever this task has applied new outputs.
+    pub fn with_applied(mut self, notify: Arc<dyn Notify>) -> Self {
+        self.applied = Some(notify);
+        self
     }
 
     fn broadcast(&self, text: &[u8]) {
@@ -49,6 +60,9 @@ impl<B: MotionBoard> IoMonitor<B> {
             let wanted = self.shared.outputs[b].load(Ordering::Acquire);
             if self.board.outputs(b) != wanted {
                 self.board.write_outputs(b, wanted);
+                if let Some(notify) = &self.applied {
+                    notify.notify();
+                }
             }
             let inputs = self.board.read_inputs(b);
             self.shared.inputs[b].store(inputs, Ordering::Release);

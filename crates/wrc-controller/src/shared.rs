@@ -54,6 +54,8 @@ pub struct Shared {
     pub hand_wafer: AtomicBool,
     /// Released by every stop request: the Pulse Generator's wake (set once at start-up).
     stop_notify: OnceLock<Arc<dyn Notify>>,
+    /// Released by every change of `outputs`: the I/O Monitor's wake (set once at start-up).
+    output_notify: OnceLock<Arc<dyn Notify>>,
 }
 
 impl Default for Shared {
@@ -79,6 +81,7 @@ impl Default for Shared {
             io_ready: AtomicBool::new(false),
             hand_wafer: AtomicBool::new(false),
             stop_notify: OnceLock::new(),
+            output_notify: OnceLock::new(),
         }
     }
 }
@@ -113,6 +116,27 @@ impl Shared {
     /// once instead of at its next period. Set once; later calls change nothing.
     pub fn notify_stops(&self, notify: Arc<dyn Notify>) {
         let _ = self.stop_notify.set(notify);
+    }
+
+    /// Set (`on`) or clear output `n` of board 0 for the I/O Monitor to apply, and release
+    /// the I/O Monitor so it applies it now rather than at its next period (a vacuum valve
+    /// in a transfer waits for it).
+    pub fn set_output(&self, n: u8, on: bool) {
+        let bit = 1u32 << (n & 31);
+        if on {
+            self.outputs[0].fetch_or(bit, Ordering::AcqRel);
+        } else {
+            self.outputs[0].fetch_and(!bit, Ordering::AcqRel);
+        }
+        if let Some(notify) = self.output_notify.get() {
+            notify.notify();
+        }
+    }
+
+    /// Wake `notify` (the I/O Monitor) on every [`Shared::set_output`]. Set once; later calls
+    /// change nothing.
+    pub fn notify_outputs(&self, notify: Arc<dyn Notify>) {
+        let _ = self.output_notify.set(notify);
     }
 
     /// Take the strongest stop kind requested (the Pulse Generator, when it sees a new stop

@@ -84,11 +84,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// Set or clear output `n`; returns the wait for the board to apply it.
     fn job_output(&mut self, n: u8, on: bool) -> JobWait {
         let bit = 1u32 << (n & 31);
-        if on {
-            self.shared.outputs[0].fetch_or(bit, Ordering::AcqRel);
-        } else {
-            self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
-        }
+        self.shared.set_output(n, on);
         JobWait::Output {
             mask: bit,
             value: if on { bit } else { 0 },
@@ -523,8 +519,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         // The mapping sensor is only on during a scan.
         if j.job.kind == JobKind::Map {
-            let bit = 1u32 << (self.hand.mapping_output & 31);
-            self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
+            self.shared.set_output(self.hand.mapping_output, false);
         }
         let sensed = self.vacuum_sensed();
         let _ = self.io.store.cell_events.try_send(CellEvent::Ended {

@@ -251,12 +251,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 deliver(&self.io.out, from, line);
             }
             Command::Out { n, on } => {
-                let bit = 1u32 << n;
-                if on {
-                    self.shared.outputs[0].fetch_or(bit, Ordering::AcqRel);
-                } else {
-                    self.shared.outputs[0].fetch_and(!bit, Ordering::AcqRel);
-                }
+                self.shared.set_output(n, on);
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);
             }

@@ -318,3 +318,33 @@ fn a_held_get_waits_and_resumes_to_take_its_wafer() {
     assert!(!host.hand_empty());
     assert_eq!(host.truth("LP1"), "1011111111111111111111111");
 }
+
+/// An output request releases the I/O Monitor (period 100 ms): the board applies it within
+/// a few Pulse Generator periods, not at the I/O Monitor's next period (a transfer waits
+/// for its vacuum valve this way).
+#[test]
+fn an_output_reaches_the_board_at_once_not_at_the_io_monitors_next_period() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    let applied = |host: &VHost| {
+        host.sim
+            .board(0)
+            .unwrap()
+            .dpram()
+            .load(wrc_board::layout::io::OUTPUTS_APPLIED)
+    };
+    // Just after an I/O Monitor grid point: its next one is 100 ms away.
+    let io_period_ns = 100_000_000;
+    let now = host.sim.now_ns();
+    host.sim
+        .run_before_ns((now / io_period_ns + 1) * io_period_ns + 1_000_000);
+    assert_eq!(applied(&host) & (1 << 5), 0);
+    let asked = host.sim.now_ns();
+    assert_eq!(host.ask("OUT 5 1"), "ACK");
+    host.sim.run_until_ns(asked + 30_000_000);
+    assert_ne!(
+        applied(&host) & (1 << 5),
+        0,
+        "output 5 not applied 30 ms after OUT"
+    );
+}

@@ -41,9 +41,9 @@ build: check-toolchain web
 # board on the embedded default configuration, and the web GUI on http://127.0.0.1:8080.
 # Host protocol on tcp 127.0.0.1:7100 (try `target/release/wrc send HOME` in another
 # terminal), simulator datagrams to udp 127.0.0.1:7200. Ctrl-C stops the robot and the
-# controller.
+# controller. `make run CONFIG=config/dual-blade.toml`: the same with the dual-blade robot.
 run: build
-	$(WRC) up
+	$(WRC) up $(if $(CONFIG),--config $(CONFIG))
 
 # The offline planning demo: the paper's Fig. 7 (PTP) and Fig. 8 (straight line) motions.
 demo: build

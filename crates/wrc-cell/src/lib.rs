@@ -55,6 +55,7 @@
 #![deny(missing_docs)]
 
 mod atomic;
+pub mod blade;
 pub mod mapping;
 mod num;
 pub mod station;
@@ -64,6 +65,7 @@ pub mod wafer_map;
 pub mod world;
 
 pub use atomic::write_atomic;
+pub use blade::{Blade, MAX_BLADES};
 pub use mapping::{parse_slot_codes, slot_codes_string, SlotCode, SlotCodesError};
 pub use station::{
     parse_station_name, PoseKind, Station, StationError, StationKind, StationName, StationSim,

@@ -431,6 +431,16 @@ impl Station {
         })
     }
 
+    /// The station as a blade whose wafer plane is `z_offset_mm` above the TCP sees it (a
+    /// dual-blade robot's blade B; 0 for the hand): every height lowered by the offset, so
+    /// that the TCP poses of its transfers put that blade's wafer where the hand's would be.
+    /// Reachability checks of the result check the TCP (the wrist's Z axis) at those heights.
+    pub fn for_blade(&self, z_offset_mm: f64) -> Station {
+        let mut s = self.clone();
+        s.pose.z -= z_offset_mm;
+        s
+    }
+
     /// The approach pose at `slot`: the seated pose moved back `approach_mm` against the
     /// hand direction (`x - approach_mm·cos yaw`, `y - approach_mm·sin yaw`), same z and yaw.
     pub fn approach_pose(&self, slot: u16, lifted: bool) -> Result<Pose, StationError> {

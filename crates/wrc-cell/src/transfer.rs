@@ -38,6 +38,12 @@
 //! | 11 | [`Step::Line`] | approach pose, lowered |
 //! | 12 | [`Step::RestoreSpeed`] | |
 //!
+//! A dual-blade robot's blade B sits `z_offset_mm` above the TCP (negative: below it); a
+//! transfer with blade B plans the same steps at the station as blade B sees it
+//! ([`Station::for_blade`]: every height lowered by the offset), so that blade B's wafer
+//! centre follows the poses above. Its vacuum steps switch and read blade B's valve and
+//! sensor (the controller picks them by the blade the job names).
+//!
 //! While a wafer is on the hand (GET from step 8 on, PUT until step 7) the controller watches
 //! the vacuum-sensed input during every motion and stops in a controlled way if it drops (a
 //! wafer lost in motion).
@@ -306,6 +312,31 @@ mod tests {
         let steps = plan_get(&al, 1).unwrap();
         assert!(matches!(steps[0], Step::Ptp(_, Some(Posture::Left))));
         assert!(steps[0].to_string().ends_with(" L"), "{}", steps[0]);
+    }
+
+    #[test]
+    fn blade_b_follows_the_hands_poses_lowered_by_its_offset() {
+        let stations = Stations::embedded_demo();
+        let pm1 = stations.get("PM1").unwrap();
+        let a = plan(TransferKind::Get, pm1, 1).unwrap();
+        let b = plan(TransferKind::Get, &pm1.for_blade(-30.0), 1).unwrap();
+        assert_eq!(a.len(), b.len());
+        for (sa, sb) in a.iter().zip(&b) {
+            match (sa, sb) {
+                (Step::Ptp(pa, _), Step::Ptp(pb, _))
+                | (Step::Line(pa), Step::Line(pb))
+                | (Step::Z(pa), Step::Z(pb)) => {
+                    // The wrist 30 mm higher puts blade B's wafer where the hand's was.
+                    assert!((pb.z - (pa.z + 30.0)).abs() < 1e-12);
+                    assert!(close(&Pose { z: pa.z, ..*pb }, pa));
+                }
+                _ => assert_eq!(sa, sb),
+            }
+        }
+        assert_eq!(
+            plan(TransferKind::Put, &pm1.for_blade(0.0), 1).unwrap(),
+            plan(TransferKind::Put, pm1, 1).unwrap()
+        );
     }
 
     #[test]

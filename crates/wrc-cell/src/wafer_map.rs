@@ -38,13 +38,15 @@
 //! # wrc wafer map ...
 //! version = 1
 //! next_id = 27                 # the next new id; every id in the map is below it
-//! hand = "W3"                  # omitted when the hand is empty
+//! hand = "W3"                  # omitted when the hand (blade A) is empty
+//! hand_b = "W4"                # blade B of a dual-blade robot; omitted when empty
 //!
 //! [pending]                    # omitted when no transfer is in progress
 //! kind = "get"                 # "get" or "put"
 //! station = "LP1"
 //! slot = 3
 //! wafer = "W3"
+//! blade = "B"                  # the blade making it; omitted for blade A
 //!
 //! [[station]]
 //! name = "LP1"
@@ -73,6 +75,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_atomic;
+use crate::blade::{Blade, MAX_BLADES};
 use crate::mapping::SlotCode;
 use crate::station::{parse_station_name, same_name, StationName, MAX_SLOTS};
 use crate::stations::Stations;
@@ -113,15 +116,22 @@ pub enum Location {
         /// The slot, from 1.
         slot: u16,
     },
-    /// On the robot's hand; shown `hand`.
-    Hand,
+    /// On one of the robot's blades; shown `hand` (blade A, the hand of a single-hand
+    /// robot) or `hand.B`.
+    Hand(Blade),
+}
+
+impl Location {
+    /// Blade A: the hand of a single-hand robot.
+    pub const HAND: Location = Location::Hand(Blade::A);
 }
 
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Location::Slot { station, slot } => write!(f, "{station}.{slot}"),
-            Location::Hand => f.write_str("hand"),
+            Location::Hand(Blade::A) => f.write_str("hand"),
+            Location::Hand(b) => write!(f, "hand.{b}"),
         }
     }
 }
@@ -188,6 +198,8 @@ pub struct Transfer {
     pub slot: u16,
     /// The wafer moved.
     pub wafer: WaferId,
+    /// The blade that takes or gives the wafer.
+    pub blade: Blade,
 }
 
 impl Transfer {
@@ -203,14 +215,14 @@ impl Transfer {
     pub fn source(&self) -> Location {
         match self.kind {
             TransferKind::Get => self.slot_location(),
-            TransferKind::Put => Location::Hand,
+            TransferKind::Put => Location::Hand(self.blade),
         }
     }
 
     /// Where the wafer is after the transfer.
     pub fn destination(&self) -> Location {
         match self.kind {
-            TransferKind::Get => Location::Hand,
+            TransferKind::Get => Location::Hand(self.blade),
             TransferKind::Put => self.slot_location(),
         }
     }
@@ -218,11 +230,11 @@ impl Transfer {
 
 impl fmt::Display for Transfer {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} {} {} ({})",
-            self.kind, self.station, self.slot, self.wafer
-        )
+        write!(f, "{} {} {}", self.kind, self.station, self.slot)?;
+        if self.blade != Blade::A {
+            write!(f, " {}", self.blade)?;
+        }
+        write!(f, " ({})", self.wafer)
     }
 }
 
@@ -237,13 +249,13 @@ pub enum Reconciled {
     /// The pending transfer had not happened (GET: no wafer on the hand; PUT: the wafer is
     /// still held): it is aborted, the wafer stays at its source.
     Aborted(Transfer),
-    /// No transfer was pending, the map has this wafer on the hand, but none is sensed: it
+    /// No transfer was pending, the map has this wafer on the blade, but none is sensed: it
     /// was lost or dropped. The map is unchanged; an operator must find the wafer and
     /// [`WaferMap::remove`] or re-place it.
-    HandWaferNotSensed(WaferId),
-    /// No transfer was pending and the map has no wafer on the hand, but one is sensed. The
-    /// map is unchanged; an operator must identify it ([`WaferMap::place`] on the hand).
-    UnknownWaferOnHand,
+    HandWaferNotSensed(Blade, WaferId),
+    /// No transfer was pending and the map has no wafer on the blade, but one is sensed. The
+    /// map is unchanged; an operator must identify it ([`WaferMap::place`] on the blade).
+    UnknownWaferOnHand(Blade),
 }
 
 impl Reconciled {
@@ -447,7 +459,11 @@ struct MapStation {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct WaferMap {
     stations: Vec<MapStation>,
-    hand: Option<WaferId>,
+    /// The wafer on each blade (A, B).
+    hands: [Option<WaferId>; MAX_BLADES],
+    /// Whether the robot has blade B (`WAFERS` shows `hand.B` then); not saved: it is the
+    /// robot's, not the map's.
+    dual: bool,
     pending: Option<Transfer>,
     /// The next new id; every id in the map is below it. Up to `u32::MAX + 1`.
     next_id: u64,
@@ -458,7 +474,8 @@ impl Default for WaferMap {
     fn default() -> Self {
         WaferMap {
             stations: Vec::new(),
-            hand: None,
+            hands: [None; MAX_BLADES],
+            dual: false,
             pending: None,
             next_id: 1,
         }
@@ -585,9 +602,25 @@ impl WaferMap {
         self.stations.iter().map(|s| s.name)
     }
 
-    /// The wafer on the hand.
+    /// The wafer on the hand (blade A).
     pub fn hand(&self) -> Option<WaferId> {
-        self.hand
+        self.hands[0]
+    }
+
+    /// The wafer on `blade`.
+    pub fn hand_of(&self, blade: Blade) -> Option<WaferId> {
+        self.hands[blade.index()]
+    }
+
+    /// Say whether the robot has blade B (a dual-blade robot): `WAFERS` then lists
+    /// `hand.B` too.
+    pub fn set_dual(&mut self, dual: bool) {
+        self.dual = dual;
+    }
+
+    /// Whether the map is a dual-blade robot's (or holds a wafer on blade B).
+    pub fn is_dual(&self) -> bool {
+        self.dual || self.hands[1].is_some()
     }
 
     /// The transfer in progress, if any.
@@ -598,7 +631,7 @@ impl WaferMap {
     /// The wafer at `location`, if any (none for an unknown place).
     pub fn wafer_at(&self, location: &Location) -> Option<WaferId> {
         match location {
-            Location::Hand => self.hand,
+            Location::Hand(b) => self.hands[b.index()],
             Location::Slot { station, slot } => match self.slot(station.as_str(), *slot) {
                 Ok(SlotState::Wafer(w)) => Some(w),
                 _ => None,
@@ -630,7 +663,11 @@ impl WaferMap {
                         _ => None,
                     })
             })
-            .chain(self.hand.map(|w| (Location::Hand, w)))
+            .chain(
+                Blade::ALL
+                    .into_iter()
+                    .filter_map(|b| self.hands[b.index()].map(|w| (Location::Hand(b), w))),
+            )
     }
 
     /// Number of wafers in the map.
@@ -669,11 +706,11 @@ impl WaferMap {
             return Err(WaferMapError::AlreadyInMap { wafer: id, at });
         }
         match location {
-            Location::Hand => {
-                if let Some(wafer) = self.hand {
+            Location::Hand(b) => {
+                if let Some(wafer) = self.hands[b.index()] {
                     return Err(WaferMapError::HandOccupied { wafer });
                 }
-                self.hand = Some(id);
+                self.hands[b.index()] = Some(id);
             }
             Location::Slot { station, slot } => {
                 let (si, i) = self.find(station.as_str(), slot)?;
@@ -707,7 +744,9 @@ impl WaferMap {
     pub fn remove(&mut self, location: Location) -> Result<WaferId, WaferMapError> {
         self.refuse_if_pending()?;
         match location {
-            Location::Hand => self.hand.take().ok_or(WaferMapError::NoWafer { location }),
+            Location::Hand(b) => self.hands[b.index()]
+                .take()
+                .ok_or(WaferMapError::NoWafer { location }),
             Location::Slot { station, slot } => {
                 let (si, i) = self.find(station.as_str(), slot)?;
                 match self.stations[si].slots[i] {
@@ -785,15 +824,27 @@ impl WaferMap {
         Ok(changes)
     }
 
-    /// Check a transfer against the map and build it with the wafer it moves: GET needs an
-    /// empty hand and a wafer in the slot; PUT a wafer on the hand and an empty slot. Unknown
-    /// and faulty slots are refused, and so is anything while a transfer is pending. Changes
-    /// nothing.
+    /// Check a transfer with the hand (blade A) against the map and build it with the wafer
+    /// it moves: [`WaferMap::prepare_blade`] with blade A.
     pub fn prepare(
         &self,
         kind: TransferKind,
         station: &str,
         slot: u16,
+    ) -> Result<Transfer, WaferMapError> {
+        self.prepare_blade(kind, station, slot, Blade::A)
+    }
+
+    /// Check a transfer with `blade` against the map and build it with the wafer it moves:
+    /// GET needs an empty blade and a wafer in the slot; PUT a wafer on the blade and an
+    /// empty slot. Unknown and faulty slots are refused, and so is anything while a transfer
+    /// is pending. Changes nothing.
+    pub fn prepare_blade(
+        &self,
+        kind: TransferKind,
+        station: &str,
+        slot: u16,
+        blade: Blade,
     ) -> Result<Transfer, WaferMapError> {
         self.refuse_if_pending()?;
         let (si, i) = self.find(station, slot)?;
@@ -817,7 +868,7 @@ impl WaferMap {
         }
         let wafer = match kind {
             TransferKind::Get => {
-                if let Some(wafer) = self.hand {
+                if let Some(wafer) = self.hands[blade.index()] {
                     return Err(WaferMapError::HandOccupied { wafer });
                 }
                 match state {
@@ -831,7 +882,7 @@ impl WaferMap {
                 }
             }
             TransferKind::Put => {
-                let Some(w) = self.hand else {
+                let Some(w) = self.hands[blade.index()] else {
                     return Err(WaferMapError::HandEmpty);
                 };
                 if let SlotState::Wafer(wafer) = state {
@@ -849,13 +900,19 @@ impl WaferMap {
             station: name,
             slot,
             wafer,
+            blade,
         })
     }
 
     /// Record `transfer` as pending (save the map before the robot moves). It must pass
     /// [`WaferMap::prepare`] and name the wafer at its source.
     pub fn begin(&mut self, transfer: Transfer) -> Result<(), WaferMapError> {
-        let checked = self.prepare(transfer.kind, transfer.station.as_str(), transfer.slot)?;
+        let checked = self.prepare_blade(
+            transfer.kind,
+            transfer.station.as_str(),
+            transfer.slot,
+            transfer.blade,
+        )?;
         if checked.wafer != transfer.wafer {
             return Err(WaferMapError::WrongWafer {
                 location: checked.source(),
@@ -877,10 +934,10 @@ impl WaferMap {
         match t.kind {
             TransferKind::Get => {
                 self.stations[si].slots[i] = SlotState::Empty;
-                self.hand = Some(t.wafer);
+                self.hands[t.blade.index()] = Some(t.wafer);
             }
             TransferKind::Put => {
-                self.hand = None;
+                self.hands[t.blade.index()] = None;
                 self.stations[si].slots[i] = SlotState::Wafer(t.wafer);
             }
         }
@@ -895,10 +952,12 @@ impl WaferMap {
     }
 
     /// At start-up, before any output changes: resolve a pending transfer from whether the
-    /// vacuum sensor senses a wafer on the hand (`hand_has_wafer`), or compare the hand with
-    /// the map. See [`Reconciled`]. Never adds or drops an id.
-    pub fn reconcile(&mut self, hand_has_wafer: bool) -> Reconciled {
+    /// vacuum sensor of each blade senses a wafer (`sensed[blade.index()]`; a single-hand
+    /// robot gives `false` for blade B), or compare the blades with the map (the first that
+    /// disagrees is reported). See [`Reconciled`]. Never adds or drops an id.
+    pub fn reconcile(&mut self, sensed: [bool; MAX_BLADES]) -> Reconciled {
         if let Some(t) = self.pending {
+            let hand_has_wafer = sensed[t.blade.index()];
             let happened = match t.kind {
                 TransferKind::Get => hand_has_wafer,
                 TransferKind::Put => !hand_has_wafer,
@@ -913,11 +972,14 @@ impl WaferMap {
             self.pending = None;
             return Reconciled::Aborted(t);
         }
-        match (self.hand, hand_has_wafer) {
-            (Some(w), false) => Reconciled::HandWaferNotSensed(w),
-            (None, true) => Reconciled::UnknownWaferOnHand,
-            _ => Reconciled::Consistent,
+        for b in Blade::ALL {
+            match (self.hands[b.index()], sensed[b.index()]) {
+                (Some(w), false) => return Reconciled::HandWaferNotSensed(b, w),
+                (None, true) => return Reconciled::UnknownWaferOnHand(b),
+                _ => {}
+            }
         }
+        Reconciled::Consistent
     }
 
     /// Check the map's rules: station names valid and unique, 1 to 50 slots each, no id
@@ -964,9 +1026,10 @@ impl WaferMap {
                 Ok((si, i)) => self.stations[si].slots[i],
                 Err(e) => return bad(format!("the pending transfer {t}: {e}")),
             };
+            let hand = self.hands[t.blade.index()];
             let ok = match t.kind {
-                TransferKind::Get => state == SlotState::Wafer(t.wafer) && self.hand.is_none(),
-                TransferKind::Put => self.hand == Some(t.wafer) && state == SlotState::Empty,
+                TransferKind::Get => state == SlotState::Wafer(t.wafer) && hand.is_none(),
+                TransferKind::Put => hand == Some(t.wafer) && state == SlotState::Empty,
             };
             if !ok {
                 return bad(format!(
@@ -984,7 +1047,8 @@ impl WaferMap {
         let raw = RawMap {
             version: i64::from(FORMAT_VERSION),
             next_id: self.next_id as i64,
-            hand: self.hand.map(|w| w.to_string()),
+            hand: self.hands[0].map(|w| w.to_string()),
+            hand_b: self.hands[1].map(|w| w.to_string()),
             pending: self.pending.map(|t| RawPending {
                 kind: match t.kind {
                     TransferKind::Get => "get".into(),
@@ -993,6 +1057,7 @@ impl WaferMap {
                 station: t.station.to_string(),
                 slot: i64::from(t.slot),
                 wafer: t.wafer.to_string(),
+                blade: (t.blade != Blade::A).then(|| t.blade.to_string()),
             }),
             station: self
                 .stations
@@ -1037,7 +1102,8 @@ impl WaferMap {
         let raw: RawMap = toml::from_str(text).map_err(toml_err)?;
         let mut map = WaferMap {
             stations: Vec::with_capacity(raw.station.len()),
-            hand: None,
+            hands: [None; MAX_BLADES],
+            dual: false,
             pending: None,
             next_id: u64::try_from(raw.next_id)
                 .ok()
@@ -1054,7 +1120,10 @@ impl WaferMap {
                 .ok_or_else(|| corrupt(format!("{what}: {text:?} is not a wafer id like \"W12\"")))
         };
         if let Some(h) = &raw.hand {
-            map.hand = Some(wafer(h, "hand")?);
+            map.hands[0] = Some(wafer(h, "hand")?);
+        }
+        if let Some(h) = &raw.hand_b {
+            map.hands[1] = Some(wafer(h, "hand_b")?);
         }
         for s in &raw.station {
             let name = parse_station_name(&s.name).map_err(|e| corrupt(e.to_string()))?;
@@ -1083,11 +1152,18 @@ impl WaferMap {
             let station = parse_station_name(&p.station).map_err(|e| corrupt(e.to_string()))?;
             let slot = u16::try_from(p.slot)
                 .map_err(|_| corrupt(format!("pending.slot {} is not a slot number", p.slot)))?;
+            let blade = match p.blade.as_deref() {
+                None => Blade::A,
+                Some(b) => Blade::parse(b).ok_or_else(|| {
+                    corrupt(format!("pending.blade {b:?} is neither \"A\" nor \"B\""))
+                })?,
+            };
             map.pending = Some(Transfer {
                 kind,
                 station,
                 slot,
                 wafer: wafer(&p.wafer, "pending.wafer")?,
+                blade,
             });
         }
         map.verify().map_err(|e| match e {
@@ -1124,15 +1200,17 @@ impl WaferMap {
         self.wafers_lines().join(" ")
     }
 
-    /// The `WAFERS` content as one item per place group: `hand=…`, then `<STN>=…` per
-    /// station, then `pending=<kind>:<STN>.<slot>:<id>` while a transfer is pending (kind
-    /// `get` or `put`). Each is at most `len(name) + 1 + 50 · 12` bytes.
+    /// The `WAFERS` content as one item per place group: `hand=…` (and `hand.B=…` on a
+    /// dual-blade robot), then `<STN>=…` per station, then
+    /// `pending=<kind>:<STN>.<slot>:<id>[:B]` while a transfer is pending (kind `get` or
+    /// `put`; `:B` when blade B makes it). Each is at most `len(name) + 1 + 50 · 12` bytes.
     pub fn wafers_lines(&self) -> Vec<String> {
-        let mut lines = Vec::with_capacity(self.stations.len() + 2);
-        lines.push(format!(
-            "hand={}",
-            self.hand.map_or_else(|| "-".to_string(), |w| w.to_string())
-        ));
+        let mut lines = Vec::with_capacity(self.stations.len() + 3);
+        let token = |w: Option<WaferId>| w.map_or_else(|| "-".to_string(), |w| w.to_string());
+        lines.push(format!("hand={}", token(self.hands[0])));
+        if self.is_dual() {
+            lines.push(format!("hand.B={}", token(self.hands[1])));
+        }
         for s in &self.stations {
             lines.push(format!("{}={}", s.name, compact_slots(&s.slots)));
         }
@@ -1141,8 +1219,9 @@ impl WaferMap {
                 TransferKind::Get => "get",
                 TransferKind::Put => "put",
             };
+            let blade = if t.blade == Blade::A { "" } else { ":B" };
             lines.push(format!(
-                "pending={kind}:{}.{}:{}",
+                "pending={kind}:{}.{}:{}{blade}",
                 t.station, t.slot, t.wafer
             ));
         }
@@ -1264,6 +1343,8 @@ struct RawMap {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     hand: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    hand_b: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pending: Option<RawPending>,
     #[serde(default)]
     station: Vec<RawMapStation>,
@@ -1276,6 +1357,8 @@ struct RawPending {
     station: String,
     slot: i64,
     wafer: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    blade: Option<String>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]

@@ -22,6 +22,10 @@
 //! * The vacuum sensor ([`World::vacuum_sensor`]) is on when a wafer is on the hand and the
 //!   vacuum is on (no delay here; the board adds its own).
 //! * The mapping sensor ([`World::map_station`]) reports each slot's [`SlotCode`].
+//! * A dual-blade robot's blade B is a second hand with its own pose (the board gives it
+//!   its height) and vacuum: [`World::step_blade`]. Each blade picks and releases as above;
+//!   the blades do not collide with each other or with the wafers next to the slot they
+//!   serve (a cell engineer keeps them apart when teaching).
 //!
 //! # Identity: comparing the controller's map with the world
 //!
@@ -39,6 +43,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 use wrc_robot::Pose;
 
+use crate::blade::{Blade, MAX_BLADES};
 use crate::mapping::SlotCode;
 use crate::num::wrap180;
 use crate::station::{same_name, Station, StationName};
@@ -176,9 +181,10 @@ struct WorldStation {
 #[derive(Debug, Clone, PartialEq)]
 pub struct World {
     stations: Vec<WorldStation>,
-    hand: Option<u32>,
-    vacuum: bool,
-    last_z: Option<f64>,
+    /// Per blade (A, B): the wafer on it, its valve, its last height.
+    hands: [Option<u32>; MAX_BLADES],
+    vacuum: [bool; MAX_BLADES],
+    last_z: [Option<f64>; MAX_BLADES],
     lost: Vec<u32>,
     faults: u32,
     next_tag: u32,
@@ -224,9 +230,9 @@ impl World {
             .collect();
         World {
             stations: list,
-            hand: None,
-            vacuum: false,
-            last_z: None,
+            hands: [None; MAX_BLADES],
+            vacuum: [false; MAX_BLADES],
+            last_z: [None; MAX_BLADES],
             lost: Vec::new(),
             faults: 0,
             next_tag,
@@ -249,20 +255,27 @@ impl World {
             && wrap180(pose.yaw - p.yaw).abs() <= SEAT_TOLERANCE_DEG
     }
 
-    /// Advance the world: the hand is now at `pose` with the vacuum valve `vacuum_on`.
-    /// Returns what happened to a wafer, if anything (see the module docs).
+    /// Advance the world: the hand (blade A) is now at `pose` with the vacuum valve
+    /// `vacuum_on`. Returns what happened to a wafer, if anything (see the module docs).
     pub fn step(&mut self, pose: Pose, vacuum_on: bool) -> Option<WorldEvent> {
-        let prev_z = self.last_z.replace(pose.z);
-        self.vacuum = vacuum_on;
-        if let (Some(tag), false) = (self.hand, vacuum_on) {
-            self.hand = None;
+        self.step_blade(Blade::A, pose, vacuum_on)
+    }
+
+    /// Advance the world for one blade: its wafer centre is now at `pose` with its vacuum
+    /// valve `vacuum_on`. Returns what happened to a wafer, if anything.
+    pub fn step_blade(&mut self, blade: Blade, pose: Pose, vacuum_on: bool) -> Option<WorldEvent> {
+        let b = blade.index();
+        let prev_z = self.last_z[b].replace(pose.z);
+        self.vacuum[b] = vacuum_on;
+        if let (Some(tag), false) = (self.hands[b], vacuum_on) {
+            self.hands[b] = None;
             return Some(self.release(tag, &pose));
         }
         let prev_z = prev_z?;
         if pose.z.is_nan() || pose.z <= prev_z {
             return None;
         }
-        let hand = self.hand;
+        let hand = self.hands[b];
         for w in &mut self.stations {
             if !World::seated(w, &pose) {
                 continue;
@@ -277,7 +290,7 @@ impl World {
                 let event = match (*content, hand, vacuum_on) {
                     (SlotContent::Wafer(tag), None, true) => {
                         *content = SlotContent::Empty;
-                        self.hand = Some(tag);
+                        self.hands[b] = Some(tag);
                         WorldEvent::Picked { station, slot, tag }
                     }
                     (SlotContent::Wafer(_), None, false) => {
@@ -327,9 +340,14 @@ impl World {
         WorldEvent::Lost { tag }
     }
 
-    /// The vacuum-sensed input: a wafer is on the hand and the vacuum is on.
+    /// The vacuum-sensed input of the hand (blade A): a wafer is on it and its vacuum is on.
     pub fn vacuum_sensor(&self) -> bool {
-        self.hand.is_some() && self.vacuum
+        self.vacuum_sensor_of(Blade::A)
+    }
+
+    /// The vacuum-sensed input of `blade`.
+    pub fn vacuum_sensor_of(&self, blade: Blade) -> bool {
+        self.hands[blade.index()].is_some() && self.vacuum[blade.index()]
     }
 
     /// The mapping sensor's scan of station `name`: one code per slot, slot 1 first.
@@ -352,14 +370,19 @@ impl World {
         Ok(w.slots[usize::from(slot - 1)])
     }
 
-    /// The tag of the wafer on the hand.
+    /// The tag of the wafer on the hand (blade A).
     pub fn hand(&self) -> Option<u32> {
-        self.hand
+        self.hands[0]
     }
 
-    /// The vacuum valve's last state.
+    /// The tag of the wafer on `blade`.
+    pub fn hand_of(&self, blade: Blade) -> Option<u32> {
+        self.hands[blade.index()]
+    }
+
+    /// The hand's (blade A's) vacuum valve's last state.
     pub fn vacuum(&self) -> bool {
-        self.vacuum
+        self.vacuum[0]
     }
 
     /// Tags of the wafers lost so far, in order.
@@ -384,7 +407,7 @@ impl World {
                 SlotContent::Double(a, b) => [Some(a), Some(b)],
             })
             .flatten()
-            .chain(self.hand)
+            .chain(self.hands.iter().flatten().copied())
             .collect();
         tags.sort_unstable();
         tags
@@ -396,9 +419,12 @@ impl World {
         let raw = RawWorld {
             version: WORLD_VERSION,
             next_tag: i64::from(self.next_tag),
-            vacuum: self.vacuum,
-            hand: self.hand.map(i64::from),
-            last_z: self.last_z,
+            vacuum: self.vacuum[0],
+            hand: self.hands[0].map(i64::from),
+            last_z: self.last_z[0],
+            vacuum_b: self.vacuum[1],
+            hand_b: self.hands[1].map(i64::from),
+            last_z_b: self.last_z[1],
             lost: self.lost.iter().map(|&t| i64::from(t)).collect(),
             faults: i64::from(self.faults),
             station: self
@@ -450,9 +476,12 @@ impl World {
                     .ok_or_else(|| corrupt(format!("{token:?} is not a slot content")))?;
             }
         }
-        world.hand = raw.hand.map(|h| tag(h, "hand")).transpose()?;
-        world.vacuum = raw.vacuum;
-        world.last_z = raw.last_z;
+        world.hands = [
+            raw.hand.map(|h| tag(h, "hand")).transpose()?,
+            raw.hand_b.map(|h| tag(h, "hand_b")).transpose()?,
+        ];
+        world.vacuum = [raw.vacuum, raw.vacuum_b];
+        world.last_z = [raw.last_z, raw.last_z_b];
         world.lost = raw
             .lost
             .iter()
@@ -513,6 +542,12 @@ struct RawWorld {
     hand: Option<i64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     last_z: Option<f64>,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    vacuum_b: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    hand_b: Option<i64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    last_z_b: Option<f64>,
     #[serde(default)]
     lost: Vec<i64>,
     #[serde(default)]
@@ -647,9 +682,12 @@ impl Tracking {
                 self.compare(location, *state, *content, &mut out);
             }
         }
-        let hand_state = map.hand().map_or(SlotState::Empty, SlotState::Wafer);
-        let hand_content = world.hand.map_or(SlotContent::Empty, SlotContent::Wafer);
-        self.compare(Location::Hand, hand_state, hand_content, &mut out);
+        for b in Blade::ALL {
+            let hand_state = map.hand_of(b).map_or(SlotState::Empty, SlotState::Wafer);
+            let hand_content =
+                world.hands[b.index()].map_or(SlotContent::Empty, SlotContent::Wafer);
+            self.compare(Location::Hand(b), hand_state, hand_content, &mut out);
+        }
         out
     }
 

@@ -2,6 +2,10 @@
 //! senses a held wafer and how long it takes to settle, and which output switches the
 //! mapping sensor. The controller uses them for GET, PUT and MAP; the simulated board drives
 //! its simulated cell from the same outputs.
+//!
+//! A dual-blade robot adds `[hand.blade_b]`: a second blade on the same wrist, stacked at a
+//! fixed height from the hand (`z_offset_mm`, negative: below it) and pointing the same way,
+//! with its own vacuum valve and sensor.
 
 use serde::Deserialize;
 
@@ -22,6 +26,19 @@ pub struct HandConfig {
     pub vacuum_settle_s: f64,
     /// Output that switches the mapping sensor on (0..=31).
     pub mapping_output: u8,
+    /// The second blade of a dual-blade robot; `None` for a single hand.
+    pub blade_b: Option<BladeB>,
+}
+
+/// The second blade of a dual-blade robot (`[hand.blade_b]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BladeB {
+    /// Height of its wafer plane above the hand's (the TCP's) [mm]; negative: below.
+    pub z_offset_mm: f64,
+    /// Output that opens its vacuum valve (0..=31).
+    pub vacuum_output: u8,
+    /// Input asserted while its vacuum holds a wafer (0..=31).
+    pub vacuum_input: u8,
 }
 
 impl Default for HandConfig {
@@ -31,6 +48,26 @@ impl Default for HandConfig {
             vacuum_input: 0,
             vacuum_settle_s: 0.5,
             mapping_output: 1,
+            blade_b: None,
+        }
+    }
+}
+
+impl HandConfig {
+    /// Blades of the robot: 1, or 2 with blade B.
+    pub fn blades(&self) -> usize {
+        1 + usize::from(self.blade_b.is_some())
+    }
+
+    /// Vacuum output, vacuum input and height offset [mm] of blade `index` (0: the hand,
+    /// 1: blade B); `None` for a blade the robot does not have.
+    pub fn blade(&self, index: usize) -> Option<(u8, u8, f64)> {
+        match index {
+            0 => Some((self.vacuum_output, self.vacuum_input, 0.0)),
+            1 => self
+                .blade_b
+                .map(|b| (b.vacuum_output, b.vacuum_input, b.z_offset_mm)),
+            _ => None,
         }
     }
 }
@@ -42,6 +79,15 @@ pub(crate) struct RawHand {
     vacuum_input: u8,
     vacuum_settle_ms: f64,
     mapping_output: u8,
+    blade_b: Option<RawBladeB>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBladeB {
+    z_offset_mm: f64,
+    vacuum_output: u8,
+    vacuum_input: u8,
 }
 
 impl Default for RawHand {
@@ -52,6 +98,7 @@ impl Default for RawHand {
             vacuum_input: d.vacuum_input,
             vacuum_settle_ms: d.vacuum_settle_s * 1000.0,
             mapping_output: d.mapping_output,
+            blade_b: None,
         }
     }
 }
@@ -96,11 +143,63 @@ impl RawHand {
                 ),
             ));
         }
+        let blade_b = match self.blade_b {
+            None => None,
+            Some(b) => {
+                for (key, n) in [
+                    ("blade_b.vacuum_output", b.vacuum_output),
+                    ("blade_b.vacuum_input", b.vacuum_input),
+                ] {
+                    if n > MAX_IO {
+                        return Err(invalid(
+                            key,
+                            format!("{n} does not exist; use 0 to {MAX_IO}"),
+                        ));
+                    }
+                }
+                if b.vacuum_output == self.vacuum_output || b.vacuum_output == self.mapping_output {
+                    return Err(invalid(
+                        "blade_b.vacuum_output",
+                        format!(
+                            "{} is the hand's vacuum valve or mapping sensor output too; give blade B's valve its own",
+                            b.vacuum_output
+                        ),
+                    ));
+                }
+                if b.vacuum_input == self.vacuum_input {
+                    return Err(invalid(
+                        "blade_b.vacuum_input",
+                        format!(
+                            "{} is the hand's vacuum sensor input too; give blade B's sensor its own",
+                            b.vacuum_input
+                        ),
+                    ));
+                }
+                if !(b.z_offset_mm.is_finite()
+                    && b.z_offset_mm.abs() >= 5.0
+                    && b.z_offset_mm.abs() <= 200.0)
+                {
+                    return Err(invalid(
+                        "blade_b.z_offset_mm",
+                        format!(
+                            "{} is out of range; the blades are 5 to 200 mm apart (negative: blade B below the hand)",
+                            b.z_offset_mm
+                        ),
+                    ));
+                }
+                Some(BladeB {
+                    z_offset_mm: b.z_offset_mm,
+                    vacuum_output: b.vacuum_output,
+                    vacuum_input: b.vacuum_input,
+                })
+            }
+        };
         Ok(HandConfig {
             vacuum_output: self.vacuum_output,
             vacuum_input: self.vacuum_input,
             vacuum_settle_s: self.vacuum_settle_ms / 1000.0,
             mapping_output: self.mapping_output,
+            blade_b,
         })
     }
 }

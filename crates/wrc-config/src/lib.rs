@@ -21,10 +21,13 @@ use wrc_motion::MotionSettings;
 use wrc_robot::Robot;
 
 pub use board::{default_dpram, BoardConfig, BoardSimConfig, VacuumConfig};
-pub use hand::HandConfig;
+pub use hand::{BladeB, HandConfig};
 
 /// The embedded default configuration (`config/default.toml`).
 pub const DEFAULT_TOML: &str = include_str!("../../../config/default.toml");
+
+/// The dual-blade example (`config/dual-blade.toml`): the default robot with a second blade.
+pub const DUAL_BLADE_TOML: &str = include_str!("../../../config/dual-blade.toml");
 
 /// Name used for the embedded file in messages.
 pub const EMBEDDED_NAME: &str = "<embedded default config>";
@@ -109,6 +112,13 @@ impl Config {
     pub fn embedded_default() -> Config {
         // The embedded file is checked by a unit test, so this cannot fail in a release.
         Config::parse(DEFAULT_TOML, EMBEDDED_NAME).expect("the embedded default config is valid")
+    }
+
+    /// The dual-blade example ([`DUAL_BLADE_TOML`]), as embedded.
+    pub fn embedded_dual_blade() -> Config {
+        // Checked by a unit test, as the default is.
+        Config::parse(DUAL_BLADE_TOML, "config/dual-blade.toml (embedded)")
+            .expect("the embedded dual-blade config is valid")
     }
 
     /// Load `path`, or the embedded default when `path` is `None`.
@@ -217,6 +227,36 @@ mod tests {
         assert!(e.contains("hand.vacuum_settle_ms"), "{e}");
         let c = Config::parse(&with("vacuum_output = 0 ", "vacuum_output = 5 "), "x").unwrap();
         assert_eq!(c.hand.vacuum_output, 5);
+    }
+
+    #[test]
+    fn the_dual_blade_example_has_blade_b_and_blade_b_is_checked() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/dual-blade.toml");
+        let dual = Config::load(Some(&path)).unwrap();
+        assert_eq!(Config::embedded_dual_blade().hand, dual.hand);
+        assert_eq!(dual.hand.blades(), 2);
+        assert_eq!(dual.hand.blade(1), Some((2, 2, -30.0)));
+        assert_eq!(Config::embedded_default().hand.blades(), 1);
+        assert_eq!(Config::embedded_default().hand.blade(1), None);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let bad = |from: &str, to: &str| {
+            assert!(text.contains(from), "{from}");
+            err(&text.replace(from, to))
+        };
+        let e = bad("z_offset_mm = -30.0", "z_offset_mm = 1.0");
+        assert!(
+            e.contains("hand.blade_b.z_offset_mm") && e.contains("5 to 200"),
+            "{e}"
+        );
+        let e = bad("vacuum_output = 2\n", "vacuum_output = 1\n");
+        assert!(
+            e.contains("hand.blade_b.vacuum_output") && e.contains("its own"),
+            "{e}"
+        );
+        let e = bad("vacuum_input = 2\n", "vacuum_input = 0\n");
+        assert!(e.contains("hand.blade_b.vacuum_input"), "{e}");
+        let e = bad("vacuum_input = 2\n", "vacuum_input = 40\n");
+        assert!(e.contains("0 to 31"), "{e}");
     }
 
     #[test]

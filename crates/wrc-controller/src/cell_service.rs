@@ -16,8 +16,8 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_cell::{
-    Reconciled, SlotCode, Station, StationError, Stations, Step, TransferKind, WaferMap,
-    WaferMapError,
+    Blade, Reconciled, SlotCode, Station, StationError, Stations, Step, Transfer, TransferKind,
+    WaferMap, WaferMapError, MAX_BLADES,
 };
 use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
@@ -37,16 +37,17 @@ pub fn transfer_steps(
     slot: u16,
     robot: &Robot,
     from: &Joints,
-) -> Result<Vec<JobStep>, StationError> {
+) -> Result<(Vec<JobStep>, Joints), StationError> {
     // GET enters lowered (under the wafer), PUT lifted (holding it).
     let approach = station.approach_joints(robot, slot, kind == TransferKind::Put, from)?;
-    Ok(wrc_cell::plan(kind, station, slot)?
+    let steps = wrc_cell::plan(kind, station, slot)?
         .into_iter()
         .map(|step| match step {
             Step::Ptp(..) => JobStep::Joints(approach),
             other => JobStep::Transfer(other),
         })
-        .collect())
+        .collect();
+    Ok((steps, approach))
 }
 
 /// Why the wafer cell could not be opened.
@@ -79,6 +80,8 @@ pub struct CellService {
     busy: Option<JobKind>,
     /// A pending transfer left by a crash has been settled (or there was none).
     reconciled: bool,
+    /// The PUT half of a running SWAP: begun (and saved) when its GET half commits.
+    swap_put: Option<Transfer>,
 }
 
 impl CellService {
@@ -101,6 +104,7 @@ impl CellService {
         };
         stations.validate(robot)?;
         let mut wafers = WaferMap::load(wafers_path)?;
+        wafers.set_dual(hand.blade_b.is_some());
         wafers.adopt_stations(&stations)?;
         wafers.save_atomic(wafers_path)?;
         let reconciled = wafers.pending().is_none();
@@ -117,7 +121,13 @@ impl CellService {
             buf: ReplyBuf::new(),
             busy: None,
             reconciled,
+            swap_put: None,
         })
+    }
+
+    /// The height of a dual-blade robot's blade B above the hand [mm]; `None` for one hand.
+    pub fn blade_b_offset(&self) -> Option<f64> {
+        self.hand.blade_b.map(|b| b.z_offset_mm)
     }
 
     /// Connect the service to the connections and the Command Interpreter.
@@ -265,8 +275,9 @@ impl CellService {
         self.event(SourceId::BROADCAST, false, &Event::Station(&body));
     }
 
-    /// `GET`/`PUT <station> <slot>` (`kind`), or `MAP <station>` (`kind` = `Map`, `slot`
-    /// ignored), from a connection or from the running program.
+    /// `GET`/`PUT <station> <slot> [blade]` and `SWAP <station> <slot>` (`kind`), or
+    /// `MAP <station>` (`kind` = `Map`, `slot` and `blade` ignored), from a connection or
+    /// from the running program.
     pub fn job(
         &mut self,
         from: SourceId,
@@ -274,8 +285,9 @@ impl CellService {
         kind: JobKind,
         station: &StationName,
         slot: u16,
+        blade: Blade,
     ) {
-        match self.plan_job(from, to, kind, station, slot) {
+        match self.plan_job(from, to, kind, station, slot, blade) {
             Ok(job) => {
                 let sent = self
                     .links
@@ -284,6 +296,7 @@ impl CellService {
                 if sent {
                     self.busy = Some(kind);
                 } else {
+                    self.swap_put = None;
                     if self.wafers.pending().is_some() {
                         let _ = self.wafers.abort();
                         let _ = self.save();
@@ -301,7 +314,7 @@ impl CellService {
         }
     }
 
-    /// Check a job and build it; for GET and PUT, save the pending transfer.
+    /// Check a job and build it; for GET, PUT and SWAP, save the (first) pending transfer.
     fn plan_job(
         &mut self,
         from: SourceId,
@@ -309,6 +322,7 @@ impl CellService {
         kind: JobKind,
         name: &StationName,
         slot: u16,
+        blade: Blade,
     ) -> Result<CellJob, (Code, String)> {
         if let Some((code, text)) = self.state_refusal(from, true) {
             return Err((code, text));
@@ -361,14 +375,48 @@ impl CellService {
                 ),
             ));
         }
-        let tkind = if kind == JobKind::Get {
-            TransferKind::Get
-        } else {
-            TransferKind::Put
+        let dual = self.hand.blade_b.is_some();
+        if !dual && (blade != Blade::A || kind == JobKind::Swap) {
+            return Err((
+                Code::NotAvailable,
+                "this robot has one hand; blade B and SWAP need a dual-blade robot ([hand.blade_b] in the configuration)"
+                    .to_string(),
+            ));
+        }
+        // SWAP: the empty blade takes the slot's wafer, then the other puts its own there.
+        let (tkind, blade, put) = match kind {
+            JobKind::Swap => {
+                let (a, b) = (self.wafers.hand(), self.wafers.hand_of(Blade::B));
+                let (taker, given) =
+                    match (a, b) {
+                        (None, Some(w)) => (Blade::A, w),
+                        (Some(w), None) => (Blade::B, w),
+                        (None, None) => return Err((
+                            Code::HandEmpty,
+                            "SWAP needs a wafer on one blade to put into the slot; both are empty"
+                                .to_string(),
+                        )),
+                        (Some(_), Some(_)) => return Err((
+                            Code::HandFull,
+                            "SWAP needs one empty blade to take the slot's wafer; both hold one"
+                                .to_string(),
+                        )),
+                    };
+                let put = Transfer {
+                    kind: TransferKind::Put,
+                    station: station.name,
+                    slot,
+                    wafer: given,
+                    blade: taker.other(),
+                };
+                (TransferKind::Get, taker, Some(put))
+            }
+            JobKind::Get => (TransferKind::Get, blade, None),
+            _ => (TransferKind::Put, blade, None),
         };
         let transfer = self
             .wafers
-            .prepare(tkind, station.name.as_str(), slot)
+            .prepare_blade(tkind, station.name.as_str(), slot, blade)
             .map_err(|e| (map_error_code(&e), e.to_string()))?;
         if let Some(n) = station.interlock_input {
             if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << (n & 31)) == 0 {
@@ -382,8 +430,32 @@ impl CellService {
             }
         }
         let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
-        let steps = transfer_steps(tkind, &station, slot, &self.robot, &from)
-            .map_err(|e| (station_code(&e), format!("{e}; nothing moved")))?;
+        let refused = |e: wrc_cell::StationError| (station_code(&e), format!("{e}; nothing moved"));
+        let offset = |b: Blade| self.hand.blade(b.index()).map_or(0.0, |(_, _, dz)| dz);
+        let mut steps = vec![JobStep::UseBlade(blade)];
+        let (first, approach) = transfer_steps(
+            tkind,
+            &station.for_blade(offset(blade)),
+            slot,
+            &self.robot,
+            &from,
+        )
+        .map_err(refused)?;
+        steps.extend(first);
+        if let Some(put) = put {
+            // From the GET's approach pose: the PUT's move there only changes the height.
+            let (second, _) = transfer_steps(
+                TransferKind::Put,
+                &station.for_blade(offset(put.blade)),
+                slot,
+                &self.robot,
+                &approach,
+            )
+            .map_err(refused)?;
+            steps.push(JobStep::UseBlade(put.blade));
+            steps.extend(second);
+            job.wafer_put = put.wafer.0;
+        }
         for step in steps {
             if !job.push(step) {
                 return Err((Code::Internal, "the transfer has too many steps".into()));
@@ -391,10 +463,15 @@ impl CellService {
         }
         job.slot = slot;
         job.wafer = transfer.wafer.0;
+        job.holding = Blade::ALL
+            .into_iter()
+            .filter(|b| self.wafers.hand_of(*b).is_some())
+            .fold(0, |m, b| m | 1 << b.index());
         // The pending transfer is on disk before anything moves.
         self.wafers
             .begin(transfer)
             .map_err(|e| (map_error_code(&e), e.to_string()))?;
+        self.swap_put = put;
         if let Err(e) = self.save() {
             let _ = self.wafers.abort();
             return Err((
@@ -411,6 +488,12 @@ impl CellService {
         match event {
             CellEvent::Commit => {
                 if self.wafers.commit().is_ok() {
+                    // A SWAP's PUT half is pending, on disk, before it moves.
+                    if let Some(put) = self.swap_put.take() {
+                        if let Err(e) = self.wafers.begin(put) {
+                            eprintln!("wrc: SWAP: the wafer map refused its PUT half: {e}");
+                        }
+                    }
                     self.persist();
                 }
             }
@@ -421,13 +504,14 @@ impl CellService {
                 sensed,
             } => {
                 self.busy = None;
+                self.swap_put = None;
                 if kind == JobKind::Map {
                     return;
                 }
                 if code == Some(Code::WaferLost) {
-                    // The wafer was on the hand (a PUT not yet released, or after a GET).
+                    // The wafer was on a blade (a PUT not yet released, or after a GET).
                     let _ = self.wafers.abort();
-                    self.lose_hand_wafer();
+                    self.lose_unsensed(sensed);
                     return self.persist();
                 }
                 if self.wafers.pending().is_none() {
@@ -470,17 +554,21 @@ impl CellService {
                     Err(e) => eprintln!("wrc: MAP {name}: the wafer map refused the result: {e}"),
                 }
             }
-            CellEvent::WaferLost => {
-                self.lose_hand_wafer();
+            CellEvent::WaferLost { sensed } => {
+                self.lose_unsensed(sensed);
                 self.persist();
             }
         }
     }
 
-    fn lose_hand_wafer(&mut self) {
-        if self.wafers.hand().is_some() {
-            if let Ok(id) = self.wafers.remove(wrc_cell::Location::Hand) {
-                eprintln!("wrc: wafer {id} was lost from the hand; it left the wafer map");
+    /// The wafers on blades whose vacuum sensor no longer sees them leave the map.
+    fn lose_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
+        for b in Blade::ALL {
+            if self.wafers.hand_of(b).is_some() && !sensed[b.index()] {
+                let at = wrc_cell::Location::Hand(b);
+                if let Ok(id) = self.wafers.remove(at) {
+                    eprintln!("wrc: wafer {id} was lost from the {at}; it left the wafer map");
+                }
             }
         }
     }
@@ -493,12 +581,15 @@ impl CellService {
     }
 
     /// Periodic work: reconcile a transfer left pending by a crash once the inputs are
-    /// known, and keep `shared.hand_wafer` true while the map has a wafer on the hand.
+    /// known, and keep `shared.hand_wafers` saying which blades the map has a wafer on.
     pub fn poll(&mut self) {
         if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
-            let sensed = self.shared.inputs[0].load(Ordering::Acquire)
-                & (1u32 << (self.hand.vacuum_input & 31))
-                != 0;
+            let inputs = self.shared.inputs[0].load(Ordering::Acquire);
+            let sensed = Blade::ALL.map(|b| {
+                self.hand
+                    .blade(b.index())
+                    .is_some_and(|(_, input, _)| inputs & (1u32 << (input & 31)) != 0)
+            });
             let r = self.wafers.reconcile(sensed);
             self.reconciled = true;
             match r {
@@ -512,9 +603,11 @@ impl CellService {
             }
             self.persist();
         }
-        self.shared
-            .hand_wafer
-            .store(self.wafers.hand().is_some(), Ordering::Release);
+        let holding = Blade::ALL
+            .into_iter()
+            .filter(|b| self.wafers.hand_of(*b).is_some())
+            .fold(0u8, |m, b| m | 1 << b.index());
+        self.shared.hand_wafers.store(holding, Ordering::Release);
     }
 }
 

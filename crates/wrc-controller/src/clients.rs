@@ -581,6 +581,7 @@ fn route<'b>(
         | Command::Wafers
         | Command::Get { .. }
         | Command::Put { .. }
+        | Command::Swap { .. }
         | Command::Map(_) => {
             let from = slot.source;
             let request = match request.command {
@@ -592,19 +593,37 @@ fn route<'b>(
                 Command::Stn => StoreRequest::Stn { from, to },
                 Command::Teach(name) => StoreRequest::Teach { from, to, name },
                 Command::Wafers => StoreRequest::Wafers { from, to },
-                Command::Get { station, slot } => StoreRequest::Job {
+                Command::Get {
+                    station,
+                    slot,
+                    blade,
+                } => StoreRequest::Job {
                     from,
                     to,
                     kind: JobKind::Get,
                     station,
                     slot,
+                    blade,
                 },
-                Command::Put { station, slot } => StoreRequest::Job {
+                Command::Put {
+                    station,
+                    slot,
+                    blade,
+                } => StoreRequest::Job {
                     from,
                     to,
                     kind: JobKind::Put,
                     station,
                     slot,
+                    blade,
+                },
+                Command::Swap { station, slot } => StoreRequest::Job {
+                    from,
+                    to,
+                    kind: JobKind::Swap,
+                    station,
+                    slot,
+                    blade: wrc_cell::Blade::A,
                 },
                 Command::Map(station) => StoreRequest::Job {
                     from,
@@ -612,6 +631,7 @@ fn route<'b>(
                     kind: JobKind::Map,
                     station,
                     slot: 0,
+                    blade: wrc_cell::Blade::A,
                 },
                 _ => StoreRequest::List { from, to },
             };

@@ -51,8 +51,9 @@ pub struct TaskFigures {
 /// Digital inputs and outputs of the controller (the input and output words).
 pub const SIGNALS: usize = 32;
 
-/// The `EVT AXIS` bodies (one per axis) and the `ACK` body of `ROBOT`.
-pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
+/// The `EVT AXIS` bodies (one per axis) and the `ACK` body of `ROBOT`; `blade_b`: the height
+/// of a dual-blade robot's blade B above the hand [mm] (`blade_b=<mm>` at the end).
+pub fn robot_reply(robot: &Robot, period_ms: f64, blade_b: Option<f64>) -> (Vec<String>, String) {
     let axes = robot
         .axes()
         .iter()
@@ -77,7 +78,7 @@ pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
         .chars()
         .map(|c| if c.is_ascii_graphic() { c } else { '_' })
         .collect();
-    let ack = format!(
+    let mut ack = format!(
         "name={name} link1={} link2={} hand={} axes={} period_ms={} inputs={SIGNALS} outputs={SIGNALS}",
         Num(arm.link1_mm),
         Num(arm.link2_mm),
@@ -85,6 +86,9 @@ pub fn robot_reply(robot: &Robot, period_ms: f64) -> (Vec<String>, String) {
         robot.axis_count(),
         Num(period_ms),
     );
+    if let Some(dz) = blade_b {
+        ack.push_str(&format!(" blade_b={}", Num(dz)));
+    }
     (axes, ack)
 }
 
@@ -178,7 +182,11 @@ mod tests {
     #[test]
     fn robot_reply_lists_every_axis() {
         let robot = Robot::paper_default();
-        let (axes, ack) = robot_reply(&robot, 10.0);
+        let (axes, ack) = robot_reply(&robot, 10.0, None);
+        assert!(!ack.contains("blade_b"), "{ack}");
+        assert!(robot_reply(&robot, 10.0, Some(-30.0))
+            .1
+            .ends_with(" blade_b=-30"));
         assert_eq!(axes.len(), robot.axis_count());
         assert_eq!(
             axes[0],

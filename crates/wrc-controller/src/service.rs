@@ -258,7 +258,8 @@ impl Service {
             },
             StoreRequest::Run { from, to, name } => self.run_program(from, to, name),
             StoreRequest::Robot { from, to } => {
-                let (axes, ack) = crate::queries::robot_reply(&self.robot, self.period_ms);
+                let blade_b = self.cell.as_ref().and_then(|c| c.blade_b_offset());
+                let (axes, ack) = crate::queries::robot_reply(&self.robot, self.period_ms, blade_b);
                 for axis in &axes {
                     let line = self.buf.event(to.checksum, &Event::Axis(axis));
                     self.out.send(from, line);
@@ -284,8 +285,9 @@ impl Service {
                 kind,
                 station,
                 slot,
+                blade,
             } => match self.cell.as_mut() {
-                Some(cell) => cell.job(from, to, kind, &station, slot),
+                Some(cell) => cell.job(from, to, kind, &station, slot, blade),
                 None => self.no_cell(from, to),
             },
             StoreRequest::TraceSave { from, to, name } => self.save_trace(from, to, name),
@@ -589,7 +591,7 @@ mod tests {
                 kind: JobKind::Map,
                 started: true,
                 code: None,
-                sensed: false,
+                sensed: [false, false],
             },
         ];
         for event in map {
@@ -614,6 +616,7 @@ mod tests {
             kind: JobKind::Get,
             station: StationName::new("LP1").unwrap(),
             slot: 3,
+            blade: wrc_cell::Blade::A,
         });
         r.service.step();
         assert!(r.replies().is_empty(), "the GET is not refused");
@@ -624,7 +627,7 @@ mod tests {
                 kind: JobKind::Get,
                 started: true,
                 code: None,
-                sensed: true,
+                sensed: [true, false],
             },
         ];
         for event in get {
@@ -640,6 +643,7 @@ mod tests {
             kind: JobKind::Get,
             station: StationName::new("LP1").unwrap(),
             slot: 4,
+            blade: wrc_cell::Blade::A,
         });
         r.service.step();
         let replies = r.replies();

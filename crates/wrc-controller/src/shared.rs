@@ -50,8 +50,9 @@ pub struct Shared {
     pub stops: StopCounts,
     /// The I/O Monitor has read the inputs at least once (`inputs` are real).
     pub io_ready: AtomicBool,
-    /// The wafer map has a wafer on the hand (set by the cell service).
-    pub hand_wafer: AtomicBool,
+    /// The blades the wafer map has a wafer on (bit 0: A, the hand; bit 1: B), set by the
+    /// cell service.
+    pub hand_wafers: AtomicU8,
     /// Released by every stop request: the Pulse Generator's wake (set once at start-up).
     stop_notify: OnceLock<Arc<dyn Notify>>,
     /// Released by every change of `outputs`: the I/O Monitor's wake (set once at start-up).
@@ -79,7 +80,7 @@ impl Default for Shared {
             decel_ns: AtomicU64::new(0),
             stops: StopCounts::default(),
             io_ready: AtomicBool::new(false),
-            hand_wafer: AtomicBool::new(false),
+            hand_wafers: AtomicU8::new(0),
             stop_notify: OnceLock::new(),
             output_notify: OnceLock::new(),
         }

@@ -76,5 +76,7 @@ pub use request::{
 pub use sim_stream::{DecodeError, EncodeError, SimFrame};
 pub use state::State;
 pub use verb::{Verb, VerbSpec};
+/// Re-exported from `wrc-cell` because `GET` and `PUT` carry one.
+pub use wrc_cell::Blade;
 /// Re-exported from `wrc-robot` because requests carry them.
 pub use wrc_robot::{AxisName, Pose, Posture, MAX_AXES};

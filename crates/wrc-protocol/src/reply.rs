@@ -640,7 +640,7 @@ mod tests {
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
         assert!(text(&help).ends_with(
-            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP\n"
+            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP\n"
         ));
     }
 

@@ -5,6 +5,7 @@
 use core::fmt;
 use core::str::FromStr;
 
+use wrc_cell::Blade;
 use wrc_robot::{AxisName, Pose, Posture, Robot, MAX_AXES};
 
 use crate::code::Code;
@@ -126,15 +127,28 @@ pub enum Command {
     Teach(StationName),
     /// `WAFERS`.
     Wafers,
-    /// `GET <station> <slot>`: take the wafer in the slot onto the hand.
+    /// `GET <station> <slot> [A|B]`: take the wafer in the slot onto the hand (blade A when
+    /// none is named).
     Get {
         /// The station.
         station: StationName,
         /// The slot, from 1.
         slot: u16,
+        /// The blade.
+        blade: Blade,
     },
-    /// `PUT <station> <slot>`: put the hand's wafer into the slot.
+    /// `PUT <station> <slot> [A|B]`: put the blade's wafer into the slot.
     Put {
+        /// The station.
+        station: StationName,
+        /// The slot, from 1.
+        slot: u16,
+        /// The blade.
+        blade: Blade,
+    },
+    /// `SWAP <station> <slot>`: a dual-blade robot takes the slot's wafer with its empty
+    /// blade and puts the other blade's wafer into the slot, without leaving the station.
+    Swap {
         /// The station.
         station: StationName,
         /// The slot, from 1.
@@ -192,6 +206,7 @@ impl Command {
             Command::Wafers => Verb::Wafers,
             Command::Get { .. } => Verb::Get,
             Command::Put { .. } => Verb::Put,
+            Command::Swap { .. } => Verb::Swap,
             Command::Map(_) => Verb::Map,
             Command::Run(_) => Verb::Run,
             Command::Pause => Verb::Pause,
@@ -403,6 +418,9 @@ pub enum ParseError {
     /// A slot number below 1 or beyond any station.
     #[error("slot {0} does not exist; slots are numbered from 1")]
     SlotNumber(i64),
+    /// A blade word other than `A` or `B`.
+    #[error("blade \"{0}\" must be A or B")]
+    BadBlade(Token),
     /// A posture word other than `L` or `R`.
     #[error("posture \"{0}\" must be L or R")]
     BadPosture(Token),
@@ -445,6 +463,7 @@ impl ParseError {
             ParseError::AxisUnknown { .. } => Code::AxisUnknown,
             ParseError::BadAxisName(_)
             | ParseError::BadPosture(_)
+            | ParseError::BadBlade(_)
             | ParseError::BadSwitch(_)
             | ParseError::BadProgramName(_)
             | ParseError::BadTraceName(_)
@@ -725,12 +744,24 @@ impl Parser {
             Verb::Teach => station_name(args).map(Command::Teach),
             Verb::Wafers => simple(Command::Wafers),
             Verb::Get => {
-                let (station, slot) = station_slot(args)?;
-                Ok(Command::Get { station, slot })
+                let (station, slot, blade) = station_slot_blade(args)?;
+                Ok(Command::Get {
+                    station,
+                    slot,
+                    blade,
+                })
             }
             Verb::Put => {
+                let (station, slot, blade) = station_slot_blade(args)?;
+                Ok(Command::Put {
+                    station,
+                    slot,
+                    blade,
+                })
+            }
+            Verb::Swap => {
                 let (station, slot) = station_slot(args)?;
-                Ok(Command::Put { station, slot })
+                Ok(Command::Swap { station, slot })
             }
             Verb::Map => station_name(args).map(Command::Map),
             Verb::Run => program_name(args).map(Command::Run),
@@ -768,6 +799,23 @@ fn station_name(args: &Args<'_>) -> Result<StationName, ParseError> {
 /// The two arguments of `GET` and `PUT`: a station and a slot number from 1.
 fn station_slot(args: &Args<'_>) -> Result<(StationName, u16), ParseError> {
     args.exactly(2)?;
+    station_and_slot(args)
+}
+
+/// `<station> <slot> [A|B]`: blade A when none is named.
+fn station_slot_blade(args: &Args<'_>) -> Result<(StationName, u16, Blade), ParseError> {
+    args.between(2, 3)?;
+    let (station, slot) = station_and_slot(args)?;
+    let blade = match args.words.get(2) {
+        None => Blade::A,
+        Some(word) => {
+            Blade::parse(as_str(word)).ok_or_else(|| ParseError::BadBlade(Token::new(word)))?
+        }
+    };
+    Ok((station, slot, blade))
+}
+
+fn station_and_slot(args: &Args<'_>) -> Result<(StationName, u16), ParseError> {
     let station = StationName::new(as_str(args.words[0]))
         .ok_or_else(|| ParseError::BadStationName(Token::new(args.words[0])))?;
     let slot = whole(args.words[1])?;
@@ -907,6 +955,66 @@ mod tests {
 
     fn with_sum(line: &str) -> String {
         format!("{line}*{:02X}", checksum(line.as_bytes()))
+    }
+
+    #[test]
+    fn get_and_put_take_an_optional_blade_and_swap_a_slot() {
+        let lp1 = StationName::new("LP1").unwrap();
+        let cases = [
+            (
+                "GET LP1 3",
+                Command::Get {
+                    station: lp1,
+                    slot: 3,
+                    blade: Blade::A,
+                },
+            ),
+            (
+                "get lp1 3 b",
+                Command::Get {
+                    station: StationName::new("lp1").unwrap(),
+                    slot: 3,
+                    blade: Blade::B,
+                },
+            ),
+            (
+                "PUT LP1 3 A",
+                Command::Put {
+                    station: lp1,
+                    slot: 3,
+                    blade: Blade::A,
+                },
+            ),
+            (
+                "PUT LP1 3 B",
+                Command::Put {
+                    station: lp1,
+                    slot: 3,
+                    blade: Blade::B,
+                },
+            ),
+            (
+                "SWAP LP1 3",
+                Command::Swap {
+                    station: lp1,
+                    slot: 3,
+                },
+            ),
+        ];
+        for (line, command) in cases {
+            assert_eq!(ok(line).command, command, "{line}");
+        }
+        let e = err("1 GET LP1 3 C");
+        assert_eq!(e.error.code(), Code::BadArgument);
+        assert!(
+            e.error.to_string().contains("blade \"C\" must be A or B"),
+            "{}",
+            e.error
+        );
+        assert_eq!(err("GET LP1 3 B B").error.code(), Code::ArgumentCount);
+        assert_eq!(err("SWAP LP1 3 B").error.code(), Code::ArgumentCount);
+        assert_eq!(err("SWAP LP1 0").error.code(), Code::SlotUnknown);
+        assert_eq!(ok("SWAP PM1 1").command.verb(), Verb::Swap);
     }
 
     #[test]

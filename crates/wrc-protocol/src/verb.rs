@@ -82,6 +82,8 @@ pub enum Verb {
     Put,
     /// `MAP`: scan a station's slots with the mapping sensor.
     Map,
+    /// `SWAP`: at one slot, take its wafer with the empty blade and put the other blade's.
+    Swap,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -141,6 +143,7 @@ impl Verb {
         Verb::Get,
         Verb::Put,
         Verb::Map,
+        Verb::Swap,
     ];
 
     /// The verb's table entry.
@@ -257,15 +260,15 @@ impl Verb {
             Verb::Wafers => v("WAFERS", "", "where every wafer is", false, false),
             Verb::Get => v(
                 "GET",
-                "<station> <slot>",
-                "take the wafer in a station slot onto the hand",
+                "<station> <slot> [A|B]",
+                "take the wafer in a station slot onto the hand (or blade A or B)",
                 true,
                 true,
             ),
             Verb::Put => v(
                 "PUT",
-                "<station> <slot>",
-                "put the hand's wafer into a station slot",
+                "<station> <slot> [A|B]",
+                "put the hand's (or blade A's or B's) wafer into a station slot",
                 true,
                 true,
             ),
@@ -273,6 +276,13 @@ impl Verb {
                 "MAP",
                 "<station>",
                 "scan a station's slots with the mapping sensor",
+                true,
+                true,
+            ),
+            Verb::Swap => v(
+                "SWAP",
+                "<station> <slot>",
+                "dual-blade robot: take the slot's wafer with the empty blade, put the other blade's there",
                 true,
                 true,
             ),

@@ -1,5 +1,6 @@
 //! `wrc bench cell`: wafer throughput on the demo cell. Standard sequences of `GET`/`PUT`
-//! (LP → LP, LP → AL → LP, LP → PM1 → LP, a swap at PM1 through the buffer) run on a fresh
+//! (LP → LP, LP → AL → LP, LP → PM1 → LP, a swap at PM1 through the buffer, and a `SWAP` at
+//! PM1 by the dual-blade robot of `config/dual-blade.toml`) run on a fresh
 //! controller each, in virtual time by default (fast, deterministic) or on the real-time
 //! controller (`--real-time`: `wrc up` on free loopback ports). Every figure comes from the
 //! controller's own trace of the sequence (`TRACE SAVE`), so both modes are measured the
@@ -15,7 +16,8 @@
 //!   TOPP-RA with joint and Cartesian velocity and acceleration and the 1-D jerk-limited
 //!   times), each divided by the speed override in force (the station's `speed_pct` inside a
 //!   station), plus the vacuum sensor's delay from the board's configuration after each
-//!   vacuum change. A blended transfer may come under 1.
+//!   vacuum change. A blended transfer may come under 1. A `SWAP`'s reference is its GET's
+//!   and its PUT's, each with its blade's height offset.
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
@@ -26,7 +28,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use serde_json::json;
-use wrc_board::wrc_cell::{plan, Stations, Step, TransferKind};
+use wrc_board::wrc_cell::{plan, Blade, Stations, Step, TransferKind, MAX_BLADES};
 use wrc_config::Config;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
 use wrc_motion::reference::line_bound;
@@ -68,15 +70,28 @@ pub enum Sequence {
     /// A swap at PM1 with one hand: the next wafer waits in the buffer BF1 while the
     /// processed one leaves PM1 for LP2, then goes into PM1.
     SwapPm1,
+    /// A swap at PM1 by the dual-blade robot (`config/dual-blade.toml`): the next wafer
+    /// rides on blade B, `SWAP PM1 1` takes the processed one with blade A and puts the next
+    /// one, and blade A takes it to LP2.
+    SwapPm1Dual,
 }
 
 impl Sequence {
-    const ALL: [Sequence; 4] = [
+    const ALL: [Sequence; 5] = [
         Sequence::LpLp,
         Sequence::LpAlLp,
         Sequence::LpPm1Lp,
         Sequence::SwapPm1,
+        Sequence::SwapPm1Dual,
     ];
+
+    /// The configuration it runs on: the embedded default, or the dual-blade example.
+    fn config(self) -> Config {
+        match self {
+            Sequence::SwapPm1Dual => Config::embedded_dual_blade(),
+            _ => Config::embedded_default(),
+        }
+    }
 
     fn name(self) -> &'static str {
         match self {
@@ -84,6 +99,7 @@ impl Sequence {
             Sequence::LpAlLp => "LP1 → AL → LP2",
             Sequence::LpPm1Lp => "LP1 → PM1 → LP2",
             Sequence::SwapPm1 => "swap at PM1 (via BF1)",
+            Sequence::SwapPm1Dual => "SWAP at PM1 (dual blade)",
         }
     }
 
@@ -93,6 +109,7 @@ impl Sequence {
             Sequence::LpAlLp => "lp-al-lp",
             Sequence::LpPm1Lp => "lp-pm1-lp",
             Sequence::SwapPm1 => "swap-pm1",
+            Sequence::SwapPm1Dual => "swap-pm1-dual",
         }
     }
 
@@ -106,6 +123,7 @@ impl Sequence {
             Sequence::LpAlLp => &["LP1", "LP2", "AL"],
             Sequence::LpPm1Lp => &["LP1", "LP2", "PM1"],
             Sequence::SwapPm1 => &["LP1", "LP2", "PM1", "BF1"],
+            Sequence::SwapPm1Dual => &["LP1", "LP2", "PM1"],
         };
         setup.extend(stations.iter().map(|s| format!("MAP {s}")));
         for n in 1..=wafers {
@@ -124,6 +142,14 @@ impl Sequence {
                     ]);
                     continue;
                 }
+                Sequence::SwapPm1Dual => {
+                    timed.extend([
+                        format!("GET LP1 {} B", n + 1),
+                        "SWAP PM1 1".to_string(),
+                        format!("PUT LP2 {n}"),
+                    ]);
+                    continue;
+                }
             };
             timed.push(format!("GET LP1 {n}"));
             if let Some(s) = through {
@@ -131,7 +157,7 @@ impl Sequence {
             }
             timed.push(format!("PUT LP2 {n}"));
         }
-        if self == Sequence::SwapPm1 {
+        if matches!(self, Sequence::SwapPm1 | Sequence::SwapPm1Dual) {
             setup.extend(["GET LP1 1".to_string(), "PUT PM1 1".to_string()]);
         }
         (setup, timed)
@@ -318,11 +344,19 @@ fn drive(
     Ok((trace, sent))
 }
 
+/// What a timed request does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Get,
+    Put,
+    Swap,
+}
+
 /// One transfer as measured.
 #[derive(Debug, Clone)]
 struct Measured {
     line: String,
-    kind: TransferKind,
+    kind: Kind,
     seconds: f64,
     moving_s: f64,
     /// Request read → the first period that moved the arm [s].
@@ -344,7 +378,7 @@ impl Figures {
         f64::from(self.wafers) * 3600.0 / self.total_s
     }
 
-    fn mean(&self, kind: TransferKind, f: impl Fn(&Measured) -> f64) -> f64 {
+    fn mean(&self, kind: Kind, f: impl Fn(&Measured) -> f64) -> f64 {
         let v: Vec<f64> = self
             .transfers
             .iter()
@@ -354,30 +388,67 @@ impl Figures {
         v.iter().sum::<f64>() / v.len().max(1) as f64
     }
 
+    /// The mean seconds of its `SWAP`s, if it has any.
+    fn swap_s(&self) -> Option<f64> {
+        self.transfers
+            .iter()
+            .any(|m| m.kind == Kind::Swap)
+            .then(|| self.mean(Kind::Swap, |m| m.seconds))
+    }
+
     fn sum(&self, f: impl Fn(&Measured) -> f64) -> f64 {
         self.transfers.iter().map(f).sum()
     }
 }
 
 /// The time-optimal reference of a transfer (see the module docs) from `start`, and the
-/// joints it ends at.
+/// joints it ends at; `hands` (which blades hold a wafer) is brought up to date.
 fn reference(
     config: &Config,
     stations: &Stations,
     line: &str,
     start: Joints,
-) -> anyhow::Result<(TransferKind, f64, Joints)> {
+    hands: &mut [bool; MAX_BLADES],
+) -> anyhow::Result<(Kind, f64, Joints)> {
     let robot = &config.robot;
     let words: Vec<&str> = line.split_whitespace().collect();
-    let (kind, station, slot) = match words[..] {
-        ["GET", s, n] => (TransferKind::Get, s, n.parse::<u16>()?),
-        ["PUT", s, n] => (TransferKind::Put, s, n.parse::<u16>()?),
+    let blade = |w: &str| Blade::parse(w).with_context(|| format!("no blade {w}"));
+    let (kind, name, slot, blade) = match words[..] {
+        ["GET", s, n] => (Kind::Get, s, n.parse::<u16>()?, Blade::A),
+        ["GET", s, n, b] => (Kind::Get, s, n.parse::<u16>()?, blade(b)?),
+        ["PUT", s, n] => (Kind::Put, s, n.parse::<u16>()?, Blade::A),
+        ["PUT", s, n, b] => (Kind::Put, s, n.parse::<u16>()?, blade(b)?),
+        // The empty blade takes, the other puts.
+        ["SWAP", s, n] => {
+            let taker = if hands[0] { Blade::B } else { Blade::A };
+            (Kind::Swap, s, n.parse::<u16>()?, taker)
+        }
         _ => bail!("not a transfer: {line}"),
     };
     let station = stations
-        .get(station)
-        .with_context(|| format!("no station {station}"))?;
-    let steps = plan(kind, station, slot)?;
+        .get(name)
+        .with_context(|| format!("no station {name}"))?;
+    let at = |b: Blade| {
+        let dz = config.hand.blade(b.index()).map_or(0.0, |(_, _, dz)| dz);
+        station.for_blade(dz)
+    };
+    let steps = match kind {
+        Kind::Get => plan(TransferKind::Get, &at(blade), slot)?,
+        Kind::Put => plan(TransferKind::Put, &at(blade), slot)?,
+        Kind::Swap => {
+            let mut steps = plan(TransferKind::Get, &at(blade), slot)?;
+            steps.extend(plan(TransferKind::Put, &at(blade.other()), slot)?);
+            steps
+        }
+    };
+    match kind {
+        Kind::Get => hands[blade.index()] = true,
+        Kind::Put => hands[blade.index()] = false,
+        Kind::Swap => {
+            hands[blade.index()] = true;
+            hands[blade.other().index()] = false;
+        }
+    }
     let global = config.motion.speed_pct;
     let mut speed = global;
     let vacuum_s = config
@@ -456,6 +527,8 @@ fn analyse(
     };
     let mut transfers = Vec::new();
     let (mut first, mut last) = (u64::MAX, 0u64);
+    // Every sequence's set-up leaves both blades empty.
+    let mut hands = [false; MAX_BLADES];
     for (id, line) in sent {
         let asked = format!("{id} {line}");
         let t0 = find(Direction::Request, &|t| t == asked)
@@ -487,7 +560,7 @@ fn analyse(
             .windows(2)
             .find(|w| w[0].commanded[..axes] != w[1].commanded[..axes])
             .map_or(f64::NAN, |w| w[1].t_ns.saturating_sub(t0) as f64 / 1e9);
-        let (kind, reference_s, _) = reference(config, stations, line, start)?;
+        let (kind, reference_s, _) = reference(config, stations, line, start, &mut hands)?;
         transfers.push(Measured {
             line: line.clone(),
             kind,
@@ -567,7 +640,7 @@ fn run_sequence(
 
 /// Run `wrc bench cell`.
 pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
-    let config = Config::embedded_default();
+    let period_s = Config::embedded_default().motion.period_s;
     let sequences = if args.only.is_empty() {
         Sequence::ALL.to_vec()
     } else {
@@ -583,11 +656,12 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
         args.wafers
     );
     println!(
-        "{:<24} {:>9} {:>8} {:>8} {:>8} {:>8} {:>11} {:>13}",
+        "{:<24} {:>9} {:>8} {:>8} {:>9} {:>8} {:>8} {:>11} {:>13}",
         "sequence",
         "wafers/h",
         "GET [s]",
         "PUT [s]",
+        "SWAP [s]",
         "moving",
         "waiting",
         "vs optimal",
@@ -595,6 +669,7 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
     );
     let mut all = Vec::new();
     for sequence in sequences {
+        let config = sequence.config();
         let f = run_sequence(&config, sequence, args.wafers, args.real_time)
             .with_context(|| format!("sequence {}", sequence.key()))?;
         let busy = f.sum(|m| m.seconds);
@@ -606,13 +681,15 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
             .iter()
             .map(|m| m.first_motion_s)
             .fold(0.0f64, f64::max)
-            / config.motion.period_s;
+            / period_s;
         println!(
-            "{:<24} {:>9.1} {:>8.2} {:>8.2} {:>7.0}% {:>7.0}% {:>10.2}x {:>6.1} periods",
+            "{:<24} {:>9.1} {:>8.2} {:>8.2} {:>9} {:>7.0}% {:>7.0}% {:>10.2}x {:>6.1} periods",
             sequence.name(),
             f.wafers_per_hour(),
-            f.mean(TransferKind::Get, |m| m.seconds),
-            f.mean(TransferKind::Put, |m| m.seconds),
+            f.mean(Kind::Get, |m| m.seconds),
+            f.mean(Kind::Put, |m| m.seconds),
+            f.swap_s()
+                .map_or_else(|| "-".to_string(), |s| format!("{s:.2}")),
             100.0 * moving / busy,
             100.0 * (busy - moving) / busy,
             ratio,
@@ -621,7 +698,6 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
         if args.compare {
             let r = run_sequence(&config, sequence, args.wafers, true)
                 .with_context(|| format!("sequence {} in real time", sequence.key()))?;
-            let period_s = config.motion.period_s;
             let worst = f
                 .transfers
                 .iter()
@@ -633,8 +709,8 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
                  time {worst:.1} periods per transfer",
                 "  the same, real time",
                 r.wafers_per_hour(),
-                r.mean(TransferKind::Get, |m| m.seconds),
-                r.mean(TransferKind::Put, |m| m.seconds),
+                r.mean(Kind::Get, |m| m.seconds),
+                r.mean(Kind::Put, |m| m.seconds),
             );
         }
         all.push(f);
@@ -653,8 +729,9 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
                     "wafers": f.wafers,
                     "seconds": f.total_s,
                     "wafers_per_hour": f.wafers_per_hour(),
-                    "get_s": f.mean(TransferKind::Get, |m| m.seconds),
-                    "put_s": f.mean(TransferKind::Put, |m| m.seconds),
+                    "get_s": f.mean(Kind::Get, |m| m.seconds),
+                    "put_s": f.mean(Kind::Put, |m| m.seconds),
+                    "swap_s": f.swap_s(),
                     "transfers": f.transfers.iter().map(|m| json!({
                         "request": m.line,
                         "seconds": m.seconds,
@@ -735,18 +812,62 @@ mod tests {
         }
     }
 
+    /// The dual-blade swap: GET with blade B, SWAP (blade A takes, blade B puts), PUT with
+    /// blade A; each against its reference, the SWAP's being its two halves'.
+    #[test]
+    fn the_dual_blade_swap_is_measured_against_both_halves() {
+        let config = Sequence::SwapPm1Dual.config();
+        assert_eq!(config.hand.blades(), 2);
+        let f = run_sequence(&config, Sequence::SwapPm1Dual, 1, false).unwrap();
+        let kinds: Vec<Kind> = f.transfers.iter().map(|m| m.kind).collect();
+        assert_eq!(kinds, [Kind::Get, Kind::Swap, Kind::Put]);
+        for m in &f.transfers {
+            assert!(m.seconds >= m.reference_s * 0.999, "{m:?}");
+            assert!(m.seconds <= m.reference_s * 1.25, "{m:?}");
+        }
+        let swap = &f.transfers[1];
+        assert_eq!(f.swap_s(), Some(swap.seconds));
+        // A SWAP takes longer than either half alone, and less than the two apart (no move
+        // between them but the Z lift from one blade to the other).
+        let (get, put) = (&f.transfers[0], &f.transfers[2]);
+        assert!(
+            swap.reference_s > get.reference_s.max(put.reference_s),
+            "{f:?}"
+        );
+        // The SWAP's reference: blade A's GET at PM1, then blade B's PUT there from where
+        // the GET ended (one start for both).
+        let stations = Stations::embedded_demo();
+        let start = config.robot.pulses_to_joints(&[0; MAX_AXES]);
+        let mut hands = [false, true];
+        let (kind, swap_ref, _) =
+            reference(&config, &stations, "SWAP PM1 1", start, &mut hands).unwrap();
+        assert_eq!((kind, hands), (Kind::Swap, [true, false]));
+        let mut one = [false; 2];
+        let (_, get_a, end) = reference(&config, &stations, "GET PM1 1", start, &mut one).unwrap();
+        let (_, put_b, _) =
+            reference(&config, &stations, "PUT PM1 1 B", end, &mut [false, true]).unwrap();
+        assert!(
+            (swap_ref - (get_a + put_b)).abs() < 1e-9,
+            "{swap_ref} {get_a} {put_b}"
+        );
+    }
+
     #[test]
     fn the_reference_adds_the_vacuum_delay_after_each_vacuum_change() {
         let mut config = Config::embedded_default();
         let stations = Stations::embedded_demo();
         let start = config.robot.pulses_to_joints(&[0; MAX_AXES]);
-        let (kind, base, _) = reference(&config, &stations, "GET LP1 1", start).unwrap();
-        assert_eq!(kind, TransferKind::Get);
+        let mut hands = [false; MAX_BLADES];
+        let (kind, base, _) =
+            reference(&config, &stations, "GET LP1 1", start, &mut hands).unwrap();
+        assert_eq!(kind, Kind::Get);
+        assert_eq!(hands, [true, false]);
         config.boards[0].sim.vacuum[0].delay_ms += 200.0;
-        let (_, slower, _) = reference(&config, &stations, "GET LP1 1", start).unwrap();
+        let (_, slower, _) =
+            reference(&config, &stations, "GET LP1 1", start, &mut [false; 2]).unwrap();
         // One vacuum change, checked once.
         assert!((slower - base - 0.2).abs() < 1e-9, "{base} {slower}");
-        assert!(reference(&config, &stations, "MAP LP1", start).is_err());
-        assert!(reference(&config, &stations, "GET XX 1", start).is_err());
+        assert!(reference(&config, &stations, "MAP LP1", start, &mut hands).is_err());
+        assert!(reference(&config, &stations, "GET XX 1", start, &mut hands).is_err());
     }
 }

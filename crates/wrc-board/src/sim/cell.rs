@@ -5,6 +5,9 @@
 //! mapping sensor. A step does not block or make system calls, and allocates only when the
 //! world records a lost wafer (a fault).
 //!
+//! A dual-blade robot's blade B (`[hand.blade_b]`) is stepped in the world too, at the hand's
+//! pose raised by its `z_offset_mm`, with its own vacuum valve; its sensor follows its wafer.
+//!
 //! The mapping sensor is on while the hand's `mapping_output` is on. While it is on, the
 //! hand faces a station when its x, y are within [`SEAT_TOLERANCE_MM`] of the station's
 //! approach point and its yaw within [`SEAT_TOLERANCE_DEG`] of the station's yaw; then every
@@ -14,7 +17,7 @@
 //! [`SimCell::clear_latch`] (through the DPRAM's `CLEAR_SEQ`).
 
 use wrc_cell::{
-    SlotCode, StationName, Stations, StationsError, World, WorldEvent, SEAT_TOLERANCE_DEG,
+    Blade, SlotCode, StationName, Stations, StationsError, World, WorldEvent, SEAT_TOLERANCE_DEG,
     SEAT_TOLERANCE_MM,
 };
 use wrc_config::{BoardConfig, Config, HandConfig};
@@ -201,6 +204,11 @@ impl SimCell {
         self.world.hand().is_some()
     }
 
+    /// Whether a wafer is on `blade`.
+    pub fn wafer_on(&self, blade: Blade) -> bool {
+        self.world.hand_of(blade).is_some()
+    }
+
     /// The world event of the last step that had one, once: the board's log prints it
     /// outside the real-time step.
     pub fn take_event(&mut self) -> Option<WorldEvent> {
@@ -231,6 +239,17 @@ impl SimCell {
         if let Some(event) = self.world.step(pose, vacuum_on) {
             self.last_event = Some(event);
             self.events = self.events.wrapping_add(1);
+        }
+        if let Some(b) = self.hand.blade_b {
+            let vacuum_on = outputs & (1 << (b.vacuum_output & 31)) != 0;
+            let at = Pose {
+                z: pose.z + b.z_offset_mm,
+                ..pose
+            };
+            if let Some(event) = self.world.step_blade(Blade::B, at, vacuum_on) {
+                self.last_event = Some(event);
+                self.events = self.events.wrapping_add(1);
+            }
         }
         let previous_z = self.previous_z.replace(pose.z);
         let sensor_on = outputs & (1 << (self.hand.mapping_output & 31)) != 0;

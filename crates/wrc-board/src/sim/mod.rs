@@ -22,6 +22,7 @@ pub mod world_file;
 use std::path::Path;
 use std::sync::atomic::Ordering;
 
+use wrc_cell::{Blade, MAX_BLADES};
 use wrc_config::{BoardConfig, Config};
 
 use crate::dpram::{AxisRecord, Dpram, Pop};
@@ -158,7 +159,8 @@ pub struct SimBoard {
     substeps: u32,
     periods: u64,
     /// The simulated cell, and the vacuum hand (of `io`) its wafer drives.
-    cell: Option<(SimCell, usize)>,
+    /// The simulated cell and the vacuum hand of each of its blades.
+    cell: Option<(SimCell, [Option<usize>; MAX_BLADES])>,
 }
 
 /// Delay of the hand's vacuum sensor when `[board.sim] vacuum` does not list the hand [s].
@@ -272,21 +274,30 @@ impl SimBoard {
     pub fn attach_cell(&mut self, cell: SimCell) -> Result<(), SimError> {
         let hand = *cell.hand();
         let delay = (CELL_VACUUM_DELAY_S / self.period_s).ceil() as u32;
-        let Some(index) = self
-            .io
-            .ensure_vacuum(hand.vacuum_output, hand.vacuum_input, delay)
-        else {
-            return Err(SimError::Settings(format!(
-                "[board.sim] vacuum lists {} hands, none with valve output {} and sensor input \
-                 {} of [hand]; there is no room for the simulated cell's hand",
-                io::MAX_VACUUM,
-                hand.vacuum_output,
-                hand.vacuum_input
-            )));
-        };
-        self.io.set_wafer(index, cell.wafer_on_hand());
+        // One vacuum hand per blade: the hand, and blade B of a dual-blade robot.
+        let mut indices = [None; MAX_BLADES];
+        for (b, index) in indices.iter_mut().enumerate() {
+            let Some((output, input, _)) = hand.blade(b) else {
+                continue;
+            };
+            let Some(i) = self.io.ensure_vacuum(output, input, delay) else {
+                return Err(SimError::Settings(format!(
+                    "[board.sim] vacuum lists {} hands, none with valve output {output} and \
+                     sensor input {input} of [hand]; there is no room for the simulated cell's \
+                     blade {}",
+                    io::MAX_VACUUM,
+                    Blade::ALL[b]
+                )));
+            };
+            *index = Some(i);
+        }
+        for (b, index) in indices.iter().enumerate() {
+            if let Some(i) = *index {
+                self.io.set_wafer(i, cell.wafer_on(Blade::ALL[b]));
+            }
+        }
         self.dpram.write_mapping(cell.latch());
-        self.cell = Some((cell, index));
+        self.cell = Some((cell, indices));
         Ok(())
     }
 
@@ -459,7 +470,7 @@ impl SimBoard {
                 a.end_stop();
             }
         }
-        if let Some((cell, hand)) = self.cell.as_mut() {
+        if let Some((cell, hands)) = self.cell.as_mut() {
             let mut encoders = [0i64; AXES_PER_BOARD];
             for (e, a) in encoders.iter_mut().zip(&self.axes) {
                 if let Some(a) = a {
@@ -468,7 +479,11 @@ impl SimBoard {
             }
             cell.step(&encoders, outputs);
             // The sensor input follows at the next periods, after the hand's delay.
-            self.io.set_wafer(*hand, cell.wafer_on_hand());
+            for (b, index) in hands.iter().enumerate() {
+                if let Some(i) = *index {
+                    self.io.set_wafer(i, cell.wafer_on(Blade::ALL[b]));
+                }
+            }
             if let Some(latch) = cell.take_latch_change() {
                 self.dpram.write_mapping(&latch);
             }

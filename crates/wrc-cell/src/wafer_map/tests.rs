@@ -44,7 +44,7 @@ fn wafer_ids_read_and_print() {
     }
     assert_eq!(WaferId(3).to_string(), "W3");
     assert_eq!(at("LP1", 3).to_string(), "LP1.3");
-    assert_eq!(Location::Hand.to_string(), "hand");
+    assert_eq!(Location::HAND.to_string(), "hand");
 }
 
 #[test]
@@ -188,6 +188,7 @@ fn every_refusal_leaves_the_map_unchanged() {
         station: name("LP1"),
         slot: 1,
         wafer: WaferId(2),
+        blade: Blade::A,
     };
     check(
         &mut map,
@@ -205,12 +206,12 @@ fn every_refusal_leaves_the_map_unchanged() {
     );
     check(
         &mut map,
-        &|m| m.place(Location::Hand, WaferId(99)),
+        &|m| m.place(Location::HAND, WaferId(99)),
         "still pending",
     );
     check(
         &mut map,
-        &|m| m.remove(Location::Hand).map(|_| ()),
+        &|m| m.remove(Location::HAND).map(|_| ()),
         "still pending",
     );
     check(
@@ -249,7 +250,7 @@ fn every_refusal_leaves_the_map_unchanged() {
     );
     check(
         &mut map,
-        &|m| m.place(Location::Hand, WaferId(90)),
+        &|m| m.place(Location::HAND, WaferId(90)),
         "the hand already holds wafer W1",
     );
     check(&mut map, &|m| m.place(at("LP2", 1), WaferId(90)), "double");
@@ -276,7 +277,7 @@ fn place_and_remove_keep_ids_unique_and_fresh() {
     let mut fresh = WaferMap::new(&demo());
     fresh.place(at("AL", 1), WaferId(1)).unwrap();
     assert_eq!(fresh.slot("AL", 1).unwrap(), SlotState::Wafer(WaferId(1)));
-    fresh.place(Location::Hand, WaferId(u32::MAX)).unwrap();
+    fresh.place(Location::HAND, WaferId(u32::MAX)).unwrap();
     assert!(matches!(fresh.new_id(), Err(WaferMapError::IdsExhausted)));
     assert!(matches!(
         fresh.apply_mapping("PM1", &[SlotCode::Present]),
@@ -293,12 +294,12 @@ fn reconcile_resolves_a_pending_transfer_from_the_vacuum_sensor() {
 
     let mut m = base.clone();
     m.begin(get).unwrap();
-    assert_eq!(m.reconcile(true), Reconciled::Committed(get));
+    assert_eq!(m.reconcile([true, false]), Reconciled::Committed(get));
     assert_eq!(m.hand(), Some(WaferId(7)));
 
     let mut m = base.clone();
     m.begin(get).unwrap();
-    assert_eq!(m.reconcile(false), Reconciled::Aborted(get));
+    assert_eq!(m.reconcile([false, false]), Reconciled::Aborted(get));
     assert_eq!(m, base);
 
     let mut holding = base.clone();
@@ -308,24 +309,27 @@ fn reconcile_resolves_a_pending_transfer_from_the_vacuum_sensor() {
 
     let mut m = holding.clone();
     m.begin(put).unwrap();
-    assert_eq!(m.reconcile(true), Reconciled::Aborted(put));
+    assert_eq!(m.reconcile([true, false]), Reconciled::Aborted(put));
     assert_eq!(m, holding);
 
     let mut m = holding.clone();
     m.begin(put).unwrap();
-    let r = m.reconcile(false);
+    let r = m.reconcile([false, false]);
     assert_eq!(r, Reconciled::Committed(put));
     assert!(r.is_consistent());
     assert_eq!(m.wafer_at(&at("AL", 1)), Some(WaferId(7)));
 
     // Nothing pending: compare the hand.
     let mut m = base.clone();
-    assert_eq!(m.reconcile(false), Reconciled::Consistent);
-    assert_eq!(m.reconcile(true), Reconciled::UnknownWaferOnHand);
+    assert_eq!(m.reconcile([false, false]), Reconciled::Consistent);
+    assert_eq!(
+        m.reconcile([true, false]),
+        Reconciled::UnknownWaferOnHand(Blade::A)
+    );
     let mut m = holding.clone();
-    assert_eq!(m.reconcile(true), Reconciled::Consistent);
-    let r = m.reconcile(false);
-    assert_eq!(r, Reconciled::HandWaferNotSensed(WaferId(7)));
+    assert_eq!(m.reconcile([true, false]), Reconciled::Consistent);
+    let r = m.reconcile([false, false]);
+    assert_eq!(r, Reconciled::HandWaferNotSensed(Blade::A, WaferId(7)));
     assert!(!r.is_consistent());
     assert_eq!(m, holding);
 }
@@ -568,7 +572,7 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
     let full = map.wafers_line();
     assert!(full.len() <= 461 - 26, "{} bytes: {full}", full.len());
     map.remove(at("LP2", 25)).unwrap();
-    map.place(Location::Hand, WaferId(99_999)).unwrap();
+    map.place(Location::HAND, WaferId(99_999)).unwrap();
     let put = map.prepare(TransferKind::Put, "LP2", 25).unwrap();
     map.begin(put).unwrap();
     let line = map.wafers_line();
@@ -681,7 +685,7 @@ proptest! {
                 Op::Commit => map.commit().map(|_| ()),
                 Op::Abort => map.abort().map(|_| ()),
                 Op::Reconcile(sensed) => {
-                    let r = map.reconcile(sensed);
+                    let r = map.reconcile([sensed, false]);
                     if let Reconciled::Committed(t) = r {
                         prop_assert_eq!(map.wafer_at(&t.destination()), Some(t.wafer));
                     }
@@ -729,7 +733,7 @@ proptest! {
                 3 => map.prepare(TransferKind::Get, st, slot).and_then(|t| map.begin(t)),
                 4 => map.prepare(TransferKind::Put, st, slot).and_then(|t| map.begin(t)),
                 5 => map.commit().map(|_| ()),
-                _ => { map.reconcile(n % 2 == 0); Ok(()) }
+                _ => { map.reconcile([n % 2 == 0, false]); Ok(()) }
             };
             if result.is_err() && kind != 1 {
                 prop_assert_eq!(&map, &before);
@@ -782,4 +786,96 @@ fn a_slot_states_code_is_what_a_map_of_it_reports() {
     for fault in [SlotFault::Double, SlotFault::Cross] {
         assert_eq!(SlotState::Fault(fault).code(), Some(fault.code()));
     }
+}
+
+/// A dual-blade robot: each blade is its own hand place, a transfer names its blade, and the
+/// blade survives the file, the `WAFERS` line and start-up reconciliation.
+#[test]
+fn blade_b_is_a_hand_place_of_its_own() {
+    let mut map = mapped();
+    assert!(!map.wafers_line().contains("hand.B"));
+    map.set_dual(true);
+    assert!(map.wafers_line().starts_with("hand=- hand.B=- LP1="));
+    // GET LP1 1 with blade B, then LP1 2 with blade A: both blades full.
+    let get_b = map
+        .prepare_blade(TransferKind::Get, "LP1", 1, Blade::B)
+        .unwrap();
+    assert_eq!(get_b.destination(), Location::Hand(Blade::B));
+    assert_eq!(get_b.to_string(), "GET LP1 1 B (W1)");
+    map.begin(get_b).unwrap();
+    assert!(map.wafers_line().ends_with("pending=get:LP1.1:W1:B"));
+    // The pending transfer and its blade survive a save and a load.
+    let text = map.to_text();
+    assert!(text.contains("blade = \"B\""), "{text}");
+    let mut back = WaferMap::from_text(&text, "m").unwrap();
+    back.set_dual(true);
+    assert_eq!(back, map);
+    map.commit().unwrap();
+    assert_eq!(map.hand_of(Blade::B), Some(WaferId(1)));
+    assert_eq!(map.hand(), None);
+    // Blade B is full: it cannot GET again, but blade A can.
+    assert!(matches!(
+        map.prepare_blade(TransferKind::Get, "LP1", 2, Blade::B),
+        Err(WaferMapError::HandOccupied { wafer: WaferId(1) })
+    ));
+    let get_a = map.prepare(TransferKind::Get, "LP1", 2).unwrap();
+    map.begin(get_a).unwrap();
+    map.commit().unwrap();
+    assert!(map.wafers_line().starts_with("hand=W2 hand.B=W1 "));
+    assert_eq!(map.location_of(WaferId(1)), Some(Location::Hand(Blade::B)));
+    assert_eq!(Location::Hand(Blade::B).to_string(), "hand.B");
+    // PUT with blade B gives W1, not blade A's W2.
+    let put_b = map
+        .prepare_blade(TransferKind::Put, "PM1", 1, Blade::B)
+        .unwrap();
+    assert_eq!(put_b.wafer, WaferId(1));
+    let text = map.to_text();
+    assert!(text.contains("hand_b = \"W1\""), "{text}");
+    assert_eq!(
+        WaferMap::from_text(&text, "m").unwrap().hand_of(Blade::B),
+        Some(WaferId(1))
+    );
+    map.verify().unwrap();
+    // A load without set_dual still shows blade B's wafer.
+    assert!(WaferMap::from_text(&text, "m")
+        .unwrap()
+        .wafers_line()
+        .contains("hand.B=W1"));
+    // A bad blade in the file is named.
+    let bad = text.replacen("[[station]]", "[pending]\nkind = \"put\"\nstation = \"PM1\"\nslot = 1\nwafer = \"W1\"\nblade = \"C\"\n\n[[station]]", 1);
+    let e = WaferMap::from_text(&bad, "m").unwrap_err().to_string();
+    assert!(e.contains("pending.blade \"C\""), "{e}");
+}
+
+#[test]
+fn reconcile_reads_the_sensor_of_the_pending_transfers_blade() {
+    let mut map = mapped();
+    map.set_dual(true);
+    let a = map.prepare(TransferKind::Get, "LP1", 3).unwrap();
+    map.begin(a).unwrap();
+    map.commit().unwrap();
+    let put_b = map
+        .prepare_blade(TransferKind::Get, "LP1", 4, Blade::B)
+        .unwrap();
+    // Blade B's GET happened (its sensor sees a wafer) while blade A still holds W3.
+    let mut m = map.clone();
+    m.begin(put_b).unwrap();
+    assert_eq!(m.reconcile([true, true]), Reconciled::Committed(put_b));
+    assert_eq!(m.hand_of(Blade::B), Some(WaferId(4)));
+    // It had not happened: blade B's sensor is off; blade A's wafer is not involved.
+    let mut m = map.clone();
+    m.begin(put_b).unwrap();
+    assert_eq!(m.reconcile([true, false]), Reconciled::Aborted(put_b));
+    assert_eq!(m.hand_of(Blade::B), None);
+    assert_eq!(m.hand(), Some(WaferId(3)));
+    // Without a pending transfer, each blade is compared with its sensor.
+    assert_eq!(map.reconcile([true, false]), Reconciled::Consistent);
+    assert_eq!(
+        map.reconcile([true, true]),
+        Reconciled::UnknownWaferOnHand(Blade::B)
+    );
+    assert_eq!(
+        map.reconcile([false, false]),
+        Reconciled::HandWaferNotSensed(Blade::A, WaferId(3))
+    );
 }

@@ -363,14 +363,14 @@ fn tracking_binds_ids_to_tags_and_reports_differences() {
         m.iter().any(|x| matches!(
             x,
             Mismatch::Occupancy {
-                location: Location::Hand,
+                location: Location::HAND,
                 ..
             }
         )),
         "{m:?}"
     );
     assert_eq!(
-        map.reconcile(world.vacuum_sensor()),
+        map.reconcile([world.vacuum_sensor(), false]),
         crate::Reconciled::Committed(t)
     );
     assert_eq!(tracking.check(&map, &world), []);
@@ -534,7 +534,7 @@ impl Cell {
         self.crashes += 1;
         self.map = WaferMap::from_text(&self.saved, "wafers.toml").unwrap();
         let sensed = self.world.vacuum_sensor();
-        let r = self.map.reconcile(sensed);
+        let r = self.map.reconcile([sensed, false]);
         assert!(r.is_consistent(), "{r:?}");
         self.saved = self.map.to_text();
         // Recovery (no crash injected here): hold a sensed wafer, release the valve
@@ -599,4 +599,56 @@ proptest! {
         prop_assert_eq!(cell.world.tags(), all);
         cell.map.verify().unwrap();
     }
+}
+
+/// Blade B is a hand of its own: it picks and places with its own pose and vacuum, its wafer
+/// survives the text form, and it is compared with the map's `hand.B`.
+#[test]
+fn blade_b_picks_and_places_on_its_own() {
+    let stations = demo();
+    let mut world = World::new(&stations);
+    let (low, high) = (
+        seated(&stations, "LP1", 2, false),
+        seated(&stations, "LP1", 2, true),
+    );
+    // Blade A stays far away with its vacuum off; blade B lifts W2 with its vacuum on.
+    let away = Pose { z: 250.0, ..low };
+    assert_eq!(world.step_blade(Blade::B, low, true), None);
+    assert_eq!(world.step(away, false), None);
+    assert_eq!(
+        world.step_blade(Blade::B, high, true),
+        Some(WorldEvent::Picked {
+            station: name("LP1"),
+            slot: 2,
+            tag: 2
+        })
+    );
+    assert_eq!(world.hand_of(Blade::B), Some(2));
+    assert_eq!(world.hand(), None);
+    assert!(world.vacuum_sensor_of(Blade::B) && !world.vacuum_sensor());
+    // The text form keeps blade B's wafer, valve and height.
+    let back = World::from_text(&world.to_text(), &stations).unwrap();
+    assert_eq!(back, world);
+    assert_eq!(world.tags().len(), 25);
+    // The map with W2 on blade B agrees with the cell; with W2 on the hand it does not.
+    let mut map = WaferMap::new(&stations);
+    map.apply_mapping("LP1", &world.map_station("LP1").unwrap())
+        .unwrap();
+    let mut tracking = Tracking::new();
+    let mut with_b = map.clone();
+    with_b.place(Location::Hand(Blade::B), WaferId(26)).unwrap();
+    assert!(tracking.check(&with_b, &world).is_empty());
+    let mut with_a = map.clone();
+    with_a.place(Location::HAND, WaferId(26)).unwrap();
+    assert_eq!(Tracking::new().check(&with_a, &world).len(), 2);
+    // Blade B releases W2 into the empty slot 2 (vacuum off just above its support).
+    assert_eq!(
+        world.step_blade(Blade::B, high, false),
+        Some(WorldEvent::Placed {
+            station: name("LP1"),
+            slot: 2,
+            tag: 2
+        })
+    );
+    assert_eq!(world.hand_of(Blade::B), None);
 }

@@ -11,7 +11,7 @@ use std::io::Write;
 use std::sync::atomic::Ordering;
 
 use wrc_board::MotionBoard;
-use wrc_cell::Step;
+use wrc_cell::{Blade, Step, MAX_BLADES};
 use wrc_protocol::{Code, Command};
 
 use super::program::ProgramWait;
@@ -53,12 +53,20 @@ pub(super) struct RunningJob {
     /// The next step.
     next: usize,
     wait: JobWait,
-    /// A wafer is on the hand (confirmed, or not yet released): the vacuum is watched.
-    holding: bool,
+    /// The blades a wafer is on (confirmed, or not yet released; bit 0: A, bit 1: B): their
+    /// vacuum sensors are watched.
+    holding: u8,
+    /// The blade the vacuum steps switch and read.
+    blade: Blade,
     /// The speed override before the job's `Speed` step.
     saved_speed: Option<u32>,
-    /// Successive cycles the vacuum sensor read "no wafer" while holding.
+    /// Successive cycles a holding blade's vacuum sensor read "no wafer".
     dropped: u32,
+}
+
+/// The bit of `blade` in a blade mask.
+fn bit(blade: Blade) -> u8 {
+    1 << blade.index()
 }
 
 impl RunningJob {
@@ -76,9 +84,24 @@ impl RunningJob {
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
-    /// The vacuum-sensed input, fresh from the board.
-    fn vacuum_sensed(&self) -> bool {
-        self.board.read_inputs(0) & (1u32 << (self.hand.vacuum_input & 31)) != 0
+    /// The vacuum-sensed input of `blade`, fresh from the board (false for a blade the robot
+    /// does not have).
+    fn vacuum_sensed_of(&self, blade: Blade) -> bool {
+        self.hand
+            .blade(blade.index())
+            .is_some_and(|(_, input, _)| self.board.read_inputs(0) & (1u32 << (input & 31)) != 0)
+    }
+
+    /// Every blade's vacuum-sensed input.
+    fn vacuum_sensed_all(&self) -> [bool; MAX_BLADES] {
+        Blade::ALL.map(|b| self.vacuum_sensed_of(b))
+    }
+
+    /// Whether every blade in `mask` senses its wafer.
+    fn all_sensed(&self, mask: u8) -> bool {
+        Blade::ALL
+            .into_iter()
+            .all(|b| mask & bit(b) == 0 || self.vacuum_sensed_of(b))
     }
 
     /// Set or clear output `n`; returns the wait for the board to apply it.
@@ -185,7 +208,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             } else {
                 self.nak(job.from, job.to, code, text);
             }
-            let sensed = self.vacuum_sensed();
+            let sensed = self.vacuum_sensed_all();
             let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
                 kind: job.kind,
                 started: false,
@@ -202,7 +225,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             job,
             next: 0,
             wait: JobWait::Nothing,
-            holding: job.kind == JobKind::Put,
+            holding: job.holding,
+            blade: Blade::A,
             saved_speed: None,
             dropped: 0,
         });
@@ -229,9 +253,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some(j) = self.job else {
             return;
         };
-        // The wafer on the hand is watched during every motion of the job.
-        if j.holding && matches!(j.wait, JobWait::Motion(_)) {
-            let dropped = if self.vacuum_sensed() {
+        // The wafers on the blades are watched during every motion of the job.
+        if j.holding != 0 && matches!(j.wait, JobWait::Motion(_)) {
+            let dropped = if self.all_sensed(j.holding) {
                 0
             } else if self.periodic {
                 j.dropped + 1
@@ -274,26 +298,37 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     }
                 }
                 JobWait::Vacuum { expect, deadline } => {
-                    if self.vacuum_sensed() == expect {
+                    if self.vacuum_sensed_of(j.blade) == expect {
                         if let Some(r) = self.job.as_mut() {
-                            r.holding = expect;
+                            r.holding = if expect {
+                                r.holding | bit(r.blade)
+                            } else {
+                                r.holding & !bit(r.blade)
+                            };
                         }
                         self.job_advance();
                     } else if self.now_ns >= deadline {
                         let (verb, station, slot) = (j.job.kind.verb(), j.job.station, j.job.slot);
                         let mut text = [0u8; 160];
                         let mut w: &mut [u8] = &mut text[..];
+                        let input = self
+                            .hand
+                            .blade(j.blade.index())
+                            .map_or(self.hand.vacuum_input, |(_, input, _)| input);
+                        let on = if j.blade == Blade::A {
+                            "the hand"
+                        } else {
+                            "blade B"
+                        };
                         let _ = if expect {
                             write!(
                                 w,
-                                "{verb} {station} {slot}: the vacuum sensor (input {}) sees no wafer on the hand",
-                                self.hand.vacuum_input
+                                "{verb} {station} {slot}: the vacuum sensor (input {input}) sees no wafer on {on}"
                             )
                         } else {
                             write!(
                                 w,
-                                "{verb} {station} {slot}: the vacuum sensor (input {}) still sees a wafer after the release",
-                                self.hand.vacuum_input
+                                "{verb} {station} {slot}: the vacuum sensor (input {input}) still sees a wafer after the release"
                             )
                         };
                         let len = 160 - w.len();
@@ -328,13 +363,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// Outside a job: while the wafer map has a wafer on the hand and the robot moves, the
-    /// vacuum sensor must keep seeing it; a wafer lost in motion stops the robot (213).
+    /// Outside a job: while the wafer map has a wafer on a blade and the robot moves, that
+    /// blade's vacuum sensor must keep seeing it; a wafer lost in motion stops the robot
+    /// (213).
     pub(super) fn watch_hand(&mut self) {
-        let carrying = self.job.is_none()
-            && self.shared.hand_wafer.load(Ordering::Acquire)
-            && self.shared.state() == RobotState::Moving;
-        if !carrying || self.vacuum_sensed() {
+        let holding = self.shared.hand_wafers.load(Ordering::Acquire);
+        let carrying =
+            self.job.is_none() && holding != 0 && self.shared.state() == RobotState::Moving;
+        if !carrying || self.all_sensed(holding) {
             self.hand_dropped = 0;
             return;
         }
@@ -343,7 +379,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         if self.hand_dropped >= LOST_CYCLES {
             self.hand_dropped = 0;
-            let _ = self.io.store.cell_events.try_send(CellEvent::WaferLost);
+            let sensed = self.vacuum_sensed_all();
+            let _ = self
+                .io
+                .store
+                .cell_events
+                .try_send(CellEvent::WaferLost { sensed });
             self.shared.request_stop(StopKind::Estop);
             self.handle_urgent(Urgent::Fault(Code::WaferLost.number()));
         }
@@ -398,12 +439,17 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.job_advance();
                 }
                 Step::Vacuum(on) => {
+                    let blade = self.job.map_or(Blade::A, |r| r.blade);
                     if !on {
                         if let Some(r) = self.job.as_mut() {
-                            r.holding = false;
+                            r.holding &= !bit(blade);
                         }
                     }
-                    let wait = self.job_output(self.hand.vacuum_output, on);
+                    let output = self
+                        .hand
+                        .blade(blade.index())
+                        .map_or(self.hand.vacuum_output, |(output, _, _)| output);
+                    let wait = self.job_output(output, on);
                     self.job_wait(wait);
                 }
                 Step::CheckVacuum { expect } => {
@@ -431,6 +477,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.job_wait(wait);
             }
             JobStep::MapRead => self.job_map_read(),
+            JobStep::UseBlade(blade) => {
+                if let Some(r) = self.job.as_mut() {
+                    r.blade = blade;
+                }
+                self.job_advance();
+            }
         }
     }
 
@@ -521,7 +573,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if j.job.kind == JobKind::Map {
             self.shared.set_output(self.hand.mapping_output, false);
         }
-        let sensed = self.vacuum_sensed();
+        let sensed = self.vacuum_sensed_all();
         let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
             kind: j.job.kind,
             started: true,
@@ -563,6 +615,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         }
                         Ok(())
                     }
+                    JobKind::Swap => write!(w, "W{} W{}", j.job.wafer, j.job.wafer_put),
                     _ => write!(w, "W{}", j.job.wafer),
                 };
                 let len = 120 - w.len();

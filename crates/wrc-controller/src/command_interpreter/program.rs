@@ -370,6 +370,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         kind,
                         station,
                         slot,
+                        blade: wrc_cell::Blade::A,
                     });
                 if asked.is_err() {
                     self.end_program(Some((

@@ -10,13 +10,13 @@
 //! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
 //! from the vacuum sensor, as at start-up) and saves.
 
-use wrc_cell::Step;
+use wrc_cell::{Blade, Step, MAX_BLADES};
 use wrc_protocol::{Code, ReplyTo, StationName};
 
 use super::{floor_char_boundary, SourceId};
 
 /// Most steps in one job.
-pub const MAX_JOB_STEPS: usize = 24;
+pub const MAX_JOB_STEPS: usize = 32;
 
 /// Most slots a mapping reports.
 pub const MAX_MAP_SLOTS: usize = 64;
@@ -30,6 +30,8 @@ pub enum JobKind {
     Put,
     /// `MAP <station>`.
     Map,
+    /// `SWAP <station> <slot>`: a GET with the empty blade, then a PUT with the other.
+    Swap,
 }
 
 impl JobKind {
@@ -39,6 +41,7 @@ impl JobKind {
             JobKind::Get => "GET",
             JobKind::Put => "PUT",
             JobKind::Map => "MAP",
+            JobKind::Swap => "SWAP",
         }
     }
 }
@@ -57,6 +60,8 @@ pub enum JobStep {
     MapSensor(bool),
     /// Read the mapping latch: every slot must have been seen at the job's station.
     MapRead,
+    /// The following vacuum steps switch and read this blade's valve and sensor.
+    UseBlade(Blade),
 }
 
 /// A job the cell service hands to the Command Interpreter.
@@ -74,8 +79,13 @@ pub struct CellJob {
     pub station_index: u32,
     /// GET/PUT: the slot; MAP: the station's slot count.
     pub slot: u16,
-    /// GET/PUT: the wafer's id number (`W<n>`).
+    /// GET/PUT: the wafer's id number (`W<n>`); SWAP: the wafer it takes.
     pub wafer: u32,
+    /// SWAP: the wafer it puts (0 otherwise).
+    pub wafer_put: u32,
+    /// The blades that hold a wafer when the job starts (bit 0: A, bit 1: B): their vacuum
+    /// sensors are watched during every motion until a step releases them.
+    pub holding: u8,
     /// The steps, `steps[..len]`.
     pub steps: [JobStep; MAX_JOB_STEPS],
     /// Steps used.
@@ -93,6 +103,8 @@ impl CellJob {
             station_index: 0,
             slot: 0,
             wafer: 0,
+            wafer_put: 0,
+            holding: 0,
             steps: [JobStep::MapRead; MAX_JOB_STEPS],
             len: 0,
         }
@@ -170,8 +182,8 @@ pub enum CellEvent {
         started: bool,
         /// Why it failed, if it did.
         code: Option<Code>,
-        /// The vacuum-sensed input at the end.
-        sensed: bool,
+        /// The vacuum-sensed input of each blade at the end.
+        sensed: [bool; MAX_BLADES],
     },
     /// A mapping's result: `codes[..count]`, one [`wrc_cell::SlotCode`] number per slot
     /// (0 absent, 1 present, 2 double, 3 cross).
@@ -183,6 +195,10 @@ pub enum CellEvent {
         /// The codes.
         codes: [u8; MAX_MAP_SLOTS],
     },
-    /// The vacuum sensor lost the hand's wafer outside a job (code 213).
-    WaferLost,
+    /// The vacuum sensor lost a blade's wafer outside a job (code 213); what each blade's
+    /// sensor read then.
+    WaferLost {
+        /// The vacuum-sensed input of each blade.
+        sensed: [bool; MAX_BLADES],
+    },
 }

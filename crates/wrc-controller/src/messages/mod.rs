@@ -351,7 +351,7 @@ pub enum StoreRequest {
         /// Where the replies go.
         to: ReplyTo,
     },
-    /// `GET`, `PUT` or `MAP` (from a connection, or from the running program with
+    /// `GET`, `PUT`, `SWAP` or `MAP` (from a connection, or from the running program with
     /// [`SourceId::PROGRAM`]).
     Job {
         /// The requesting connection.
@@ -362,8 +362,10 @@ pub enum StoreRequest {
         kind: crate::messages::cell_job::JobKind,
         /// The station.
         station: StationName,
-        /// GET/PUT: the slot.
+        /// GET/PUT/SWAP: the slot.
         slot: u16,
+        /// GET/PUT: the blade (A for MAP and SWAP).
+        blade: wrc_cell::Blade,
     },
     /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
     Run {

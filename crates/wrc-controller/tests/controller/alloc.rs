@@ -223,7 +223,10 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
     job.slot = 1;
     job.wafer = 1;
     let robot = Robot::paper_default();
-    for step in transfer_steps(TransferKind::Get, lp1, 1, &robot, &robot.home()).unwrap() {
+    for step in transfer_steps(TransferKind::Get, lp1, 1, &robot, &robot.home())
+        .unwrap()
+        .0
+    {
         assert!(job.push(step));
     }
     rig.run_until(
@@ -244,7 +247,7 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
             kind: JobKind::Get,
             started: true,
             code: None,
-            sensed: true,
+            sensed: [true, false],
         })
     );
     assert_eq!(

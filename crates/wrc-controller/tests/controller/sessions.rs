@@ -348,3 +348,122 @@ fn an_output_reaches_the_board_at_once_not_at_the_io_monitors_next_period() {
         "output 5 not applied 30 ms after OUT"
     );
 }
+
+/// The hand's x, y and z [mm] from a `WHERE` reply.
+fn xyz(reply: &str) -> (f64, f64, f64) {
+    let f = |k: &str| -> f64 { reply_field(reply, k).unwrap().parse().unwrap() };
+    (f("x"), f("y"), f("z"))
+}
+
+/// The dual-blade example: GET and PUT with either blade, and SWAP at a process module takes
+/// the processed wafer with the empty blade and puts the other blade's there, with the hand
+/// on the station's line throughout (it never leaves the station's approach line); the
+/// wafer map follows the cell.
+#[test]
+fn a_dual_blade_robot_swaps_at_a_process_module_without_leaving_it() {
+    use wrc_cell::Blade;
+    let mut host = VHost::start_config(&crate::vhost::dual_blade(), SimCellFrom::default());
+    assert!(host.ask("1 ROBOT").ends_with(" blade_b=-30"));
+    assert!(host.ask("2 CONTROL").starts_with("ACK 2"));
+    assert_eq!(host.motion(3, "HOME"), "INF 3");
+    for (id, station) in [(4, "LP1"), (5, "PM1"), (6, "LP2")] {
+        assert!(host
+            .motion(id, &format!("MAP {station}"))
+            .starts_with("INF"));
+    }
+    // W1 into PM1 with blade A; W2 onto blade B.
+    assert_eq!(host.motion(7, "GET LP1 1"), "INF 7 W1");
+    assert_eq!(host.motion(8, "PUT PM1 1"), "INF 8 W1");
+    assert_eq!(host.motion(9, "GET LP1 2 B"), "INF 9 W2");
+    let wafers = host.ask("WAFERS");
+    assert!(wafers.contains("hand=- hand.B=W2 "), "{wafers}");
+    assert!(host.hand_empty() && !host.blade_empty(Blade::B));
+    // Blade B is full: a second GET with it is refused; SWAP needs one full blade.
+    expect_nak(&mut host, 10, "GET LP1 3 B", 133);
+    expect_nak(&mut host, 11, "SWAP LP2 1", 131);
+
+    // SWAP PM1 1: blade A takes W1, blade B puts W2. Sample the hand while it runs.
+    let pm1 = wrc_cell::Stations::embedded_demo()
+        .get("PM1")
+        .unwrap()
+        .clone();
+    let yaw = pm1.pose.yaw.to_radians();
+    let (ux, uy) = (yaw.cos(), yaw.sin());
+    assert_eq!(host.ask("12 SWAP PM1 1"), "ACK 12");
+    // From the moment the hand reaches the station's line (the move there comes first).
+    let (mut samples, mut off_line, mut lowest, mut highest) = (0, 0.0f64, f64::MAX, f64::MIN);
+    let mut arrived = false;
+    let end = loop {
+        host.sim.run_for_ns(20_000_000);
+        host.send_raw("WHERE\n");
+        let mut end = None;
+        let at = loop {
+            let l = host.reply();
+            if l.starts_with("INF 12") || l.starts_with("ABS 12") {
+                end = Some(l);
+            } else if l.starts_with("ACK") {
+                break l;
+            }
+        };
+        let (x, y, z) = xyz(&at);
+        // Distance from the station's line (through the wafer centre, along its yaw).
+        let (dx, dy) = (x - pm1.pose.x, y - pm1.pose.y);
+        let off = (dx * uy - dy * ux).abs();
+        arrived |= off < 0.01;
+        if arrived {
+            off_line = off_line.max(off);
+            lowest = lowest.min(z);
+            highest = highest.max(z);
+            samples += 1;
+        }
+        if let Some(end) = end {
+            break end;
+        }
+    };
+    assert_eq!(end, "INF 12 W1 W2");
+    assert!(samples > 50, "{samples} samples");
+    assert!(
+        off_line < 0.01,
+        "the hand left the station's line by {off_line} mm"
+    );
+    // The wrist went from blade A under W1 (95 mm) up to blade B's release height
+    // (105 + 30 mm) and back down to blade B's lowered pose (95 + 30 mm).
+    assert!(lowest > 94.9 && lowest < 95.1, "{lowest}");
+    assert!(highest > 134.9 && highest < 135.1, "{highest}");
+    let wafers = host.ask("WAFERS");
+    assert!(wafers.contains("hand=W1 hand.B=- "), "{wafers}");
+    assert!(wafers.contains(" PM1=W2 "), "{wafers}");
+    assert_eq!(host.truth("PM1"), "1");
+    assert!(!host.hand_empty() && host.blade_empty(Blade::B));
+    // W1 goes to LP2 with blade A; blade B is empty, so PUT with it is refused.
+    expect_nak(&mut host, 13, "PUT LP2 1 B", 134);
+    assert_eq!(host.motion(14, "PUT LP2 1"), "INF 14 W1");
+    // The map and the cell agree everywhere.
+    let wafers = host.ask("WAFERS");
+    for station in ["LP1", "LP2", "PM1"] {
+        assert_eq!(
+            map_codes(&wafers, station),
+            host.truth(station),
+            "{station}"
+        );
+    }
+}
+
+/// A single-hand robot refuses blade B and SWAP with their own code; a blade other than A or
+/// B is a bad argument. Nothing moves.
+#[test]
+fn a_single_hand_robot_refuses_blade_b_and_swap() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert!(!host.ask("ROBOT").contains("blade_b"));
+    let text = expect_nak(&mut host, 4, "GET LP1 1 B", 124);
+    assert!(text.contains("one hand"), "{text}");
+    expect_nak(&mut host, 5, "SWAP LP1 1", 124);
+    let text = expect_nak(&mut host, 6, "GET LP1 1 C", 106);
+    assert!(text.contains("blade \"C\" must be A or B"), "{text}");
+    assert!(!host.ask("WAFERS").contains("hand.B"));
+    // Blade A by name is the hand.
+    assert_eq!(host.motion(7, "GET LP1 1 A"), "INF 7 W1");
+}

@@ -29,10 +29,20 @@ pub fn repo() -> PathBuf {
 /// The controller of the embedded default configuration with the demo cell (or the cell
 /// of `cell`), its state in `dir`.
 pub fn demo(dir: &Path, cell: SimCellFrom<'_>) -> Simulation {
+    demo_with(&Config::embedded_default(), dir, cell)
+}
+
+/// The controller of `config` with the demo cell (or the cell of `cell`), its state in `dir`.
+pub fn demo_with(config: &Config, dir: &Path, cell: SimCellFrom<'_>) -> Simulation {
     // Nobody listens on the simulator port; datagrams to a closed port are dropped.
     let sim_addr = "127.0.0.1:9".parse().unwrap();
-    let config = Config::embedded_default();
-    Simulation::in_state_dir(&config, dir, cell, None, sim_addr).unwrap()
+    Simulation::in_state_dir(config, dir, cell, None, sim_addr).unwrap()
+}
+
+/// The shipped dual-blade example configuration (config/dual-blade.toml).
+pub fn dual_blade() -> Config {
+    let path = repo().join("config/dual-blade.toml");
+    Config::load(Some(&path)).unwrap()
 }
 
 /// The simulated cell's occupancy of `station`: `1` a wafer, `0` empty, `2` a double, `X`
@@ -71,8 +81,13 @@ impl VHost {
 
     /// The embedded default with the cell of `cell`, in a fresh state directory.
     pub fn start_with(cell: SimCellFrom<'_>) -> VHost {
+        VHost::start_config(&Config::embedded_default(), cell)
+    }
+
+    /// `config` with the cell of `cell`, in a fresh state directory.
+    pub fn start_config(config: &Config, cell: SimCellFrom<'_>) -> VHost {
         let dir = tempfile::tempdir().unwrap();
-        let mut sim = demo(dir.path(), cell);
+        let mut sim = demo_with(config, dir.path(), cell);
         let client = sim.connect().unwrap();
         VHost {
             sim,
@@ -197,6 +212,11 @@ impl VHost {
     }
 
     /// Whether the simulated cell's hand holds no wafer.
+    pub fn blade_empty(&self, blade: wrc_cell::Blade) -> bool {
+        let board = self.sim.board(0).unwrap();
+        board.cell().unwrap().world().hand_of(blade).is_none()
+    }
+
     pub fn hand_empty(&self) -> bool {
         let board = self.sim.board(0).unwrap();
         board.cell().unwrap().world().hand().is_none()

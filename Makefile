@@ -41,9 +41,10 @@ build: check-toolchain web
 # board on the embedded default configuration, and the web GUI on http://127.0.0.1:8080.
 # Host protocol on tcp 127.0.0.1:7100 (try `target/release/wrc send HOME` in another
 # terminal), simulator datagrams to udp 127.0.0.1:7200. Ctrl-C stops the robot and the
-# controller. `make run CONFIG=config/dual-blade.toml`: the same with the dual-blade robot.
+# controller. `make run CONFIG=config/dual-blade.toml`: the same with the dual-blade robot,
+# its state (wafer map, simulated cell) in /tmp/wrc-dual-blade, apart from the default's.
 run: build
-	$(WRC) up $(if $(CONFIG),--config $(CONFIG))
+	$(WRC) up $(if $(CONFIG),--config $(CONFIG) --state-dir /tmp/wrc-$(basename $(notdir $(CONFIG))))
 
 # The offline planning demo: the paper's Fig. 7 (PTP) and Fig. 8 (straight line) motions.
 demo: build

@@ -21,7 +21,10 @@ export interface AxisInfo {
   home: number;
 }
 
-/** The robot, from the `ROBOT` reply (`ACK … name= link1= link2= hand= axes= period_ms=`). */
+/**
+ * The robot, from the `ROBOT` reply (`ACK … name= link1= link2= hand= axes= period_ms=`, and
+ * `blade_b=` on a dual-blade robot).
+ */
 export interface RobotInfo {
   name: string;
   /** Shoulder-to-elbow length [mm]. */
@@ -30,6 +33,12 @@ export interface RobotInfo {
   link2: number;
   /** Wrist axis to tool centre point [mm]. */
   hand: number;
+  /**
+   * A dual-blade robot's blade B: the height of its wafer plane above the hand's (the TCP's)
+   * [mm], negative below it; it sits on the same wrist and points the same way. Null (or
+   * absent, for robots described before blades existed) on a single-hand robot.
+   */
+  bladeB?: number | null;
   /** Pulse Generator period [ms] (pulses per period in the plots are per this period). */
   periodMs: number;
   /** Number of digital inputs and outputs (32 each). */
@@ -69,7 +78,7 @@ export type FirstReply =
   | { kind: 'ACK'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'NAK'; id: number; code: number; text: string; line: string };
 
-/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT, MAP. */
+/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT, SWAP, MAP. */
 export type FinalReply =
   | { kind: 'INF'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'ABS'; id: number; code: number; text: string; line: string };
@@ -114,7 +123,7 @@ export interface Bus {
   /**
    * Send one request (without an id: the bus adds one). Resolves with its first reply;
    * `final`, when the verb completes later (HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT,
-   * MAP) and the first reply is an ACK, resolves with its INF or ABS. Events that arrive
+   * SWAP, MAP) and the first reply is an ACK, resolves with its INF or ABS. Events that arrive
    * between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`, `EVT WAFER`)
    * are collected in `events` (lines without `EVT `).
    */

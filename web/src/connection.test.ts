@@ -294,7 +294,7 @@ describe('Connection', () => {
     expect(m.hand).toBe('W3');
     expect([...m.stations.keys()]).toEqual(['LP1', 'LP2']);
     expect(m.stations.get('LP1')).toHaveLength(25);
-    expect(m.pending).toEqual({ kind: 'get', station: 'LP2', slot: 1, wafer: 'W3' });
+    expect(m.pending).toEqual({ kind: 'get', blade: 'A', station: 'LP2', slot: 1, wafer: 'W3' });
     s.recv('EVT WAFER pending=-', 'EVT WAFER hand=-', 'EVT WAFER LP2=W3,-x24');
     expect(store.state().map.pending).toBeNull();
     expect(store.state().map.hand).toBeNull();

@@ -199,6 +199,23 @@ describe('robot', () => {
     expect(r).toMatchObject({ name: 'paper-300mm', link1: 200, link2: 200, hand: 0, periodMs: 10, inputs: 32, outputs: 32 });
     expect(r.axes.map((a) => a.name)).toEqual(['j1', 'j2', 'j3', 'z']);
     expect(r.axes[0].home).toBe(-75);
+    expect(r.bladeB).toBeNull(); // no blade_b=: a single hand
+  });
+
+  it('reads blade B of a dual-blade robot from blade_b=', () => {
+    const dual = parseLine(
+      'ACK 1 name=paper-dual link1=200 link2=200 hand=0 axes=4 period_ms=10 inputs=32 outputs=32 blade_b=-30',
+    );
+    if (dual.kind !== 'ACK') throw new Error('not an ACK');
+    const r = robotFromReply(dual.fields, events);
+    expect(r).toMatchObject({ name: 'paper-dual', hand: 0, bladeB: -30 });
+    expect(r.axes).toHaveLength(4);
+    expect(robotFromReply({ ...dual.fields, blade_b: '12.5' }, []).bladeB).toBe(12.5);
+    expect(robotFromReply({ ...dual.fields, blade_b: '0' }, []).bladeB).toBe(0); // stacked level: still two blades
+    // A garbled value draws no blade rather than one at a made-up height.
+    for (const bad of ['', 'x', 'NaN', 'Infinity']) {
+      expect(robotFromReply({ ...dual.fields, blade_b: bad }, []).bladeB, bad).toBeNull();
+    }
   });
 });
 
@@ -245,7 +262,7 @@ describe('requests', () => {
   it('formats requests and knows the verbs that complete later', () => {
     expect(formatRequest(7, ' MOVP 1 2 3 4 ')).toBe('7 MOVP 1 2 3 4');
     expect(verbOf('12 movj 1 2 3 4')).toBe('MOVJ');
-    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'MAP LP1']) {
+    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'GET PM1 1 B', 'PUT PM1 1 A', 'SWAP PM1 1', '9 swap PM1 1', 'MAP LP1']) {
       expect(completesLater(v), v).toBe(true);
     }
     // HOLD and RESUME answer ACK only: the held motion's own request ends with INF/ABS.

@@ -106,6 +106,17 @@ export function parseAxis(body: string): AxisInfo | null {
 }
 
 /**
+ * Blade B's height offset from `blade_b=<mm>` of the `ROBOT` reply: null when absent (a
+ * single-hand robot) or not a number, so that a garbled field never draws a blade that is
+ * not there.
+ */
+function bladeOffset(v: string | undefined): number | null {
+  if (v === undefined || v.trim() === '') return null;
+  const n = Number(v);
+  return Number.isFinite(n) ? n : null;
+}
+
+/**
  * The robot from the `ROBOT` reply: its `ACK` fields and the `EVT AXIS` lines collected before
  * it (given as event lines without `EVT `, e.g. `AXIS 1 name=j1 …`; other events are skipped).
  */
@@ -123,6 +134,7 @@ export function robotFromReply(fields: Record<string, string>, events: string[])
     link1: num(fields.link1),
     link2: num(fields.link2),
     hand: num(fields.hand),
+    bladeB: bladeOffset(fields.blade_b),
     periodMs: num(fields.period_ms, 10),
     inputs: num(fields.inputs, 32),
     outputs: num(fields.outputs, 32),
@@ -258,7 +270,7 @@ export function parsePrograms(fields: Record<string, string>): string[] {
 }
 
 /** Verbs whose accepted request later ends with `INF` or `ABS`. */
-const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN', 'GET', 'PUT', 'MAP']);
+const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN', 'GET', 'PUT', 'SWAP', 'MAP']);
 
 /** The verb of a request line (upper case), skipping a leading id. */
 export function verbOf(request: string): string {

@@ -7,6 +7,10 @@
 // controller gives (the TCP's z, a station's support height) are the Z axis's frame: the
 // scene draws height z at `sceneZ(z)`, where the hand's wafer rests when the TCP is at z, so
 // the hand meets the wafers in the stations where the controller says they are.
+//
+// A dual-blade robot (`RobotInfo.bladeB`) gets a second fork on the same wrist, its wafer
+// plane `bladeB` mm above the hand's (below when negative), so that blade B too meets the
+// stations at the heights the controller plans its transfers for.
 
 import { injectStyle } from './dom';
 import * as THREE from 'three';
@@ -59,6 +63,8 @@ export interface SimulatorHandle {
   clearStations(): void;
   /** Show or hide the wafer on the hand (shown by default). */
   setWafer(onHand: boolean): void;
+  /** Show or hide the wafer on blade B of a dual-blade robot (hidden by default; no-op without one). */
+  setBladeBWafer(onBladeB: boolean): void;
   /**
    * The wafers in the stations (replacing those drawn before); call when the map or the
    * stations change, not per frame.
@@ -99,10 +105,75 @@ const FORK_TOP_Z0 = BASE_H + SHOULDER_Z + ELBOW_DZ + WRIST_DZ + HUB_T + FORK_T;
 const WAFER_GAP = 0.5;
 /** A double wafer (two wafers in one slot) is drawn this many wafers thick. */
 const DOUBLE_SCALE = 3;
+/** Back of the fork's palm behind the TCP [mm]. */
+const PALM_BACK = 125;
+const BAR_R = 22;
+/** The post that joins a dual-blade robot's two forks, behind their wafers [mm]. */
+const POST_R = 14;
+const POST_CLEARANCE = 6;
+/** The base housing is drawn at least this tall however far blade B hangs below the hand [mm]. */
+const MIN_BASE_H = 60;
 
 /** The scene height of a height `z` of the Z axis's frame (a TCP z, a support height) [mm]. */
 export function sceneZ(z: number): number {
   return FORK_TOP_Z0 + z;
+}
+
+/** A bar of the hand in the wrist frame: from x0 to x1 along the hand, its bottom at z [mm]. */
+export interface HandBar {
+  x0: number;
+  x1: number;
+  z: number;
+}
+
+/** Where the drawing puts the fork(s) of a hand in the wrist frame (x along the hand) [mm]. */
+export interface BladeStack {
+  /**
+   * How much lower than usual the base housing (and so the whole arm) is drawn. A blade below
+   * the hand would cut through link 2; instead the arm is drawn lower, blade B rests on the
+   * wrist hub and the hand's fork as much higher on the post, so the hand's wafer stays at
+   * `sceneZ` and blade B's clears the links.
+   */
+  drop: number;
+  /** Bottom of the hand's (blade A's) fork. */
+  forkA: number;
+  /** Bottom of blade B's fork; null on a single-hand robot. */
+  forkB: number | null;
+  /** The bars: the lower fork's from the wrist hub, and the upper fork's to the post. */
+  bars: HandBar[];
+  /**
+   * The post from the lower fork's bar up to the upper fork's, behind both wafers (a post at
+   * the wrist would pierce the lower wafer when the TCP is near the wrist); null on a single
+   * hand.
+   */
+  post: { x: number; z0: number; z1: number } | null;
+}
+
+/**
+ * The layout of the hand: one fork on the wrist hub, as the view always drew it, or, with
+ * `bladeB` (a dual-blade robot), two forks `bladeB` mm apart joined behind their wafers.
+ */
+export function bladeStack(hand: number, bladeB: number | null | undefined): BladeStack {
+  const palmBack = hand - PALM_BACK;
+  if (bladeB === null || bladeB === undefined || !Number.isFinite(bladeB)) {
+    return { drop: 0, forkA: HUB_T, forkB: null, bars: [{ x0: 0, x1: palmBack, z: HUB_T }], post: null };
+  }
+  const drop = Math.min(Math.max(0, -bladeB), BASE_H - MIN_BASE_H);
+  const forkA = HUB_T + drop;
+  const forkB = forkA + bladeB;
+  const lower = Math.min(forkA, forkB);
+  const upper = Math.max(forkA, forkB);
+  const postX = hand - WAFER_R - POST_R - POST_CLEARANCE;
+  return {
+    drop,
+    forkA,
+    forkB,
+    bars: [
+      { x0: Math.min(0, palmBack, postX), x1: Math.max(0, palmBack, postX), z: lower },
+      { x0: postX, x1: palmBack, z: upper },
+    ],
+    post: { x: postX, z0: lower, z1: upper + FORK_T },
+  };
 }
 
 const STYLE_ID = 'sim-style';
@@ -170,7 +241,7 @@ function zCylinder(r: number, h: number, segments = 40): THREE.CylinderGeometry 
 
 /** The fork of the hand, in the wrist frame, the TCP (wafer centre) at (tcp, 0). */
 function forkGeometry(tcp: number): THREE.ExtrudeGeometry {
-  const xb = tcp - 125; // back of the palm
+  const xb = tcp - PALM_BACK; // back of the palm
   const xf = tcp - 85; // front of the palm, root of the tines
   const xt = tcp + 128; // tine tips
   const inner = 40;
@@ -238,6 +309,10 @@ interface RobotModel {
   elbow: THREE.Group;
   wrist: THREE.Group;
   wafer: THREE.Mesh;
+  /** The wafer on blade B; null on a single-hand robot. */
+  waferB: THREE.Mesh | null;
+  /** Top of the base housing above the floor (lower than BASE_H for a blade below the hand). */
+  baseH: number;
   axes: ArmAxes;
   robot: RobotInfo;
   reach: number;
@@ -261,6 +336,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     removeStation() {},
     clearStations() {},
     setWafer() {},
+    setBladeBWafer() {},
     setStationWafers() {},
     showRecorded() {},
     drawnPose: () => null,
@@ -335,6 +411,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
 
   let model: RobotModel | null = null;
   let waferOnHand = true;
+  let waferOnBladeB = false;
   let latest: SimSample | null = null;
   let applied: SimSample | null = null;
   /** While set, the view draws this instead of the live datagrams. */
@@ -422,6 +499,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     const l2 = Math.max(0, robot.link2 || 0);
     const hand = Number.isFinite(robot.hand) ? robot.hand : 0;
     const axes = armAxes(robot);
+    const stack = bladeStack(hand, robot.bladeB);
+    const baseH = BASE_H - stack.drop;
     const group = new THREE.Group();
     const geoms: THREE.BufferGeometry[] = [];
     const g = <T extends THREE.BufferGeometry>(x: T): T => {
@@ -430,14 +509,14 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     };
 
     // Base housing and Z column (the column is scaled to reach the shoulder).
-    mesh(g(zCylinder(BASE_R, BASE_H, 48)), baseMat.mat, group);
+    mesh(g(zCylinder(BASE_R, baseH, 48)), baseMat.mat, group);
     const ring = mesh(g(zCylinder(BASE_R + 4, 8, 48)), trimMat, group);
-    ring.position.z = BASE_H - 14;
+    ring.position.z = baseH - 14;
     const column = mesh(g(zCylinder(COLUMN_R, 1, 40)), columnMat.mat, group);
-    column.position.z = BASE_H - 2;
+    column.position.z = baseH - 2;
 
     const lift = new THREE.Group();
-    lift.position.z = BASE_H + SHOULDER_Z;
+    lift.position.z = baseH + SHOULDER_Z;
     group.add(lift);
     const shoulder = new THREE.Group();
     lift.add(shoulder);
@@ -456,18 +535,29 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     wrist.position.set(l2, 0, WRIST_DZ);
     elbow.add(wrist);
     mesh(g(zCylinder(30, HUB_T)), jointMat, wrist);
-    // Bar from the wrist hub to the palm of the fork (behind the wrist when hand < 125 mm).
-    const palmBack = hand - 125;
-    const bar = mesh(g(slot(Math.abs(palmBack), 22, FORK_T)), handMat.mat, wrist);
-    bar.position.z = HUB_T;
-    if (palmBack < 0) bar.rotation.z = Math.PI;
-    const fork = mesh(g(forkGeometry(hand)), handMat.mat, wrist);
-    fork.position.z = HUB_T;
-    const wafer = mesh(waferGeo, waferMat, wrist);
-    wafer.position.set(hand, 0, HUB_T + FORK_T + WAFER_GAP);
-    wafer.castShadow = false;
-    wafer.visible = waferOnHand;
-    wafer.renderOrder = 1;
+    // Bars from the wrist hub to the palm (behind the wrist when hand < 125 mm) and, on a
+    // dual-blade robot, to the post that carries the upper fork.
+    for (const b of stack.bars) {
+      const bar = mesh(g(slot(Math.abs(b.x1 - b.x0), BAR_R, FORK_T)), handMat.mat, wrist);
+      bar.position.set(Math.min(b.x0, b.x1), 0, b.z);
+    }
+    if (stack.post) {
+      const post = mesh(g(zCylinder(POST_R, stack.post.z1 - stack.post.z0, 24)), handMat.mat, wrist);
+      post.position.set(stack.post.x, 0, stack.post.z0);
+    }
+    const forkGeo = g(forkGeometry(hand));
+    const bladeWafer = (forkZ: number, visible: boolean): THREE.Mesh => {
+      const fork = mesh(forkGeo, handMat.mat, wrist);
+      fork.position.z = forkZ;
+      const w = mesh(waferGeo, waferMat, wrist);
+      w.position.set(hand, 0, forkZ + FORK_T + WAFER_GAP);
+      w.castShadow = false;
+      w.visible = visible;
+      w.renderOrder = 1;
+      return w;
+    };
+    const wafer = bladeWafer(stack.forkA, waferOnHand);
+    const waferB = stack.forkB === null ? null : bladeWafer(stack.forkB, waferOnBladeB);
 
     const reach = l1 + l2 + Math.abs(hand) + WAFER_R;
     return {
@@ -478,6 +568,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       elbow,
       wrist,
       wafer,
+      waferB,
+      baseH,
       axes,
       robot,
       reach,
@@ -490,7 +582,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   function pose(p: ArmPose): void {
     if (!model) return;
     const d = THREE.MathUtils.DEG2RAD;
-    model.lift.position.z = BASE_H + SHOULDER_Z + p.z;
+    model.lift.position.z = model.baseH + SHOULDER_Z + p.z;
     model.column.scale.z = Math.max(1, SHOULDER_Z + 2 + p.z);
     model.shoulder.rotation.z = p.j1 * d;
     model.elbow.rotation.z = p.j2 * d;
@@ -774,7 +866,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       j1: model.shoulder.rotation.z * deg,
       j2: model.elbow.rotation.z * deg,
       j3: model.wrist.rotation.z * deg,
-      z: model.lift.position.z - BASE_H - SHOULDER_Z,
+      z: model.lift.position.z - model.baseH - SHOULDER_Z,
     };
   }
 
@@ -796,6 +888,12 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       if (onHand === waferOnHand) return;
       waferOnHand = onHand;
       if (model) model.wafer.visible = onHand;
+      dirty = true;
+    },
+    setBladeBWafer(onBladeB: boolean) {
+      if (onBladeB === waferOnBladeB) return;
+      waferOnBladeB = onBladeB;
+      if (model?.waferB) model.waferB.visible = onBladeB;
       dirty = true;
     },
     setStationWafers,

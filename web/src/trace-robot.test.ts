@@ -1,5 +1,6 @@
 import { describe, expect, it } from 'vitest';
 import defaultToml from '../../config/default.toml?raw';
+import dualBladeToml from '../../config/dual-blade.toml?raw';
 import { encodeTrace } from '../e2e/trace-fixture.mjs';
 import type { RobotInfo } from './bus';
 import { armAxes, armPose } from './sim-kinematics';
@@ -36,6 +37,14 @@ describe('robotFromConfigToml', () => {
       [3, 'j3', 'wrist', 'deg', 1000, -75],
       [4, 'z', 'z', 'mm', 1000, 0],
     ]);
+  });
+
+  it("reads blade B of a dual-blade robot's configuration, none otherwise", () => {
+    expect(robotFromConfigToml(defaultToml).bladeB).toBeNull();
+    expect(robotFromConfigToml(dualBladeToml)).toMatchObject({ hand: 0, bladeB: -30 });
+    const base = '[robot]\nlink1_mm = 1\nlink2_mm = 1\n[[axis]]\nname = "a"\npulses_per_unit = 1\n';
+    expect(robotFromConfigToml(`${base}[hand.blade_b]\nz_offset_mm = 25`).bladeB).toBe(25);
+    expect(robotFromConfigToml(`${base}[hand.blade_b]\nz_offset_mm = "x"`).bladeB).toBeNull();
   });
 
   it('says what is missing or broken', () => {

@@ -1,6 +1,6 @@
 // The robot a trace recorded, for the 3D view: its geometry and axes from the configuration
 // text the trace carries (its meta's `config_toml`: `[robot]`, `[motion]` and the `[[axis]]`
-// tables of config/default.toml), and a sample's encoder pulses as joint positions:
+// tables of config/default.toml, and `[hand.blade_b]` of a dual-blade robot), and a sample's encoder pulses as joint positions:
 // position = actual pulses / pulses_per_unit [deg | mm]. No DOM.
 
 import { TomlError, parse } from 'smol-toml';
@@ -17,9 +17,21 @@ function isTable(v: unknown): v is Table {
 export class ConfigTextError extends Error {}
 
 /**
+ * Blade B's height above the hand [mm] from `[hand.blade_b]` z_offset_mm, or null. A missing
+ * or unreadable value draws a single hand rather than refusing the trace: the drawing only
+ * needs it for the second fork.
+ */
+function bladeBOffset(doc: Table): number | null {
+  const hand = doc.hand;
+  if (!isTable(hand) || !isTable(hand.blade_b)) return null;
+  const z = hand.blade_b.z_offset_mm;
+  return typeof z === 'number' && Number.isFinite(z) ? z : null;
+}
+
+/**
  * The robot of a configuration text (TOML, as `wrc up --config` reads it): `[robot]` name,
  * link1_mm, link2_mm, hand_mm; `[motion]` period_ms; one `[[axis]]` per axis with name, role,
- * unit, pulses_per_unit, min, max and home. Throws `ConfigTextError` when the text is not
+ * unit, pulses_per_unit, min, max and home; `[hand.blade_b]` z_offset_mm (dual-blade only). Throws `ConfigTextError` when the text is not
  * TOML or lacks what the drawing needs (the links; each axis's name and pulses_per_unit).
  */
 export function robotFromConfigToml(text: string): RobotInfo {
@@ -70,6 +82,7 @@ export function robotFromConfigToml(text: string): RobotInfo {
     link1: num(robot, 'link1_mm', 'robot'),
     link2: num(robot, 'link2_mm', 'robot'),
     hand: num(robot, 'hand_mm', 'robot', 0),
+    bladeB: bladeBOffset(doc),
     periodMs: num(motion, 'period_ms', 'motion', 10),
     inputs: 32,
     outputs: 32,

@@ -1,6 +1,15 @@
 import { describe, expect, it } from 'vitest';
-import { actionsHint, keepSelection, slotLabel, slotTitle, waferActions, type WaferSelection } from './wafer-panel';
-import { parseWafersBody, type WaferState } from './wafers';
+import {
+  actionsHint,
+  isDualBlade,
+  keepSelection,
+  pendingText,
+  slotLabel,
+  slotTitle,
+  waferActions,
+  type WaferSelection,
+} from './wafer-panel';
+import { emptyWaferMap, parseWafersBody, type WaferState } from './wafers';
 
 function state(body: string, available: boolean | null = true): WaferState {
   return { available, map: parseWafersBody(body).map, refusal: '', ignored: [] };
@@ -87,6 +96,101 @@ describe('waferActions', () => {
       expect(a.get.request).toBe('GET LP1 1'); // the button still names what it would send
       expect(actionsHint(a)).toBe(why);
     }
+  });
+});
+
+describe('a single-hand robot', () => {
+  it('has no SWAP and ignores a blade B choice: its requests stay as they were', () => {
+    const a = waferActions({ ...ready, state: state(MAP), selection: sel('LP1', 1), blade: 'B' });
+    expect(a.swap).toBeNull();
+    expect(a.get).toEqual({ enabled: true, request: 'GET LP1 1', why: '' });
+    expect(a.put.request).toBe('PUT LP1 1');
+  });
+});
+
+describe('a dual-blade robot', () => {
+  const DUAL = 'hand=- hand.B=- LP1=W1,-,?,D PM1=W5';
+  const dual = { ...ready, dualBlade: true };
+  const dstate = (hand: string, handB: string) => state(DUAL.replace('hand=-', `hand=${hand}`).replace('hand.B=-', `hand.B=${handB}`));
+
+  it('is known from blade_b= of ROBOT, or from a wafer on blade B', () => {
+    const empty = emptyWaferMap();
+    expect(isDualBlade({ bladeB: -30 }, empty)).toBe(true);
+    expect(isDualBlade({ bladeB: 0 }, empty)).toBe(true);
+    expect(isDualBlade({ bladeB: null }, empty)).toBe(false);
+    expect(isDualBlade({}, empty)).toBe(false);
+    expect(isDualBlade(null, empty)).toBe(false);
+    expect(isDualBlade(null, { ...empty, handB: 'W7' })).toBe(true);
+  });
+
+  it('GETs and PUTs with blade A as before, and with blade B adding " B"', () => {
+    const a = waferActions({ ...dual, state: dstate('-', '-'), selection: sel('LP1', 1) });
+    expect(a.get).toEqual({ enabled: true, request: 'GET LP1 1', why: '' });
+    const b = waferActions({ ...dual, state: dstate('-', '-'), selection: sel('LP1', 1), blade: 'B' });
+    expect(b.get).toEqual({ enabled: true, request: 'GET LP1 1 B', why: '' });
+    expect(b.put).toEqual({ enabled: false, request: 'PUT LP1 1 B', why: 'blade B holds no wafer' });
+    const c = waferActions({ ...dual, state: dstate('W2', 'W7'), selection: sel('LP1', 2), blade: 'B' });
+    expect(c.put).toEqual({ enabled: true, request: 'PUT LP1 2 B', why: '' });
+    expect(waferActions({ ...dual, state: dstate('-', 'W7'), selection: sel('LP1', 1), blade: 'B' }).get.why).toBe(
+      'blade B already holds W7',
+    );
+  });
+
+  it('each blade is checked on its own: blade A loaded does not stop a GET with blade B', () => {
+    const a = waferActions({ ...dual, state: dstate('W2', '-'), selection: sel('LP1', 1), blade: 'B' });
+    expect(a.get.enabled).toBe(true);
+    const b = waferActions({ ...dual, state: dstate('W2', '-'), selection: sel('LP1', 1), blade: 'A' });
+    expect(b.get.why).toBe('the hand already holds W2');
+  });
+
+  it('SWAPs when exactly one blade holds a wafer and the slot holds one', () => {
+    for (const [hand, handB] of [
+      ['W2', '-'],
+      ['-', 'W7'],
+    ]) {
+      const a = waferActions({ ...dual, state: dstate(hand, handB), selection: sel('PM1', 1) });
+      expect(a.swap, `${hand} ${handB}`).toEqual({ enabled: true, request: 'SWAP PM1 1', why: '' });
+    }
+    // The blade choice is not part of SWAP: the controller takes with the empty blade.
+    expect(waferActions({ ...dual, state: dstate('W2', '-'), selection: sel('PM1', 1), blade: 'B' }).swap?.request).toBe('SWAP PM1 1');
+  });
+
+  it('says why SWAP cannot be pressed', () => {
+    const why = (hand: string, handB: string, slot: number) =>
+      waferActions({ ...dual, state: dstate(hand, handB), selection: sel('LP1', slot) }).swap?.why;
+    expect(why('-', '-', 1)).toBe('neither blade holds a wafer to swap in');
+    expect(why('W2', 'W7', 1)).toBe('both blades hold a wafer (W2, W7): SWAP needs one empty');
+    expect(why('W2', '-', 2)).toBe('LP1 slot 2 is empty');
+    expect(why('W2', '-', 3)).toBe('LP1 slot 3 is not mapped yet: MAP LP1 first');
+    expect(why('-', 'W7', 4)).toMatch(/^LP1 slot 4 holds a double wafer/);
+    expect(why('W2', '-', 9)).toBe('LP1 slot 9 does not exist');
+    const none = waferActions({ ...dual, state: dstate('W2', '-'), selection: sel('LP1') });
+    expect(none.swap).toEqual({ enabled: false, request: null, why: 'select a slot' });
+  });
+
+  it('disables SWAP with the others, for the same reason', () => {
+    const a = waferActions({ ...dual, state: state(`${DUAL} pending=get:PM1.1:W5:B`), selection: sel('PM1', 1) });
+    expect(a.swap).toEqual({ enabled: false, request: 'SWAP PM1 1', why: 'a transfer is in progress (GET PM1.1 W5 with blade B)' });
+    expect(actionsHint(a)).toBe('a transfer is in progress (GET PM1.1 W5 with blade B)');
+    const b = waferActions({ ...dual, state: dstate('W2', '-'), selection: sel('PM1', 1), running: 'SWAP PM1 1' });
+    expect(b.swap?.why).toBe('SWAP PM1 1 is running');
+  });
+
+  it('lists SWAP in the hint only where it has a button', () => {
+    const a = waferActions({ ...dual, state: dstate('-', '-'), selection: sel('PM1', 1) });
+    expect(actionsHint(a)).toBe('PUT: the hand holds no wafer · SWAP: neither blade holds a wafer to swap in');
+    const b = waferActions({ ...dual, state: dstate('-', '-'), selection: null });
+    expect(actionsHint(b)).toBe('GET: select a slot · PUT: select a slot · MAP: select a station to map · SWAP: select a slot');
+  });
+});
+
+describe('pendingText', () => {
+  it('names the transfer and blade B when it makes it', () => {
+    expect(pendingText(null)).toBe('no transfer');
+    const p = state('hand=- LP1=W1 pending=get:LP1.1:W1').map.pending;
+    expect(pendingText(p)).toBe('GET LP1 slot 1 (W1) in progress');
+    const q = state('hand=- LP1=- pending=put:LP1.1:W7:B').map.pending;
+    expect(pendingText(q)).toBe('PUT LP1 slot 1 (W7) with blade B in progress');
   });
 });
 

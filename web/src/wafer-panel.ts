@@ -3,13 +3,27 @@
 // transfer in progress, and GET / PUT / MAP for the selected slot or station. Requests go
 // through the Commander, so they and their ACK/NAK and INF/ABS appear in the command log.
 //
+// On a dual-blade robot the panel also shows blade B's wafer, lets GET / PUT use blade B
+// (`GET LP1 3 B`; blade A's requests stay `GET LP1 3`, as on a single-hand robot) and offers
+// SWAP, which exchanges the wafer of one blade with the slot's in one visit.
+//
 // The decisions (what a slot shows, which button is enabled and why) are plain functions of
 // the state, unit-tested without a DOM; `mountWaferPanel` only draws them.
 
+import type { RobotInfo } from './bus';
 import { injectStyle } from './dom';
 import { frameThrottle, h, type Commander, type ControllerModel } from './control';
 import type { StationInfo, StationsHandle } from './stations';
-import { formatPending, type SlotState, type SlotToken, type WaferMap, type WaferState, type WaferStore } from './wafers';
+import {
+  formatPending,
+  type Blade,
+  type PendingTransfer,
+  type SlotState,
+  type SlotToken,
+  type WaferMap,
+  type WaferState,
+  type WaferStore,
+} from './wafers';
 
 /** The slot (or, with `slot` null, only the station) the operator clicked. */
 export interface WaferSelection {
@@ -20,7 +34,7 @@ export interface WaferSelection {
 /** One button: whether it may be pressed, the request it sends, and why not. */
 export interface WaferAction {
   enabled: boolean;
-  /** `GET LP1 3`, `PUT LP1 3`, `MAP LP1`; null when nothing is selected. */
+  /** `GET LP1 3`, `PUT LP1 3 B`, `SWAP LP1 3`, `MAP LP1`; null when nothing is selected. */
   request: string | null;
   /** Why the button is disabled ('' when enabled). */
   why: string;
@@ -30,6 +44,33 @@ export interface WaferActions {
   get: WaferAction;
   put: WaferAction;
   map: WaferAction;
+  /** SWAP, only on a dual-blade robot (null: the robot has no blade B, no button). */
+  swap: WaferAction | null;
+}
+
+/**
+ * Whether the robot has blade B: its `ROBOT` reply gave `blade_b=`, or the map has a wafer on
+ * blade B (so that a wafer there is never hidden, even before `ROBOT` has been answered).
+ */
+export function isDualBlade(robot: Pick<RobotInfo, 'bladeB'> | null, map: WaferMap): boolean {
+  return (robot?.bladeB ?? null) !== null || map.handB !== null;
+}
+
+/** The wafer on a blade, or null. */
+function onBlade(map: WaferMap, blade: Blade): string | null {
+  return blade === 'B' ? map.handB : map.hand;
+}
+
+/** A blade in reasons: `the hand` for blade A (as a single-hand robot calls it), `blade B`. */
+function bladeWords(blade: Blade): string {
+  return blade === 'B' ? 'blade B' : 'the hand';
+}
+
+/** What the transfer in progress says: `GET LP1 slot 3 (W3) with blade B in progress`. */
+export function pendingText(p: PendingTransfer | null): string {
+  if (!p) return 'no transfer';
+  const with_ = p.blade === 'B' ? ' with blade B' : '';
+  return `${p.kind === 'get' ? 'GET' : 'PUT'} ${p.station} slot ${p.slot} (${p.wafer})${with_} in progress`;
 }
 
 /** What a slot shows as its text. */
@@ -74,9 +115,9 @@ const ok = (request: string): WaferAction => ({ enabled: true, request, why: '' 
 const no = (request: string | null, why: string): WaferAction => ({ enabled: false, request, why });
 
 /**
- * Which of GET, PUT and MAP may be pressed, and why not. The controller checks everything
- * again (NAK 130-138); this only spares the operator requests the map already says it
- * would refuse.
+ * Which of GET, PUT, MAP and (on a dual-blade robot) SWAP may be pressed, and why not. The
+ * controller checks everything again (NAK 130-138); this only spares the operator requests
+ * the map already says it would refuse.
  */
 export function waferActions(input: {
   connected: boolean;
@@ -84,16 +125,27 @@ export function waferActions(input: {
   mayCommand: boolean;
   state: WaferState;
   selection: WaferSelection | null;
-  /** A GET, PUT or MAP this page sent that has not ended yet (`GET LP1 3`), or null. */
+  /** A GET, PUT, SWAP or MAP this page sent that has not ended yet (`GET LP1 3`), or null. */
   running?: string | null;
+  /** Does the robot have blade B (`isDualBlade`)? Default no: GET/PUT use the hand, no SWAP. */
+  dualBlade?: boolean;
+  /** The blade GET and PUT use on a dual-blade robot (default A; A on a single-hand robot). */
+  blade?: Blade;
 }): WaferActions {
   const { state, selection: sel } = input;
   const map = state.map;
+  const dual = input.dualBlade === true;
+  const blade: Blade = dual && input.blade === 'B' ? 'B' : 'A';
   const slots = sel ? map.stations.get(sel.station) : undefined;
-  const slotReq = (verb: string): string | null => (sel && sel.slot !== null ? `${verb} ${sel.station} ${sel.slot}` : null);
-  const getReq = slotReq('GET');
-  const putReq = slotReq('PUT');
+  // Blade A is the default the controller assumes: its requests stay as they always were.
+  const bladeArg = blade === 'B' ? ' B' : '';
+  const slotReq = (verb: string, arg = ''): string | null =>
+    sel && sel.slot !== null ? `${verb} ${sel.station} ${sel.slot}${arg}` : null;
+  const getReq = slotReq('GET', bladeArg);
+  const putReq = slotReq('PUT', bladeArg);
+  const swapReq = slotReq('SWAP');
   const mapReq = sel ? `MAP ${sel.station}` : null;
+  const swapOr = (a: WaferAction): WaferAction | null => (dual ? a : null);
 
   const general = !input.connected
     ? 'not connected to the controller'
@@ -108,46 +160,72 @@ export function waferActions(input: {
             : map.pending
               ? `a transfer is in progress (${formatPending(map.pending)})`
               : '';
-  if (general) return { get: no(getReq, general), put: no(putReq, general), map: no(mapReq, general) };
+  if (general) {
+    return {
+      get: no(getReq, general),
+      put: no(putReq, general),
+      map: no(mapReq, general),
+      swap: swapOr(no(swapReq, general)),
+    };
+  }
 
   const mapAction = mapReq && slots ? ok(mapReq) : no(mapReq, 'select a station to map');
-  if (!sel || sel.slot === null || !slots || getReq === null || putReq === null) {
+  if (!sel || sel.slot === null || !slots || getReq === null || putReq === null || swapReq === null) {
     const why = 'select a slot';
-    return { get: no(getReq, why), put: no(putReq, why), map: mapAction };
+    return { get: no(getReq, why), put: no(putReq, why), map: mapAction, swap: swapOr(no(swapReq, why)) };
   }
   const where = `${sel.station} slot ${sel.slot}`;
-  const t = slots[sel.slot - 1];
+  const t: SlotToken | undefined = slots[sel.slot - 1];
   const fault = (s: SlotState): string => `${where} holds ${STATE_WORDS[s]}: clear it and MAP ${sel.station}`;
   const unmapped = `${where} is not mapped yet: MAP ${sel.station} first`;
+  /** Why the slot has no wafer to take ('' when it has one), for GET and SWAP. */
+  const noWaferIn = (): string => {
+    if (!t) return `${where} does not exist`;
+    if (t.state === 'wafer') return '';
+    if (t.state === 'empty') return `${where} is empty`;
+    if (t.state === 'unknown') return unmapped;
+    return fault(t.state);
+  };
+  /** Why the slot cannot take a wafer ('' when it is empty), for PUT. */
+  const noRoomIn = (): string => {
+    if (!t) return `${where} does not exist`;
+    if (t.state === 'empty') return '';
+    if (t.state === 'wafer') return `${where} holds ${t.wafer ?? 'a wafer'}`;
+    if (t.state === 'unknown') return unmapped;
+    return fault(t.state);
+  };
+  const check = (req: string, why: string): WaferAction => (why === '' ? ok(req) : no(req, why));
 
-  let get: WaferAction;
-  if (map.hand !== null) get = no(getReq, `the hand already holds ${map.hand}`);
-  else if (!t) get = no(getReq, `${where} does not exist`);
-  else if (t.state === 'wafer') get = ok(getReq);
-  else if (t.state === 'empty') get = no(getReq, `${where} is empty`);
-  else if (t.state === 'unknown') get = no(getReq, unmapped);
-  else get = no(getReq, fault(t.state));
+  const held = onBlade(map, blade);
+  const get = held !== null ? no(getReq, `${bladeWords(blade)} already holds ${held}`) : check(getReq, noWaferIn());
+  const put = held === null ? no(putReq, `${bladeWords(blade)} holds no wafer`) : check(putReq, noRoomIn());
 
-  let put: WaferAction;
-  if (map.hand === null) put = no(putReq, 'the hand holds no wafer');
-  else if (!t) put = no(putReq, `${where} does not exist`);
-  else if (t.state === 'empty') put = ok(putReq);
-  else if (t.state === 'wafer') put = no(putReq, `${where} holds ${t.wafer ?? 'a wafer'}`);
-  else if (t.state === 'unknown') put = no(putReq, unmapped);
-  else put = no(putReq, fault(t.state));
+  // SWAP takes the slot's wafer with the empty blade and puts the other blade's there: it
+  // needs exactly one blade loaded.
+  let swap: WaferAction;
+  if (map.hand !== null && map.handB !== null) {
+    swap = no(swapReq, `both blades hold a wafer (${map.hand}, ${map.handB}): SWAP needs one empty`);
+  } else if (map.hand === null && map.handB === null) {
+    swap = no(swapReq, 'neither blade holds a wafer to swap in');
+  } else swap = check(swapReq, noWaferIn());
 
-  return { get, put, map: mapAction };
+  return { get, put, map: mapAction, swap: swapOr(swap) };
 }
 
 /**
- * One line on why buttons are disabled: the reason they share, or each button's own
- * (`GET: LP1 slot 3 is empty · MAP: …`); '' when all are enabled.
+ * One line on why buttons are disabled: the reason they all share, or each button's own
+ * (`GET: LP1 slot 3 is empty · MAP: …`); '' when all are enabled. A SWAP the robot cannot
+ * make (no blade B) has no button and no reason.
  */
 export function actionsHint(a: WaferActions): string {
-  const whys = (['get', 'put', 'map'] as const).filter((k) => a[k].why !== '');
+  const shown = (['get', 'put', 'map', 'swap'] as const).flatMap((k) => {
+    const action = a[k];
+    return action ? [{ k, action }] : [];
+  });
+  const whys = shown.filter((x) => x.action.why !== '');
   if (whys.length === 0) return '';
-  if (whys.length === 3 && a.get.why === a.put.why && a.put.why === a.map.why) return a.get.why;
-  return whys.map((k) => `${k.toUpperCase()}: ${a[k].why}`).join(' · ');
+  if (whys.length === shown.length && whys.every((x) => x.action.why === whys[0].action.why)) return whys[0].action.why;
+  return whys.map((x) => `${x.k.toUpperCase()}: ${x.action.why}`).join(' · ');
 }
 
 /** `load_port` → `load port`. */
@@ -159,9 +237,12 @@ const STYLE_ID = 'wafer-style';
 const STYLE = `
 .wafer-panel { display: flex; flex-direction: column; background: var(--bg); }
 .wafer-panel .toolbar { gap: 10px; }
-.wafer-hand, .wafer-pending, .wafer-selection { font-family: var(--mono); padding: 2px 8px; border-radius: 4px;
+.wafer-hand, .wafer-hand-b, .wafer-pending, .wafer-selection { font-family: var(--mono); padding: 2px 8px; border-radius: 4px;
   border: 1px solid var(--line); background: #0d1319; white-space: nowrap; }
-.wafer-hand[data-wafer]:not([data-wafer='']) { background: #1d4f8c; border-color: #3d7fd6; color: #fff; font-weight: 700; }
+.wafer-hand[data-wafer]:not([data-wafer='']), .wafer-hand-b[data-wafer]:not([data-wafer='']) { background: #1d4f8c;
+  border-color: #3d7fd6; color: #fff; font-weight: 700; }
+.wafer-blade-b, .wafer-blade-choice { display: inline-flex; gap: 6px; align-items: center; }
+.wafer-blade-b[hidden], .wafer-blade-choice[hidden] { display: none; }
 .wafer-pending[data-pending='1'] { background: #4a3500; border-color: var(--warn); color: #ffd27a; font-weight: 700; }
 .wafer-pending[data-pending='0'] { color: var(--dim); }
 .wafer-label { color: var(--dim); font-size: 12px; }
@@ -225,6 +306,25 @@ export function mountWaferPanel(
   let actions: WaferActions | null = null;
 
   const hand = h('span', { class: 'wafer-hand', 'data-testid': 'wafer-hand', 'data-wafer': '' }, 'empty');
+  // Blade B and the blade choice exist only on a dual-blade robot: hidden otherwise.
+  const handB = h('span', { class: 'wafer-hand-b', 'data-testid': 'wafer-hand-b', 'data-wafer': '' }, 'empty');
+  const bladeBWrap = h('span', { class: 'wafer-blade-b', hidden: true }, h('span', { class: 'wafer-label' }, '· blade B'), handB);
+  let blade: Blade = 'A';
+  const bladeSel = h(
+    'select',
+    {
+      'data-testid': 'wafer-blade',
+      'aria-label': 'Blade for GET and PUT',
+      title: 'The blade GET and PUT use',
+      onchange: () => {
+        blade = bladeSel.value === 'B' ? 'B' : 'A';
+        render();
+      },
+    },
+    h('option', { value: 'A' }, 'blade A (hand)'),
+    h('option', { value: 'B' }, 'blade B'),
+  );
+  const bladeChoice = h('label', { class: 'wafer-blade-choice', hidden: true }, h('span', { class: 'wafer-label' }, 'GET/PUT with'), bladeSel);
   const pending = h('span', { class: 'wafer-pending', 'data-testid': 'wafer-pending', 'data-pending': '0' }, 'no transfer');
   const selected = h('span', { class: 'wafer-selection', 'data-testid': 'wafer-selection' }, 'nothing selected');
   let running: string | null = null;
@@ -245,6 +345,7 @@ export function mountWaferPanel(
   const getBtn = h('button', { class: 'btn go', 'data-testid': 'wafer-get', onclick: press('get') }, 'GET');
   const putBtn = h('button', { class: 'btn go', 'data-testid': 'wafer-put', onclick: press('put') }, 'PUT');
   const mapBtn = h('button', { class: 'btn primary', 'data-testid': 'wafer-map', onclick: press('map') }, 'MAP');
+  const swapBtn = h('button', { class: 'btn go', 'data-testid': 'wafer-swap', hidden: true, onclick: press('swap') }, 'SWAP');
   const refreshBtn = h(
     'button',
     { class: 'btn small', 'data-testid': 'wafer-refresh', title: 'Ask the controller for the whole map again (WAFERS)', onclick: () => void store.refresh() },
@@ -274,11 +375,14 @@ export function mountWaferPanel(
       { class: 'toolbar' },
       h('span', { class: 'wafer-label' }, 'Hand'),
       hand,
+      bladeBWrap,
       pending,
       h('span', { class: 'spacer' }),
       selected,
+      bladeChoice,
       getBtn,
       putBtn,
+      swapBtn,
       mapBtn,
       refreshBtn,
     ),
@@ -385,13 +489,27 @@ export function mountWaferPanel(
 
     setAttr(hand, 'data-wafer', map.hand ?? '');
     setText(hand, map.hand ?? 'empty');
+    const dual = isDualBlade(v.robot, map);
+    bladeBWrap.hidden = !dual;
+    bladeChoice.hidden = !dual;
+    setAttr(handB, 'data-wafer', map.handB ?? '');
+    setText(handB, map.handB ?? 'empty');
     const p = map.pending;
     setAttr(pending, 'data-pending', p ? '1' : '0');
     setAttr(pending, 'data-kind', p ? p.kind : '');
-    setText(pending, p ? `${p.kind === 'get' ? 'GET' : 'PUT'} ${p.station} slot ${p.slot} (${p.wafer}) in progress` : 'no transfer');
+    setAttr(pending, 'data-blade', p ? p.blade : '');
+    setText(pending, pendingText(p));
     setText(selected, selection ? (selection.slot === null ? selection.station : `${selection.station} slot ${selection.slot}`) : 'nothing selected');
 
-    actions = waferActions({ connected: v.connected, mayCommand: model.mayCommand(), state: st, selection, running });
+    actions = waferActions({
+      connected: v.connected,
+      mayCommand: model.mayCommand(),
+      state: st,
+      selection,
+      running,
+      dualBlade: dual,
+      blade,
+    });
     const btn = (b: HTMLButtonElement, a: WaferAction, verb: string): void => {
       b.disabled = !a.enabled;
       setText(b, a.request ?? verb);
@@ -400,6 +518,8 @@ export function mountWaferPanel(
     btn(getBtn, actions.get, 'GET');
     btn(putBtn, actions.put, 'PUT');
     btn(mapBtn, actions.map, 'MAP');
+    swapBtn.hidden = actions.swap === null;
+    if (actions.swap) btn(swapBtn, actions.swap, 'SWAP');
     refreshBtn.disabled = !v.connected;
 
     let text: string;
@@ -417,7 +537,8 @@ export function mountWaferPanel(
   const unsubs = [
     store.onChange(() => schedule()),
     model.onChange((v) => {
-      const k = `${v.connected}|${model.mayCommand()}|${v.connDetail}`;
+      // The robot's blade B decides whether blade B, its choice and SWAP are shown.
+      const k = `${v.connected}|${model.mayCommand()}|${v.connDetail}|${v.robot?.bladeB ?? ''}`;
       if (k === ctl) return;
       ctl = k;
       schedule();

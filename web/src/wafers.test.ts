@@ -7,6 +7,7 @@ import {
   drawWafers,
   emptyWaferMap,
   formatPending,
+  bladeBShowsWafer,
   handShowsWafer,
   MAX_SLOTS,
   parseSlots,
@@ -108,13 +109,29 @@ describe('parseWaferPart', () => {
     });
     expect(parseWaferPart('pending=get:LP1.3:W3')).toEqual({
       place: 'pending',
-      pending: { kind: 'get', station: 'LP1', slot: 3, wafer: 'W3' },
+      pending: { kind: 'get', blade: 'A', station: 'LP1', slot: 3, wafer: 'W3' },
     });
     expect(parseWaferPart('pending=put:PM_2-a.1:W26')).toEqual({
       place: 'pending',
-      pending: { kind: 'put', station: 'PM_2-a', slot: 1, wafer: 'W26' },
+      pending: { kind: 'put', blade: 'A', station: 'PM_2-a', slot: 1, wafer: 'W26' },
     });
     expect(parseWaferPart('pending=-')).toEqual({ place: 'pending', pending: null });
+  });
+
+  it("reads blade B of a dual-blade robot and a transfer it makes (':B')", () => {
+    expect(parseWaferPart('hand.B=W7')).toEqual({ place: 'handB', wafer: 'W7' });
+    expect(parseWaferPart('hand.B=-')).toEqual({ place: 'handB', wafer: null });
+    expect(parseWaferPart('WAFER hand.B=w07')).toEqual({ place: 'handB', wafer: 'W7' });
+    expect(parseWaferPart('pending=get:LP1.3:W3:B')).toEqual({
+      place: 'pending',
+      pending: { kind: 'get', blade: 'B', station: 'LP1', slot: 3, wafer: 'W3' },
+    });
+    expect(parseWaferPart('pending=put:PM1.1:W7:b')).toMatchObject({ pending: { kind: 'put', blade: 'B' } });
+    // An explicit :A is blade A, as no suffix is.
+    expect(parseWaferPart('pending=put:PM1.1:W7:A')).toMatchObject({ pending: { blade: 'A' } });
+    for (const t of ['hand.B=', 'hand.B=?', 'hand.B=W1,W2', 'hand.C=W1', 'hand.=W1', 'pending=get:LP1.3:W3:C', 'pending=get:LP1.3:W3:']) {
+      expect(parseWaferPart(t), t).toBeNull();
+    }
   });
 
   it('skips a leading WAFER (an event line without EVT) and blanks around it', () => {
@@ -162,6 +179,10 @@ describe('applyWaferPart', () => {
     expect([...c.stations.keys()]).toEqual(['LP1', 'LP2', 'AL', 'PM1', 'PM2', 'BUF']);
     expect(applyWaferPart(c, { place: 'hand', wafer: null }).hand).toBeNull();
     expect(c.hand).toBe('W3');
+    const d = applyWaferPart(c, { place: 'handB', wafer: 'W8' });
+    expect(d.handB).toBe('W8');
+    expect(d.hand).toBe('W3'); // blade B is its own place
+    expect(c.handB).toBeNull();
   });
 });
 
@@ -181,7 +202,7 @@ describe('parseWafersBody', () => {
   it('reads a pending transfer and a fresh map', () => {
     const { map } = parseWafersBody('hand=- LP1=W1,W2,W3 pending=get:LP1.3:W3');
     expect(map.hand).toBeNull();
-    expect(map.pending).toEqual({ kind: 'get', station: 'LP1', slot: 3, wafer: 'W3' });
+    expect(map.pending).toEqual({ kind: 'get', blade: 'A', station: 'LP1', slot: 3, wafer: 'W3' });
     const fresh = parseWafersBody('hand=- LP1=?x25 LP2=?x25 AL=? PM1=? PM2=?').map;
     expect(fresh.stations.get('LP1')).toEqual(times(U, 25));
   });
@@ -220,7 +241,7 @@ describe('wafersFromReply', () => {
     expect(bad).toEqual([]);
     expect(map.hand).toBe('W3');
     expect([...map.stations.keys()]).toEqual(['LP1', 'LP2', 'AL', 'PM1', 'PM2']);
-    expect(map.pending).toEqual({ kind: 'put', station: 'LP2', slot: 1, wafer: 'W3' });
+    expect(map.pending).toEqual({ kind: 'put', blade: 'A', station: 'LP2', slot: 1, wafer: 'W3' });
   });
 
   it('uses only the last n parts: an older broadcast before them does not leak in', () => {
@@ -238,6 +259,20 @@ describe('wafersFromReply', () => {
     expect(wafersFromReply('ACK 9 parts=0', []).map).toEqual(emptyWaferMap());
   });
 
+  it("reads a dual-blade robot's reply: hand.B and a blade B transfer", () => {
+    const { map, bad } = wafersFromReply('ACK 3 hand=W2 hand.B=- LP1=W1,-,W3..W25 pending=get:LP1.3:W3:B', []);
+    expect(bad).toEqual([]);
+    expect(map.hand).toBe('W2');
+    expect(map.handB).toBeNull();
+    expect(map.stations.get('LP1')).toEqual([W(1), E, ...range(3, 25)]);
+    expect(map.pending).toEqual({ kind: 'get', blade: 'B', station: 'LP1', slot: 3, wafer: 'W3' });
+    const parts = wafersFromReply('ACK 4 parts=3', ['WAFER hand=-', 'WAFER hand.B=W7', 'WAFER AL=-']);
+    expect(parts.bad).toEqual([]);
+    expect(parts.map).toMatchObject({ hand: null, handB: 'W7', pending: null });
+    // A single-hand robot lists no hand.B: blade B stays empty.
+    expect(parseWafersBody(EXAMPLE).map.handB).toBeNull();
+  });
+
   it('never throws on garbage', () => {
     expect(() => wafersFromReply('', [])).not.toThrow();
     expect(() => wafersFromReply(undefined as unknown as string, [])).not.toThrow();
@@ -247,7 +282,8 @@ describe('wafersFromReply', () => {
 
 describe('formatPending', () => {
   it('names the transfer', () => {
-    expect(formatPending({ kind: 'get', station: 'LP1', slot: 3, wafer: 'W3' })).toBe('GET LP1.3 W3');
+    expect(formatPending({ kind: 'get', blade: 'A', station: 'LP1', slot: 3, wafer: 'W3' })).toBe('GET LP1.3 W3');
+    expect(formatPending({ kind: 'put', blade: 'B', station: 'PM1', slot: 1, wafer: 'W7' })).toBe('PUT PM1.1 W7 with blade B');
   });
 });
 
@@ -299,6 +335,22 @@ describe('handShowsWafer', () => {
     expect(handShowsWafer(st(true, null))).toBe(false);
     expect(handShowsWafer(st(false, null))).toBe(true);
     expect(handShowsWafer(st(null, null))).toBe(true);
+  });
+});
+
+describe('bladeBShowsWafer', () => {
+  const st = (available: boolean | null, handB: string | null): WaferState => ({
+    available,
+    map: { ...emptyWaferMap(), hand: 'W1', handB },
+    refusal: '',
+    ignored: [],
+  });
+  it('shows a wafer on blade B only when the map says it holds one', () => {
+    expect(bladeBShowsWafer(st(true, 'W7'))).toBe(true);
+    expect(bladeBShowsWafer(st(true, null))).toBe(false);
+    // Without a map nothing is known about blade B: drawn empty, not guessed full.
+    expect(bladeBShowsWafer(st(false, null))).toBe(false);
+    expect(bladeBShowsWafer(st(null, null))).toBe(false);
   });
 });
 
@@ -399,7 +451,7 @@ describe('createWaferStore', () => {
     const { bus, store } = setup({ first: ack('hand=- LP1=W1,W2,W3 AL=-'), events: [] });
     await flush();
     bus.event('EVT WAFER pending=get:LP1.3:W3');
-    expect(store.state().map.pending).toEqual({ kind: 'get', station: 'LP1', slot: 3, wafer: 'W3' });
+    expect(store.state().map.pending).toEqual({ kind: 'get', blade: 'A', station: 'LP1', slot: 3, wafer: 'W3' });
     bus.event('EVT WAFER hand=W3');
     bus.event('EVT WAFER LP1=W1,W2,-');
     bus.event('EVT WAFER pending=-');
@@ -495,6 +547,10 @@ describe('drawWafers', () => {
     setWafer(on: boolean) {
       this.hand.push(on);
     }
+    bladeB: boolean[] = [];
+    setBladeBWafer(on: boolean) {
+      this.bladeB.push(on);
+    }
   }
   function stationsOf(list: StationInfo[]) {
     const cbs: (() => void)[] = [];
@@ -528,6 +584,22 @@ describe('drawWafers', () => {
     expect(sim.discs).toHaveLength(4);
     st.changed(); // a station taught again: redraw
     expect(sim.discs).toHaveLength(5);
+  });
+
+  it("shows blade B's wafer as the map says, apart from the hand's", async () => {
+    const { bus, store } = setup({ first: ack('hand=W1 hand.B=- AL=-'), events: [] });
+    const sim = new FakeSim();
+    drawWafers(store, stationsOf([AL]), sim);
+    expect(sim.bladeB).toEqual([false]); // before the reply: blade B empty
+    await flush();
+    expect(sim.hand.at(-1)).toBe(true);
+    expect(sim.bladeB.at(-1)).toBe(false);
+    bus.event('EVT WAFER hand.B=W7');
+    expect(sim.bladeB.at(-1)).toBe(true);
+    expect(sim.hand.at(-1)).toBe(true);
+    bus.event('EVT WAFER hand=-');
+    expect(sim.hand.at(-1)).toBe(false);
+    expect(sim.bladeB.at(-1)).toBe(true);
   });
 
   it('keeps the wafer on the hand when the controller has no cell', async () => {

@@ -2,11 +2,14 @@
 // controller reports it, and the `WaferStore` that keeps it up to date for the Wafers panel
 // and the 3D view.
 //
-// - `WAFERS` is answered `ACK <id> hand=<tok> <STN>=<slots> … [pending=…]`, or, when that does
+// - `WAFERS` is answered `ACK <id> hand=<tok> [hand.B=<tok>] <STN>=<slots> … [pending=…]`, or, when that does
 //   not fit in one line, with one `EVT WAFER <part>` line per place (to the requester, before
 //   the ACK) and `ACK <id> parts=<n>`. A controller without a cell answers `NAK`.
 // - Whenever the map changes, every connection gets `EVT WAFER <part>` for each place that
 //   changed (`hand=W3`, `LP1=W1,W2,-,W4..W25`, `pending=get:LP1.3:W3`, `pending=-`).
+// - A dual-blade robot has a second blade B on the same wrist: `hand` is still the hand
+//   (blade A), `hand.B=<tok>` is blade B (listed only by a dual-blade robot), and a transfer
+//   blade B makes ends with `:B` (`pending=get:PM1.1:W7:B`).
 // - Slots are listed from slot 1 up, comma-separated: `W<n>` a wafer, `-` empty, `?` not mapped,
 //   `D` double, `X` cross-slotted; `W<a>..W<b>` three or more wafers with rising ids in
 //   successive slots; `<tok>x<n>` a token repeated n times (`?x25`).
@@ -27,9 +30,14 @@ export interface SlotToken {
   wafer: string | null;
 }
 
-/** A transfer the controller has begun and not yet committed (`pending=get:LP1.3:W3`). */
+/** Blade A is the hand (the TCP's blade); B a dual-blade robot's second blade. */
+export type Blade = 'A' | 'B';
+
+/** A transfer the controller has begun and not yet committed (`pending=get:LP1.3:W3[:B]`). */
 export interface PendingTransfer {
   kind: 'get' | 'put';
+  /** The blade that takes or gives the wafer (`A` when the controller names none). */
+  blade: Blade;
   station: string;
   /** 1-based slot number. */
   slot: number;
@@ -39,8 +47,10 @@ export interface PendingTransfer {
 
 /** Where every wafer is. Treated as immutable: every change makes a new object. */
 export interface WaferMap {
-  /** The wafer on the hand (`W3`), or null when the hand is empty. */
+  /** The wafer on the hand (blade A, `W3`), or null when the hand is empty. */
   hand: string | null;
+  /** The wafer on blade B of a dual-blade robot, or null when it is empty or there is none. */
+  handB: string | null;
   /** Each station's slots, slot 1 first, in the order the controller lists them. */
   stations: Map<string, SlotToken[]>;
   pending: PendingTransfer | null;
@@ -49,6 +59,7 @@ export interface WaferMap {
 /** One place of the map, as in one word of the `WAFERS` reply or one `EVT WAFER` line. */
 export type WaferPart =
   | { place: 'hand'; wafer: string | null }
+  | { place: 'handB'; wafer: string | null }
   | { place: 'pending'; pending: PendingTransfer | null }
   | { place: 'station'; name: string; slots: SlotToken[] };
 
@@ -60,9 +71,9 @@ const UNKNOWN: SlotToken = { state: 'unknown', wafer: null };
 const DOUBLE: SlotToken = { state: 'double', wafer: null };
 const CROSS: SlotToken = { state: 'cross', wafer: null };
 
-/** An empty map: no stations, nothing on the hand, no transfer. */
+/** An empty map: no stations, nothing on either blade, no transfer. */
 export function emptyWaferMap(): WaferMap {
-  return { hand: null, stations: new Map(), pending: null };
+  return { hand: null, handB: null, stations: new Map(), pending: null };
 }
 
 /** The number of a wafer id `W<n>` (or `w<n>`), or null. */
@@ -129,20 +140,30 @@ export function parseSlots(text: string): SlotToken[] | null {
   return out;
 }
 
-/** `get:LP1.3:W3` (the value of `pending=`); `-` is no transfer (undefined: malformed). */
+/**
+ * `get:LP1.3:W3`, or `get:LP1.3:W3:B` when blade B makes it (the value of `pending=`); `-` is
+ * no transfer (undefined: malformed).
+ */
 function parsePending(v: string): PendingTransfer | null | undefined {
   if (v === '-') return null;
-  const m = /^(get|put):([^\s=:,.]+)\.(\d{1,3}):([Ww]\d+)$/i.exec(v);
+  const m = /^(get|put):([^\s=:,.]+)\.(\d{1,3}):([Ww]\d+)(?::([AaBb]))?$/.exec(v);
   if (!m) return undefined;
   const wafer = parseWaferId(m[4]);
   const slot = Number(m[3]);
   if (wafer === null || slot < 1) return undefined;
-  return { kind: m[1].toLowerCase() as 'get' | 'put', station: m[2], slot, wafer };
+  const blade: Blade = m[5]?.toUpperCase() === 'B' ? 'B' : 'A';
+  return { kind: m[1].toLowerCase() as 'get' | 'put', blade, station: m[2], slot, wafer };
+}
+
+/** The wafer on a blade (`W3`, or `-` for none); undefined when malformed. */
+function parseBlade(value: string): string | null | undefined {
+  if (value === '-') return null;
+  return parseWaferId(value) ?? undefined;
 }
 
 /**
- * One place of the map: `hand=W3`, `hand=-`, `LP1=W1..W25`, `pending=get:LP1.3:W3`,
- * `pending=-`. A leading `WAFER ` (an event line without its `EVT `) is skipped. Null when
+ * One place of the map: `hand=W3`, `hand=-`, `hand.B=W7`, `LP1=W1..W25`,
+ * `pending=get:LP1.3:W3[:B]`, `pending=-`. A leading `WAFER ` (an event line without its `EVT `) is skipped. Null when
  * malformed.
  */
 export function parseWaferPart(text: string): WaferPart | null {
@@ -152,10 +173,10 @@ export function parseWaferPart(text: string): WaferPart | null {
   if (eq <= 0 || /\s/.test(t)) return null;
   const key = t.slice(0, eq);
   const value = t.slice(eq + 1);
-  if (key === 'hand') {
-    if (value === '-') return { place: 'hand', wafer: null };
-    const w = parseWaferId(value);
-    return w === null ? null : { place: 'hand', wafer: w };
+  if (key === 'hand' || key === 'hand.B') {
+    const w = parseBlade(value);
+    if (w === undefined) return null;
+    return key === 'hand' ? { place: 'hand', wafer: w } : { place: 'handB', wafer: w };
   }
   if (key === 'pending') {
     const p = parsePending(value);
@@ -171,6 +192,8 @@ export function applyWaferPart(map: WaferMap, part: WaferPart): WaferMap {
   switch (part.place) {
     case 'hand':
       return { ...map, hand: part.wafer };
+    case 'handB':
+      return { ...map, handB: part.wafer };
     case 'pending':
       return { ...map, pending: part.pending };
     case 'station': {
@@ -194,8 +217,8 @@ function fromParts(parts: readonly string[]): { map: WaferMap; bad: string[] } {
 }
 
 /**
- * The body of a one-line `WAFERS` reply (after `ACK <id>`): `hand=W3 LP1=W1,W2,-,W4..W25 …`.
- * A place that is not listed stays empty (no wafer on the hand, no transfer pending).
+ * The body of a one-line `WAFERS` reply (after `ACK <id>`): `hand=W3 [hand.B=-] LP1=W1,W2,-,W4..W25 …`.
+ * A place that is not listed stays empty (no wafer on either blade, no transfer pending).
  */
 export function parseWafersBody(body: string): { map: WaferMap; bad: string[] } {
   const words = (typeof body === 'string' ? body : '').split(/[ \t]+/).filter((w) => w !== '' && !/^parts=/.test(w));
@@ -224,9 +247,10 @@ export function wafersFromReply(ackLine: string, events: readonly string[]): { m
   return r;
 }
 
-/** `GET LP1.3 W3` for a pending transfer. */
+/** `GET LP1.3 W3` for a pending transfer; `GET LP1.3 W3 with blade B` when blade B makes it. */
 export function formatPending(p: PendingTransfer): string {
-  return `${p.kind.toUpperCase()} ${p.station}.${p.slot} ${p.wafer}`;
+  const s = `${p.kind.toUpperCase()} ${p.station}.${p.slot} ${p.wafer}`;
+  return p.blade === 'B' ? `${s} with blade B` : s;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -416,7 +440,16 @@ export function handShowsWafer(s: WaferState): boolean {
   return s.available === true ? s.map.hand !== null : true;
 }
 
-export type WaferSink = Pick<SimulatorHandle, 'setWafer' | 'setStationWafers'>;
+/**
+ * Whether the 3D view shows a wafer on blade B (drawn only on a dual-blade robot): only when
+ * the map says blade B holds one. Unlike the hand, blade B has no wafer drawn from before
+ * wafers were tracked to keep, so without a map it is drawn empty rather than guessed full.
+ */
+export function bladeBShowsWafer(s: WaferState): boolean {
+  return s.available === true && s.map.handB !== null;
+}
+
+export type WaferSink = Pick<SimulatorHandle, 'setWafer' | 'setBladeBWafer' | 'setStationWafers'>;
 
 /**
  * Draw the map's wafers in the 3D view and follow it: the discs are placed again only when
@@ -432,12 +465,16 @@ export function drawWafers(
     const s = store.state();
     drawnMap = s.map;
     sim.setStationWafers(s.available === true ? waferDiscs(stations.stations(), s.map) : []);
+    onBlades(s);
+  }
+  function onBlades(s: WaferState): void {
     sim.setWafer(handShowsWafer(s));
+    sim.setBladeBWafer(bladeBShowsWafer(s));
   }
   const unsubs = [
     store.onChange((s) => {
       if (s.map !== drawnMap) draw();
-      else sim.setWafer(handShowsWafer(s));
+      else onBlades(s);
     }),
     stations.onChange(draw),
   ];

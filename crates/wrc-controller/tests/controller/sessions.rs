@@ -467,3 +467,31 @@ fn a_single_hand_robot_refuses_blade_b_and_swap() {
     // Blade A by name is the hand.
     assert_eq!(host.motion(7, "GET LP1 1 A"), "INF 7 W1");
 }
+
+/// ESTOP in the middle of a SWAP, after its GET half committed: the PUT half is settled from
+/// blade B's vacuum sensor (the wafer never left it), so the map has a wafer on each blade
+/// and the slot empty, as the cell has.
+#[test]
+fn an_estop_between_the_halves_of_a_swap_leaves_the_map_as_the_cell_is() {
+    use wrc_cell::Blade;
+    let mut host = VHost::start_config(&crate::vhost::dual_blade(), SimCellFrom::default());
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert!(host.motion(4, "MAP PM1").starts_with("INF 4"));
+    assert_eq!(host.motion(5, "GET LP1 1"), "INF 5 W1");
+    assert_eq!(host.motion(6, "PUT PM1 1"), "INF 6 W1");
+    assert_eq!(host.motion(7, "GET LP1 2 B"), "INF 7 W2");
+    assert_eq!(host.ask("8 SWAP PM1 1"), "ACK 8");
+    // The GET half has committed when the PUT half is pending.
+    host.until("EVT WAFER pending=put:PM1.1:W2:B");
+    assert_eq!(host.ask("ESTOP"), "ACK");
+    assert!(host.until("ABS 8").starts_with("ABS 8 201"));
+    assert!(host.ask("RESET").starts_with("ACK"));
+    let wafers = host.ask("WAFERS");
+    assert!(wafers.contains("hand=W1 hand.B=W2 "), "{wafers}");
+    assert!(wafers.contains(" PM1=- "), "{wafers}");
+    assert!(!wafers.contains("pending="), "{wafers}");
+    assert_eq!(host.truth("PM1"), "0");
+    assert!(!host.hand_empty() && !host.blade_empty(Blade::B));
+}

@@ -110,11 +110,18 @@ impl RawHand {
             key: format!("hand.{key}"),
             reason,
         };
-        for (key, n) in [
-            ("vacuum_output", self.vacuum_output),
-            ("vacuum_input", self.vacuum_input),
-            ("mapping_output", self.mapping_output),
-        ] {
+        let blade_io = self.blade_b.as_ref().map_or([None, None], |b| {
+            [
+                Some(("blade_b.vacuum_output", b.vacuum_output)),
+                Some(("blade_b.vacuum_input", b.vacuum_input)),
+            ]
+        });
+        let signals = [
+            Some(("vacuum_output", self.vacuum_output)),
+            Some(("vacuum_input", self.vacuum_input)),
+            Some(("mapping_output", self.mapping_output)),
+        ];
+        for (key, n) in signals.into_iter().chain(blade_io).flatten() {
             if n > MAX_IO {
                 return Err(invalid(
                     key,
@@ -146,17 +153,6 @@ impl RawHand {
         let blade_b = match self.blade_b {
             None => None,
             Some(b) => {
-                for (key, n) in [
-                    ("blade_b.vacuum_output", b.vacuum_output),
-                    ("blade_b.vacuum_input", b.vacuum_input),
-                ] {
-                    if n > MAX_IO {
-                        return Err(invalid(
-                            key,
-                            format!("{n} does not exist; use 0 to {MAX_IO}"),
-                        ));
-                    }
-                }
                 if b.vacuum_output == self.vacuum_output || b.vacuum_output == self.mapping_output {
                     return Err(invalid(
                         "blade_b.vacuum_output",

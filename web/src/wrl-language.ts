@@ -22,7 +22,7 @@ export const CONTROL_KEYWORDS = [
 
 /** Statement keywords (crates/wrc-lang/src/statements.rs) and `TIMEOUT`. */
 export const STATEMENT_KEYWORDS = [
-  'HOME', 'MOVEJ', 'MOVEP', 'MOVEL', 'JOG', 'SPEED', 'DELAY', 'OUT', 'WAIT', 'PRINT', 'TIMEOUT', 'GET', 'PUT', 'MAP',
+  'HOME', 'MOVEJ', 'MOVEP', 'MOVEL', 'JOG', 'SPEED', 'DELAY', 'OUT', 'WAIT', 'PRINT', 'TIMEOUT', 'GET', 'PUT', 'SWAP', 'MAP',
 ] as const;
 
 /** Constructors and built-in functions. */

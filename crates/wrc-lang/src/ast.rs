@@ -90,6 +90,8 @@ pub(crate) enum Arg {
     Value(Expr),
     /// `, L|R`; `None` when left out.
     Posture(Option<Posture>),
+    /// `, A|B`: whether blade B was named (A when left out).
+    Blade(bool),
     /// A robot axis, by name or 1-based number, resolved by the checker.
     Axis(AxisRef),
     /// PRINT items.

@@ -184,6 +184,12 @@ pub enum Instr {
     Put,
     /// Pop the station, yield a MAP (scan its slots).
     Map,
+    /// Pop the slot and the station, yield a GET onto blade B (a dual-blade robot's).
+    GetB,
+    /// Pop the slot and the station, yield a PUT from blade B.
+    PutB,
+    /// Pop the slot and the station, yield a SWAP (the empty blade takes, the other puts).
+    Swap,
 }
 
 impl Instr {
@@ -201,7 +207,7 @@ impl Instr {
             ForTest => (3, 1),
             Jump(_) | Call(_) | Ret | Halt | Home => (0, 0),
             JumpIfFalse(_) | MoveJ | MoveP(_) | MoveL | Jog(_) | Speed | Delay | Map => (1, 0),
-            Out | Get | Put => (2, 0),
+            Out | Get | Put | GetB | PutB | Swap => (2, 0),
             Wait { timeout } => (if timeout { 3 } else { 2 }, 0),
             Print(n) => (u32::from(n), 0),
         }
@@ -257,6 +263,9 @@ impl Instr {
             Get => "GET",
             Put => "PUT",
             Map => "MAP",
+            GetB => "GETB",
+            PutB => "PUTB",
+            Swap => "SWAP",
         }
     }
 }
@@ -817,6 +826,10 @@ fn encode(w: &mut Vec<u8>, instr: Instr) {
         Get => (44, None),
         Put => (45, None),
         Map => (46, None),
+        // Dual-blade robot (appended as well).
+        GetB => (47, None),
+        PutB => (48, None),
+        Swap => (49, None),
     };
     w.push(op);
     if let Some(arg) = arg {
@@ -1036,6 +1049,9 @@ fn decode_instr(r: &mut Reader<'_>) -> Result<Instr, DecodeError> {
         44 => Get,
         45 => Put,
         46 => Map,
+        47 => GetB,
+        48 => PutB,
+        49 => Swap,
         _ => return Err(bad("unknown opcode")),
     })
 }
@@ -1147,6 +1163,9 @@ mod tests {
             Get,
             Put,
             Map,
+            GetB,
+            PutB,
+            Swap,
         ];
         for instr in all {
             let mut w = Vec::new();
@@ -1160,7 +1179,14 @@ mod tests {
     #[test]
     fn wafer_handling_opcodes_keep_their_numbers() {
         // Appended after PRINT (43); stored programs depend on these numbers.
-        for (instr, op) in [(Instr::Get, 44u8), (Instr::Put, 45), (Instr::Map, 46)] {
+        for (instr, op) in [
+            (Instr::Get, 44u8),
+            (Instr::Put, 45),
+            (Instr::Map, 46),
+            (Instr::GetB, 47),
+            (Instr::PutB, 48),
+            (Instr::Swap, 49),
+        ] {
             let mut w = Vec::new();
             encode(&mut w, instr);
             assert_eq!(w, [op], "{instr:?}");
@@ -1172,5 +1198,8 @@ mod tests {
             [Instr::Get, Instr::Put, Instr::Map].map(Instr::mnemonic),
             ["GET", "PUT", "MAP"]
         );
+        for instr in [Instr::GetB, Instr::PutB, Instr::Swap] {
+            assert_eq!(instr.stack_effect(), (2, 0));
+        }
     }
 }

@@ -48,10 +48,15 @@ pub(crate) enum TKind {
 pub(crate) enum TArg {
     Value(TExpr),
     Posture(Option<Posture>),
+    /// Blade B (true) or the hand, blade A.
+    Blade(bool),
     Axis(u8),
     Items(Vec<TExpr>),
     Sub(u32),
-    Input { n: TExpr, value: TExpr },
+    Input {
+        n: TExpr,
+        value: TExpr,
+    },
     Keyword(Option<TExpr>),
 }
 
@@ -610,6 +615,7 @@ impl Checker<'_> {
                     .typed_arg(def, e, *ty, *check, posture.flatten())
                     .map(TArg::Value),
                 (ArgSpec::Posture, Arg::Posture(p)) => Some(TArg::Posture(*p)),
+                (ArgSpec::Blade, Arg::Blade(b)) => Some(TArg::Blade(*b)),
                 (ArgSpec::Axis, Arg::Axis(a)) => self.axis(a).map(TArg::Axis),
                 (ArgSpec::Items, Arg::Items(items)) => {
                     if items.len() > usize::from(u8::MAX) {

@@ -220,6 +220,7 @@ impl Gen {
 
     fn command(&mut self, op: CommandOp, args: &[TArg], span: Span) {
         let mut posture = None;
+        let mut blade_b = false;
         let mut axis = 0;
         let mut items = 0u8;
         let mut timeout = false;
@@ -227,6 +228,7 @@ impl Gen {
             match a {
                 TArg::Value(e) => self.expr(e),
                 TArg::Posture(p) => posture = *p,
+                TArg::Blade(b) => blade_b = *b,
                 TArg::Axis(i) => axis = *i,
                 TArg::Items(list) => {
                     for e in list {
@@ -263,9 +265,12 @@ impl Gen {
             CommandOp::Print => Instr::Print(items),
             CommandOp::Call => return, // emitted with its argument
             CommandOp::End => Instr::Halt,
+            CommandOp::Get if blade_b => Instr::GetB,
+            CommandOp::Put if blade_b => Instr::PutB,
             CommandOp::Get => Instr::Get,
             CommandOp::Put => Instr::Put,
             CommandOp::Map => Instr::Map,
+            CommandOp::Swap => Instr::Swap,
         };
         self.emit(instr, span);
     }

@@ -409,6 +409,7 @@ impl Parser<'_, '_> {
             let arg = match spec {
                 ArgSpec::Value { .. } => Arg::Value(self.expr()?),
                 ArgSpec::Posture => Arg::Posture(self.posture(def)?),
+                ArgSpec::Blade => Arg::Blade(self.blade(def)?),
                 ArgSpec::Axis => Arg::Axis(self.axis()?),
                 ArgSpec::Items => {
                     let mut items = vec![self.expr()?];
@@ -456,6 +457,35 @@ impl Parser<'_, '_> {
         );
         self.error(t.span, msg);
         Err(())
+    }
+
+    /// `, A|B` or nothing: whether blade B is named.
+    fn blade(&mut self, def: &StatementDef) -> PResult<bool> {
+        if self.peek().tok != Tok::Comma {
+            return Ok(false);
+        }
+        self.bump();
+        let t = self.peek().clone();
+        let blade = match self.key(&t).as_str() {
+            "A" => Some(false),
+            "B" => Some(true),
+            _ => None,
+        };
+        match blade {
+            Some(b) => {
+                self.bump();
+                Ok(b)
+            }
+            None => {
+                let msg = format!(
+                    "the blade must be A or B, found {}; the syntax is {}",
+                    self.describe(&t),
+                    def.syntax
+                );
+                self.error(t.span, msg);
+                Err(())
+            }
+        }
     }
 
     /// `, L|R` or nothing.

@@ -59,6 +59,8 @@ pub(crate) enum ArgSpec {
     Value { ty: ArgTy, check: ConstCheck },
     /// Optional `, L|R` (also `LEFT`, `RIGHT`): the elbow posture.
     Posture,
+    /// Optional `, A|B`: the blade of a dual-blade robot (A, the hand, when left out).
+    Blade,
     /// A robot axis by name (`J1`, `Z`) or 1-based number, known at compile time.
     Axis,
     /// One or more expressions of any type, separated by commas (PRINT).
@@ -149,6 +151,7 @@ pub(crate) enum CommandOp {
     Get,
     Put,
     Map,
+    Swap,
 }
 
 /// Every simple statement.
@@ -277,8 +280,8 @@ pub(crate) const STATEMENTS: &[StatementDef] = &[
     },
     StatementDef {
         keyword: "GET",
-        syntax: "GET station, slot",
-        summary: "take the wafer in a station's slot (from 1) onto the hand",
+        syntax: "GET station, slot[, A|B]",
+        summary: "take the wafer in a station's slot (from 1) onto the hand (or blade A or B)",
         args: &[
             ArgSpec::Value {
                 ty: ArgTy::Station,
@@ -288,13 +291,31 @@ pub(crate) const STATEMENTS: &[StatementDef] = &[
                 ty: ArgTy::Is(Ty::Number),
                 check: ConstCheck::Slot,
             },
+            ArgSpec::Blade,
         ],
         op: CommandOp::Get,
     },
     StatementDef {
         keyword: "PUT",
-        syntax: "PUT station, slot",
-        summary: "put the hand's wafer into a station's slot (from 1)",
+        syntax: "PUT station, slot[, A|B]",
+        summary: "put the hand's (or blade A's or B's) wafer into a station's slot (from 1)",
+        args: &[
+            ArgSpec::Value {
+                ty: ArgTy::Station,
+                check: ConstCheck::StationName,
+            },
+            ArgSpec::Value {
+                ty: ArgTy::Is(Ty::Number),
+                check: ConstCheck::Slot,
+            },
+            ArgSpec::Blade,
+        ],
+        op: CommandOp::Put,
+    },
+    StatementDef {
+        keyword: "SWAP",
+        syntax: "SWAP station, slot",
+        summary: "dual-blade robot: take the slot's wafer with the empty blade, put the other blade's there",
         args: &[
             ArgSpec::Value {
                 ty: ArgTy::Station,
@@ -305,7 +326,7 @@ pub(crate) const STATEMENTS: &[StatementDef] = &[
                 check: ConstCheck::Slot,
             },
         ],
-        op: CommandOp::Put,
+        op: CommandOp::Swap,
     },
     StatementDef {
         keyword: "MAP",

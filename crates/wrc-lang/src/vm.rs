@@ -136,6 +136,17 @@ pub enum Request {
         station: InlineName<16>,
         /// The slot, from 1.
         slot: u16,
+        /// Whether blade B makes it (a dual-blade robot's); the hand, blade A, otherwise.
+        blade_b: bool,
+    },
+    /// A dual-blade robot's `SWAP`: take the slot's wafer with the empty blade, then put the
+    /// other blade's wafer there; resume when it finished (or failed, like
+    /// [`Request::Transfer`]).
+    Swap {
+        /// The station.
+        station: InlineName<16>,
+        /// The slot, from 1.
+        slot: u16,
     },
     /// Scan a station's slots with the mapping sensor; resume when it finished (or failed,
     /// like [`Request::Transfer`]).
@@ -624,19 +635,24 @@ impl Vm {
                 self.stack.truncate(start);
                 return Ok(Flow::Yield(Request::Print));
             }
-            Get | Put => {
+            Get | Put | GetB | PutB | Swap => {
                 let slot = self.pop()?;
                 let station = self.station(program)?;
                 let slot = value::slot(slot)?;
-                let kind = if instr == Get {
+                let kind = if matches!(instr, Get | GetB) {
                     TransferKind::Get
                 } else {
                     TransferKind::Put
                 };
-                return Ok(Flow::Yield(Request::Transfer {
-                    kind,
-                    station,
-                    slot,
+                return Ok(Flow::Yield(if instr == Swap {
+                    Request::Swap { station, slot }
+                } else {
+                    Request::Transfer {
+                        kind,
+                        station,
+                        slot,
+                        blade_b: matches!(instr, GetB | PutB),
+                    }
                 }));
             }
             Map => {

@@ -347,17 +347,26 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             R::Out { n, on } => Command::Out { n, on },
             R::Speed { pct } => Command::Speed(pct),
-            R::Transfer { .. } | R::Map { .. } => {
-                let (kind, station, slot) = match request {
+            R::Transfer { .. } | R::Swap { .. } | R::Map { .. } => {
+                use crate::messages::cell_job::JobKind;
+                use wrc_cell::Blade;
+                let (kind, station, slot, blade) = match request {
                     R::Transfer {
-                        kind: wrc_lang::TransferKind::Get,
+                        kind,
                         station,
                         slot,
-                    } => (crate::messages::cell_job::JobKind::Get, station, slot),
-                    R::Transfer { station, slot, .. } => {
-                        (crate::messages::cell_job::JobKind::Put, station, slot)
-                    }
-                    R::Map { station } => (crate::messages::cell_job::JobKind::Map, station, 0),
+                        blade_b,
+                    } => (
+                        match kind {
+                            wrc_lang::TransferKind::Get => JobKind::Get,
+                            wrc_lang::TransferKind::Put => JobKind::Put,
+                        },
+                        station,
+                        slot,
+                        if blade_b { Blade::B } else { Blade::A },
+                    ),
+                    R::Swap { station, slot } => (JobKind::Swap, station, slot, Blade::A),
+                    R::Map { station } => (JobKind::Map, station, 0, Blade::A),
                     _ => return true,
                 };
                 let asked = self
@@ -370,7 +379,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         kind,
                         station,
                         slot,
-                        blade: wrc_cell::Blade::A,
+                        blade,
                     });
                 if asked.is_err() {
                     self.end_program(Some((

@@ -495,3 +495,38 @@ fn an_estop_between_the_halves_of_a_swap_leaves_the_map_as_the_cell_is() {
     assert_eq!(host.truth("PM1"), "0");
     assert!(!host.hand_empty() && !host.blade_empty(Blade::B));
 }
+
+/// A program on the dual-blade robot: the swap cycle at PM1 written in the language (blade B
+/// carries the next wafer, SWAP exchanges it for the processed one, the hand takes that to
+/// LP2), and the same program on the single-hand robot ends at its first blade-B statement
+/// with code 124.
+#[test]
+fn a_program_swaps_at_a_process_module_with_two_blades() {
+    const PROGRAM: &str = "3 UPLOAD swap\nMAP \"LP1\"\nMAP \"LP2\"\nMAP \"PM1\"\n\
+        GET \"LP1\", 1\nPUT \"PM1\", 1\nFOR I = 1 TO 2\n  GET \"LP1\", I + 1, B\n  \
+        SWAP \"PM1\", 1\n  PUT \"LP2\", I\nNEXT\n.\n";
+    let mut host = VHost::start_config(&crate::vhost::dual_blade(), SimCellFrom::default());
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    host.send_raw(PROGRAM);
+    assert!(host.reply().starts_with("ACK 3 name=swap "));
+    assert_eq!(host.motion(4, "RUN swap"), "INF 4");
+    // W1 and W2 went through PM1 to LP2; W3 is in PM1; both blades are empty.
+    let map = host.ask("5 WAFERS");
+    assert!(
+        map.starts_with("ACK 5 hand=- hand.B=- LP1=-x3,W4..W25 LP2=W1,W2,-x23 "),
+        "{map}"
+    );
+    assert!(map.contains(" PM1=W3 "), "{map}");
+    for station in ["LP1", "LP2", "PM1"] {
+        assert_eq!(map_codes(&map, station), host.truth(station), "{station}");
+    }
+
+    let mut one = VHost::start();
+    assert!(one.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(one.motion(2, "HOME"), "INF 2");
+    one.send_raw(PROGRAM);
+    assert!(one.reply().starts_with("ACK 3 name=swap "));
+    let end = one.motion(4, "RUN swap");
+    assert!(end.starts_with("ABS 4 124 swap line 7: "), "{end}");
+}

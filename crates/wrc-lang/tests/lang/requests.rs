@@ -86,12 +86,14 @@ PUT \"PM_2\", 1
             Request::Transfer {
                 kind: TransferKind::Get,
                 station: InlineName::new("LP1").unwrap(),
-                slot: 3
+                slot: 3,
+                blade_b: false
             },
             Request::Transfer {
                 kind: TransferKind::Put,
                 station: InlineName::new("PM_2").unwrap(),
-                slot: 1
+                slot: 1,
+                blade_b: false
             },
         ]
     );

@@ -19,6 +19,7 @@ fn get(name: &str, slot: u16) -> Request {
         kind: TransferKind::Get,
         station: station(name),
         slot,
+        blade_b: false,
     }
 }
 
@@ -27,6 +28,7 @@ fn put(name: &str, slot: u16) -> Request {
         kind: TransferKind::Put,
         station: station(name),
         slot,
+        blade_b: false,
     }
 }
 
@@ -170,7 +172,7 @@ fn compile_errors_point_at_the_bad_argument() {
         [(
             2,
             10,
-            "expected ',' and the next argument, found the end of the line; the syntax is GET station, slot".to_string()
+            "expected ',' and the next argument, found the end of the line; the syntax is GET station, slot[, A|B]".to_string()
         )]
     );
     assert_eq!(
@@ -301,4 +303,47 @@ fn the_cassette_example_in_the_language_reference_moves_five_wafers() {
     assert_eq!(r.printed[0], "wafer 1 of 5 moved to LP2");
     assert_eq!(r.printed[4], "wafer 5 of 5 moved to LP2");
     assert_eq!(r.printed[5], "done");
+}
+
+/// A dual-blade robot's statements: `GET`/`PUT station, slot, B` name blade B (`A`, or
+/// nothing, is the hand) and `SWAP station, slot` yields its own request; a blade other than
+/// A or B is a compile error at its column.
+#[test]
+fn blades_and_swap_yield_their_requests() {
+    let src = "\
+GET \"LP1\", 2, B
+SWAP \"PM1\", 1
+put \"LP2\", 1, a
+PUT \"LP2\", 2
+";
+    let r = run(&program(src));
+    assert_eq!(r.fault, None);
+    assert_eq!(
+        r.requests,
+        [
+            Request::Transfer {
+                kind: TransferKind::Get,
+                station: station("LP1"),
+                slot: 2,
+                blade_b: true,
+            },
+            Request::Swap {
+                station: station("PM1"),
+                slot: 1,
+            },
+            put("LP2", 1),
+            put("LP2", 2),
+        ]
+    );
+    assert_eq!(
+        errors("GET \"LP1\", 2, C\n"),
+        [(
+            1,
+            15,
+            "the blade must be A or B, found 'C'; the syntax is GET station, slot[, A|B]"
+                .to_string()
+        )]
+    );
+    let e = errors("SWAP \"PM1\", 0\n");
+    assert!(e[0].2.contains("slot"), "{e:?}");
 }

@@ -3,7 +3,7 @@
 //! example in real time, and every example under `wrc sim` (virtual time), the 25-wafer
 //! cycle and its return in one state directory.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use super::up::{Client, Controller, STILL_PERIODS};
 use super::wafer_cycle::truth_codes;
@@ -222,12 +222,19 @@ fn wrc_run_runs_an_example_on_the_real_time_controller() {
 
 /// `wrc sim` of `program` in `state` (stdout, stderr); it must succeed.
 fn sim_ok(program: &Path, state: &Path) -> String {
-    let out = wrc(&[
+    sim_ok_with(program, state, &[])
+}
+
+/// `wrc sim` of `program` in `state` with more arguments (`--config …`); it must succeed.
+fn sim_ok_with(program: &Path, state: &Path, more: &[&str]) -> String {
+    let mut args = vec![
         "sim",
         program.to_str().unwrap(),
         "--state-dir",
         state.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(more);
+    let out = wrc(&args);
     let (stdout, stderr) = text(&out);
     assert!(
         out.status.success(),
@@ -249,12 +256,24 @@ fn every_example_runs_on_the_simulated_robot_and_the_wafer_programs_go_there_and
         .filter(|p| p.extension().is_some_and(|e| e == "wrl"))
         .collect();
     files.sort();
-    let (wafer, single): (Vec<_>, Vec<_>) = files.iter().partition(|p| {
-        p.file_name()
-            .unwrap()
-            .to_string_lossy()
-            .starts_with("wafer_")
-    });
+    let named =
+        |p: &&PathBuf, prefix: &str| p.file_name().unwrap().to_string_lossy().starts_with(prefix);
+    let (dual, files): (Vec<_>, Vec<_>) = files.iter().partition(|p| named(p, "dual_blade"));
+    let (wafer, single): (Vec<_>, Vec<_>) = files.into_iter().partition(|p| named(p, "wafer_"));
+    // The dual-blade robot's programs on its configuration.
+    let config = examples.join("../config/dual-blade.toml");
+    for path in &dual {
+        let state = tempfile::tempdir().unwrap();
+        let out = sim_ok_with(path, state.path(), &["--config", config.to_str().unwrap()]);
+        assert!(out.contains("wafer 10 is in PM1"), "{out}");
+        let world = state.path().join("world.toml");
+        assert_eq!(
+            truth_codes(&world, "LP2"),
+            format!("{}{}", "1".repeat(9), "0".repeat(16))
+        );
+        assert_eq!(truth_codes(&world, "PM1"), "1");
+    }
+    assert_eq!(dual.len(), 1, "examples/dual_blade_swap.wrl");
     // Each on a fresh cell, virtual time (the real-time path: the test above).
     for path in &single {
         let state = tempfile::tempdir().unwrap();

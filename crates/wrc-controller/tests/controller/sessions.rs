@@ -530,3 +530,51 @@ fn a_program_swaps_at_a_process_module_with_two_blades() {
     let end = one.motion(4, "RUN swap");
     assert!(end.starts_with("ABS 4 124 swap line 7: "), "{end}");
 }
+
+/// Every verb of the protocol reaches what carries it out: none is answered "not available"
+/// (124) by a controller that has everything (the dual-blade robot, its cell). A new verb
+/// without an example here fails this test, and one that no task routes fails it too.
+#[test]
+fn every_verb_is_carried_out_by_someone() {
+    fn example(verb: &'static str) -> Option<&'static str> {
+        Some(match verb {
+            "MOVJ" => "MOVJ 0 90 0 50",
+            "MOVP" => "MOVP 300 0 50 0",
+            "MOVL" => "MOVL 300 0 60 0",
+            "JOG" => "JOG 1 1",
+            "SPEED" => "SPEED 50",
+            "OUT" => "OUT 5 1",
+            "UPLOAD" => "UPLOAD p\nHOME\n.",
+            "RUN" => "RUN nothing",
+            "DELETE" => "DELETE nothing",
+            "TRACE" => "TRACE SAVE t",
+            "TEACH" => "TEACH LP1",
+            "GET" => "GET LP1 1 B",
+            "PUT" => "PUT PM1 1 B",
+            "MAP" => "MAP PM1",
+            "SWAP" => "SWAP PM1 1",
+            "STATUS" | "WHERE" | "HOME" | "STOP" | "ESTOP" | "HOLD" | "RESUME" | "RESET" | "IO"
+            | "WAIT" | "CONTROL" | "RELEASE" | "HELP" | "SUBSCRIBE" | "UNSUBSCRIBE"
+            | "PROGRAMS" | "PAUSE" | "CONTINUE" | "ABORT" | "ROBOT" | "TASKS" | "STN"
+            | "WAFERS" => verb,
+            _ => return None,
+        })
+    }
+    let config = crate::vhost::dual_blade();
+    for (i, verb) in wrc_protocol::Verb::ALL.iter().enumerate() {
+        let name = verb.spec().name;
+        let line =
+            example(name).unwrap_or_else(|| panic!("{name} has no example in this test; add one"));
+        // A fresh controller, in control and homed, so that no state refusal (ESTOP, not
+        // homed, control held) answers before the request reaches its task.
+        let mut host = VHost::start_config(&config, SimCellFrom::default());
+        assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+        assert_eq!(host.motion(2, "HOME"), "INF 2");
+        let id = 100 + i;
+        let reply = host.ask(&format!("{id} {line}"));
+        assert!(
+            !reply.starts_with(&format!("NAK {id} 124")),
+            "{name}: {reply}"
+        );
+    }
+}

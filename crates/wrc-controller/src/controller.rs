@@ -276,7 +276,13 @@ pub(crate) fn assemble<H: Host>(
     let ci_board = open()?;
     let sm_board = open()?;
 
-    // Endpoints, before anything runs.
+    // Endpoints, before anything runs. The serial line first: once the TCP port accepts, a
+    // client may take the controller as up, and the pendant's tty must be raw by then (a
+    // line written to it earlier would be echoed back by the tty, not answered).
+    let serial = match &options.serial {
+        Some((path, baud, parity)) => Some(open_serial(path, *baud, *parity)?),
+        None => None,
+    };
     let tcp = match options.tcp {
         Some(addr) => {
             let l = TcpListener::bind(addr).map_err(|reason| StartError::Bind {
@@ -305,10 +311,6 @@ pub(crate) fn assemble<H: Host>(
             at: options.sim_addr.to_string(),
             reason,
         })?;
-    let serial = match &options.serial {
-        Some((path, baud, parity)) => Some(open_serial(path, *baud, *parity)?),
-        None => None,
-    };
 
     // Shared state, starting from the board's position.
     let shared = Arc::new(Shared::default());

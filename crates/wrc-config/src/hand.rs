@@ -30,7 +30,8 @@ pub struct HandConfig {
     pub blade_b: Option<BladeB>,
 }
 
-/// The second blade of a dual-blade robot (`[hand.blade_b]`).
+/// The second blade of a dual-blade robot (`[hand.blade_b]`); [`HandConfig::blade`] gives
+/// the hand's signals in the same form (offset 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BladeB {
     /// Height of its wafer plane above the hand's (the TCP's) [mm]; negative: below.
@@ -59,16 +60,29 @@ impl HandConfig {
         1 + usize::from(self.blade_b.is_some())
     }
 
-    /// Vacuum output, vacuum input and height offset [mm] of blade `index` (0: the hand,
-    /// 1: blade B); `None` for a blade the robot does not have.
-    pub fn blade(&self, index: usize) -> Option<(u8, u8, f64)> {
+    /// The signals and height of blade `index` (0: the hand, 1: blade B); `None` for a
+    /// blade the robot does not have.
+    pub fn blade(&self, index: usize) -> Option<BladeB> {
         match index {
-            0 => Some((self.vacuum_output, self.vacuum_input, 0.0)),
-            1 => self
-                .blade_b
-                .map(|b| (b.vacuum_output, b.vacuum_input, b.z_offset_mm)),
+            0 => Some(self.hand_signals()),
+            1 => self.blade_b,
             _ => None,
         }
+    }
+
+    /// The hand's (blade A's) signals, as [`HandConfig::blade`] gives them.
+    pub fn hand_signals(&self) -> BladeB {
+        BladeB {
+            z_offset_mm: 0.0,
+            vacuum_output: self.vacuum_output,
+            vacuum_input: self.vacuum_input,
+        }
+    }
+
+    /// Height of blade `index`'s wafer plane above the hand's [mm] (0 for the hand, and for
+    /// a blade the robot does not have).
+    pub fn z_offset_mm(&self, index: usize) -> f64 {
+        self.blade(index).map_or(0.0, |b| b.z_offset_mm)
     }
 }
 

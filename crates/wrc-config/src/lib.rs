@@ -235,7 +235,15 @@ mod tests {
         let dual = Config::load(Some(&path)).unwrap();
         assert_eq!(Config::embedded_dual_blade().hand, dual.hand);
         assert_eq!(dual.hand.blades(), 2);
-        assert_eq!(dual.hand.blade(1), Some((2, 2, -30.0)));
+        assert_eq!(
+            dual.hand.blade(1),
+            Some(BladeB {
+                z_offset_mm: -30.0,
+                vacuum_output: 2,
+                vacuum_input: 2
+            })
+        );
+        assert_eq!(dual.hand.z_offset_mm(1), -30.0);
         assert_eq!(Config::embedded_default().hand.blades(), 1);
         assert_eq!(Config::embedded_default().hand.blade(1), None);
         let text = std::fs::read_to_string(&path).unwrap();

@@ -431,7 +431,7 @@ impl CellService {
         }
         let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
         let refused = |e: wrc_cell::StationError| (station_code(&e), format!("{e}; nothing moved"));
-        let offset = |b: Blade| self.hand.blade(b.index()).map_or(0.0, |(_, _, dz)| dz);
+        let offset = |b: Blade| self.hand.z_offset_mm(b.index());
         let mut steps = vec![JobStep::UseBlade(blade)];
         let (first, approach) = transfer_steps(
             tkind,
@@ -588,7 +588,7 @@ impl CellService {
             let sensed = Blade::ALL.map(|b| {
                 self.hand
                     .blade(b.index())
-                    .is_some_and(|(_, input, _)| inputs & (1u32 << (input & 31)) != 0)
+                    .is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0)
             });
             let r = self.wafers.reconcile(sensed);
             self.reconciled = true;

@@ -461,60 +461,52 @@ impl Parser<'_, '_> {
 
     /// `, A|B` or nothing: whether blade B is named.
     fn blade(&mut self, def: &StatementDef) -> PResult<bool> {
-        if self.peek().tok != Tok::Comma {
-            return Ok(false);
-        }
-        self.bump();
-        let t = self.peek().clone();
-        let blade = match self.key(&t).as_str() {
-            "A" => Some(false),
-            "B" => Some(true),
-            _ => None,
-        };
-        match blade {
-            Some(b) => {
-                self.bump();
-                Ok(b)
-            }
-            None => {
-                let msg = format!(
-                    "the blade must be A or B, found {}; the syntax is {}",
-                    self.describe(&t),
-                    def.syntax
-                );
-                self.error(t.span, msg);
-                Err(())
-            }
-        }
+        let words = [("A", false), ("B", true)];
+        Ok(self
+            .optional_word(def, &words, "the blade must be A or B")?
+            .unwrap_or(false))
     }
 
     /// `, L|R` or nothing.
     fn posture(&mut self, def: &StatementDef) -> PResult<Option<Posture>> {
+        let words = [
+            ("L", Posture::Left),
+            ("LEFT", Posture::Left),
+            ("R", Posture::Right),
+            ("RIGHT", Posture::Right),
+        ];
+        self.optional_word(
+            def,
+            &words,
+            "the posture must be L or R (elbow left or right)",
+        )
+    }
+
+    /// An optional `, WORD` whose word is one of `words` (case-insensitive): its value, or
+    /// `None` when there is no comma; any other word is an error that says `must`.
+    fn optional_word<T: Copy>(
+        &mut self,
+        def: &StatementDef,
+        words: &[(&str, T)],
+        must: &str,
+    ) -> PResult<Option<T>> {
         if self.peek().tok != Tok::Comma {
             return Ok(None);
         }
         self.bump();
         let t = self.peek().clone();
-        let posture = match self.key(&t).as_str() {
-            "L" | "LEFT" => Some(Posture::Left),
-            "R" | "RIGHT" => Some(Posture::Right),
-            _ => None,
-        };
-        match posture {
-            Some(p) => {
-                self.bump();
-                Ok(Some(p))
-            }
-            None => {
-                let msg = format!(
-                    "the posture must be L or R (elbow left or right), found {}; the syntax is {}",
-                    self.describe(&t),
-                    def.syntax
-                );
-                self.error(t.span, msg);
-                Err(())
-            }
+        let key = self.key(&t);
+        if let Some(&(_, value)) = words.iter().find(|(w, _)| *w == key) {
+            self.bump();
+            return Ok(Some(value));
         }
+        let msg = format!(
+            "{must}, found {}; the syntax is {}",
+            self.describe(&t),
+            def.syntax
+        );
+        self.error(t.span, msg);
+        Err(())
     }
 
     /// An axis name or number.

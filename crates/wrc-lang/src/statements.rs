@@ -154,6 +154,19 @@ pub(crate) enum CommandOp {
     Swap,
 }
 
+/// `station, slot[, A|B]` of GET and PUT; SWAP takes the first two.
+const TRANSFER_ARGS: &[ArgSpec] = &[
+    ArgSpec::Value {
+        ty: ArgTy::Station,
+        check: ConstCheck::StationName,
+    },
+    ArgSpec::Value {
+        ty: ArgTy::Is(Ty::Number),
+        check: ConstCheck::Slot,
+    },
+    ArgSpec::Blade,
+];
+
 /// Every simple statement.
 pub(crate) const STATEMENTS: &[StatementDef] = &[
     StatementDef {
@@ -282,50 +295,21 @@ pub(crate) const STATEMENTS: &[StatementDef] = &[
         keyword: "GET",
         syntax: "GET station, slot[, A|B]",
         summary: "take the wafer in a station's slot (from 1) onto the hand (or blade A or B)",
-        args: &[
-            ArgSpec::Value {
-                ty: ArgTy::Station,
-                check: ConstCheck::StationName,
-            },
-            ArgSpec::Value {
-                ty: ArgTy::Is(Ty::Number),
-                check: ConstCheck::Slot,
-            },
-            ArgSpec::Blade,
-        ],
+        args: TRANSFER_ARGS,
         op: CommandOp::Get,
     },
     StatementDef {
         keyword: "PUT",
         syntax: "PUT station, slot[, A|B]",
         summary: "put the hand's (or blade A's or B's) wafer into a station's slot (from 1)",
-        args: &[
-            ArgSpec::Value {
-                ty: ArgTy::Station,
-                check: ConstCheck::StationName,
-            },
-            ArgSpec::Value {
-                ty: ArgTy::Is(Ty::Number),
-                check: ConstCheck::Slot,
-            },
-            ArgSpec::Blade,
-        ],
+        args: TRANSFER_ARGS,
         op: CommandOp::Put,
     },
     StatementDef {
         keyword: "SWAP",
         syntax: "SWAP station, slot",
         summary: "dual-blade robot: take the slot's wafer with the empty blade, put the other blade's there",
-        args: &[
-            ArgSpec::Value {
-                ty: ArgTy::Station,
-                check: ConstCheck::StationName,
-            },
-            ArgSpec::Value {
-                ty: ArgTy::Is(Ty::Number),
-                check: ConstCheck::Slot,
-            },
-        ],
+        args: TRANSFER_ARGS.split_at(2).0,
         op: CommandOp::Swap,
     },
     StatementDef {

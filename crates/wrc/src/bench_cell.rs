@@ -428,10 +428,7 @@ fn reference(
     let station = stations
         .get(name)
         .with_context(|| format!("no station {name}"))?;
-    let at = |b: Blade| {
-        let dz = config.hand.blade(b.index()).map_or(0.0, |(_, _, dz)| dz);
-        station.for_blade(dz)
-    };
+    let at = |b: Blade| station.for_blade(config.hand.z_offset_mm(b.index()));
     let steps = match kind {
         Kind::Get => plan(TransferKind::Get, &at(blade), slot)?,
         Kind::Put => plan(TransferKind::Put, &at(blade), slot)?,

@@ -23,7 +23,7 @@ use std::path::Path;
 use std::sync::atomic::Ordering;
 
 use wrc_cell::{Blade, MAX_BLADES};
-use wrc_config::{BoardConfig, Config};
+use wrc_config::{BladeB, BoardConfig, Config};
 
 use crate::dpram::{AxisRecord, Dpram, Pop};
 use crate::driver::{Mapping, OpenError};
@@ -277,7 +277,12 @@ impl SimBoard {
         // One vacuum hand per blade: the hand, and blade B of a dual-blade robot.
         let mut indices = [None; MAX_BLADES];
         for (b, index) in indices.iter_mut().enumerate() {
-            let Some((output, input, _)) = hand.blade(b) else {
+            let Some(BladeB {
+                vacuum_output: output,
+                vacuum_input: input,
+                ..
+            }) = hand.blade(b)
+            else {
                 continue;
             };
             let Some(i) = self.io.ensure_vacuum(output, input, delay) else {

@@ -89,7 +89,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     fn vacuum_sensed_of(&self, blade: Blade) -> bool {
         self.hand
             .blade(blade.index())
-            .is_some_and(|(_, input, _)| self.board.read_inputs(0) & (1u32 << (input & 31)) != 0)
+            .is_some_and(|s| self.board.read_inputs(0) & (1u32 << (s.vacuum_input & 31)) != 0)
+    }
+
+    /// The valve and sensor of `blade`: a job names blade B only on a robot that has one (the
+    /// cell service refuses it otherwise), so the hand's stand in for a missing blade.
+    fn blade_signals(&self, blade: Blade) -> wrc_config::BladeB {
+        self.hand
+            .blade(blade.index())
+            .unwrap_or(self.hand.hand_signals())
     }
 
     /// Every blade's vacuum-sensed input.
@@ -311,10 +319,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         let (verb, station, slot) = (j.job.kind.verb(), j.job.station, j.job.slot);
                         let mut text = [0u8; 160];
                         let mut w: &mut [u8] = &mut text[..];
-                        let input = self
-                            .hand
-                            .blade(j.blade.index())
-                            .map_or(self.hand.vacuum_input, |(_, input, _)| input);
+                        let input = self.blade_signals(j.blade).vacuum_input;
                         let on = if j.blade == Blade::A {
                             "the hand"
                         } else {
@@ -445,10 +450,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                             r.holding &= !bit(blade);
                         }
                     }
-                    let output = self
-                        .hand
-                        .blade(blade.index())
-                        .map_or(self.hand.vacuum_output, |(output, _, _)| output);
+                    let output = self.blade_signals(blade).vacuum_output;
                     let wait = self.job_output(output, on);
                     self.job_wait(wait);
                 }

@@ -61,6 +61,11 @@ pub enum PlanError {
     /// A straight line would need the elbow to flip between the two postures.
     #[error("the straight line needs the elbow to change posture on the way; move in two steps or use MOVP")]
     PostureChange,
+
+    /// No blended approach to the line's start keeps the hand behind it and every joint in
+    /// range (not even from rest): the transfer cannot blend there.
+    #[error("no approach to the station's line keeps the hand behind its approach pose; teach the approach pose further back")]
+    ApproachCrossesEntry,
     /// A number is NaN or infinite.
     #[error("{what} is not a finite number")]
     NotFinite {

@@ -10,9 +10,11 @@
 
 use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
+use crate::brake::Brake1d;
 use crate::double_s::DoubleS;
 use crate::error::{PlanError, SettingsError};
 use crate::fir_axes::FirAxes;
+use crate::jerk_axes::{JerkAxes, Planner, RUCKIG_DOF};
 use crate::line_profile::{Bounds, LineProfile};
 use crate::paper::PaperChannel;
 use crate::path::{line_path, DerivTable, Derivs, LineAxes, LinePath};
@@ -160,6 +162,30 @@ enum Active {
         law: LineLaw,
         target: [i64; MAX_AXES],
         last: Joints,
+        /// When the line starts, after the move's first period's start [s] (0, or the end
+        /// of a blended approach's first part).
+        t0: f64,
+    },
+    /// A blended approach (docs/motion.md): every axis's jerk-limited move to the line's
+    /// start, reached at the line's entry velocity, then the line, which takes over at
+    /// `ptp.duration()` (the variant becomes [`Active::Line`] there).
+    Approach {
+        ptp: JerkAxes,
+        /// The last period from which a stop at every axis's full limits, asked for up to
+        /// two periods later, still comes to rest behind the line's start.
+        commit_k: u64,
+        path: LinePath,
+        law: LineLaw,
+        target: [i64; MAX_AXES],
+        last: Joints,
+    },
+    /// Every axis's own time-optimal brake ([`Brake1d`]), from a state off any single law
+    /// (a stop during a blended approach's first part); `goal` is the move's.
+    Brake {
+        brakes: [Brake1d; RUCKIG_DOF],
+        n: usize,
+        t0: f64,
+        goal: Goal,
     },
 }
 
@@ -200,10 +226,25 @@ impl MotionState {
                 }
                 Some(Goal::Joints(target))
             }
-            Active::Line { path, target, .. } => Some(Goal::Line {
-                pose: path.pose_at(1.0),
-                pulses: *target,
-            }),
+            Active::Line { path, target, .. } | Active::Approach { path, target, .. } => {
+                Some(Goal::Line {
+                    pose: path.pose_at(1.0),
+                    pulses: *target,
+                })
+            }
+            Active::Brake { goal, .. } => Some(*goal),
+        }
+    }
+
+    /// Whether a blended approach under way in this state has passed the last moment from
+    /// which a stop at full limits (asked for up to two periods later) still ends behind
+    /// the line's start: the hand is committed to enter. True for any other line, false
+    /// for every other move and at rest.
+    pub fn entry_committed(&self) -> bool {
+        match &self.active {
+            Active::Approach { commit_k, .. } => self.k > *commit_k,
+            Active::Line { .. } => true,
+            _ => false,
         }
     }
 }
@@ -222,6 +263,8 @@ pub struct VelocityGenerator {
     line_axes: LineAxes,
     /// Derivatives of the last line planned (preallocated: planning does not allocate).
     table: DerivTable,
+    /// Ruckig, for a blended approach's first part (preallocated).
+    planner: Planner,
 }
 
 impl VelocityGenerator {
@@ -239,6 +282,7 @@ impl VelocityGenerator {
             stopped: false,
             line_axes,
             table: DerivTable::new(),
+            planner: Planner::new(),
         })
     }
 
@@ -461,7 +505,9 @@ impl VelocityGenerator {
                 periods: ch.total_periods(),
                 sync: Sync::Single,
             },
-            Active::Idle | Active::Joint { .. } => return Ok(self.nothing_to_do()),
+            Active::Idle | Active::Joint { .. } | Active::Approach { .. } | Active::Brake { .. } => {
+                return Ok(self.nothing_to_do())
+            }
         };
         Ok(info)
     }
@@ -512,10 +558,135 @@ impl VelocityGenerator {
             law,
             target: target_pulses,
             last: current,
+            t0: 0.0,
         };
         self.k = 0;
         self.stopped = false;
         Ok(true)
+    }
+
+    /// Plan a blended approach (docs/motion.md, "Blended approach"): every axis from here to
+    /// `via` (the joints of the line's start, checked by the caller), reached moving at the
+    /// line's entry velocity instead of at rest, flowing into the straight line from there
+    /// to `target` at `line_pct` (never faster than this move's override). The first part
+    /// is Ruckig's time-optimal synchronised move to that moving state, within every axis's
+    /// limits at the override; the line is entered at the fastest speed its limits allow
+    /// without acceleration, or slower (½, ¼) when that first part would not keep the TCP
+    /// behind the line's start or a joint in range, down to rest (a rest-to-rest approach
+    /// in one move). Refused ([`PlanError::ApproachCrossesEntry`]) if not even that works.
+    ///
+    /// From the hand already on the line between its start and `target` (a `RESUME` after
+    /// a HOLD inside) it is the line alone. Returns whether anything moves. Only under the
+    /// default profile: the paper profile is refused (its moves start and end at rest).
+    pub fn plan_approach(
+        &mut self,
+        via: &Joints,
+        target: &Pose,
+        line_pct: f64,
+    ) -> Result<bool, PlanError> {
+        self.ensure_idle()?;
+        check_speed_pct(line_pct).map_err(|_| PlanError::SpeedOverride(line_pct))?;
+        if self.settings.profile != Profile::Fir {
+            return Err(PlanError::ApproachCrossesEntry);
+        }
+        self.robot.check_joints(via)?;
+        let line_scale = (line_pct / 100.0).min(self.scale());
+        let current = self.joints();
+        let here = self.robot.forward(&current);
+        let entry = self.robot.forward(via);
+        if on_segment(&here, &entry, target) {
+            self.settings.speed_pct = line_scale * 100.0;
+            return self.start_line(target);
+        }
+        let (path, check) = line_path(&self.robot, via, target, Some(&mut self.table))?;
+        let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
+        let length = path.length_mm();
+        let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length);
+        let (dx, dy) = (target.x - entry.x, target.y - entry.y);
+        let norm = dx.hypot(dy);
+        let dir = if norm > 1e-9 {
+            (dx / norm, dy / norm)
+        } else {
+            (0.0, 0.0)
+        };
+        // How far into the station (along the line, from its start) a pose is [mm].
+        let along = |p: &Pose| (p.x - entry.x) * dir.0 + (p.y - entry.y) * dir.1;
+        let inner = along(&here).max(0.0) + 1e-6;
+        let v_max = 0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u));
+        let scale = self.scale();
+        let ts = self.settings.period_s;
+        for fraction in [1.0, 0.5, 0.25, 0.0] {
+            let table = &self.table;
+            let derivs = |u: f64| table.at(u);
+            let v0 = v_max * fraction;
+            let profile = if v0 > 0.0 {
+                match LineProfile::start_moving(&bounds, &derivs, v0) {
+                    Some(p) => p,
+                    None => continue,
+                }
+            } else {
+                LineProfile::start(&bounds, &derivs)
+            };
+            // The line's joint velocity and acceleration where it starts, in real time.
+            let d0 = derivs(0.0);
+            let (mut vel, mut acc) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+            for k in 0..self.line_axes.n {
+                let i = self.line_axes.idx[k];
+                vel[i] = line_scale * d0.d1[k] * v0;
+                acc[i] = line_scale * line_scale * d0.d2[k] * v0 * v0;
+            }
+            let Some(ptp) = self
+                .planner
+                .to_moving(&self.robot, &current, via, &vel, &acc, scale)
+            else {
+                continue;
+            };
+            // Every point of the first part: each joint in range, the TCP never further in
+            // than the line's start (or than where it starts, if a stop left it inside).
+            let step = ts.min(0.002);
+            let samples = (ptp.duration() / step).ceil() as u64;
+            let keeps = (0..=samples).all(|k| {
+                let q = ptp.state(k as f64 * step).0;
+                self.robot.check_joints(&q).is_ok() && along(&self.robot.forward(&q)) <= inner
+            });
+            if !keeps {
+                continue;
+            }
+            // The last period from which every axis's full-limit brake ends behind the start.
+            let periods = (ptp.duration() / ts).ceil() as u64;
+            let mut last_ok = 0u64;
+            for k in 0..=periods {
+                let (q, v, a) = ptp.state(k as f64 * ts);
+                let mut stop = q;
+                for (i, s) in stop.iter_mut().enumerate().take(self.robot.axis_count()) {
+                    let l = &self.robot.axes()[i].limits;
+                    *s = Brake1d::new(q[i], v[i], a[i], l.max_acceleration, l.max_jerk)
+                        .stop_position();
+                }
+                if along(&self.robot.forward(&stop)) > inner {
+                    break;
+                }
+                last_ok = k;
+            }
+            self.active = Active::Approach {
+                ptp,
+                commit_k: last_ok.saturating_sub(2),
+                path,
+                law: LineLaw::Timed {
+                    profile,
+                    bounds,
+                    scale: line_scale,
+                    table: table.id,
+                },
+                target: target_pulses,
+                last: *via,
+            };
+            self.k = 0;
+            self.stopped = false;
+            return Ok(true);
+        }
+        self.nothing_to_do();
+        Err(PlanError::ApproachCrossesEntry)
     }
 
     fn nothing_to_do(&mut self) -> MoveInfo {
@@ -707,9 +878,33 @@ impl VelocityGenerator {
                     }
                 }
             },
+            Active::Approach { ptp, path, target, .. } => {
+                let goal = Goal::Line {
+                    pose: path.pose_at(1.0),
+                    pulses: *target,
+                };
+                let (ptp, robot) = (*ptp, &self.robot);
+                self.active = axis_brakes(robot, &ptp.state(now), now, limits, self.settings.speed_pct, goal);
+                cut_short = true;
+            }
+            Active::Brake {
+                brakes, n, t0, goal, ..
+            } => {
+                // Only ESTOP after STOP or HOLD brakes harder: every axis's full limits from
+                // where it is.
+                if limits == BrakeLimits::Full {
+                    let (mut q, mut v, mut a) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
+                    for i in 0..*n {
+                        (q[i], v[i], a[i]) = brakes[i].at(now - *t0);
+                    }
+                    let goal = *goal;
+                    self.active = axis_brakes(&self.robot, &(q, v, a), now, limits, 100.0, goal);
+                }
+                cut_short = true;
+            }
             // Whether the brake ends short of the target is known when it has stopped.
             Active::Line {
-                path, law, last, ..
+                path, law, last, t0, ..
             } => match law {
                 LineLaw::Timed {
                     profile,
@@ -725,7 +920,7 @@ impl VelocityGenerator {
                         path.jets_at(robot, u, &reference)
                             .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
                     };
-                    stop_line(profile, bounds, scale, limits, now, &derivs);
+                    stop_line(profile, bounds, scale, limits, now - *t0, &derivs);
                 }
                 LineLaw::Paper(ch) => {
                     ch.stop();
@@ -754,13 +949,16 @@ impl VelocityGenerator {
             }
             Active::Line {
                 law: LineLaw::Timed { profile, scale, .. },
+                t0,
                 ..
             } => {
-                let (u, v, a) = profile.state(now * scale);
+                let (u, v, a) = profile.state((now - t0) * scale);
                 Some((u, v * scale, a * scale * scale))
             }
             Active::Idle
             | Active::Joint { .. }
+            | Active::Approach { .. }
+            | Active::Brake { .. }
             | Active::Line {
                 law: LineLaw::Paper(_),
                 ..
@@ -774,7 +972,56 @@ impl VelocityGenerator {
         out.pulses = [0; MAX_AXES];
         let n = self.robot.axis_count();
         let before = self.position;
+        let ts = self.settings.period_s;
+        if let Active::Approach {
+            ptp,
+            path,
+            law,
+            target,
+            last,
+            ..
+        } = self.active
+        {
+            // The line takes over where the first part ends.
+            if (self.k + 1) as f64 * ts >= ptp.duration() {
+                self.active = Active::Line {
+                    path,
+                    law,
+                    target,
+                    last,
+                    t0: ptp.duration(),
+                };
+            }
+        }
         let finished = match &mut self.active {
+            Active::Approach { ptp, .. } => {
+                self.k += 1;
+                let q = ptp.state(self.k as f64 * ts).0;
+                let p = self.robot.joints_to_pulses(&q);
+                self.position[..n].copy_from_slice(&p[..n]);
+                out.exact = q;
+                false
+            }
+            Active::Brake {
+                brakes, n: m, t0, ..
+            } => {
+                self.k += 1;
+                let t = self.k as f64 * ts - *t0;
+                let mut q = self.robot.pulses_to_joints(&self.position);
+                let mut done = true;
+                for i in 0..*m {
+                    let b = &brakes[i];
+                    done &= t >= b.duration();
+                    q[i] = b.at(t).0;
+                }
+                let p = self.robot.joints_to_pulses(&q);
+                self.position[..n].copy_from_slice(&p[..n]);
+                out.exact = q;
+                if done {
+                    self.stopped = true;
+                }
+                done
+            }
             Active::Idle => {
                 out.exact = self.robot.pulses_to_joints(&self.position);
                 return Status::Idle;
@@ -833,9 +1080,10 @@ impl VelocityGenerator {
                 law,
                 target,
                 last,
+                t0,
             } => {
                 self.k += 1;
-                let t = self.k as f64 * self.settings.period_s;
+                let t = self.k as f64 * ts - *t0;
                 let (u, done, complete) = match law {
                     LineLaw::Timed {
                         profile,
@@ -918,6 +1166,40 @@ impl VelocityGenerator {
 /// (played at the override), if verified; otherwise from the next knot with the brake
 /// verified there (or, on its final landing, lands on the target). A line already braking
 /// goes on, unless ESTOP finds a real-time brake from where it is.
+/// Every axis's own time-optimal brake from joints, velocities and accelerations `state`
+/// at time `now`: with its full limits (ESTOP), or scaled by the override `speed_pct`.
+fn axis_brakes(
+    robot: &Robot,
+    state: &(Joints, Joints, Joints),
+    now: f64,
+    limits: BrakeLimits,
+    speed_pct: f64,
+    goal: Goal,
+) -> Active {
+    let s = match limits {
+        BrakeLimits::Override => speed_pct / 100.0,
+        BrakeLimits::Full => 1.0,
+    };
+    let n = robot.axis_count().min(RUCKIG_DOF);
+    let mut brakes = [Brake1d::default(); RUCKIG_DOF];
+    for (i, b) in brakes.iter_mut().enumerate().take(n) {
+        let l = &robot.axes()[i].limits;
+        *b = Brake1d::new(
+            state.0[i],
+            state.1[i],
+            state.2[i],
+            l.max_acceleration * s * s,
+            l.max_jerk * s * s * s,
+        );
+    }
+    Active::Brake {
+        brakes,
+        n,
+        t0: now,
+        goal,
+    }
+}
+
 fn stop_line(
     profile: &mut LineProfile,
     bounds: &Bounds,
@@ -938,6 +1220,24 @@ fn stop_line(
 
 /// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
 /// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
+/// Whether `p` lies on the straight segment from `a` to `b` (within 1 µm, with the segment's
+/// z and yaw where it is).
+fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
+    let d = [b.x - a.x, b.y - a.y, b.z - a.z];
+    let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if len2 < 1e-12 {
+        return false;
+    }
+    let f = ((p.x - a.x) * d[0] + (p.y - a.y) * d[1] + (p.z - a.z) * d[2]) / len2;
+    if !(-1e-9..=1.0 + 1e-9).contains(&f) {
+        return false;
+    }
+    let yaw = a.yaw + f * wrc_robot::wrap180(b.yaw - a.yaw);
+    let off = [a.x + f * d[0] - p.x, a.y + f * d[1] - p.y, a.z + f * d[2] - p.z];
+    (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt() < 1e-3
+        && wrc_robot::wrap180(p.yaw - yaw).abs() < 1e-3
+}
+
 fn paper_rate(v: f64, a: f64, j: f64, half: u64, ts: f64) -> f64 {
     let m_ts = half as f64 * ts;
     v.min(a * m_ts).min(j * m_ts * m_ts)

@@ -53,6 +53,7 @@ mod double_s;
 mod error;
 mod fir_axes;
 mod generator;
+mod jerk_axes;
 mod line_profile;
 mod paper;
 mod path;

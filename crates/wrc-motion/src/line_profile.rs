@@ -626,6 +626,66 @@ impl LineProfile {
         p
     }
 
+    /// A law that starts at u = 0 already moving, at speed `v0` [1/s] with no acceleration
+    /// (a blended transfer's straight line in, entered at speed: docs/motion.md), planned from
+    /// there; `None` unless that state keeps every limit and a brake from it stops before
+    /// u = 1 within them.
+    pub(crate) fn start_moving(
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        v0: f64,
+    ) -> Option<LineProfile> {
+        if !(v0 > 0.0 && v0.is_finite() && b.ok(&derivs(0.0), v0, 0.0, 0.0)) {
+            return None;
+        }
+        let (brake, stop) = safe(
+            b,
+            derivs,
+            (0.0, v0, 0.0),
+            (0, BRAKES.len() - 1),
+            Horizon::Full,
+        )
+        .ok()?;
+        let stop = stop.filter(|s| *s <= 1.0)?;
+        let mut p = LineProfile {
+            t: 0.0,
+            u: 0.0,
+            v: v0,
+            a: 0.0,
+            jerk: 0.0,
+            dt: STEP_S,
+            brake,
+            brake_stop: stop,
+            ends: false,
+            land: None,
+            mode: Mode::Forward,
+            braked_now: false,
+        };
+        p.choose(b, derivs);
+        Some(p)
+    }
+
+    /// The fastest speed u̇ [1/s] at which the line may be entered at u = 0 with no
+    /// acceleration of u: every joint's and the TCP's velocity limit, and every joint's
+    /// acceleration limit against the centripetal term q″·u̇².
+    pub(crate) fn entry_speed(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
+        let d = derivs(0.0);
+        let mut v = b.cv;
+        for k in 0..b.n {
+            if d.d1[k].abs() >= 1e-9 {
+                v = v.min(b.v[k] / d.d1[k].abs());
+            }
+            if d.d2[k].abs() >= 1e-12 {
+                v = v.min((b.a[k] / d.d2[k].abs()).sqrt());
+            }
+        }
+        if v.is_finite() {
+            v
+        } else {
+            0.0
+        }
+    }
+
     /// Whether a brake taken by [`LineProfile::brake_now`] is under way (or has ended the
     /// motion): the law must then be played with the derivatives given to `brake_now` (those
     /// it was verified with), not the plan's.

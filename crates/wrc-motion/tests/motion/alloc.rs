@@ -146,6 +146,64 @@ fn planning_and_periods_allocate_nothing() {
                 vg.next_period(&mut out);
             }
             vg.next_period(&mut out);
+            // A blended approach (default profile only): planned (Ruckig's calculation
+            // included), played into its line, and another one stopped in its first part by
+            // another generator, then at full limits after a STOP.
+            if profile == Profile::Fir {
+                let robot = vg.robot();
+                let from = robot
+                    .inverse(
+                        &Pose {
+                            x: 0.0,
+                            y: 120.0,
+                            z: 20.0,
+                            yaw: 90.0,
+                        },
+                        Posture::Right,
+                        None,
+                    )
+                    .unwrap();
+                let via = robot
+                    .inverse(
+                        &Pose {
+                            x: 120.0,
+                            y: 0.0,
+                            z: 30.0,
+                            yaw: 0.0,
+                        },
+                        Posture::Right,
+                        None,
+                    )
+                    .unwrap();
+                let seat = Pose {
+                    x: 330.0,
+                    y: 0.0,
+                    z: 30.0,
+                    yaw: 0.0,
+                };
+                for stop_at in [None, Some(10)] {
+                    vg.plan_ptp(&from).unwrap();
+                    while vg.is_moving() {
+                        vg.next_period(&mut out);
+                    }
+                    assert!(vg.plan_approach(&via, &seat, 60.0).unwrap());
+                    let mut k = 0;
+                    while vg.is_moving() {
+                        vg.next_period(&mut out);
+                        k += 1;
+                        if Some(k) == stop_at {
+                            stopper.restore(&vg.state());
+                            stopper.stop(BrakeLimits::Override);
+                            stopper.next_period(&mut out);
+                            stopper.stop(BrakeLimits::Full);
+                            while stopper.is_moving() {
+                                stopper.next_period(&mut out);
+                            }
+                            vg.stop(BrakeLimits::Full);
+                        }
+                    }
+                }
+            }
             assert_eq!(
                 heap_calls().allocations - before,
                 0,

@@ -3,6 +3,7 @@
 //! planning and producing periods allocate nothing.
 
 mod alloc;
+mod approach;
 mod common;
 mod line;
 mod ptp;

@@ -1,0 +1,202 @@
+//! A time-synchronised jerk-limited move of every axis from rest to a moving state: the
+//! first part of a blended approach (docs/motion.md, "Blended approach"), computed by Ruckig
+//! (`rsruckig`, the time-optimal jerk-limited online trajectory generator) and kept as plain
+//! data: up to seven constant-jerk phases per axis.
+//!
+//! Real-time promise: [`JerkAxes`] is `Copy` and heap-free, so a real-time task keeps one per
+//! queued period; evaluating it is arithmetic. [`Planner`] owns Ruckig's calculator and
+//! trajectory, allocated once when it is created: a calculation that succeeds allocates
+//! nothing (the allocation test runs one), and one that fails is reported without a message.
+
+use rsruckig::prelude::*;
+use wrc_robot::{Joints, Robot, MAX_AXES};
+
+/// Axes Ruckig plans at once; an arm has at most this many moving axes in an approach.
+pub const RUCKIG_DOF: usize = 4;
+
+/// Constant-jerk phases of one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Phases {
+    /// End time of each phase [s].
+    t_end: [f64; 7],
+    /// Jerk of each phase.
+    j: [f64; 7],
+    /// Position, velocity, acceleration at the start of each phase, and at the end.
+    p: [f64; 8],
+    v: [f64; 8],
+    a: [f64; 8],
+}
+
+impl Phases {
+    fn at(&self, t: f64) -> (f64, f64, f64) {
+        let mut start = 0.0;
+        for i in 0..7 {
+            if t <= self.t_end[i] {
+                let dt = (t - start).max(0.0);
+                let (p, v, a, j) = (self.p[i], self.v[i], self.a[i], self.j[i]);
+                return (
+                    p + dt * (v + dt * (a / 2.0 + dt * j / 6.0)),
+                    v + dt * (a + dt * j / 2.0),
+                    a + dt * j,
+                );
+            }
+            start = self.t_end[i];
+        }
+        // After the end: on with the final velocity and acceleration (the next part takes
+        // over at the end, so this is only reached within rounding).
+        let dt = (t - start).max(0.0);
+        let (p, v, a) = (self.p[7], self.v[7], self.a[7]);
+        (p + dt * (v + dt * a / 2.0), v + dt * a, a)
+    }
+}
+
+/// The move of every axis (entries past the moving ones stand still).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JerkAxes {
+    axes: [Phases; RUCKIG_DOF],
+    idx: [usize; RUCKIG_DOF],
+    n: usize,
+    start: Joints,
+    duration: f64,
+}
+
+impl JerkAxes {
+    /// Duration [s].
+    pub fn duration(&self) -> f64 {
+        self.duration
+    }
+
+    /// Joints, joint velocities and accelerations at time `t` [s] (clamped to the move).
+    pub fn state(&self, t: f64) -> (Joints, Joints, Joints) {
+        let t = t.clamp(0.0, self.duration);
+        let (mut q, mut v, mut a) = (self.start, [0.0; MAX_AXES], [0.0; MAX_AXES]);
+        for k in 0..self.n {
+            let (p, vk, ak) = self.axes[k].at(t);
+            let i = self.idx[k];
+            q[i] = p;
+            v[i] = vk;
+            a[i] = ak;
+        }
+        (q, v, a)
+    }
+}
+
+/// Ruckig's calculator, preallocated.
+pub struct Planner {
+    otg: Ruckig<RUCKIG_DOF, IgnoreErrorHandler>,
+    input: InputParameter<RUCKIG_DOF>,
+    trajectory: Trajectory<RUCKIG_DOF>,
+}
+
+impl Clone for Planner {
+    fn clone(&self) -> Self {
+        Planner::new()
+    }
+}
+
+impl std::fmt::Debug for Planner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Planner(ruckig)")
+    }
+}
+
+impl Default for Planner {
+    fn default() -> Self {
+        Planner::new()
+    }
+}
+
+impl Planner {
+    /// A calculator (allocates its buffers once).
+    pub fn new() -> Planner {
+        Planner {
+            otg: Ruckig::new(None, 0.001),
+            input: InputParameter::new(None),
+            trajectory: Trajectory::new(None),
+        }
+    }
+
+    /// The time-optimal synchronised move from rest at `start` to `end` reached with joint
+    /// velocities `v_end` and accelerations `a_end`, each axis within its limits scaled by
+    /// `scale` (velocity ×s, acceleration ×s², jerk ×s³); `None` if Ruckig finds none or the
+    /// robot has more than [`RUCKIG_DOF`] axes.
+    pub fn to_moving(
+        &mut self,
+        robot: &Robot,
+        start: &Joints,
+        end: &Joints,
+        v_end: &Joints,
+        a_end: &Joints,
+        scale: f64,
+    ) -> Option<JerkAxes> {
+        let n = robot.axis_count();
+        if n > RUCKIG_DOF {
+            return None;
+        }
+        let mut idx = [0usize; RUCKIG_DOF];
+        for (k, i) in idx.iter_mut().enumerate() {
+            *i = k.min(n.saturating_sub(1));
+        }
+        let inp = &mut self.input;
+        for k in 0..RUCKIG_DOF {
+            let (p0, p1, v1, a1, (v, a, j)) = if k < n {
+                let l = &robot.axes()[k].limits;
+                (
+                    start[k],
+                    end[k],
+                    v_end[k],
+                    a_end[k],
+                    (
+                        l.max_velocity * scale,
+                        l.max_acceleration * scale * scale,
+                        l.max_jerk * scale * scale * scale,
+                    ),
+                )
+            } else {
+                (0.0, 0.0, 0.0, 0.0, (1.0, 1.0, 1.0))
+            };
+            inp.current_position[k] = p0;
+            inp.current_velocity[k] = 0.0;
+            inp.current_acceleration[k] = 0.0;
+            inp.target_position[k] = p1;
+            inp.target_velocity[k] = v1;
+            inp.target_acceleration[k] = a1;
+            inp.max_velocity[k] = v;
+            inp.max_acceleration[k] = a;
+            inp.max_jerk[k] = j;
+        }
+        self.otg.calculate(&self.input, &mut self.trajectory).ok()?;
+        let duration = self.trajectory.get_duration();
+        let profiles = self.trajectory.get_profiles().first()?;
+        let mut axes = [Phases::default(); RUCKIG_DOF];
+        for (k, out) in axes.iter_mut().enumerate().take(n) {
+            let pr = &profiles[k];
+            // From rest there is no brake or acceleration pre-trajectory; one would not be
+            // part of the phases kept here.
+            if pr.brake.duration > 0.0 || pr.accel.duration > 0.0 {
+                return None;
+            }
+            out.t_end = pr.t_sum;
+            out.j = pr.j;
+            out.p = pr.p;
+            out.v = pr.v;
+            out.a = pr.a;
+        }
+        if !(duration.is_finite() && duration >= 0.0) {
+            return None;
+        }
+        let m = JerkAxes {
+            axes,
+            idx,
+            n,
+            start: *start,
+            duration,
+        };
+        // What is kept must end where it was asked to: position, velocity and acceleration.
+        let (q, v, a) = m.state(duration);
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * y.abs().max(1.0);
+        (0..n)
+            .all(|i| close(q[i], end[i]) && close(v[i], v_end[i]) && close(a[i], a_end[i]))
+            .then_some(m)
+    }
+}

@@ -75,6 +75,10 @@ pub struct Config {
     pub robot: Robot,
     /// Velocity generator settings.
     pub motion: MotionSettings,
+    /// Whether a transfer's move to a station's approach pose flows into its straight line
+    /// in (`[motion] blend`, default true; docs/motion.md "Blended approach"). Only under the
+    /// default profile: the paper profile's moves start and end at rest.
+    pub blend: bool,
     /// Motion boards (`[[board]]`), in board order; at least one.
     pub boards: Vec<BoardConfig>,
     /// Real-time tasks (`[[task]]`): priority and period of each; the paper's Table 1 when the

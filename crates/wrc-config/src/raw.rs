@@ -75,6 +75,7 @@ struct RawMotion {
     line_max_speed_mm_s: f64,
     line_max_accel_mm_s2: f64,
     line_max_jerk_mm_s3: f64,
+    blend: bool,
 }
 
 impl Default for RawMotion {
@@ -89,6 +90,7 @@ impl Default for RawMotion {
             line_max_speed_mm_s: d.line.max_speed_mm_s,
             line_max_accel_mm_s2: d.line.max_accel_mm_s2,
             line_max_jerk_mm_s3: d.line.max_jerk_mm_s3,
+            blend: true,
         }
     }
 }
@@ -179,6 +181,7 @@ impl RawConfig {
         .map_err(|ModelError { key, reason, .. }| invalid(key, reason))?;
 
         let m = self.motion;
+        let blend = m.blend;
         let profile = match m.profile.as_str() {
             "fir" => Profile::Fir,
             "paper" => {
@@ -232,6 +235,7 @@ impl RawConfig {
             text: String::new(),
             trace,
             robot,
+            blend: blend && motion.profile == Profile::Fir,
             motion,
             boards,
             tasks: crate::tasks::tasks(self.task, file)?,

@@ -500,6 +500,7 @@ pub(crate) fn assemble<H: Host>(
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
+    interpreter.blend = config.blend;
     let ci_applied = ci_wake.notifier();
     host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
     // Released by every output request, so a vacuum valve opens at once; it releases the

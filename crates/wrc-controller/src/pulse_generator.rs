@@ -433,6 +433,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 break;
             }
             self.last = batch.after;
+            if batch.after.entry_committed() {
+                self.shared
+                    .entry_committed
+                    .store(batch.ticket, Ordering::Release);
+            }
             if batch.ticket != self.ticket {
                 self.shared
                     .first_pulse_ns

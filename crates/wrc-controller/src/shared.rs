@@ -53,6 +53,11 @@ pub struct Shared {
     /// The blades the wafer map has a wafer on (bit 0: A, the hand; bit 1: B), set by the
     /// cell service.
     pub hand_wafers: AtomicU8,
+    /// The ticket of the last move whose pulses the Pulse Generator sent from a state
+    /// committed to enter a station (a blended approach past its commit point, or a line):
+    /// until it names a blended approach, a stop still ends behind its approach pose
+    /// (docs/motion.md, "Blended approach").
+    pub entry_committed: AtomicU32,
     /// Released by every stop request: the Pulse Generator's wake (set once at start-up).
     stop_notify: OnceLock<Arc<dyn Notify>>,
     /// Released by every change of `outputs`: the I/O Monitor's wake (set once at start-up).
@@ -81,6 +86,7 @@ impl Default for Shared {
             stops: StopCounts::default(),
             io_ready: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
+            entry_committed: AtomicU32::new(0),
             stop_notify: OnceLock::new(),
             output_notify: OnceLock::new(),
         }

@@ -42,6 +42,7 @@ pub fn refusal_code(err: &PlanError) -> u16 {
         PlanError::Kinematics(_) => refusal::OUT_OF_REACH,
         PlanError::PathLeavesWorkspace { .. }
         | PlanError::PostureChange
+        | PlanError::ApproachCrossesEntry
         | PlanError::Untimed { .. } => refusal::PATH,
         _ => refusal::OTHER,
     }
@@ -117,6 +118,9 @@ impl VelocityGenerator {
                         g.plan_ptp_pose(&p, posture).map(|i| i.periods > 0)
                     }
                     MoveKind::Line(p) => g.start_line(&p),
+                    MoveKind::Approach { via, to, line_pct } => {
+                        g.plan_approach(&via, &to, line_pct)
+                    }
                     MoveKind::Jog { axis, pulses } => {
                         g.plan_jog(axis, pulses).map(|i| i.periods > 0)
                     }

@@ -505,9 +505,10 @@ impl VelocityGenerator {
                 periods: ch.total_periods(),
                 sync: Sync::Single,
             },
-            Active::Idle | Active::Joint { .. } | Active::Approach { .. } | Active::Brake { .. } => {
-                return Ok(self.nothing_to_do())
-            }
+            Active::Idle
+            | Active::Joint { .. }
+            | Active::Approach { .. }
+            | Active::Brake { .. } => return Ok(self.nothing_to_do()),
         };
         Ok(info)
     }
@@ -570,10 +571,11 @@ impl VelocityGenerator {
     /// line's entry velocity instead of at rest, flowing into the straight line from there
     /// to `target` at `line_pct` (never faster than this move's override). The first part
     /// is Ruckig's time-optimal synchronised move to that moving state, within every axis's
-    /// limits at the override; the line is entered at the fastest speed its limits allow
-    /// without acceleration, or slower (½, ¼) when that first part would not keep the TCP
-    /// behind the line's start or a joint in range, down to rest (a rest-to-rest approach
-    /// in one move). Refused ([`PlanError::ApproachCrossesEntry`]) if not even that works.
+    /// limits at the override. The line is entered at 90 % of the fastest speed its limits
+    /// allow without acceleration, at ½ or ¼ of it, or at rest (a rest-to-rest approach in
+    /// one move): of those whose first part keeps the TCP behind the line's start and every
+    /// joint in range, the one that gets to `target` soonest (from the approach pose
+    /// itself, entering at rest). Refused ([`PlanError::ApproachCrossesEntry`]) if none does.
     ///
     /// From the hand already on the line between its start and `target` (a `RESUME` after
     /// a HOLD inside) it is the line alone. Returns whether anything moves. Only under the
@@ -612,9 +614,20 @@ impl VelocityGenerator {
         // How far into the station (along the line, from its start) a pose is [mm].
         let along = |p: &Pose| (p.x - entry.x) * dir.0 + (p.y - entry.y) * dir.1;
         let inner = along(&here).max(0.0) + 1e-6;
-        let v_max = 0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u));
+        // Already at the approach pose (a GET right after a PUT there): nothing to blend,
+        // the line from rest.
+        let via_pulses = self.robot.joints_to_pulses(via);
+        let there =
+            (0..self.robot.axis_count()).all(|i| (via_pulses[i] - self.position[i]).abs() <= 1);
+        let v_max = if there {
+            0.0
+        } else {
+            0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u))
+        };
         let scale = self.scale();
         let ts = self.settings.period_s;
+        // The fastest candidate: (duration, first part, its commit period, the line's law).
+        let mut best: Option<(f64, JerkAxes, u64, LineProfile)> = None;
         for fraction in [1.0, 0.5, 0.25, 0.0] {
             let table = &self.table;
             let derivs = |u: f64| table.at(u);
@@ -635,9 +648,9 @@ impl VelocityGenerator {
                 vel[i] = line_scale * d0.d1[k] * v0;
                 acc[i] = line_scale * line_scale * d0.d2[k] * v0 * v0;
             }
-            let Some(ptp) = self
-                .planner
-                .to_moving(&self.robot, &current, via, &vel, &acc, scale)
+            let Some(ptp) =
+                self.planner
+                    .rest_to_moving(&self.robot, &current, via, &vel, &acc, scale)
             else {
                 continue;
             };
@@ -668,25 +681,37 @@ impl VelocityGenerator {
                 }
                 last_ok = k;
             }
-            self.active = Active::Approach {
-                ptp,
-                commit_k: last_ok.saturating_sub(2),
-                path,
-                law: LineLaw::Timed {
-                    profile,
-                    bounds,
-                    scale: line_scale,
-                    table: table.id,
-                },
-                target: target_pulses,
-                last: *via,
-            };
-            self.k = 0;
-            self.stopped = false;
-            return Ok(true);
+            // The line's time from this entry (its law run once on a copy).
+            let mut dry = profile;
+            let end_t = dry.run_to_end(&bounds, &derivs);
+            if !dry.completed() {
+                continue;
+            }
+            let total = ptp.duration() + end_t / line_scale;
+            if best.as_ref().is_none_or(|b| total < b.0) {
+                best = Some((total, ptp, last_ok.saturating_sub(2), profile));
+            }
         }
-        self.nothing_to_do();
-        Err(PlanError::ApproachCrossesEntry)
+        let Some((_, ptp, commit_k, profile)) = best else {
+            self.nothing_to_do();
+            return Err(PlanError::ApproachCrossesEntry);
+        };
+        self.active = Active::Approach {
+            ptp,
+            commit_k,
+            path,
+            law: LineLaw::Timed {
+                profile,
+                bounds,
+                scale: line_scale,
+                table: self.table.id,
+            },
+            target: target_pulses,
+            last: *via,
+        };
+        self.k = 0;
+        self.stopped = false;
+        Ok(true)
     }
 
     fn nothing_to_do(&mut self) -> MoveInfo {
@@ -878,17 +903,30 @@ impl VelocityGenerator {
                     }
                 }
             },
-            Active::Approach { ptp, path, target, .. } => {
+            Active::Approach {
+                ptp, path, target, ..
+            } => {
                 let goal = Goal::Line {
                     pose: path.pose_at(1.0),
                     pulses: *target,
                 };
                 let (ptp, robot) = (*ptp, &self.robot);
-                self.active = axis_brakes(robot, &ptp.state(now), now, limits, self.settings.speed_pct, goal);
+                self.active = axis_brakes(
+                    robot,
+                    &ptp.state(now),
+                    now,
+                    limits,
+                    self.settings.speed_pct,
+                    goal,
+                );
                 cut_short = true;
             }
             Active::Brake {
-                brakes, n, t0, goal, ..
+                brakes,
+                n,
+                t0,
+                goal,
+                ..
             } => {
                 // Only ESTOP after STOP or HOLD brakes harder: every axis's full limits from
                 // where it is.
@@ -904,7 +942,11 @@ impl VelocityGenerator {
             }
             // Whether the brake ends short of the target is known when it has stopped.
             Active::Line {
-                path, law, last, t0, ..
+                path,
+                law,
+                last,
+                t0,
+                ..
             } => match law {
                 LineLaw::Timed {
                     profile,
@@ -1233,7 +1275,11 @@ fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
         return false;
     }
     let yaw = a.yaw + f * wrc_robot::wrap180(b.yaw - a.yaw);
-    let off = [a.x + f * d[0] - p.x, a.y + f * d[1] - p.y, a.z + f * d[2] - p.z];
+    let off = [
+        a.x + f * d[0] - p.x,
+        a.y + f * d[1] - p.y,
+        a.z + f * d[2] - p.z,
+    ];
     (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt() < 1e-3
         && wrc_robot::wrap180(p.yaw - yaw).abs() < 1e-3
 }

@@ -120,7 +120,7 @@ impl Planner {
     /// velocities `v_end` and accelerations `a_end`, each axis within its limits scaled by
     /// `scale` (velocity ×s, acceleration ×s², jerk ×s³); `None` if Ruckig finds none or the
     /// robot has more than [`RUCKIG_DOF`] axes.
-    pub fn to_moving(
+    pub fn rest_to_moving(
         &mut self,
         robot: &Robot,
         start: &Joints,

@@ -785,13 +785,23 @@ mod tests {
         );
     }
 
-    /// Every transfer of a short sequence, run in virtual time: its time is at least its
-    /// reference (the reference sums lower bounds of rest-to-rest motions, and transfers do
-    /// not blend yet), it moved for at most its time, and the sequence's rate is its wafers
-    /// over its span.
+    /// `config` with `[motion] blend = false`.
+    fn rest_to_rest(config: &Config) -> Config {
+        let text = config.text.replace("blend = true", "blend = false");
+        let c = Config::parse(&text, "rest to rest").unwrap();
+        assert!(!c.blend);
+        c
+    }
+
+    /// Every transfer of a short sequence, run in virtual time with blending off: its time
+    /// is at least its reference (the reference sums lower bounds of rest-to-rest motions),
+    /// it moved for at most its time, and the sequence's rate is its wafers over its span.
+    /// With blending on (the default), the sequence is faster, and no transfer is more
+    /// than five periods slower.
     #[test]
     fn a_short_sequence_is_measured_consistently_and_never_beats_its_reference() {
-        let config = Config::embedded_default();
+        assert!(Config::embedded_default().blend);
+        let config = rest_to_rest(&Config::embedded_default());
         let f = run_sequence(&config, Sequence::LpAlLp, 1, false).unwrap();
         assert_eq!(f.transfers.len(), 4);
         let busy = f.sum(|m| m.seconds);
@@ -807,13 +817,28 @@ mod tests {
                 "{m:?}"
             );
         }
+        let blended =
+            run_sequence(&Config::embedded_default(), Sequence::LpAlLp, 1, false).unwrap();
+        for (b, r) in blended.transfers.iter().zip(&f.transfers) {
+            assert_eq!(b.line, r.line);
+            // A GET right after a PUT at the same station (nothing to blend) measures up to
+            // five periods slower than unblended; not explained yet (issue 17's note).
+            assert!(b.seconds <= r.seconds + 0.051, "{b:?} vs {r:?}");
+        }
+        assert!(
+            blended.total_s < f.total_s - 0.5,
+            "{} vs {}",
+            blended.total_s,
+            f.total_s
+        );
     }
 
     /// The dual-blade swap: GET with blade B, SWAP (blade A takes, blade B puts), PUT with
     /// blade A; each against its reference, the SWAP's being its two halves'.
     #[test]
     fn the_dual_blade_swap_is_measured_against_both_halves() {
-        let config = Sequence::SwapPm1Dual.config();
+        // Rest to rest, so that every transfer is at least its reference.
+        let config = rest_to_rest(&Sequence::SwapPm1Dual.config());
         assert_eq!(config.hand.blades(), 2);
         let f = run_sequence(&config, Sequence::SwapPm1Dual, 1, false).unwrap();
         let kinds: Vec<Kind> = f.transfers.iter().map(|m| m.kind).collect();

@@ -13,11 +13,12 @@ use std::sync::atomic::Ordering;
 use wrc_board::MotionBoard;
 use wrc_cell::{Blade, Step, MAX_BLADES};
 use wrc_protocol::{Code, Command};
+use wrc_robot::Joints;
 
 use super::program::ProgramWait;
 use super::{deliver, CommandInterpreter};
 use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobStep, MAX_MAP_SLOTS};
-use crate::messages::{SourceId, Urgent};
+use crate::messages::{MoveKind, SourceId, Urgent};
 use crate::shared::{RobotState, StopKind};
 
 /// How long the board may take to clear its mapping latch or to apply an output [ns].
@@ -62,6 +63,10 @@ pub(super) struct RunningJob {
     saved_speed: Option<u32>,
     /// Successive cycles a holding blade's vacuum sensor read "no wafer".
     dropped: u32,
+    /// During a blended approach: the station's interlock input and the approach's ticket.
+    /// Until the Pulse Generator reports the approach committed to enter, an interlock
+    /// that opens stops the robot, and the stop ends behind the approach pose.
+    guard: Option<(u8, u32)>,
 }
 
 /// The bit of `blade` in a blade mask.
@@ -237,6 +242,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             blade: Blade::A,
             saved_speed: None,
             dropped: 0,
+            guard: None,
         });
     }
 
@@ -277,6 +283,19 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 return self.job_fault(
                     Code::WaferLost,
                     "the vacuum sensor lost the wafer while the hand carried it",
+                );
+            }
+        }
+        // A blended approach is watched for the interlock until it is committed to enter.
+        if let (Some((input, ticket)), JobWait::Motion(waiting)) = (j.guard, j.wait) {
+            let committed = self.shared.entry_committed.load(Ordering::Acquire) == ticket;
+            if waiting == ticket
+                && !committed
+                && self.board.read_inputs(0) & (1u32 << (input & 31)) == 0
+            {
+                return self.job_fault(
+                    Code::InterlockOpened,
+                    "the station's interlock opened while the hand was approaching; it stopped outside the station",
                 );
             }
         }
@@ -465,10 +484,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.job_advance();
                 }
             },
-            JobStep::Joints(joints) => self.job_move(Command::MovJ {
-                joints,
-                count: self.robot.axis_count(),
-            }),
+            JobStep::Joints(joints) => {
+                if !self.job_approach(joints) {
+                    self.job_move(Command::MovJ {
+                        joints,
+                        count: self.robot.axis_count(),
+                    });
+                }
+            }
             JobStep::MapClear => {
                 self.board.clear_mapping();
                 let deadline = self.now_ns.saturating_add(BOARD_ACK_NS);
@@ -486,6 +509,86 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.job_advance();
             }
         }
+    }
+
+    /// A transfer's move to the approach pose `via` followed by the station's speed, its
+    /// interlock and the straight line in: with blending on, one blended approach
+    /// (docs/motion.md), the interlock checked now and watched until the approach is
+    /// committed to enter. Returns false when the steps after `via` are not that (a MAP's,
+    /// or blending off): the caller moves to `via` alone.
+    fn job_approach(&mut self, via: Joints) -> bool {
+        let Some(j) = self.job else {
+            return false;
+        };
+        if !self.blend {
+            return false;
+        }
+        let steps = j.job.steps();
+        let after = j.next + 1;
+        let (pct, guard, line, pose) = match steps.get(after..) {
+            Some(
+                [JobStep::Transfer(Step::Speed(pct)), JobStep::Transfer(Step::RequireInput(n)), JobStep::Transfer(Step::Line(pose)), ..],
+            ) => (*pct, Some(*n), after + 2, *pose),
+            Some(
+                [JobStep::Transfer(Step::Speed(pct)), JobStep::Transfer(Step::Line(pose)), ..],
+            ) => (*pct, None, after + 1, *pose),
+            _ => return false,
+        };
+        if let Some(n) = guard {
+            if self.board.read_inputs(0) & (1u32 << (n & 31)) == 0 {
+                self.job_fault(
+                    Code::InterlockOpened,
+                    "the station's interlock opened before the hand approached; nothing entered",
+                );
+                return true;
+            }
+        }
+        let now = self.shared.speed_pct.load(Ordering::Acquire);
+        let near = (pct.round().clamp(1.0, 100.0) as u32).min(now);
+        // The line in, checked from the approach pose as the Velocity Generator follows it.
+        let start = self
+            .robot
+            .pulses_to_joints(&self.robot.joints_to_pulses(&via));
+        let end = match wrc_motion::check_line(&self.robot, &start, &pose) {
+            Ok((_, check)) => check.end_joints,
+            Err(e) => {
+                let code = Code::from_number(crate::velocity_generator::refusal_code(&e))
+                    .unwrap_or(Code::MotionFault);
+                self.end_job(Some((code, code.text())));
+                return true;
+            }
+        };
+        let next = self.next_ticket;
+        // Ordered at the override in force (the first part's); the line at the station's.
+        self.motion(
+            SourceId::CELL,
+            wrc_protocol::ReplyTo::default(),
+            MoveKind::Approach {
+                via,
+                to: pose,
+                line_pct: f64::from(near),
+            },
+            end,
+            false,
+        );
+        let ticket = self
+            .tickets
+            .iter()
+            .flatten()
+            .find(|t| t.from == SourceId::CELL && t.ticket >= next)
+            .map(|t| t.ticket);
+        let Some(ticket) = ticket else {
+            self.end_job(Some((Code::Busy, "too many motions queued; WAIT first")));
+            return true;
+        };
+        self.shared.speed_pct.store(near, Ordering::Release);
+        if let Some(r) = self.job.as_mut() {
+            r.saved_speed.get_or_insert(now);
+            r.next = line;
+            r.wait = JobWait::Motion(ticket);
+            r.guard = guard.map(|n| (n, ticket));
+        }
+        true
     }
 
     fn job_move(&mut self, command: Command) {

@@ -35,6 +35,17 @@ pub enum MoveKind {
     Pose(Pose, Option<Posture>),
     /// Straight line of the TCP to a pose.
     Line(Pose),
+    /// A blended approach to a station (docs/motion.md): every axis to `via` (the line's
+    /// start, checked joints), reached at the speed of the straight line from there to `to`,
+    /// which it flows into at `line_pct` (the station's speed; never above the order's).
+    Approach {
+        /// Joints of the line's start (the station's approach pose).
+        via: Joints,
+        /// The line's end (the seat).
+        to: Pose,
+        /// Speed override of the line [%].
+        line_pct: f64,
+    },
     /// A pulse count on one axis.
     Jog {
         /// Axis index.

@@ -1,6 +1,7 @@
 //! Controller integration tests, one module per topic.
 
 mod alloc;
+mod blend;
 mod error_check;
 mod estop_input;
 mod ethernet;

@@ -390,7 +390,8 @@ fn a_dual_blade_robot_swaps_at_a_process_module_without_leaving_it() {
     let yaw = pm1.pose.yaw.to_radians();
     let (ux, uy) = (yaw.cos(), yaw.sin());
     assert_eq!(host.ask("12 SWAP PM1 1"), "ACK 12");
-    // From the moment the hand reaches the station's line (the move there comes first).
+    // From the moment the hand reaches the station's line at its approach pose (the move
+    // there comes first).
     let (mut samples, mut off_line, mut lowest, mut highest) = (0, 0.0f64, f64::MAX, f64::MIN);
     let mut arrived = false;
     let end = loop {
@@ -409,8 +410,13 @@ fn a_dual_blade_robot_swaps_at_a_process_module_without_leaving_it() {
         // Distance from the station's line (through the wafer centre, along its yaw).
         let (dx, dy) = (x - pm1.pose.x, y - pm1.pose.y);
         let off = (dx * uy - dy * ux).abs();
-        arrived |= off < 0.01;
-        if arrived {
+        // On the line and past the approach pose (a blended approach meets the line's
+        // extension there, flowing into it).
+        let along = dx * ux + dy * uy;
+        arrived |= off < 0.01 && along >= -pm1.approach_mm - 0.01;
+        // Off the line only behind the approach pose: a blended approach to blade B's
+        // height flows into the line from there.
+        if arrived && along > -pm1.approach_mm + 0.01 {
             off_line = off_line.max(off);
             lowest = lowest.min(z);
             highest = highest.max(z);

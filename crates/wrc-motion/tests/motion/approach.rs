@@ -138,11 +138,19 @@ fn a_blended_approach_is_faster_within_every_limit_and_enters_on_the_line() {
                         c.name,
                         off_line(&c, &pose)
                     );
-                    assert!((pose.yaw - c.a.yaw).abs() < 1e-3, "{}: yaw {}", c.name, pose.yaw);
+                    assert!(
+                        (pose.yaw - c.a.yaw).abs() < 1e-3,
+                        "{}: yaw {}",
+                        c.name,
+                        pose.yaw
+                    );
                 }
             }
             assert!(inside);
-            println!("{} at {ts} s: blended {t:.3} s, rest to rest {rest:.3} s", c.name);
+            println!(
+                "{} at {ts} s: blended {t:.3} s, rest to rest {rest:.3} s",
+                c.name
+            );
         }
     }
 }
@@ -182,7 +190,7 @@ fn an_estop_up_to_the_commit_point_ends_behind_the_approach_pose() {
                 }
             };
             let pose = stopper.pose();
-            if k + 2 < total {
+            if !committed && k > 0 {
                 assert_eq!(end, MoveEnd::Stopped, "{} k={k}", c.name);
             }
             assert!(!stopper.is_moving());

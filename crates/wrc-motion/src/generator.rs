@@ -263,8 +263,9 @@ pub struct VelocityGenerator {
     line_axes: LineAxes,
     /// Derivatives of the last line planned (preallocated: planning does not allocate).
     table: DerivTable,
-    /// Ruckig, for a blended approach's first part (preallocated).
-    planner: Planner,
+    /// Ruckig, for a blended approach's first part (preallocated; boxed: its calculator is
+    /// some 24 kB, too much to move around on a real-time thread's stack).
+    planner: Box<Planner>,
 }
 
 impl VelocityGenerator {
@@ -282,7 +283,7 @@ impl VelocityGenerator {
             stopped: false,
             line_axes,
             table: DerivTable::new(),
-            planner: Planner::new(),
+            planner: Box::new(Planner::new()),
         })
     }
 

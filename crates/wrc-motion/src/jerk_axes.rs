@@ -14,38 +14,40 @@ use wrc_robot::{Joints, Robot, MAX_AXES};
 /// Axes Ruckig plans at once; an arm has at most this many moving axes in an approach.
 pub const RUCKIG_DOF: usize = 4;
 
-/// Constant-jerk phases of one axis.
+/// Constant-jerk phases of one axis: the state where it starts, and each phase's end time and
+/// jerk (the state at each phase's start is integrated when evaluated: small, as a queued
+/// period's copy should be).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct Phases {
     /// End time of each phase [s].
     t_end: [f64; 7],
     /// Jerk of each phase.
     j: [f64; 7],
-    /// Position, velocity, acceleration at the start of each phase, and at the end.
-    p: [f64; 8],
-    v: [f64; 8],
-    a: [f64; 8],
+    /// Position, velocity and acceleration at the start.
+    p0: f64,
+    v0: f64,
+    a0: f64,
 }
 
 impl Phases {
     fn at(&self, t: f64) -> (f64, f64, f64) {
+        let (mut p, mut v, mut a) = (self.p0, self.v0, self.a0);
         let mut start = 0.0;
         for i in 0..7 {
-            if t <= self.t_end[i] {
-                let dt = (t - start).max(0.0);
-                let (p, v, a, j) = (self.p[i], self.v[i], self.a[i], self.j[i]);
-                return (
-                    p + dt * (v + dt * (a / 2.0 + dt * j / 6.0)),
-                    v + dt * (a + dt * j / 2.0),
-                    a + dt * j,
-                );
+            let end = self.t_end[i].max(start);
+            let dt = (t.min(end) - start).max(0.0);
+            let j = self.j[i];
+            p += dt * (v + dt * (a / 2.0 + dt * j / 6.0));
+            v += dt * (a + dt * j / 2.0);
+            a += dt * j;
+            if t <= end {
+                return (p, v, a);
             }
-            start = self.t_end[i];
+            start = end;
         }
         // After the end: on with the final velocity and acceleration (the next part takes
         // over at the end, so this is only reached within rounding).
         let dt = (t - start).max(0.0);
-        let (p, v, a) = (self.p[7], self.v[7], self.a[7]);
         (p + dt * (v + dt * a / 2.0), v + dt * a, a)
     }
 }
@@ -178,9 +180,7 @@ impl Planner {
             }
             out.t_end = pr.t_sum;
             out.j = pr.j;
-            out.p = pr.p;
-            out.v = pr.v;
-            out.a = pr.a;
+            (out.p0, out.v0, out.a0) = (pr.p[0], pr.v[0], pr.a[0]);
         }
         if !(duration.is_finite() && duration >= 0.0) {
             return None;

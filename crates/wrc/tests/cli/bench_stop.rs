@@ -92,7 +92,10 @@ fn bench_cell_prints_and_writes_the_throughput_of_a_short_sequence() {
     for t in transfers {
         let s = t["seconds"].as_f64().unwrap();
         assert!(t["moving_s"].as_f64().unwrap() <= s + 0.011, "{t}");
-        assert!(t["reference_s"].as_f64().unwrap() <= s, "{t}");
+        // The reference is rest to rest per motion; a blended transfer comes under it, but
+        // not by more than what the approach's two rest-to-rest ends cost (well within 15 %).
+        let r = t["reference_s"].as_f64().unwrap();
+        assert!(r > 1.0 && s >= 0.85 * r && s <= 1.15 * r, "{t}");
         // The motion starts within two Pulse Generator periods of the request.
         assert!(t["first_motion_s"].as_f64().unwrap() <= 0.02 + 1e-9, "{t}");
     }

@@ -597,7 +597,12 @@ impl VelocityGenerator {
         let current = self.joints();
         let here = self.robot.forward(&current);
         let entry = self.robot.forward(via);
-        if on_segment(&here, &entry, target) {
+        // At the approach pose already (within a pulse: a GET right after a PUT there), or
+        // on the line between it and the target: the line alone, from here.
+        let via_pulses = self.robot.joints_to_pulses(via);
+        let there =
+            (0..self.robot.axis_count()).all(|i| (via_pulses[i] - self.position[i]).abs() <= 1);
+        if there || on_segment(&here, &entry, target) {
             self.settings.speed_pct = line_scale * 100.0;
             return self.start_line(target);
         }
@@ -615,16 +620,7 @@ impl VelocityGenerator {
         // How far into the station (along the line, from its start) a pose is [mm].
         let along = |p: &Pose| (p.x - entry.x) * dir.0 + (p.y - entry.y) * dir.1;
         let inner = along(&here).max(0.0) + 1e-6;
-        // Already at the approach pose (a GET right after a PUT there): nothing to blend,
-        // the line from rest.
-        let via_pulses = self.robot.joints_to_pulses(via);
-        let there =
-            (0..self.robot.axis_count()).all(|i| (via_pulses[i] - self.position[i]).abs() <= 1);
-        let v_max = if there {
-            0.0
-        } else {
-            0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u))
-        };
+        let v_max = 0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u));
         let scale = self.scale();
         let ts = self.settings.period_s;
         // The fastest candidate: (duration, first part, its commit period, the line's law).
@@ -1264,7 +1260,7 @@ fn stop_line(
 /// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
 /// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
 /// Whether `p` lies on the straight segment from `a` to `b` (within 1 µm, with the segment's
-/// z and yaw where it is).
+/// z and yaw where it is, to 0.001°).
 fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
     let d = [b.x - a.x, b.y - a.y, b.z - a.z];
     let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];

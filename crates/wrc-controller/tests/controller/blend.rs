@@ -152,3 +152,24 @@ fn hold_stop_and_estop_in_every_phase_of_a_blended_put_leave_the_map_as_the_cell
         }
     }
 }
+
+#[test]
+fn a_wafer_lost_during_a_blended_approach_stops_the_hand_outside_the_station() {
+    let mut host = holding_w1();
+    assert_eq!(host.ask("10 PUT LP2 1"), "ACK 10");
+    // Before the approach is committed (it commits after some 450 ms: the interlock test).
+    host.sim.run_for_ns(300_000_000);
+    host.inject("sensor-flip 0 on");
+    let end = end_of(&mut host, 10);
+    assert!(end.starts_with("ABS 10 213 "), "{end}");
+    host.until("EVT ERROR 213 ");
+    at_rest(&mut host);
+    assert!(host.status().contains("state=ERROR"));
+    let past = past_lp2_approach(&mut host);
+    assert!(past <= 1e-3, "stopped {past:.3} mm past the approach pose");
+    // The wafer left the map with the hand's vacuum; LP2 untouched, in the map and the cell.
+    let map = host.ask("WAFERS");
+    assert!(map.contains("hand=- "), "{map}");
+    assert!(map.contains(" LP2=-x25 "), "{map}");
+    assert_eq!(host.truth("LP2"), "0".repeat(25));
+}

@@ -50,6 +50,10 @@ pub struct CellArgs {
     /// from the virtual ones [Pulse Generator periods].
     #[arg(long)]
     compare: bool,
+    /// Plan every transfer's motions from rest to rest (`[motion] blend = false`), to see
+    /// what blending gains.
+    #[arg(long)]
+    rest_to_rest: bool,
     /// Only these sequences (comma-separated).
     #[arg(long, value_delimiter = ',', value_name = "SEQUENCE")]
     only: Vec<Sequence>,
@@ -577,6 +581,37 @@ fn analyse(
 
 /// The configuration text with the trace recorder keeping an hour and every line: a bench
 /// sequence is longer than the default 30 s.
+/// `config` with `[motion] blend = false`: its text with that key set in its `[motion]`
+/// section (added if it has none), parsed again (the real-time run reads the text).
+fn unblended(config: &Config) -> anyhow::Result<Config> {
+    let mut out = String::new();
+    let mut section = "";
+    let mut done = false;
+    for line in config.text.lines() {
+        let t = line.trim();
+        if t.starts_with('[') {
+            section = if t == "[motion]" { "motion" } else { "other" };
+        }
+        if section == "motion" && t.split('=').next().is_some_and(|k| k.trim() == "blend") {
+            continue;
+        }
+        out.push_str(line);
+        out.push('\n');
+        if t == "[motion]" {
+            out.push_str("blend = false\n");
+            done = true;
+        }
+    }
+    if !done {
+        out.push_str("\n[motion]\nblend = false\n");
+    }
+    let parsed = Config::parse(&out, &config.source)?;
+    if parsed.blend {
+        bail!("the bench could not turn blending off");
+    }
+    Ok(parsed)
+}
+
 fn long_trace(config: &Config) -> anyhow::Result<String> {
     let mut out = String::new();
     let mut section = "";
@@ -648,6 +683,11 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
         (false, true) => "virtual time, then real time (wrc up)",
         (false, false) => "virtual time",
     };
+    let mode = if args.rest_to_rest {
+        format!("{mode}, every motion from rest to rest")
+    } else {
+        mode.to_string()
+    };
     println!(
         "wrc bench cell: the demo cell, {} wafers per sequence, {mode}",
         args.wafers
@@ -666,7 +706,11 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
     );
     let mut all = Vec::new();
     for sequence in sequences {
-        let config = sequence.config();
+        let config = if args.rest_to_rest {
+            unblended(&sequence.config())?
+        } else {
+            sequence.config()
+        };
         let f = run_sequence(&config, sequence, args.wafers, args.real_time)
             .with_context(|| format!("sequence {}", sequence.key()))?;
         let busy = f.sum(|m| m.seconds);
@@ -785,14 +829,6 @@ mod tests {
         );
     }
 
-    /// `config` with `[motion] blend = false`.
-    fn rest_to_rest(config: &Config) -> Config {
-        let text = config.text.replace("blend = true", "blend = false");
-        let c = Config::parse(&text, "rest to rest").unwrap();
-        assert!(!c.blend);
-        c
-    }
-
     /// Every transfer of a short sequence, run in virtual time with blending off: its time
     /// is at least its reference (the reference sums lower bounds of rest-to-rest motions),
     /// it moved for at most its time, and the sequence's rate is its wafers over its span.
@@ -801,7 +837,7 @@ mod tests {
     #[test]
     fn a_short_sequence_is_measured_consistently_and_never_beats_its_reference() {
         assert!(Config::embedded_default().blend);
-        let config = rest_to_rest(&Config::embedded_default());
+        let config = unblended(&Config::embedded_default()).unwrap();
         let f = run_sequence(&config, Sequence::LpAlLp, 1, false).unwrap();
         assert_eq!(f.transfers.len(), 4);
         let busy = f.sum(|m| m.seconds);
@@ -836,7 +872,7 @@ mod tests {
     #[test]
     fn the_dual_blade_swap_is_measured_against_both_halves() {
         // Rest to rest, so that every transfer is at least its reference.
-        let config = rest_to_rest(&Sequence::SwapPm1Dual.config());
+        let config = unblended(&Sequence::SwapPm1Dual.config()).unwrap();
         assert_eq!(config.hand.blades(), 2);
         let f = run_sequence(&config, Sequence::SwapPm1Dual, 1, false).unwrap();
         let kinds: Vec<Kind> = f.transfers.iter().map(|m| m.kind).collect();

@@ -44,6 +44,13 @@
 //! centre follows the poses above. Its vacuum steps switch and read blade B's valve and
 //! sensor (the controller picks them by the blade the job names).
 //!
+//! With `[motion] blend = true` (the default) the controller carries out the approach, the
+//! station's speed, the interlock check and the straight line in (GET steps 2-5, PUT 3-6) as
+//! one blended move: the hand reaches the approach pose at the line's speed instead of
+//! stopping there, never further in before it is on the line, with the interlock checked
+//! when the move starts and watched until it is committed to enter (docs/motion.md,
+//! "Blended approach"). The steps, and what each stop leaves in the wafer map, are the same.
+//!
 //! While a wafer is on the hand (GET from step 8 on, PUT until step 7) the controller watches
 //! the vacuum-sensed input during every motion and stops in a controlled way if it drops (a
 //! wafer lost in motion).

@@ -154,6 +154,52 @@ fn cycle(c: &mut Criterion) {
             )
         });
     }
+    // What the Velocity Generator pays before a blended approach's first pulse (docs/motion.md,
+    // "Blended approach"): the line's check, then for each entry speed tried (four) Ruckig's
+    // move into it, its samples, its commit point and the line's law run once: the demo cell's
+    // LP1 approach pose to the aligner's line at 80 %.
+    let robot = fresh.robot().clone();
+    let mut at_lp1 = fresh.clone();
+    let lp1 = robot
+        .inverse(
+            &Pose {
+                x: 103.923,
+                y: -60.0,
+                z: 23.0,
+                yaw: -30.0,
+            },
+            Posture::Right,
+            None,
+        )
+        .unwrap();
+    at_lp1
+        .set_position_pulses(&robot.joints_to_pulses(&lp1))
+        .unwrap();
+    let al = robot
+        .inverse(
+            &Pose {
+                x: 0.0,
+                y: 100.0,
+                z: 83.0,
+                yaw: 90.0,
+            },
+            Posture::Right,
+            None,
+        )
+        .unwrap();
+    let seat = Pose {
+        x: 0.0,
+        y: 300.0,
+        z: 83.0,
+        yaw: 90.0,
+    };
+    c.bench_function("plan_approach_lp1_to_al", |b| {
+        b.iter_batched_ref(
+            || at_lp1.clone(),
+            |vg| black_box(vg.plan_approach(&al, &seat, 80.0).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
     // With the whole timing law run ahead, for the duration (`wrc plan`).
     c.bench_function("plan_line_250mm", |b| {
         b.iter_batched_ref(

@@ -1,4 +1,5 @@
-//! The incremental velocity generator: plans a move (PTP, straight line, jog) from the
+//! The incremental velocity generator: plans a move (PTP, straight line, jog, a transfer's
+//! blended approach into a station's line) from the
 //! current commanded position and then yields, period by period, the integer pulse
 //! increment of every axis, with a speed override and a controlled stop (STOP/HOLD with the
 //! move's limits, ESTOP with every axis's full limits: [`BrakeLimits`]).

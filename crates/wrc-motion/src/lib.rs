@@ -13,7 +13,10 @@
 //! axis, where and the pose), and under the default profile timed by a time-optimal
 //! jerk-limited path parameterisation whose every state is known to stop along the line
 //! within the limits (`line_profile.rs`). A PTP move to a pose goes to the joint solution
-//! it reaches soonest ([`ptp_target`]). Not for the controller: [`reference`] (lower bounds
+//! it reaches soonest ([`ptp_target`]). A wafer transfer's blended approach
+//! ([`VelocityGenerator::plan_approach`]) flows into a station's straight line at speed:
+//! Ruckig's synchronised move to the line's entry state, kept behind the line's start until
+//! the hand is on the line (docs/motion.md, "Blended approach"). Not for the controller: [`reference`] (lower bounds
 //! of a line's duration, TOPP-RA) and [`bench`] (`wrc bench motion`), which allocate.
 //!
 //! A controlled stop ([`VelocityGenerator::stop`]) brakes from the present state in the next

@@ -13,7 +13,6 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -407,7 +406,7 @@ impl Service {
         let Some((_, warnings)) = self.compile(from, to, &name, &text) else {
             return;
         };
-        match write_atomically(&self.path(&name), text.as_bytes()) {
+        match wrc_cell::write_atomic(&self.path(&name), text.as_bytes()) {
             Ok(()) => {
                 let line = self.buf.ack(
                     to,
@@ -452,22 +451,6 @@ impl Service {
             );
         }
     }
-}
-
-/// Write `bytes` to `path` so that a crash leaves either the old file or the new one:
-/// a temporary file in the same directory, fsync, rename, fsync of the directory.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-    }
-    fs::rename(&tmp, path)?;
-    fs::File::open(dir)?.sync_all()
 }
 
 /// Who asked, for a trace's reason.

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use wrc_config::Config;
 use wrc_controller::controller::{self, CellFiles, Options};
 use wrc_controller::rs232c::Parity;
@@ -48,9 +48,9 @@ pub struct UpArgs {
     /// Serial speed [baud].
     #[arg(long, value_name = "BAUD", default_value_t = 9600)]
     baud: u32,
-    /// Serial parity: none, even or odd.
-    #[arg(long, value_name = "PARITY", default_value = "none")]
-    parity: String,
+    /// Serial parity.
+    #[arg(long, value_name = "PARITY", value_enum, ignore_case = true, default_value_t = SerialParity::None)]
+    parity: SerialParity,
     /// Do not start the web GUI (`wrc ui`).
     #[arg(long)]
     no_ui: bool,
@@ -287,14 +287,27 @@ pub(crate) fn stop_children(children: &mut [Child]) {
     }
 }
 
+/// `--parity` (also `n`, `e`, `o`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SerialParity {
+    /// No parity bit.
+    #[value(alias = "n")]
+    None,
+    /// Even parity.
+    #[value(alias = "e")]
+    Even,
+    /// Odd parity.
+    #[value(alias = "o")]
+    Odd,
+}
+
 /// Run `wrc up`.
 pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     let config = Config::load(args.config.as_deref())?;
-    let parity = match args.parity.to_ascii_lowercase().as_str() {
-        "none" | "n" => Parity::None,
-        "even" | "e" => Parity::Even,
-        "odd" | "o" => Parity::Odd,
-        other => bail!("--parity {other:?}: use none, even or odd"),
+    let parity = match args.parity {
+        SerialParity::None => Parity::None,
+        SerialParity::Even => Parity::Even,
+        SerialParity::Odd => Parity::Odd,
     };
     std::fs::create_dir_all(&args.state_dir).with_context(|| {
         format!(
@@ -432,7 +445,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             "wrc: teaching pendant on {} ({} baud, parity {})",
             serial.display(),
             args.baud,
-            args.parity
+            args.parity.to_possible_value().map_or("?".into(), |v| v.get_name().to_string())
         );
     }
     for (b, path) in boards.iter().enumerate() {
@@ -484,21 +497,32 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Write the last commanded position and settings, atomically (temp file + rename).
+/// What `state.toml` records at shutdown, for the operator (nothing reads it back).
+#[derive(serde::Serialize)]
+struct SavedState {
+    homed: bool,
+    speed_pct: u32,
+    outputs: u32,
+    commanded_pulses: Vec<i64>,
+}
+
+/// Write the last commanded position and settings to `state.toml`, atomically (the wafer
+/// map's write: temporary file, fsync, rename, fsync of the directory).
 fn save_state(dir: &Path, shared: &wrc_controller::shared::Shared) {
-    let pulses = shared.commanded_pulses();
-    let text = format!(
-        "# wrc controller state at shutdown\nhomed = {}\nspeed_pct = {}\noutputs = {}\ncommanded_pulses = {:?}\n",
-        shared.homed.load(Ordering::Acquire),
-        shared.speed_pct.load(Ordering::Acquire),
-        shared.outputs[0].load(Ordering::Acquire),
-        pulses
-    );
-    let tmp = dir.join("state.toml.tmp");
-    let ok = std::fs::write(&tmp, text).is_ok()
-        && std::fs::File::open(&tmp).and_then(|f| f.sync_all()).is_ok()
-        && std::fs::rename(&tmp, dir.join("state.toml")).is_ok();
-    if !ok {
-        eprintln!("wrc: could not save the state in {}", dir.display());
+    let state = SavedState {
+        homed: shared.homed.load(Ordering::Acquire),
+        speed_pct: shared.speed_pct.load(Ordering::Acquire),
+        outputs: shared.outputs[0].load(Ordering::Acquire),
+        commanded_pulses: shared.commanded_pulses().to_vec(),
+    };
+    let saved = toml::to_string(&state)
+        .map_err(|e| e.to_string())
+        .and_then(|body| {
+            let text = format!("# wrc controller state at shutdown\n{body}");
+            wrc_cell::write_atomic(&dir.join("state.toml"), text.as_bytes())
+                .map_err(|e| e.to_string())
+        });
+    if let Err(e) = saved {
+        eprintln!("wrc: could not save the state in {}: {e}", dir.display());
     }
 }

@@ -57,7 +57,6 @@
 mod atomic;
 pub mod blade;
 pub mod mapping;
-mod num;
 pub mod station;
 pub mod stations;
 pub mod transfer;

@@ -44,7 +44,7 @@ use wrc_motion::{check_line, ptp_cost, solutions, sooner, PlanError};
 use wrc_robot::{IkCheck, InlineName, Joints, KinematicsError, Pose, Posture, Robot};
 
 use crate::mapping::SlotCode;
-use crate::num::{fmt_num, wrap180};
+use wrc_robot::{wrap180, Num};
 
 /// A station name: 1 to 16 ASCII letters, digits, `_` or `-`; compared case-insensitively.
 pub type StationName = InlineName<16>;
@@ -207,7 +207,7 @@ pub enum StationError {
     #[error(
         "station {station} slot {slot}: the {what} x={} y={} z={} yaw={} cannot be reached \
          with the {} elbow: {source}; re-teach the station or change approach_mm/stroke_mm",
-        fmt_num(pose.x), fmt_num(pose.y), fmt_num(pose.z), fmt_num(pose.yaw), posture_word(*posture)
+        Num(pose.x), Num(pose.y), Num(pose.z), Num(pose.yaw), posture_word(*posture)
     )]
     Unreachable {
         /// The station.
@@ -361,8 +361,8 @@ impl Station {
                 format!(
                     "must be below pitch_mm ({}) so a lifted wafer stays clear of the slot \
                      above, got {}",
-                    fmt_num(self.pitch_mm),
-                    fmt_num(self.stroke_mm)
+                    Num(self.pitch_mm),
+                    Num(self.stroke_mm)
                 ),
             ));
         }

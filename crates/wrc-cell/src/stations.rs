@@ -32,10 +32,10 @@ use wrc_robot::{Pose, Posture, Robot};
 
 use crate::atomic::write_atomic;
 use crate::mapping::{parse_slot_codes, slot_codes_grouped};
-use crate::num::fmt_num;
 use crate::station::{
     parse_station_name, same_name, Station, StationError, StationKind, StationSim,
 };
+use wrc_robot::Num;
 
 /// The demo cell shipped with wrc (`config/stations.toml`): two 25-slot load ports LP1 and
 /// LP2, an aligner AL and two process modules PM1 and PM2 around the paper's robot.
@@ -457,15 +457,15 @@ pub fn stn_line(station: &Station) -> String {
         "{} kind={} x={} y={} z={} yaw={} slots={} pitch={} approach={} stroke={} speed={} interlock={} posture={}",
         station.name,
         station.kind,
-        fmt_num(station.pose.x),
-        fmt_num(station.pose.y),
-        fmt_num(station.pose.z),
-        fmt_num(station.pose.yaw),
+        Num(station.pose.x),
+        Num(station.pose.y),
+        Num(station.pose.z),
+        Num(station.pose.yaw),
         station.slots,
-        fmt_num(station.pitch_mm),
-        fmt_num(station.approach_mm),
-        fmt_num(station.stroke_mm),
-        fmt_num(station.speed_pct),
+        Num(station.pitch_mm),
+        Num(station.approach_mm),
+        Num(station.stroke_mm),
+        Num(station.speed_pct),
         interlock,
         posture,
     )

@@ -59,8 +59,8 @@ use std::fmt;
 
 use wrc_robot::{Pose, Posture};
 
-use crate::num::fmt_num;
 use crate::station::{Station, StationError};
+use wrc_robot::Num;
 
 /// Which way a transfer moves a wafer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -123,10 +123,10 @@ impl fmt::Display for Step {
             write!(
                 f,
                 "{name} x={} y={} z={} yaw={}",
-                fmt_num(p.x),
-                fmt_num(p.y),
-                fmt_num(p.z),
-                fmt_num(p.yaw)
+                Num(p.x),
+                Num(p.y),
+                Num(p.z),
+                Num(p.yaw)
             )
         };
         match self {
@@ -139,7 +139,7 @@ impl fmt::Display for Step {
                     None => Ok(()),
                 }
             }
-            Step::Speed(pct) => write!(f, "SPEED {}", fmt_num(*pct)),
+            Step::Speed(pct) => write!(f, "SPEED {}", Num(*pct)),
             Step::Line(p) => pose(f, "LINE", p),
             Step::Vacuum(on) => f.write_str(if *on { "VACUUM ON" } else { "VACUUM OFF" }),
             Step::Z(p) => pose(f, "Z", p),

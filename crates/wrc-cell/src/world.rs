@@ -45,10 +45,10 @@ use wrc_robot::Pose;
 
 use crate::blade::{Blade, MAX_BLADES};
 use crate::mapping::SlotCode;
-use crate::num::wrap180;
 use crate::station::{same_name, Station, StationName};
 use crate::stations::Stations;
 use crate::wafer_map::{Location, SlotFault, SlotState, Transfer, WaferId, WaferMap};
+use wrc_robot::wrap180;
 
 /// How far the hand's x, y may be from a station's taught x, y to count as seated \[mm\].
 pub const SEAT_TOLERANCE_MM: f64 = 2.0;

@@ -20,10 +20,12 @@ mod axis;
 mod error;
 mod jet;
 mod kinematics;
+mod num;
 mod robot;
 
 pub use axis::{Axis, AxisName, AxisRole, InlineName, Limits, Unit};
 pub use error::{KinematicsError, ModelError};
 pub use jet::Jet;
 pub use kinematics::{wrap180, IkCheck, JointJets, Pose, PoseJet, Posture};
+pub use num::Num;
 pub use robot::{Arm, Joints, Robot, MAX_AXES};

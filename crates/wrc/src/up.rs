@@ -445,7 +445,9 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             "wrc: teaching pendant on {} ({} baud, parity {})",
             serial.display(),
             args.baud,
-            args.parity.to_possible_value().map_or("?".into(), |v| v.get_name().to_string())
+            args.parity
+                .to_possible_value()
+                .map_or("?".into(), |v| v.get_name().to_string())
         );
     }
     for (b, path) in boards.iter().enumerate() {

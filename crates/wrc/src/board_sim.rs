@@ -11,7 +11,7 @@ use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
 use wrc_board::layout::{alarm, axis_status, board_status};
 use wrc_board::sim::cell::SimCell;
-use wrc_board::sim::runner::{self, SystemClock};
+use wrc_board::sim::runner::{self, MonotonicClock};
 use wrc_board::sim::world_file::{self, Change, Origin, WorldSaver};
 use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::wrc_cell::{SlotCode, Stations};
@@ -165,7 +165,7 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
     let Some(cell) = cell else {
         print_started(&sim, &board);
         let stop = AtomicBool::new(false);
-        runner::run(&mut sim, &SystemClock::default(), &stop, args.periods);
+        runner::run(&mut sim, &MonotonicClock, &stop, args.periods);
         return Ok(ExitCode::SUCCESS);
     };
     run_cell_board(sim, cell, &board, args.world, args.periods)
@@ -236,7 +236,7 @@ fn run_cell_board(
     sim.attach_cell(cell)?;
     print_started(&sim, board);
     let save = world_path.is_some();
-    runner::run_with(&mut sim, &SystemClock::default(), &stop, periods, |board| {
+    runner::run_with(&mut sim, &MonotonicClock, &stop, periods, |board| {
         // Outside the step: at most one text a change, written by the saver thread.
         if let Some(event) = board.take_cell_event() {
             if let Some(cell) = board.cell() {

@@ -1,46 +1,19 @@
 //! Runs a [`SimBoard`] at its board clock: one [`SimBoard::step`] per period on absolute
-//! deadlines. The clock is injected ([`Clock`]) so the loop can be tested without sleeping.
+//! deadlines. The clock is injected (the runtime's [`Clock`]: `CLOCK_MONOTONIC` and absolute
+//! `clock_nanosleep` in the process, a scripted one in tests) so the loop can be tested
+//! without sleeping.
 //! When the process is scheduled late the board catches up by stepping the missed periods
 //! (a DSP's clock does not wait for the host) and counts them; after more than
 //! [`MAX_CATCH_UP`] missed periods it starts a new schedule from now instead.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+
+pub use wrc_rt::{Clock, MonotonicClock};
 
 use super::SimBoard;
 
 /// Most periods caught up at once [periods].
 pub const MAX_CATCH_UP: u32 = 100;
-
-/// A monotonic clock the runner sleeps on.
-pub trait Clock {
-    /// Time since an arbitrary fixed start.
-    fn now(&self) -> Duration;
-    /// Sleep until `now() >= deadline`.
-    fn sleep_until(&self, deadline: Duration);
-}
-
-/// The operating system's monotonic clock.
-#[derive(Debug, Clone, Copy)]
-pub struct SystemClock(Instant);
-
-impl Default for SystemClock {
-    fn default() -> Self {
-        SystemClock(Instant::now())
-    }
-}
-
-impl Clock for SystemClock {
-    fn now(&self) -> Duration {
-        self.0.elapsed()
-    }
-    fn sleep_until(&self, deadline: Duration) {
-        let now = self.now();
-        if deadline > now {
-            std::thread::sleep(deadline - now);
-        }
-    }
-}
 
 /// Step `board` every board period until `stop` is set or `max_periods` periods ran;
 /// returns the periods stepped.
@@ -64,17 +37,17 @@ pub fn run_with(
     max_periods: Option<u64>,
     mut after_step: impl FnMut(&mut SimBoard),
 ) -> u64 {
-    let period = Duration::from_micros(u64::from(board.period_us()));
-    let mut deadline = clock.now();
+    let period = u64::from(board.period_us()) * 1000;
+    let mut deadline = clock.now_ns();
     let mut stepped = 0u64;
     while !stop.load(Ordering::Relaxed) && max_periods.is_none_or(|m| stepped < m) {
         board.step();
         after_step(board);
         stepped += 1;
         deadline += period;
-        let now = clock.now();
+        let now = clock.now_ns();
         if now >= deadline + period {
-            let behind = ((now - deadline).as_nanos() / period.as_nanos()) as u32;
+            let behind = u32::try_from((now - deadline) / period).unwrap_or(u32::MAX);
             if behind > MAX_CATCH_UP {
                 board.note_late();
                 deadline = now;
@@ -88,48 +61,56 @@ pub fn run_with(
                 }
             }
         }
-        clock.sleep_until(deadline);
+        clock.sleep_until_ns(deadline);
     }
     stepped
 }
 
 #[cfg(test)]
 mod tests {
-    use std::cell::Cell;
+    use std::sync::atomic::AtomicU64;
 
     use super::*;
     use crate::driver::Mapping;
     use crate::layout::control;
     use crate::sim::tests::settings;
 
-    /// A clock that advances only when slept on, plus a scripted stall.
-    struct MockClock {
-        now: Cell<Duration>,
-        stall_at: Duration,
-        stall: Duration,
+    /// A clock that advances only when slept on, plus a scripted stall [ns].
+    struct StallClock {
+        now: AtomicU64,
+        stall_at: u64,
+        stall: u64,
     }
 
-    impl Clock for MockClock {
-        fn now(&self) -> Duration {
-            self.now.get()
+    impl StallClock {
+        /// From 0; sleeping past `stall_at_ms` oversleeps by `stall_ms`.
+        fn new(stall_at_ms: u64, stall_ms: u64) -> StallClock {
+            StallClock {
+                now: AtomicU64::new(0),
+                stall_at: stall_at_ms * 1_000_000,
+                stall: stall_ms * 1_000_000,
+            }
         }
-        fn sleep_until(&self, deadline: Duration) {
-            let mut t = deadline.max(self.now.get());
-            if t >= self.stall_at && self.now.get() < self.stall_at {
+    }
+
+    impl Clock for StallClock {
+        fn now_ns(&self) -> u64 {
+            self.now.load(Ordering::Relaxed)
+        }
+        fn sleep_until_ns(&self, deadline: u64) {
+            let now = self.now_ns();
+            let mut t = deadline.max(now);
+            if t >= self.stall_at && now < self.stall_at {
                 t += self.stall;
             }
-            self.now.set(t);
+            self.now.store(t, Ordering::Relaxed);
         }
     }
 
     #[test]
     fn steps_one_period_per_period_and_catches_up_after_a_stall() {
         let mut board = SimBoard::new(Mapping::anonymous().unwrap(), &settings(), 1).unwrap();
-        let clock = MockClock {
-            now: Cell::new(Duration::ZERO),
-            stall_at: Duration::from_millis(100),
-            stall: Duration::from_millis(55),
-        };
+        let clock = StallClock::new(100, 55);
         let stop = AtomicBool::new(false);
         let stepped = run(&mut board, &clock, &stop, Some(30));
         assert!(stepped >= 30);
@@ -142,11 +123,7 @@ mod tests {
     #[test]
     fn the_hook_sees_every_period_caught_up_ones_too() {
         let mut board = SimBoard::new(Mapping::anonymous().unwrap(), &settings(), 1).unwrap();
-        let clock = MockClock {
-            now: Cell::new(Duration::ZERO),
-            stall_at: Duration::from_millis(100),
-            stall: Duration::from_millis(55),
-        };
+        let clock = StallClock::new(100, 55);
         let mut seen = Vec::new();
         let stepped = run_with(&mut board, &clock, &AtomicBool::new(false), Some(30), |b| {
             seen.push(b.dpram().load64(control::PERIOD_COUNT))

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use wrc_board::layout::board_status;
-use wrc_board::sim::runner::{self, SystemClock};
+use wrc_board::sim::runner::{self, MonotonicClock};
 use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
 
 use crate::sim_on;
@@ -26,7 +26,7 @@ fn host_and_board_threads_share_a_file() {
     .unwrap();
     let stop = AtomicBool::new(false);
     std::thread::scope(|s| {
-        s.spawn(|| runner::run(&mut sim, &SystemClock::default(), &stop, None));
+        s.spawn(|| runner::run(&mut sim, &MonotonicClock, &stop, None));
         // 50 periods of +200 pulses on j1 and +100 on z, pushed whenever there is room.
         let mut increments = [0i64; 16];
         increments[0] = 200;

@@ -4,7 +4,7 @@
 //        per_min_us=99981.3 per_max_us=100034.9 exec_avg_us=3.1 exec_max_us=12.4
 //        lat_avg_us=41.2 lat_p99_us=88 lat_max_us=91.5 lat_hist=32:3,64:40,128:9
 
-import type { TaskTiming } from './bus';
+import type { TaskTiming } from '../protocol/bus';
 
 const NUMERIC_KEYS: Record<string, keyof TaskTiming> = {
   prio: 'priority',

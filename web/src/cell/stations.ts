@@ -11,8 +11,9 @@
 // stroke=6 speed=30 interlock=14 posture=any` (x, y: centre of a wafer in slot 1 [mm]; z: slot
 // 1's support height [mm]; yaw: the direction the hand points into the station [deg]).
 
-import type { Bus, Unsubscribe } from './bus';
-import type { SimulatorHandle, StationSpec } from './simulator';
+import type { Bus, Unsubscribe } from '../protocol/bus';
+import type { StationSpec } from '../view3d/scene';
+import type { SimulatorHandle } from '../view3d/simulator';
 
 export type StationKind = 'load_port' | 'aligner' | 'process_module' | 'buffer';
 export type StationPosture = 'right' | 'left' | 'any';

@@ -1,9 +1,9 @@
 import { describe, expect, it } from 'vitest';
-import defaultToml from '../../config/default.toml?raw';
-import dualBladeToml from '../../config/dual-blade.toml?raw';
-import { encodeTrace } from '../e2e/trace-fixture.mjs';
-import type { RobotInfo } from './bus';
-import { armAxes, armPose } from './sim-kinematics';
+import defaultToml from '../../../config/default.toml?raw';
+import dualBladeToml from '../../../config/dual-blade.toml?raw';
+import { encodeTrace } from '../../e2e/trace-fixture.mjs';
+import type { RobotInfo } from '../protocol/bus';
+import { armAxes, armPose } from '../view3d/sim-kinematics';
 import { readTrace, type Trace } from './trace';
 import { ConfigTextError, positionsAt, robotFromConfigToml, traceRobot } from './trace-robot';
 

@@ -1,7 +1,7 @@
 import { describe, expect, it } from 'vitest';
 import { EditorState } from '@codemirror/state';
 import { toCmDiagnostics } from './editor';
-import type { Diag } from './protocol';
+import type { Diag } from '../protocol/protocol';
 
 const doc = EditorState.create({ doc: 'HOME\nPRINT TOTAL\n\nMOVEP POSE(900, 0, 0, 0)' }).doc;
 const d = (line: number, col: number, severity: Diag['severity'] = 'error'): Diag => ({

@@ -3,11 +3,11 @@
 // 4) from `TASKS`, polled every second while the panel is visible and the bus connected,
 // with each task's wake-up latency histogram as a small log-scale bar chart.
 
-import { injectStyle } from './dom';
+import { h, injectStyle } from '../dom';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
-import type { Bus, RobotInfo, SimSample, TaskTiming } from './bus';
-import { PulseRate } from './stream';
+import type { Bus, RobotInfo, SimSample, TaskTiming } from '../protocol/bus';
+import { PulseRate } from '../protocol/stream';
 import { parseTasks } from './tasks';
 import {
   RollingSeries,

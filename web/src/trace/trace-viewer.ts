@@ -6,11 +6,10 @@
 // replies and events, clients connecting and connections closing);
 // **Close trace** returns the view to the live robot.
 
-import type { Bus } from './bus';
-import { h } from './control';
-import { injectStyle } from './dom';
-import { parseState } from './protocol';
-import type { SimulatorHandle } from './simulator';
+import type { Bus } from '../protocol/bus';
+import { parseState } from '../protocol/protocol';
+import type { SimulatorHandle } from '../view3d/simulator';
+import { h, injectStyle } from '../dom';
 import { byTime, describeMessage, hex32, messagesNear, readTrace, sourceName, type Trace, type TraceMessage } from './trace';
 import { positionsAt, traceRobot, type TraceRobot } from './trace-robot';
 

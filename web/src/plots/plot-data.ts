@@ -2,7 +2,7 @@
 // the rolling window of the pulses-per-period chart, the latency histogram bins and the
 // number formats of the task table.
 
-import type { TaskTiming } from './bus';
+import type { TaskTiming } from '../protocol/bus';
 
 /** uPlot's aligned data: x values, then one array per series (null: a break). */
 export type Aligned = [number[], ...(number | null)[][]];

@@ -1,7 +1,7 @@
 import { afterEach, beforeEach, describe, expect, it, vi } from 'vitest';
 import type { SimSample } from './bus';
 import { Connection, defaultUrl, type SocketLike } from './connection';
-import { createWaferStore } from './wafers';
+import { createWaferStore } from '../cell/wafers';
 
 class FakeSocket implements SocketLike {
   binaryType = 'blob';

@@ -6,7 +6,7 @@
 //
 // No DOM: every function here is unit-tested on bytes built field by field.
 
-import { getI64, getU64 } from './le64';
+import { getI64, getU64 } from '../le64';
 
 /** The first 8 bytes of every trace file. */
 export const TRACE_MAGIC = 'WRCTRACE';

@@ -20,8 +20,8 @@ import { autocompletion, closeBrackets, completionKeymap } from '@codemirror/aut
 import { highlightSelectionMatches, searchKeymap } from '@codemirror/search';
 import { lintGutter, lintKeymap, setDiagnostics, type Diagnostic } from '@codemirror/lint';
 
-import type { Bus } from './bus';
-import { h } from './control';
+import type { Bus } from '../protocol/bus';
+import { h } from '../dom';
 import {
   diagsFromEvents,
   isProgramName,
@@ -29,11 +29,11 @@ import {
   parseProgramEvent,
   programAbsLine,
   type Diag,
-} from './protocol';
+} from '../protocol/protocol';
 import { wrl } from './wrl-language';
-import fig7 from '../../examples/fig7_ptp.wrl?raw';
-import fig8 from '../../examples/fig8_line.wrl?raw';
-import pickPlace from '../../examples/pick_place.wrl?raw';
+import fig7 from '../../../examples/fig7_ptp.wrl?raw';
+import fig8 from '../../../examples/fig8_line.wrl?raw';
+import pickPlace from '../../../examples/pick_place.wrl?raw';
 
 export const DEFAULT_PROGRAM = `' demo.wrl — a short program: home, a PTP move, a straight line.
 SPEED 50

@@ -1,6 +1,6 @@
 import { describe, expect, it } from 'vitest';
-import type { Bus, FirstReply, RobotInfo } from './bus';
-import type { StationSpec } from './simulator';
+import type { Bus, FirstReply, RobotInfo } from '../protocol/bus';
+import type { StationSpec } from '../view3d/scene';
 import { mountStations, parseStationLine, stationSpec, type StationSink } from './stations';
 
 const LP1 =

@@ -4,7 +4,7 @@
 // position = actual pulses / pulses_per_unit [deg | mm]. No DOM.
 
 import { TomlError, parse } from 'smol-toml';
-import type { AxisInfo, RobotInfo } from './bus';
+import type { AxisInfo, RobotInfo } from '../protocol/bus';
 import type { TraceMeta, TraceSamples } from './trace';
 
 type Table = Record<string, unknown>;

@@ -3,7 +3,7 @@
 // successive samples into pulses per period and stream statistics.
 
 import type { RobotState, SimSample } from './bus';
-import { getI64, getU64, setI64, setU64 } from './le64';
+import { getI64, getU64, setI64, setU64 } from '../le64';
 
 /** `WRCS`. */
 const MAGIC = [0x57, 0x52, 0x43, 0x53];

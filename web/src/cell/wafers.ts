@@ -16,8 +16,9 @@
 //
 // Parsing never throws: a malformed part is left out (and reported in `bad`), the rest is used.
 
-import type { Bus, FirstReply, Unsubscribe } from './bus';
-import type { SimulatorHandle } from './simulator';
+import type { Bus, FirstReply, Unsubscribe } from '../protocol/bus';
+import type { WaferDisc } from '../view3d/scene';
+import type { SimulatorHandle } from '../view3d/simulator';
 import type { StationInfo, StationsHandle } from './stations';
 
 /** What a slot holds. */
@@ -255,23 +256,6 @@ export function formatPending(p: PendingTransfer): string {
 
 // ---------------------------------------------------------------------------------------------
 // The 3D view's wafers
-
-/** A wafer drawn in a station, in the robot's base frame. */
-export interface WaferDisc {
-  station: string;
-  slot: number;
-  /** Wafer centre [mm]. */
-  x: number;
-  y: number;
-  /** Height of the wafer's underside [mm] (the slot's support height; half a pitch higher for a cross-slotted wafer). */
-  z: number;
-  /** The station's hand direction [deg]: a cross-slotted wafer is tilted about it. */
-  yaw: number;
-  state: 'wafer' | 'double' | 'cross';
-  wafer: string | null;
-  /** Tilt about the `yaw` direction [deg] (0 but for a cross-slotted wafer). */
-  tilt: number;
-}
 
 /** Smallest drawn tilt of a cross-slotted wafer [deg], so that it shows with a fine pitch. */
 const MIN_CROSS_TILT_DEG = 3;

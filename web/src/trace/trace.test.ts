@@ -10,7 +10,7 @@ import {
   traceBytes,
   type FixtureMessage,
   type FixtureSample,
-} from '../e2e/trace-fixture.mjs';
+} from '../../e2e/trace-fixture.mjs';
 import {
   TRACE_FORMAT_VERSION,
   byTime,

@@ -1,6 +1,6 @@
 import { describe, expect, it } from 'vitest';
 import type { Bus, SimSample } from './bus';
-import { ControllerModel, RESUME_TITLE, resumeRefusal } from './control';
+import { ControllerModel, resumeRefusal } from './controller-model';
 import { parseLine } from './protocol';
 import { encodeSample, decodeSample } from './stream';
 
@@ -67,10 +67,6 @@ describe('resumeRefusal (the RESUME button)', () => {
   it('needs a connection and control, like a motion', () => {
     expect(resumeRefusal({ ...view, connected: false }, false)).toBe('not connected');
     expect(resumeRefusal({ ...view, owner: 'tcp3' }, false)).toBe('control is held by tcp3');
-  });
-
-  it('has the title the operator reads', () => {
-    expect(RESUME_TITLE).toBe('RESUME: continue the held motion on its path');
   });
 });
 

@@ -4,7 +4,7 @@
 // J1 + J2 + J3; the TCP lies `hand` mm along the hand from the J3 axis; z is the Z axis's
 // position (0 without a Z axis). A robot without a wrist axis has J3 = 0.
 
-import type { RobotInfo } from './bus';
+import type { RobotInfo } from '../protocol/bus';
 
 /** 0-based indices into `SimSample.positions` of the axes the drawing uses (null: absent). */
 export interface ArmAxes {

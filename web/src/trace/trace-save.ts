@@ -2,8 +2,10 @@
 // and shows where the controller wrote the file, or its NAK. The request and its reply also
 // appear in the command log, like every request of the panel.
 
-import { h, type Commander, type ControllerModel } from './control';
-import { traceSaveOutcome, traceSaveRequest } from './protocol';
+import type { Commander } from '../protocol/commander';
+import type { ControllerModel } from '../protocol/controller-model';
+import { traceSaveOutcome, traceSaveRequest } from '../protocol/protocol';
+import { h } from '../dom';
 
 export const TRACE_SAVE_TITLE =
   "TRACE SAVE: write the controller's last seconds of samples and every request and reply to a .wrctrace file";

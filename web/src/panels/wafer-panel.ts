@@ -10,10 +10,12 @@
 // The decisions (what a slot shows, which button is enabled and why) are plain functions of
 // the state, unit-tested without a DOM; `mountWaferPanel` only draws them.
 
-import type { RobotInfo } from './bus';
-import { injectStyle } from './dom';
-import { frameThrottle, h, type Commander, type ControllerModel } from './control';
-import type { StationInfo, StationsHandle } from './stations';
+import type { RobotInfo } from '../protocol/bus';
+import type { Commander } from '../protocol/commander';
+import type { ControllerModel } from '../protocol/controller-model';
+import { h, injectStyle, setAttr, setText } from '../dom';
+import { frameThrottle } from '../frame-throttle';
+import type { StationInfo, StationsHandle } from '../cell/stations';
 import {
   formatPending,
   type Blade,
@@ -23,7 +25,7 @@ import {
   type WaferMap,
   type WaferState,
   type WaferStore,
-} from './wafers';
+} from '../cell/wafers';
 
 /** The slot (or, with `slot` null, only the station) the operator clicked. */
 export interface WaferSelection {
@@ -446,13 +448,6 @@ export function mountWaferPanel(
       columns.append(col);
       cols.set(name, { col, kind, slots: buttons });
     }
-  }
-
-  function setText(e: Element, t: string): void {
-    if (e.textContent !== t) e.textContent = t;
-  }
-  function setAttr(e: Element, k: string, v: string): void {
-    if (e.getAttribute(k) !== v) e.setAttribute(k, v);
   }
 
   function render(): void {

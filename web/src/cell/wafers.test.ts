@@ -1,5 +1,5 @@
 import { describe, expect, it } from 'vitest';
-import type { Bus, FirstReply, RobotInfo } from './bus';
+import type { Bus, FirstReply, RobotInfo } from '../protocol/bus';
 import { parseStationLine, type StationInfo } from './stations';
 import {
   applyWaferPart,
@@ -17,10 +17,10 @@ import {
   waferDiscs,
   wafersFromReply,
   type SlotToken,
-  type WaferDisc,
   type WaferMap,
   type WaferState,
 } from './wafers';
+import type { WaferDisc } from '../view3d/scene';
 
 const W = (n: number): SlotToken => ({ state: 'wafer', wafer: `W${n}` });
 const E: SlotToken = { state: 'empty', wafer: null };

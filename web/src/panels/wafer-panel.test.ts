@@ -9,7 +9,7 @@ import {
   waferActions,
   type WaferSelection,
 } from './wafer-panel';
-import { emptyWaferMap, parseWafersBody, type WaferState } from './wafers';
+import { emptyWaferMap, parseWafersBody, type WaferState } from '../cell/wafers';
 
 function state(body: string, available: boolean | null = true): WaferState {
   return { available, map: parseWafersBody(body).map, refusal: '', ignored: [] };

@@ -1,0 +1,95 @@
+// Sending the operator's requests: the `Commander` sends each request, tells the controller
+// model its reply, and writes the request, its ACK/NAK and its INF/ABS to the `CommandLog`
+// that the Control panel shows. Shared by the header (E-STOP, control lock, RESET), the Control
+// panel, the Trace card and the Wafers panel. No DOM.
+
+import type { Bus, FinalReply, FirstReply, Unsubscribe } from './bus';
+import type { ControllerModel } from './controller-model';
+import { replyRest, verbOf } from './protocol';
+
+/** What a log entry is: a request sent, a first reply, a final reply, or a note. */
+export type LogKind = 'out' | 'ack' | 'nak' | 'inf' | 'abs' | 'info';
+
+/** One line of the command log. */
+export interface LogEntry {
+  kind: LogKind;
+  text: string;
+  /** When it was added (the log shows the local time of day). */
+  at: Date;
+}
+
+/** The command log: the newest `CommandLog.MAX_ENTRIES` entries, oldest first. */
+export class CommandLog {
+  /** Entries kept; older ones are dropped. */
+  static readonly MAX_ENTRIES = 300;
+  private readonly list: LogEntry[] = [];
+  private readonly listeners = new Set<(e: LogEntry) => void>();
+
+  add(kind: LogKind, text: string): void {
+    const entry: LogEntry = { kind, text, at: new Date() };
+    this.list.push(entry);
+    if (this.list.length > CommandLog.MAX_ENTRIES) this.list.splice(0, this.list.length - CommandLog.MAX_ENTRIES);
+    for (const l of [...this.listeners]) l(entry);
+  }
+
+  entries(): readonly LogEntry[] {
+    return this.list;
+  }
+
+  /** Called with every entry added from now on. */
+  onAdd(cb: (e: LogEntry) => void): Unsubscribe {
+    this.listeners.add(cb);
+    return () => {
+      this.listeners.delete(cb);
+    };
+  }
+}
+
+/** A request that was sent: its first reply, and its final one when the verb completes later. */
+export interface Sent {
+  first: FirstReply;
+  final: Promise<FinalReply> | null;
+}
+
+/** Sends requests, logging each with its replies. */
+export class Commander {
+  readonly log = new CommandLog();
+  constructor(
+    private readonly bus: Bus,
+    private readonly model: ControllerModel,
+  ) {}
+
+  /** Send one request; resolves with its first reply (null when it could not be sent). */
+  async send(line: string): Promise<Sent | null> {
+    this.log.add('out', `> ${line}`);
+    let r: Awaited<ReturnType<Bus['request']>>;
+    try {
+      r = await this.bus.request(line);
+    } catch (e) {
+      this.log.add('nak', `${line}: ${e instanceof Error ? e.message : String(e)}`);
+      return null;
+    }
+    const { first, final } = r;
+    this.model.noteReply(line, first);
+    const verb = verbOf(line);
+    if (first.kind === 'ACK') {
+      const fields = Object.entries(first.fields).map(([k, v]) => `${k}=${v}`).join(' ');
+      this.log.add('ack', `ACK ${verb}${fields ? ` ${fields}` : ''}${final ? ' (started)' : ''}`);
+    } else {
+      this.log.add('nak', `NAK ${verb}: ${first.code} ${first.text}`);
+    }
+    if (final) {
+      final
+        .then((f) => {
+          if (f.kind === 'INF') {
+            // GET/PUT say which wafer moved (`INF 3 W3`), MAP the slots it found (`INF 7 LP1 1111…`).
+            const rest = replyRest(f.line);
+            this.log.add('inf', `INF ${verb} finished${rest ? `: ${rest}` : ''}`);
+          } else this.log.add('abs', `ABS ${verb}: ${f.code} ${f.text}`);
+        })
+        .catch((e: unknown) => this.log.add('abs', `${verb}: ${e instanceof Error ? e.message : String(e)}`));
+    }
+    if (verb === 'OUT' && first.kind === 'ACK') this.model.refresh();
+    return { first, final };
+  }
+}

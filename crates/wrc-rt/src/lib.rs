@@ -34,7 +34,6 @@
 //! ```
 #![deny(missing_docs)]
 
-pub mod bench;
 pub mod clock;
 pub mod driver;
 pub mod histogram;

@@ -7,11 +7,11 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
+use crate::bench_rt::{self as bench, BenchOptions, BenchReport};
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{json, Value};
-use wrc_rt::bench::{self, BenchOptions, BenchReport};
 use wrc_rt::{fifo_priority, Notice, RealtimeMode, Summary};
 
 /// Benchmarks.

@@ -4,6 +4,7 @@ mod bench;
 mod bench_cell;
 mod bench_controller;
 mod bench_motion;
+mod bench_rt;
 mod bench_stop;
 mod bench_ui;
 mod board_sim;
@@ -19,6 +20,11 @@ mod trace;
 mod trace_replay;
 mod ui;
 mod up;
+
+/// The unit tests count heap allocations per thread (`bench_rt`'s zero-allocation test).
+#[cfg(test)]
+#[global_allocator]
+static GLOBAL: wrc_alloc_count::CountingAllocator = wrc_alloc_count::CountingAllocator;
 
 use std::process::ExitCode;
 

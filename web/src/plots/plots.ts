@@ -69,19 +69,6 @@ const STYLE = `
 .plot-table canvas { display: block; }
 `;
 
-function el<K extends keyof HTMLElementTagNameMap>(
-  tag: K,
-  cls: string,
-  parent?: HTMLElement,
-  text?: string,
-): HTMLElementTagNameMap[K] {
-  const e = document.createElement(tag);
-  if (cls) e.className = cls;
-  if (text !== undefined) e.textContent = text;
-  parent?.appendChild(e);
-  return e;
-}
-
 export interface PlotsHandle {
   /** Call when the panel is shown or its size changed. */
   resize(): void;
@@ -91,7 +78,7 @@ export interface PlotsHandle {
 
 export function mountPlots(root: HTMLElement, bus: Bus): PlotsHandle {
   injectStyle(STYLE_ID, STYLE);
-  const box = el('div', 'plot-root', root);
+  const box = root.appendChild(h('div', { class: 'plot-root' }));
   const visible = (): boolean =>
     root.isConnected && box.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
 
@@ -118,26 +105,26 @@ function mountPulseChart(
   bus: Bus,
   visible: () => boolean,
 ): { resize(): void; dispose(): void } {
-  const section = el('div', 'plot-section plot-chart-section', parent);
-  const bar = el('div', 'plot-bar', section);
-  const title = el('span', 'plot-title', bar, 'Output pulses per period');
-  const lostNote = el('span', 'plot-note', bar);
-  el('span', 'plot-note', bar, 'window');
-  const windowSel = el('select', '', bar);
+  const section = parent.appendChild(h('div', { class: 'plot-section plot-chart-section' }));
+  const bar = section.appendChild(h('div', { class: 'plot-bar' }));
+  const title = bar.appendChild(h('span', { class: 'plot-title' }, 'Output pulses per period'));
+  const lostNote = bar.appendChild(h('span', { class: 'plot-note' }));
+  bar.appendChild(h('span', { class: 'plot-note' }, 'window'));
+  const windowSel = bar.appendChild(h('select'));
   windowSel.title = 'Time window of the chart';
   for (const w of WINDOWS_S) {
-    const o = el('option', '', windowSel, `${w} s`);
+    const o = windowSel.appendChild(h('option', {}, `${w} s`));
     o.value = String(w);
   }
   windowSel.value = '10';
-  const pauseBtn = el('button', '', bar, 'Pause');
+  const pauseBtn = bar.appendChild(h('button', {}, 'Pause'));
   pauseBtn.type = 'button';
   pauseBtn.title = 'Freeze the chart (data keeps being collected); drag to zoom while paused';
-  const clearBtn = el('button', '', bar, 'Clear');
+  const clearBtn = bar.appendChild(h('button', {}, 'Clear'));
   clearBtn.type = 'button';
   clearBtn.title = 'Forget the data shown';
-  const area = el('div', 'plot-chart', section);
-  const empty = el('div', 'plot-empty', area, 'Waiting for simulator datagrams…');
+  const area = section.appendChild(h('div', { class: 'plot-chart' }));
+  const empty = area.appendChild(h('div', { class: 'plot-empty' }, 'Waiting for simulator datagrams…'));
 
   let windowS = 10;
   let paused = false;
@@ -171,11 +158,11 @@ function mountPulseChart(
 
   function chartSize(): { width: number; height: number } | null {
     const w = area.clientWidth;
-    const h = area.clientHeight;
-    if (w < 50 || h < 60) return null;
+    const ht = area.clientHeight;
+    if (w < 50 || ht < 60) return null;
     const legend = u?.root.querySelector('.u-legend') as HTMLElement | null;
     const lh = legend ? legend.offsetHeight : 24 + 16 * Math.ceil(names.length / 6);
-    return { width: w, height: Math.max(60, h - lh - 4) };
+    return { width: w, height: Math.max(60, ht - lh - 4) };
   }
 
   function destroyChart(): void {
@@ -363,17 +350,17 @@ function mountTaskTable(
   bus: Bus,
   visible: () => boolean,
 ): { shown(): void; dispose(): void } {
-  const section = el('div', 'plot-section plot-tasks-section', parent);
-  const bar = el('div', 'plot-bar', section);
-  el('span', 'plot-title', bar, 'Real-time tasks');
-  const status = el('span', 'plot-note', bar, '');
-  const wrap = el('div', 'plot-table-wrap', section);
-  const table = el('table', 'plot-table', wrap);
-  const thead = el('thead', '', table);
-  const h1 = el('tr', '', thead);
-  const h2 = el('tr', '', thead);
+  const section = parent.appendChild(h('div', { class: 'plot-section plot-tasks-section' }));
+  const bar = section.appendChild(h('div', { class: 'plot-bar' }));
+  bar.appendChild(h('span', { class: 'plot-title' }, 'Real-time tasks'));
+  const status = bar.appendChild(h('span', { class: 'plot-note' }));
+  const wrap = section.appendChild(h('div', { class: 'plot-table-wrap' }));
+  const table = wrap.appendChild(h('table', { class: 'plot-table' }));
+  const thead = table.appendChild(h('thead'));
+  const h1 = thead.appendChild(h('tr'));
+  const h2 = thead.appendChild(h('tr'));
   const th = (row: HTMLElement, text: string, opts: { rows?: number; cols?: number; title?: string } = {}): void => {
-    const c = el('th', '', row, text);
+    const c = row.appendChild(h('th', {}, text));
     if (opts.rows) c.rowSpan = opts.rows;
     if (opts.cols) c.colSpan = opts.cols;
     if (opts.title) c.title = opts.title;
@@ -389,7 +376,7 @@ function mountTaskTable(
   th(h1, 'Cycles', { rows: 2 });
   th(h1, 'Latency histogram', { rows: 2, title: 'Cycles per power-of-two latency bin, log scale' });
   for (const t of ['avg', 'min', 'max', 'avg', 'max', 'avg', 'p99', 'max']) th(h2, t);
-  const tbody = el('tbody', '', table);
+  const tbody = table.appendChild(h('tbody'));
 
   interface Row {
     name: string;
@@ -410,11 +397,11 @@ function mountTaskTable(
   function buildRows(tasks: TaskTiming[]): void {
     tbody.replaceChildren();
     rows = tasks.map((t) => {
-      const tr = el('tr', '', tbody);
+      const tr = tbody.appendChild(h('tr'));
       const cells: HTMLTableCellElement[] = [];
-      for (let i = 0; i < 14; i++) cells.push(el('td', i === 0 ? 'plot-name' : '', tr));
-      const hc = el('td', 'plot-hist', tr);
-      const canvas = el('canvas', '', hc);
+      for (let i = 0; i < 14; i++) cells.push(tr.appendChild(h('td', { class: i === 0 ? 'plot-name' : undefined })));
+      const hc = tr.appendChild(h('td', { class: 'plot-hist' }));
+      const canvas = hc.appendChild(h('canvas'));
       const dpr = Math.min(typeof window !== 'undefined' ? window.devicePixelRatio || 1 : 1, 3);
       canvas.width = Math.round(HIST_W * dpr);
       canvas.height = Math.round(HIST_H * dpr);
@@ -522,11 +509,11 @@ function drawHistogram(canvas: HTMLCanvasElement, t: TaskTiming, maxIdx: number)
   ctx.fillRect(0, 0, W, plotH);
   for (let k = 0; k < n; k++) {
     const b = bins[k] as { upperUs: number; count: number };
-    const h = logHeight(b.count, maxCount) * (plotH - 1 * s);
-    if (h <= 0) continue;
+    const barH = logHeight(b.count, maxCount) * (plotH - 1 * s);
+    if (barH <= 0) continue;
     // 1 ms and beyond in red, 128 µs and beyond in amber: latencies a 10 ms cycle notices.
     ctx.fillStyle = b.upperUs > 1024 ? '#ff6a5e' : b.upperUs > 128 ? '#f0b23c' : '#4fc3a1';
-    ctx.fillRect(k * bw + 0.5 * s, plotH - h, Math.max(1, bw - 1 * s), h);
+    ctx.fillRect(k * bw + 0.5 * s, plotH - barH, Math.max(1, bw - 1 * s), barH);
   }
   ctx.fillStyle = '#7d8894';
   ctx.font = `${8 * s}px ui-monospace, monospace`;

@@ -5,7 +5,6 @@
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-use wrc_rt::bench::work::{Role, SyntheticTask};
 use wrc_rt::ipc::{self, MessageQueue, Semaphore};
 use wrc_rt::wake::{FdWake, Waiter, Wake};
 use wrc_rt::{
@@ -82,36 +81,6 @@ fn overruns_and_a_full_event_queue_allocate_nothing() {
     assert_eq!(n.total(), 0, "{n:?}");
     let s = stats.snapshot();
     assert_eq!((s.overruns, s.missed_periods), (1000, 2000));
-}
-
-#[test]
-fn the_benchmark_tasks_allocate_nothing() {
-    wrc_alloc_count::assert_installed();
-    let (tx, rx) = ipc::spsc::channel(16);
-    let (w, r) = ipc::mailbox([0i64; 4]);
-    let mut tasks = [
-        SyntheticTask::new(1, 3, 1, Role::VelocityGenerator(tx, 5)),
-        SyntheticTask::new(1, 3, 2, Role::PulseGenerator(rx, w)),
-        SyntheticTask::new(1, 3, 3, Role::SimulatorManager(r)),
-        SyntheticTask::new(1, 3, 4, Role::Plain),
-    ];
-    let (n, ()) = allocations_in(|| {
-        for cycle in 0..100 {
-            for t in tasks.iter_mut() {
-                let now = MonotonicClock.now_ns();
-                let ctx = CycleContext {
-                    cycle,
-                    scheduled_ns: now,
-                    woke_ns: now,
-                    period_ns: 1_000_000,
-                    release: wrc_rt::Release::Period,
-                    previous_exec_ns: 20_000,
-                };
-                wrc_rt::Task::cycle(t, &ctx);
-            }
-        }
-    });
-    assert_eq!(n.total(), 0, "{n:?}");
 }
 
 #[test]

@@ -9,10 +9,10 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use crate::clock::{monotonic_now_ns, Clock, MonotonicClock};
-use crate::histogram::Histogram;
-use crate::ipc::{MessageQueue, Semaphore};
-use crate::sched_policy::{fifo_priority, set_current_thread_fifo, RealtimeMode};
+use wrc_rt::clock::{monotonic_now_ns, Clock, MonotonicClock};
+use wrc_rt::histogram::Histogram;
+use wrc_rt::ipc::{MessageQueue, Semaphore};
+use wrc_rt::sched_policy::{fifo_priority, set_current_thread_fifo, RealtimeMode};
 
 /// Paper priority of the probe receivers (the Velocity Generator's, waiting on commands).
 pub const RECEIVER_PRIORITY: u8 = 30;

@@ -9,13 +9,13 @@ pub mod work;
 
 use std::time::{Duration, Instant};
 
-use crate::histogram::Histogram;
-use crate::ipc;
-use crate::notice::NoticeSink;
-use crate::runtime::{Runtime, RuntimeError, RuntimeOptions, TaskSnapshot};
-use crate::sched_policy::{fifo_priority, isolated_cpus, PinPolicy, RealtimeMode, SchedReport};
-use crate::stats::Summary;
-use crate::table::{TaskTable, TaskTableError};
+use wrc_rt::histogram::Histogram;
+use wrc_rt::ipc;
+use wrc_rt::notice::NoticeSink;
+use wrc_rt::runtime::{Runtime, RuntimeError, RuntimeOptions, TaskSnapshot};
+use wrc_rt::sched_policy::{fifo_priority, isolated_cpus, PinPolicy, RealtimeMode, SchedReport};
+use wrc_rt::stats::Summary;
+use wrc_rt::table::{TaskTable, TaskTableError};
 
 pub use cyclictest::CyclictestResult;
 pub use ipc_latency::IpcKind;

@@ -56,6 +56,8 @@ demo: build
 lint: check-toolchain
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	# The real-time controller without the simulator (wrc-controller's `sim` feature off).
+	$(CARGO) clippy -p wrc-controller --no-default-features -- -D warnings
 
 test-rust: check-toolchain
 	$(CARGO) test --workspace

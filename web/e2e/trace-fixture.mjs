@@ -1,5 +1,5 @@
 // Trace files built field by field as docs/trace.md lays them out (format version 2), for the
-// GUI's tests: the unit tests of src/trace.ts and the browser end-to-end test, which writes
+// GUI's tests: the unit tests of src/trace/trace.ts and the browser end-to-end test, which writes
 // one into a temporary file and opens it in the trace viewer. Plain JavaScript (the e2e test
 // runs on Node without a TypeScript step); its types are in trace-fixture.d.mts.
 //

@@ -3,16 +3,19 @@
 // [Simulator (3D view and trace viewer) | Wafers | Editor | Plots] on the right.
 
 import './style.css';
-import { Connection, defaultUrl } from './connection';
-import { Commander, ControllerModel, h, mountControl } from './control';
-import { mountEditor } from './editor';
-import { mountSimulator } from './simulator';
-import { mountPlots } from './plots';
-import { mountStations } from './stations';
-import { traceSaveCard } from './trace-save';
-import { mountTraceViewer } from './trace-viewer';
-import { mountWaferPanel } from './wafer-panel';
-import { createWaferStore, drawWafers } from './wafers';
+import { h } from './dom';
+import { Commander } from './protocol/commander';
+import { Connection, defaultUrl } from './protocol/connection';
+import { ControllerModel } from './protocol/controller-model';
+import { mountStations } from './cell/stations';
+import { createWaferStore, drawWafers } from './cell/wafers';
+import { mountControl } from './panels/control-panel';
+import { mountWaferPanel } from './panels/wafer-panel';
+import { mountSimulator } from './view3d/simulator';
+import { mountPlots } from './plots/plots';
+import { mountEditor } from './editor/editor';
+import { traceSaveCard } from './trace/trace-save';
+import { mountTraceViewer } from './trace/trace-viewer';
 
 type TabName = 'simulator' | 'wafers' | 'editor' | 'plots';
 const TAB_NAMES: readonly TabName[] = ['simulator', 'wafers', 'editor', 'plots'];

@@ -1,6 +1,7 @@
 //! wrc's motion board: the dual-port RAM (DPRAM) through which the host talks to a PCI
-//! motion board (the paper's TMS320C3x DSP board, 4 axes a board, up to 4 boards), the
-//! driver that maps it, and a simulated board that plays the DSP.
+//! motion board (the paper's TMS320C3x DSP board, 4 axes a board, up to 4 boards), and the
+//! driver that maps it: what the real-time controller links. The simulated board that plays
+//! the DSP is the `wrc-board-sim` crate.
 //!
 //! What it guarantees:
 //! - one documented, versioned layout ([`layout`], `docs/dpram.md`), accessed only with
@@ -11,35 +12,7 @@
 //!   path in every error;
 //! - the [`MotionBoard`] trait the controller's real-time tasks use: every method is
 //!   non-blocking, allocation-free and system-call-free; [`MultiBoard`] puts up to 16 axes
-//!   on up to 4 boards;
-//! - a simulated board ([`sim::SimBoard`]) that is a plain struct stepped one board period at
-//!   a time, so tests run it against a mock clock; `wrc board-sim` runs it as a process. It
-//!   can simulate the wafer cell ([`sim::cell`]): a `wrc_cell::World` moved by the hand's
-//!   encoders and vacuum valve, with the vacuum and mapping sensors read through the DPRAM.
-//!
-//! ```
-//! use wrc_board::sim::{SimBoard, SimSettings};
-//! use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
-//!
-//! // The embedded default robot on one simulated board, sharing an anonymous mapping.
-//! let config = wrc_config::Config::embedded_default();
-//! let settings = SimSettings::from_config(&config, &config.boards[0]);
-//! let mapping = Mapping::anonymous().unwrap();
-//! let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
-//! let mut board = DpramBoard::attach(mapping, Expect::default()).unwrap();
-//!
-//! // The host pushes one period of increments [pulse/period]; the board executes it.
-//! let mut increments = [0i64; 16];
-//! increments[0] = 100;
-//! board.push(&increments).unwrap();
-//! board.refresh_watchdog();
-//! sim.step();
-//!
-//! let mut feedback = Feedback::default();
-//! board.read_feedback(&mut feedback).unwrap();
-//! assert_eq!(feedback.axes[0].commanded, -75_000 + 100); // home −75° at 1000 pulse/°
-//! assert_eq!(feedback.axes[0].alarm, 0);
-//! ```
+//!   on up to 4 boards.
 #![deny(missing_docs)]
 
 pub mod board;
@@ -48,9 +21,8 @@ pub mod driver;
 pub mod fault;
 pub mod layout;
 pub mod multi;
-pub mod sim;
 
-/// The wafer cell crate, whose stations and world the simulated cell ([`sim::cell`]) uses.
+/// The wafer cell crate (the mapping sensor's slot codes are its `SlotCode`).
 pub use wrc_cell;
 
 pub use board::{

@@ -87,8 +87,9 @@ pub enum StartError {
     #[error("simulated cell: {0}")]
     SimCell(String),
     /// A simulated board (under virtual time) could not be made.
+    #[cfg(feature = "sim")]
     #[error("simulated board: {0}")]
-    SimBoard(#[from] wrc_board::sim::SimError),
+    SimBoard(#[from] wrc_board_sim::SimError),
     /// The boards do not fit the robot's axes.
     #[error("motion boards: {0}")]
     Boards(#[from] wrc_board::MultiError),
@@ -251,7 +252,8 @@ pub(crate) struct Assembled<W> {
     /// The service thread's state and its waiter.
     pub service: Service,
     pub service_wake: W,
-    /// Releases the Ethernet task (a client wrote to it).
+    /// Releases the Ethernet task (a client wrote to it; virtual time's clients).
+    #[cfg_attr(not(feature = "sim"), allow(dead_code))]
     pub ethernet: Arc<dyn wrc_rt::Notify>,
     /// The Command Interpreter's task: the urgent path runs at its priority.
     pub ci_priority: u8,

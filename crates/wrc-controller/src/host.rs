@@ -5,7 +5,9 @@
 
 use std::sync::Arc;
 
-use wrc_rt::virtual_time::{VirtualRuntime, VirtualWake};
+#[cfg(feature = "sim")]
+use wrc_rt::virtual_time::VirtualRuntime;
+use wrc_rt::virtual_time::VirtualWake;
 use wrc_rt::wake::{FdRegistry, FdWake, Wake};
 use wrc_rt::{Notify, Runtime, Task, TaskSpec, Waiter};
 
@@ -124,8 +126,10 @@ impl HostWake for VirtualWake {
 }
 
 /// Virtual time: every task on one thread, released by a deterministic scheduler.
+#[cfg(feature = "sim")]
 pub(crate) struct VirtualHost(pub VirtualRuntime);
 
+#[cfg(feature = "sim")]
 impl Host for VirtualHost {
     type Wake = VirtualWake;
 

@@ -23,6 +23,7 @@ pub mod recorder;
 pub mod rs232c;
 pub mod service;
 pub mod shared;
+#[cfg(feature = "sim")]
 pub mod simulation;
 pub mod simulator_manager;
 pub mod velocity_generator;

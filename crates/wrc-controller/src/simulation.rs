@@ -32,10 +32,10 @@ use std::time::Duration;
 use std::time::Instant;
 
 use wrc_board::driver::Mapping;
-use wrc_board::sim::cell::SimCell;
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::wrc_cell::{Stations, World};
 use wrc_board::{DpramBoard, Expect, MultiBoard};
+use wrc_board_sim::cell::SimCell;
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_rt::virtual_time::{Pace, VirtualRuntime};
 use wrc_rt::{CycleContext, Notify, RealtimeMode, TaskSpec};

@@ -10,12 +10,12 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
 use wrc_board::layout::{alarm, axis_status, board_status};
-use wrc_board::sim::cell::SimCell;
-use wrc_board::sim::runner::{self, MonotonicClock};
-use wrc_board::sim::world_file::{self, Change, Origin, WorldSaver};
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::wrc_cell::{SlotCode, Stations};
 use wrc_board::{DpramBoard, Expect, Fault, Feedback, MappingScan, MotionBoard};
+use wrc_board_sim::cell::SimCell;
+use wrc_board_sim::runner::{self, MonotonicClock};
+use wrc_board_sim::world_file::{self, Change, Origin, WorldSaver};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::{BoardConfig, Config};
 
 /// Arguments of `wrc board-sim`.

@@ -3,7 +3,7 @@ import type { SimSample } from './bus';
 import { PulseRate, StreamStats, decodeSample, encodeSample } from './stream';
 
 // The shared test vector written by the Rust encoder (empty until it exists).
-const VECTORS = import.meta.glob<string>('../../crates/wrc-protocol/tests/vectors/sim_stream_v1.json', {
+const VECTORS = import.meta.glob<string>('../../../crates/wrc-protocol/tests/vectors/sim_stream_v1.json', {
   eager: true,
   query: '?raw',
   import: 'default',

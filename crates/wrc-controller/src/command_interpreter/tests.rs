@@ -6,8 +6,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Mapping};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_protocol::{Command, ReplyTo, Request};
 use wrc_rt::ipc::MessageQueue;

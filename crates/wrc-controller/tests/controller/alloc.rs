@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
 
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Mapping, MotionBoard};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_cell::TransferKind;
 use wrc_config::Config;
 use wrc_controller::cell_service::transfer_steps;

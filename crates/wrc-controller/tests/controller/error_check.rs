@@ -5,8 +5,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Fault, Mapping};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_controller::error_check::{ErrorCheck, Limits};
 use wrc_controller::messages::{SourceId, Urgent};

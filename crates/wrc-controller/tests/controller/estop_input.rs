@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 
 use crate::motion::{sim_board, Motion};
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use wrc_controller::error_check::{ErrorCheck, Limits};

@@ -5,8 +5,8 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::{Feedback, Mapping, MotionBoard};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::{BoardConfig, Config};
 use wrc_controller::messages::{MoveDone, MoveOrder};
 use wrc_controller::pulse_generator::PulseGenerator;

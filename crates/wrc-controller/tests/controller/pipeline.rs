@@ -5,8 +5,8 @@
 use std::sync::Arc;
 
 use crate::motion::{sim_board, Motion};
-use wrc_board::sim::SimBoard;
 use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard, MultiBoard};
+use wrc_board_sim::SimBoard;
 use wrc_config::Config;
 use wrc_controller::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome};
 use wrc_controller::pulse_generator::PulseGenerator;

@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::motion::{sim_board, Motion};
-use wrc_board::sim::SimBoard;
 use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
+use wrc_board_sim::SimBoard;
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
 use wrc_controller::messages::{Incoming, MoveDone, OutLine, Outputs, SourceId, StoreLinks};

@@ -2,6 +2,7 @@
 
 mod bench_stop;
 mod compile;
+mod crate_graph;
 mod hold;
 mod lines;
 mod plan;

@@ -1,4 +1,5 @@
-//! Integration tests of wrc-board: one test binary, a module per topic.
+//! Integration tests of the simulated board with the driver (wrc-board) on the other side of
+//! the DPRAM: one test binary, a module per topic.
 
 mod alloc;
 mod files;
@@ -7,7 +8,7 @@ mod multi;
 
 use std::path::Path;
 
-use wrc_board::sim::{SimBoard, SimSettings};
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 
 /// A simulated board of the embedded default robot on a DPRAM file at `path`.

@@ -3,7 +3,7 @@
 //! motor's velocity limit, the following error and the limit switches; decelerates under
 //! control to a stop. Plain arithmetic, no allocation.
 
-use crate::layout::{alarm, axis_status};
+use wrc_board::layout::{alarm, axis_status};
 
 /// Per-axis model parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

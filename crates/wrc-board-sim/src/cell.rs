@@ -23,8 +23,8 @@ use wrc_cell::{
 use wrc_config::{BoardConfig, Config, HandConfig};
 use wrc_robot::{wrap180, Pose, Robot, MAX_AXES};
 
-use crate::dpram::MappingRecord;
-use crate::layout::{mapping, slot_code, AXES_PER_BOARD};
+use wrc_board::dpram::MappingRecord;
+use wrc_board::layout::{mapping, slot_code, AXES_PER_BOARD};
 
 /// Why the cell cannot be simulated on a board.
 #[derive(Debug, thiserror::Error)]

@@ -6,10 +6,10 @@
 use wrc_alloc_count::{heap_calls, CountingAllocator};
 
 use wrc_board::driver::Mapping;
-use wrc_board::sim::cell::SimCell;
-use wrc_board::sim::{SimBoard, SimSettings};
 use wrc_board::wrc_cell::{SlotContent, Stations};
 use wrc_board::{DpramBoard, Expect, Feedback, MappingScan, MotionBoard, MultiBoard};
+use wrc_board_sim::cell::SimCell;
+use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_robot::{Pose, Posture, Robot, MAX_AXES};
 
@@ -20,7 +20,7 @@ static GLOBAL: CountingAllocator = CountingAllocator;
 fn host_calls_and_board_step_allocate_nothing() {
     wrc_alloc_count::assert_installed();
     let config = Config::embedded_default();
-    let settings = wrc_board::sim::SimSettings::from_config(&config, &config.boards[0]);
+    let settings = wrc_board_sim::SimSettings::from_config(&config, &config.boards[0]);
     let map = Mapping::anonymous().unwrap();
     let mut sim = SimBoard::new(map.share(), &settings, 1).unwrap();
     let host = DpramBoard::attach(map, Expect::default()).unwrap();

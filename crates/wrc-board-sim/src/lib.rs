@@ -11,6 +11,35 @@
 //! ([`SimBoard::attach_cell`], [`cell`]) the board also clears the mapping latch when the
 //! host asks, steps the cell with the new encoder positions and the outputs, drives the
 //! hand's vacuum sensor from it and publishes the mapping latch.
+//!
+//! The driver side (the DPRAM layout, the driver the controller links) is `wrc-board`; this
+//! crate is the other side of the DPRAM, so the controller's real-time build does not link
+//! it.
+//!
+//! ```
+//! use wrc_board_sim::{SimBoard, SimSettings};
+//! use wrc_board::{DpramBoard, Expect, Feedback, Mapping, MotionBoard};
+//!
+//! // The embedded default robot on one simulated board, sharing an anonymous mapping.
+//! let config = wrc_config::Config::embedded_default();
+//! let settings = SimSettings::from_config(&config, &config.boards[0]);
+//! let mapping = Mapping::anonymous().unwrap();
+//! let mut sim = SimBoard::new(mapping.share(), &settings, 1).unwrap();
+//! let mut board = DpramBoard::attach(mapping, Expect::default()).unwrap();
+//!
+//! // The host pushes one period of increments [pulse/period]; the board executes it.
+//! let mut increments = [0i64; 16];
+//! increments[0] = 100;
+//! board.push(&increments).unwrap();
+//! board.refresh_watchdog();
+//! sim.step();
+//!
+//! let mut feedback = Feedback::default();
+//! board.read_feedback(&mut feedback).unwrap();
+//! assert_eq!(feedback.axes[0].commanded, -75_000 + 100); // home −75° at 1000 pulse/°
+//! assert_eq!(feedback.axes[0].alarm, 0);
+//! ```
+#![deny(missing_docs)]
 
 pub mod cell;
 pub mod io;
@@ -25,10 +54,10 @@ use std::sync::atomic::Ordering;
 use wrc_cell::{Blade, MAX_BLADES};
 use wrc_config::{BladeB, BoardConfig, Config};
 
-use crate::dpram::{AxisRecord, Dpram, Pop};
-use crate::driver::{Mapping, OpenError};
-use crate::fault::Fault;
-use crate::layout::{
+use wrc_board::dpram::{AxisRecord, Dpram, Pop};
+use wrc_board::driver::{Mapping, OpenError};
+use wrc_board::fault::Fault;
+use wrc_board::layout::{
     self, alarm, axis, axis_status, board_status, command, control, header, mapping, Header,
     LayoutError, AXES_PER_BOARD,
 };
@@ -582,8 +611,8 @@ pub(crate) mod tests {
     use wrc_robot::MAX_AXES;
 
     use super::*;
-    use crate::board::{Feedback, MotionBoard};
-    use crate::driver::{DpramBoard, Expect};
+    use wrc_board::board::{Feedback, MotionBoard};
+    use wrc_board::driver::{DpramBoard, Expect};
 
     /// Two axes at 10 ms: 100 000 pulse/s limit, 500 000 pulse/s² stop deceleration.
     pub(crate) fn settings() -> SimSettings {
@@ -641,7 +670,7 @@ pub(crate) mod tests {
         for _ in 0..4 {
             host.push(&inc(10, -10)).unwrap();
         }
-        assert_eq!(host.push(&inc(10, -10)), Err(crate::Full));
+        assert_eq!(host.push(&inc(10, -10)), Err(wrc_board::Full));
         for n in 1..=4 {
             sim.step();
             let f = feedback(&host);
@@ -693,7 +722,7 @@ pub(crate) mod tests {
         sim.step();
         assert_eq!(feedback(&host).axes[0].discarded, 1);
         host.clear_alarms(0b01).unwrap();
-        assert_eq!(host.clear_alarms(0b01), Err(crate::Busy));
+        assert_eq!(host.clear_alarms(0b01), Err(wrc_board::Busy));
         sim.step();
         let f = feedback(&host);
         assert_eq!(f.axes[0].alarm, 0);

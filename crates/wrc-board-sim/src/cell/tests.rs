@@ -8,10 +8,10 @@ use wrc_cell::{parse_slot_codes, SlotContent, Station, DEMO_NAME, DEMO_TOML};
 use wrc_robot::{Posture, MAX_AXES};
 
 use super::*;
-use crate::board::{Feedback, MappingScan, MotionBoard};
-use crate::driver::{DpramBoard, Expect, Mapping};
-use crate::fault::Fault;
-use crate::sim::{SimBoard, SimSettings};
+use crate::{SimBoard, SimSettings};
+use wrc_board::board::{Feedback, MappingScan, MotionBoard};
+use wrc_board::driver::{DpramBoard, Expect, Mapping};
+use wrc_board::fault::Fault;
 
 /// Largest increment the tests command [pulse/period]: 150 000 pulse/s, below every motor
 /// limit of the default robot (216 000 pulse/s and more).

@@ -5,8 +5,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use wrc_board::layout::board_status;
-use wrc_board::sim::runner::{self, MonotonicClock};
 use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
+use wrc_board_sim::runner::{self, MonotonicClock};
 
 use crate::sim_on;
 

@@ -1,9 +1,9 @@
 //! Several boards behind one MotionBoard: axis mapping, all-or-none pushes, I/O per board.
 
 use wrc_board::driver::Mapping;
-use wrc_board::sim::servo::ServoSettings;
-use wrc_board::sim::{io::IoSettings, SimBoard, SimSettings};
 use wrc_board::{DpramBoard, Expect, Feedback, Full, MotionBoard, MultiBoard, MultiError};
+use wrc_board_sim::servo::ServoSettings;
+use wrc_board_sim::{io::IoSettings, SimBoard, SimSettings};
 
 fn settings(board_id: u32, axes: usize, fifo_depth: u32) -> SimSettings {
     let axis = ServoSettings {

@@ -91,10 +91,10 @@ fn other_versions_and_bad_fields_are_named() {
 fn the_simulated_board_refuses_to_overwrite_a_foreign_file() {
     let dir = tempfile::tempdir().unwrap();
     let config = wrc_config::Config::embedded_default();
-    let settings = wrc_board::sim::SimSettings::from_config(&config, &config.boards[0]);
+    let settings = wrc_board_sim::SimSettings::from_config(&config, &config.boards[0]);
     let foreign = dir.path().join("notes.txt");
     fs::write(&foreign, "x".repeat(LAYOUT_SIZE)).unwrap();
-    let e = wrc_board::sim::SimBoard::create(&foreign, &settings)
+    let e = wrc_board_sim::SimBoard::create(&foreign, &settings)
         .unwrap_err()
         .to_string();
     assert!(
@@ -107,7 +107,7 @@ fn the_simulated_board_refuses_to_overwrite_a_foreign_file() {
     );
     let short = dir.path().join("short.txt");
     fs::write(&short, "hello").unwrap();
-    let e = wrc_board::sim::SimBoard::create(&short, &settings)
+    let e = wrc_board_sim::SimBoard::create(&short, &settings)
         .unwrap_err()
         .to_string();
     assert!(e.contains("short.txt") && e.contains("truncated"), "{e}");

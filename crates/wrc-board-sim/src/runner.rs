@@ -71,9 +71,9 @@ mod tests {
     use std::sync::atomic::AtomicU64;
 
     use super::*;
-    use crate::driver::Mapping;
-    use crate::layout::control;
-    use crate::sim::tests::settings;
+    use crate::tests::settings;
+    use wrc_board::driver::Mapping;
+    use wrc_board::layout::control;
 
     /// A clock that advances only when slept on, plus a scripted stall [ns].
     struct StallClock {

@@ -1,7 +1,7 @@
 import { describe, expect, it } from 'vitest';
-import { bladeStack, sceneZ } from './simulator';
+import { bladeStack, sceneZ } from './robot-model';
 
-// The drawing's own dimensions (simulator.ts) the expectations below rest on [mm].
+// The drawing's own dimensions (robot-model.ts) the expectations below rest on [mm].
 const HUB_T = 18;
 const FORK_T = 7;
 const WAFER_R = 150;

@@ -5,7 +5,7 @@
 //!
 //! # Adding a statement
 //!
-//! Wafer handling (issue 8) added `GET station, slot`, `PUT station, slot` and `MAP station`
+//! Wafer handling added `GET station, slot`, `PUT station, slot` and `MAP station`
 //! this way; `GET` is the worked example. The change is:
 //!
 //! 1. a row here:

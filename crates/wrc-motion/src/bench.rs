@@ -218,7 +218,7 @@ pub struct LineRun {
 }
 
 impl LineRun {
-    /// Duration over the lower bound of the definition, max(TOPP-RA v/a, TCP 1-D
+    /// Duration over the lower bound of docs/motion.md, max(TOPP-RA v/a, TCP 1-D
     /// jerk-limited).
     pub fn ratio(&self) -> f64 {
         self.duration_s / self.bound.lower_bound_s()

@@ -1,4 +1,4 @@
-//! The trace recorder's costs (issue 16's figures): one sample pushed into the ring (what the
+//! The trace recorder's costs (the README's figures): one sample pushed into the ring (what the
 //! Pulse Generator pays every period), and saving and loading a trace (what the service
 //! thread pays on `TRACE SAVE` or an alarm): the default 30 s window at 10 ms, and a whole
 //! 25-wafer session (371 s, as `wrc sim --trace` saves it).

@@ -570,7 +570,7 @@ proptest! {
         ..ProptestConfig::default()
     })]
 
-    /// The crash test in miniature: transfers between the demo stations, the
+    /// The CLI's crash test (`wafer_cycle.rs`) in miniature: transfers between the demo stations, the
     /// controller killed at random events (between board periods, before a save), restarted
     /// from its saved map and reconciled. After every restart and at the end the map matches
     /// the world place by place and wafer by wafer, and nothing was dropped.

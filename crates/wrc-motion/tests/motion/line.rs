@@ -206,9 +206,9 @@ proptest! {
 
 #[test]
 fn a_line_across_the_shoulders_limit_is_refused_with_axis_place_and_pose() {
-    // From the issue: MOVP -97.4 -200.1 25.0 -87.2 (right elbow, as after HOME), then
-    // MOVL -171.7 -19.7 34.4 -84.2: the shoulder would pass -180°. It used to be accepted
-    // and planned at ~1 mm/s with a jump of a turn in its last period.
+    // MOVP -97.4 -200.1 25.0 -87.2 (right elbow, as after HOME), then MOVL -171.7 -19.7
+    // 34.4 -84.2: the shoulder would pass -180°. Such a line was once accepted and planned
+    // at ~1 mm/s with a jump of a turn in its last period.
     let mut vg = generator(Profile::Fir, 0.01, 100.0);
     let from = pose([-97.4, -200.1, 25.0, -87.2]);
     assert!(start_at(&mut vg, &from, Posture::Right));
@@ -236,7 +236,7 @@ fn a_line_across_the_shoulders_limit_is_refused_with_axis_place_and_pose() {
     );
     assert!(!vg.is_moving());
 
-    // The issue's `wrc plan line --from=-270.1,11.7,38.6,30.4 --to=70.5,-319.4,19.5,28.1`:
+    // `wrc plan line --from=-270.1,11.7,38.6,30.4 --to=70.5,-319.4,19.5,28.1`:
     // J1 would go to about 247° (range ±180°).
     let mut vg = generator(Profile::Fir, 0.01, 100.0);
     assert!(start_at(

@@ -25,8 +25,8 @@ fn a_line_past_the_shoulders_range_is_refused_before_anything_moves() {
     assert_eq!(host.motion(2, "HOME"), "INF 2");
     assert_eq!(host.motion(3, "MOVP -97.4 -200.1 25.0 -87.2"), "INF 3");
     let before = joints(&mut host);
-    // From the issue: the shoulder would pass -180 deg on the way. It used to be accepted
-    // and crawl at about 1 mm/s for minutes.
+    // The shoulder would pass -180 deg on the way: such a line was once accepted and
+    // crawled at about 1 mm/s for minutes.
     let r = host.ask("4 MOVL -171.7 -19.7 34.4 -84.2");
     assert!(r.starts_with("NAK 4 113 "), "{r}");
     assert!(

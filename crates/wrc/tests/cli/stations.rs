@@ -1,4 +1,4 @@
-//! Stations as an equipment engineer meets them (issue 8, first part): `wrc up` writes the
+//! Stations as an equipment engineer meets them: `wrc up` writes the
 //! demo cell into the state directory, `STN` lists it, `TEACH` stores the current pose
 //! (atomically, surviving a restart), `WAFERS` reports the wafer map.
 

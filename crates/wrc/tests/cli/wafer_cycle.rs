@@ -1,4 +1,4 @@
-//! The wafer map under crashes (issue 8): `wrc up` killed with SIGKILL again and again during
+//! The wafer map under crashes: `wrc up` killed with SIGKILL again and again during
 //! transfers (in each of the windows a crash can hit, found by the events the host hears)
 //! never loses or duplicates a wafer in the map, checked against the simulated board's
 //! ground truth after every restart. This one stays in real time: it tests what survives a

@@ -15,12 +15,15 @@
 //! non-blocking socket calls (the I/O the task exists for) and, when a client comes or goes,
 //! one `epoll_ctl`; it never allocates or prints.
 
+use std::fmt::Write as _;
 use std::io::{self, Read, Write};
+
 use std::net::TcpStream;
 use std::os::fd::{AsFd, BorrowedFd};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
+use wrc_rt::FixedText;
 
 use wrc_protocol::{
     Code, Command, Event, LineReader, Parser, ReplyBuf, Request, StatusBody, WhereBody,
@@ -448,8 +451,8 @@ impl ClientSet {
         }
         let tcp = self.robot.forward(&joints);
         let owner = SourceId(shared.owner.load(Ordering::Acquire));
-        let mut name = [0u8; 24];
-        let owner_name = source_name(owner, &mut name);
+        let name = source_name(owner);
+        let owner_name = name.as_ref().map(FixedText::as_str);
         let status = StatusBody {
             state: shared.state(),
             homed: shared.homed.load(Ordering::Acquire),
@@ -687,13 +690,13 @@ fn upload_line<'b>(
     None
 }
 
-/// Write a source's name (`tcp3`, `gui0`, `pendant`) into `buf`; `None` for nobody.
-pub fn source_name(source: SourceId, buf: &mut [u8; 24]) -> Option<&str> {
+/// A source's name (`tcp3`, `gui0`, `pendant`), formatted without allocating; `None` for
+/// nobody.
+pub fn source_name(source: SourceId) -> Option<FixedText<24>> {
     if source == SourceId::NONE {
         return None;
     }
-    let mut w: &mut [u8] = &mut buf[..];
-    let _ = write!(w, "{source}");
-    let len = 24 - w.len();
-    std::str::from_utf8(&buf[..len]).ok()
+    let mut name = FixedText::new();
+    let _ = write!(name, "{source}");
+    Some(name)
 }

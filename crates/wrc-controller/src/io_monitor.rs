@@ -7,9 +7,11 @@
 //! Real-time promise: DPRAM reads and writes and lock-free queue sends only; no allocation,
 //! no blocking, no printing.
 
-use std::io::Write;
+use std::fmt::Write as _;
+
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
+use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
 use wrc_rt::ipc::MessageQueue;
@@ -70,13 +72,11 @@ impl<B: MotionBoard> IoMonitor<B> {
             if !self.first && changed != 0 {
                 for bit in 0..32u32 {
                     if changed & (1 << bit) != 0 {
-                        let mut buf = [0u8; 48];
-                        let mut w: &mut [u8] = &mut buf;
+                        let mut line = FixedText::<48>::new();
                         let n = 32 * b as u32 + bit;
                         let on = u8::from(inputs & (1 << bit) != 0);
-                        let _ = writeln!(w, "EVT INPUT {n} {on}");
-                        let len = 48 - w.len();
-                        self.broadcast(&buf[..len]);
+                        let _ = writeln!(line, "EVT INPUT {n} {on}");
+                        self.broadcast(line.as_bytes());
                     }
                 }
             }

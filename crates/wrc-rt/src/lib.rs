@@ -45,6 +45,7 @@ pub mod schedule;
 pub mod stats;
 pub mod table;
 pub mod task;
+pub mod text;
 pub mod virtual_time;
 pub mod wake;
 
@@ -60,4 +61,5 @@ pub use schedule::{CycleOutcome, Schedule};
 pub use stats::{StatsCell, Summary, TaskStats};
 pub use table::{TaskSpec, TaskTable, TaskTableError};
 pub use task::{CycleContext, Release, SetupError, Task};
+pub use text::FixedText;
 pub use wake::{Notify, Waiter};

@@ -5,6 +5,7 @@
 import type { Bus, SimSample, Unsubscribe } from '../protocol/bus';
 import { StreamStats } from '../protocol/stream';
 
+/** The live datagrams the 3D view follows, and their statistics. */
 export class LiveStream {
   /** The newest sample received (null: none yet). */
   latest: SimSample | null = null;

@@ -61,6 +61,7 @@ function disposeObject(o: THREE.Object3D): void {
   });
 }
 
+/** The three.js scene of the Simulator tab and what is drawn in it; renders into `renderer`. */
 export class SimScene {
   readonly scene = new THREE.Scene();
   readonly camera = new THREE.PerspectiveCamera(40, 1, 5, 50000);

@@ -7,8 +7,10 @@
 //!
 //! Real-time promise: as the rest of the task — no allocation, no blocking, no printing.
 
-use std::io::Write;
+use std::fmt::Write as _;
+
 use std::sync::atomic::Ordering;
+use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
 use wrc_cell::{Blade, Step, MAX_BLADES};
@@ -191,21 +193,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             _ => None,
         });
-        let mut text = [0u8; 120];
+        let mut text = FixedText::<120>::new();
         let refusal = match (refusal, closed) {
             (Some((code, t)), _) => Some((code, t)),
             (None, Some(n)) => {
-                let mut w: &mut [u8] = &mut text[..];
                 let _ = write!(
-                    w,
+                    text,
                     "the interlock of {} (input {n}) is closed; nothing moved",
                     job.station
                 );
-                let len = 120 - w.len();
-                Some((
-                    Code::InterlockClosed,
-                    std::str::from_utf8(&text[..len]).unwrap_or("the interlock is closed"),
-                ))
+                Some((Code::InterlockClosed, text.as_str()))
             }
             (None, None) => None,
         };
@@ -336,8 +333,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         self.job_advance();
                     } else if self.now_ns >= deadline {
                         let (verb, station, slot) = (j.job.kind.verb(), j.job.station, j.job.slot);
-                        let mut text = [0u8; 160];
-                        let mut w: &mut [u8] = &mut text[..];
+                        let mut text = FixedText::<160>::new();
                         let input = self.blade_signals(j.blade).vacuum_input;
                         let on = if j.blade == Blade::A {
                             "the hand"
@@ -346,18 +342,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         };
                         let _ = if expect {
                             write!(
-                                w,
+                                text,
                                 "{verb} {station} {slot}: the vacuum sensor (input {input}) sees no wafer on {on}"
                             )
                         } else {
                             write!(
-                                w,
+                                text,
                                 "{verb} {station} {slot}: the vacuum sensor (input {input}) still sees a wafer after the release"
                             )
                         };
-                        let len = 160 - w.len();
-                        let text = std::str::from_utf8(&text[..len]).unwrap_or("wafer not sensed");
-                        return self.job_fault(Code::WaferNotSensed, text);
+                        return self.job_fault(Code::WaferNotSensed, text.as_str());
                     } else {
                         return;
                     }
@@ -617,10 +611,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             (1u64 << count) - 1
         };
         if self.scan.station != j.job.station_index + 1 || self.scan.seen & all != all {
-            let mut text = [0u8; 160];
-            let mut w: &mut [u8] = &mut text[..];
+            let mut text = FixedText::<160>::new();
             let _ = write!(
-                w,
+                text,
                 "MAP {}: the mapping sensor saw {} of {} slots; is the station where it was taught?",
                 j.job.station,
                 if self.scan.station == j.job.station_index + 1 {
@@ -630,9 +623,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 },
                 count
             );
-            let len = 160 - w.len();
-            let text = std::str::from_utf8(&text[..len]).unwrap_or("mapping incomplete");
-            return self.end_job(Some((Code::MotionFault, text)));
+            return self.end_job(Some((Code::MotionFault, text.as_str())));
         }
         let mut codes = [0u8; MAX_MAP_SLOTS];
         codes[..count].copy_from_slice(&self.scan.codes[..count]);
@@ -705,27 +696,24 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         let line = match failure {
             None => {
-                let mut body = [0u8; 120];
-                let mut w: &mut [u8] = &mut body[..];
+                let mut body = FixedText::<120>::new();
                 let _ = match j.job.kind {
                     JobKind::Map => {
-                        let _ = write!(w, "{} ", j.job.station);
+                        let _ = write!(body, "{} ", j.job.station);
                         for &c in &self.scan.codes[..usize::from(j.job.slot).min(MAX_MAP_SLOTS)] {
-                            let _ = w.write_all(match c {
-                                0 => b"0",
-                                1 => b"1",
-                                2 => b"2",
-                                _ => b"X",
+                            let _ = body.write_str(match c {
+                                0 => "0",
+                                1 => "1",
+                                2 => "2",
+                                _ => "X",
                             });
                         }
                         Ok(())
                     }
-                    JobKind::Swap => write!(w, "W{} W{}", j.job.wafer, j.job.wafer_put),
-                    _ => write!(w, "W{}", j.job.wafer),
+                    JobKind::Swap => write!(body, "W{} W{}", j.job.wafer, j.job.wafer_put),
+                    _ => write!(body, "W{}", j.job.wafer),
                 };
-                let len = 120 - w.len();
-                let body = std::str::from_utf8(&body[..len]).unwrap_or("");
-                self.buf.inf(j.job.to, body)
+                self.buf.inf(j.job.to, body.as_str())
             }
             Some((code, text)) => self.buf.abs(j.job.to, code, text),
         };

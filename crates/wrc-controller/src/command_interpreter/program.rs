@@ -2,8 +2,10 @@
 //! per cycle; each motion statement becomes the request a connection would send, checked
 //! the same way; DELAY and WAIT IN are deadlines on the cycle's clock.
 
-use std::io::Write;
+use std::fmt::Write as _;
+
 use std::sync::atomic::Ordering;
+use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
 use wrc_lang::{Motion, Program, Resume, RuntimeErrorKind, Step, VmIo};
@@ -99,12 +101,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             return;
         }
         if let Err(e) = self.vm.load(&program) {
-            let mut text = [0u8; 160];
-            let mut w: &mut [u8] = &mut text[..];
-            let _ = write!(w, "{name}: {e}");
-            let len = 160 - w.len();
-            let text = std::str::from_utf8(&text[..len]).unwrap_or("the program is too large");
-            self.nak(from, to, Code::ProgramInvalid, text);
+            let mut text = FixedText::<160>::new();
+            let _ = write!(text, "{name}: {e}");
+            self.nak(from, to, Code::ProgramInvalid, text.as_str());
             self.retire_program(program);
             return;
         }
@@ -164,12 +163,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     _ => None,
                 };
                 self.abandon_motion(waiting, SourceId::PROGRAM);
-                let mut body = [0u8; 400];
-                let mut w: &mut [u8] = &mut body[..];
-                let _ = write!(w, "{} line {line_no}: {text}", p.name);
-                let len = 400 - w.len();
-                let body = std::str::from_utf8(&body[..len]).unwrap_or(text);
-                let line = self.buf.abs(p.to, code, body);
+                let mut body = FixedText::<400>::new();
+                let _ = write!(body, "{} line {line_no}: {text}", p.name);
+                let line = self.buf.abs(p.to, code, body.as_str());
                 deliver(&self.io.out, p.from, line);
             }
         }
@@ -284,12 +280,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         RuntimeErrorKind::WaitTimeout => Code::WaitTimeout,
                         _ => Code::ProgramError,
                     };
-                    let mut text = [0u8; 200];
-                    let mut w: &mut [u8] = &mut text[..];
-                    let _ = write!(w, "{}", e.kind);
-                    let len = 200 - w.len();
-                    let text = std::str::from_utf8(&text[..len]).unwrap_or("program error");
-                    return self.end_program_at(Some((code, text)), Some(e.line));
+                    let mut text = FixedText::<200>::new();
+                    let _ = write!(text, "{}", e.kind);
+                    return self.end_program_at(Some((code, text.as_str())), Some(e.line));
                 }
                 Step::Yield(request) => {
                     if !self.program_yield(request) {

@@ -1,8 +1,10 @@
 //! Requests from every source (connections, the running program, a wafer job), after
 //! admission: queries answered at once, settings, motions handed to the motion runner.
 
-use std::io::Write;
+use std::fmt::Write as _;
+
 use std::sync::atomic::Ordering;
+use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
 use wrc_protocol::{
@@ -67,29 +69,25 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match admit(&request.command, &situation) {
             Ok(()) => {}
             Err(Refused::ControlHeld(owner)) => {
-                let mut name = [0u8; 24];
-                let mut text = [0u8; 96];
-                let mut w: &mut [u8] = &mut text[..];
+                let name = source_name(owner);
+                let mut text = FixedText::<96>::new();
                 let _ = write!(
-                    w,
+                    text,
                     "control is held by {}; it must RELEASE first",
-                    source_name(owner, &mut name).unwrap_or("another source")
+                    name.as_ref().map_or("another source", FixedText::as_str)
                 );
-                let len = 96 - w.len();
-                let text = std::str::from_utf8(&text[..len])
-                    .unwrap_or("control is held by another source");
-                return self.nak(from, to, Code::ControlHeld, text);
+                return self.nak(from, to, Code::ControlHeld, text.as_str());
             }
             Err(Refused::Interlock(code, text)) => return self.nak(from, to, code, text),
         }
         match request.command {
             Command::Status => {
-                let mut name = [0u8; 24];
+                let name = source_name(owner);
                 let body = StatusBody {
                     state,
                     homed: self.shared.homed.load(Ordering::Acquire),
                     speed_pct: f64::from(self.shared.speed_pct.load(Ordering::Acquire)),
-                    owner: source_name(owner, &mut name),
+                    owner: name.as_ref().map(FixedText::as_str),
                     err: Code::from_number(self.shared.error_code.load(Ordering::Acquire) as u16),
                 };
                 let line = self.buf.ack(to, body);
@@ -184,13 +182,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.shared
                     .speed_pct
                     .store(pct.round().clamp(1.0, 100.0) as u32, Ordering::Release);
-                let mut body = [0u8; 24];
-                let mut w: &mut [u8] = &mut body[..];
-                let _ = write!(w, "speed={}", pct.round().clamp(1.0, 100.0) as u32);
-                let len = 24 - w.len();
-                let line = self
-                    .buf
-                    .ack(to, std::str::from_utf8(&body[..len]).unwrap_or(""));
+                let mut body = FixedText::<24>::new();
+                let _ = write!(body, "speed={}", pct.round().clamp(1.0, 100.0) as u32);
+                let line = self.buf.ack(to, body.as_str());
                 deliver(&self.io.out, from, line);
             }
             // STOP and ESTOP from a connection take the urgent path; these are a program's
@@ -318,14 +312,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     pub(super) fn control_changed(&mut self, owner: Option<SourceId>, from: SourceId, to: ReplyTo) {
-        let mut name = [0u8; 24];
-        let owner_name = owner.and_then(|o| source_name(o, &mut name));
-        let mut body = [0u8; 40];
-        let mut w: &mut [u8] = &mut body[..];
-        let _ = write!(w, "owner={}", owner_name.unwrap_or("none"));
-        let len = 40 - w.len();
-        let body = std::str::from_utf8(&body[..len]).unwrap_or("");
-        let line = self.buf.ack(to, body);
+        let name = owner.and_then(source_name);
+        let owner_name = name.as_ref().map(FixedText::as_str);
+        let mut body = FixedText::<40>::new();
+        let _ = write!(body, "owner={}", owner_name.unwrap_or("none"));
+        let line = self.buf.ack(to, body.as_str());
         deliver(&self.io.out, from, line);
         let line = self.buf.event(false, &Event::Control { owner: owner_name });
         self.io.out.send(SourceId::BROADCAST, line);
@@ -333,12 +324,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     pub(super) fn refuse(&mut self, from: SourceId, to: ReplyTo, err: &wrc_motion::PlanError) {
         let code = Code::from_number(refusal_code(err)).unwrap_or(Code::OutOfReach);
-        let mut text = [0u8; 400];
-        let mut w: &mut [u8] = &mut text[..];
-        let _ = write!(w, "{err}");
-        let len = 400 - w.len();
-        let text = std::str::from_utf8(&text[..len]).unwrap_or("the target cannot be reached");
-        self.nak(from, to, code, text);
+        let mut text = FixedText::<400>::new();
+        let _ = write!(text, "{err}");
+        self.nak(from, to, code, text.as_str());
     }
 
     /// A request of the controller's own (`source`: the program or a wafer job) through the

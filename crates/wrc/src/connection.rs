@@ -7,23 +7,31 @@ use std::os::unix::net::UnixStream;
 use std::time::Duration;
 
 use anyhow::Context;
+use wrc_ui::Endpoint;
 
-/// Connect to `addr` (a path when it contains `/`); reads give up after `timeout`.
+/// Connect to `addr`: the controller's Unix socket (a path, with a `/`) or `HOST:PORT`, as
+/// `wrc ui --controller` reads it ([`Endpoint::parse`]); reads give up after `timeout`.
 pub fn connect(
     addr: &str,
     timeout: Duration,
 ) -> anyhow::Result<(Box<dyn BufRead>, Box<dyn Write>)> {
-    if addr.contains('/') {
-        let s = UnixStream::connect(addr).with_context(|| {
-            format!("cannot connect to the controller's socket {addr} (is `wrc up` running?)")
-        })?;
-        s.set_read_timeout(Some(timeout))?;
-        Ok((Box::new(BufReader::new(s.try_clone()?)), Box::new(s)))
-    } else {
-        let s = TcpStream::connect(addr).with_context(|| {
-            format!("cannot connect to the controller at {addr} (is `wrc up` running?)")
-        })?;
-        s.set_read_timeout(Some(timeout))?;
-        Ok((Box::new(BufReader::new(s.try_clone()?)), Box::new(s)))
+    match Endpoint::parse(addr)? {
+        Endpoint::Unix(path) => {
+            let s = UnixStream::connect(&path).with_context(|| {
+                format!(
+                    "cannot connect to the controller's socket {} (is `wrc up` running?)",
+                    path.display()
+                )
+            })?;
+            s.set_read_timeout(Some(timeout))?;
+            Ok((Box::new(BufReader::new(s.try_clone()?)), Box::new(s)))
+        }
+        Endpoint::Tcp(addr) => {
+            let s = TcpStream::connect(&addr).with_context(|| {
+                format!("cannot connect to the controller at {addr} (is `wrc up` running?)")
+            })?;
+            s.set_read_timeout(Some(timeout))?;
+            Ok((Box::new(BufReader::new(s.try_clone()?)), Box::new(s)))
+        }
     }
 }

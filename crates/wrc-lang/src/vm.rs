@@ -70,24 +70,9 @@ pub enum Motion {
     },
 }
 
-/// Which way a [`Request::Transfer`] moves a wafer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum TransferKind {
-    /// `GET`: from the station's slot onto the hand.
-    Get,
-    /// `PUT`: from the hand into the station's slot.
-    Put,
-}
-
-impl TransferKind {
-    /// The statement's keyword: `GET` or `PUT`.
-    pub fn keyword(self) -> &'static str {
-        match self {
-            TransferKind::Get => "GET",
-            TransferKind::Put => "PUT",
-        }
-    }
-}
+/// Which way a [`Request::Transfer`] moves a wafer: the cell's own kind (its `as_str` is the
+/// statement's keyword, `GET` or `PUT`).
+pub use wrc_cell::TransferKind;
 
 /// What the program waits for the host to do. After carrying it out the host calls
 /// [`Vm::resume`]; until then [`Vm::run`] returns the same request again.

@@ -94,8 +94,8 @@ GET \"ABCDEFGHIJKLMNOP\", 1
         panic!("{:?}", r.requests[2])
     };
     assert_eq!(station.as_str(), "ALIGNER");
-    assert_eq!(TransferKind::Get.keyword(), "GET");
-    assert_eq!(TransferKind::Put.keyword(), "PUT");
+    assert_eq!(TransferKind::Get.as_str(), "GET");
+    assert_eq!(TransferKind::Put.as_str(), "PUT");
 }
 
 #[test]

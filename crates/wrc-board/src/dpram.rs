@@ -43,8 +43,8 @@
 
 use std::sync::atomic::{fence, Ordering};
 
-use crate::driver::Mapping;
 use crate::layout::{self, axis, control, header, Header, LayoutError, FIFO_CAPACITY, MAGIC};
+use crate::mapping::Mapping;
 
 /// Where the command FIFO stands between two board periods, for a flush
 /// ([`Dpram::flush_position`], [`crate::MotionBoard::fifo_position`]).

@@ -20,6 +20,7 @@ pub mod dpram;
 pub mod driver;
 pub mod fault;
 pub mod layout;
+pub mod mapping;
 pub mod multi;
 
 /// The wafer cell crate (the mapping sensor's slot codes are its `SlotCode`).

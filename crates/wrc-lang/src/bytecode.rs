@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use wrc_robot::{Posture, MAX_AXES};
 
-use crate::error::DecodeError;
-use crate::value::Ty;
+use crate::error::{DecodeError, RuntimeErrorKind};
+use crate::value::{Ty, Value};
 
 /// A built-in function of numbers (angles in degrees).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -30,6 +30,23 @@ pub enum Builtin {
 }
 
 impl Builtin {
+    /// Apply it to `a` (and `b`, for the functions of two numbers). Angles are in degrees.
+    pub(crate) fn apply(self, a: f64, b: f64) -> Result<Value, RuntimeErrorKind> {
+        let num = crate::value::num;
+        match self {
+            Builtin::Sin => num(a.to_radians().sin()),
+            Builtin::Cos => num(a.to_radians().cos()),
+            Builtin::Atan2 => num(a.atan2(b).to_degrees()),
+            Builtin::Sqrt if a < 0.0 => {
+                Err(RuntimeErrorKind::BadArgument("SQRT of a negative number"))
+            }
+            Builtin::Sqrt => num(a.sqrt()),
+            Builtin::Abs => num(a.abs()),
+            Builtin::Min => num(a.min(b)),
+            Builtin::Max => num(a.max(b)),
+        }
+    }
+
     /// Every built-in.
     pub const ALL: [Builtin; 7] = [
         Builtin::Sin,

@@ -1196,7 +1196,7 @@ impl Checker<'_> {
                 if let Some(v) = nums {
                     let a = v.first().copied().unwrap_or(0.0);
                     let bv = v.get(1).copied().unwrap_or(0.0);
-                    match value::builtin(b, a, bv) {
+                    match b.apply(a, bv) {
                         Ok(k) => konst = Some(k),
                         Err(e) => {
                             self.error(span, format!("{}: {e}", b.name()));

@@ -5,7 +5,6 @@ use core::fmt;
 
 use wrc_robot::{InlineName, Joints, Pose, MAX_AXES};
 
-use crate::bytecode::Builtin;
 use crate::error::RuntimeErrorKind;
 
 /// The type of a value.
@@ -100,7 +99,7 @@ impl Value {
 
 type R = Result<Value, RuntimeErrorKind>;
 
-fn num(x: f64) -> R {
+pub(crate) fn num(x: f64) -> R {
     if x.is_finite() {
         Ok(Value::Num(x))
     } else {
@@ -239,20 +238,6 @@ pub(crate) fn logic(and: bool, a: Value, b: Value) -> R {
     match (a, b) {
         (Value::Bool(a), Value::Bool(b)) => Ok(Value::Bool(if and { a && b } else { a || b })),
         _ => Err(MISMATCH),
-    }
-}
-
-/// A built-in function of numbers. Angles are in degrees.
-pub(crate) fn builtin(f: Builtin, a: f64, b: f64) -> R {
-    match f {
-        Builtin::Sin => num(a.to_radians().sin()),
-        Builtin::Cos => num(a.to_radians().cos()),
-        Builtin::Atan2 => num(a.atan2(b).to_degrees()),
-        Builtin::Sqrt if a < 0.0 => Err(RuntimeErrorKind::BadArgument("SQRT of a negative number")),
-        Builtin::Sqrt => num(a.sqrt()),
-        Builtin::Abs => num(a.abs()),
-        Builtin::Min => num(a.min(b)),
-        Builtin::Max => num(a.max(b)),
     }
 }
 

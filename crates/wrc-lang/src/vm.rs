@@ -510,7 +510,7 @@ impl Vm {
                 } else {
                     (self.num()?, 0.0)
                 };
-                self.push(value::builtin(b, a, second)?)?;
+                self.push(b.apply(a, second)?)?;
             }
             Here => {
                 let p = io.here();

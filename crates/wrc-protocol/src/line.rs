@@ -4,6 +4,11 @@
 
 use crate::code::Code;
 
+/// XOR of `bytes`: the `*HH` checksum of the text before `*` (requests and replies).
+pub fn checksum(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0, |acc, b| acc ^ b)
+}
+
 /// Longest request line, in bytes, not counting the terminating LF or CR LF.
 pub const MAX_LINE: usize = 256;
 

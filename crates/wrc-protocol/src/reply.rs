@@ -7,8 +7,8 @@ use core::fmt::{self, Display, Write};
 use wrc_robot::Pose;
 
 use crate::code::Code;
+use crate::line::checksum;
 use crate::line::LineError;
-use crate::request::{checksum, Rejected};
 use crate::state::State;
 use crate::verb::Verb;
 
@@ -161,11 +161,6 @@ impl ReplyBuf {
     /// One of the documented events, `EVT <name> <body>`.
     pub fn event(&mut self, checksum: bool, event: &Event<'_>) -> &[u8] {
         self.evt(checksum, event.name(), event)
-    }
-
-    /// The `NAK` for a request the parser refused: its id, code and message.
-    pub fn rejected(&mut self, rejected: &Rejected) -> &[u8] {
-        self.nak(rejected.reply_to(), rejected.code(), rejected)
     }
 
     /// The `NAK` for a line the [`LineReader`](crate::LineReader) refused (code 103, no id:

@@ -9,7 +9,7 @@ use wrc_cell::Blade;
 use wrc_robot::{AxisName, Pose, Posture, Robot, MAX_AXES};
 
 use crate::code::Code;
-use crate::reply::ReplyTo;
+use crate::reply::{ReplyBuf, ReplyTo};
 use crate::verb::Verb;
 
 /// Most digits in a request id.
@@ -506,9 +506,13 @@ impl Rejected {
     }
 }
 
-/// XOR of `bytes`: the `*HH` checksum of the text before `*`.
-pub fn checksum(bytes: &[u8]) -> u8 {
-    bytes.iter().fold(0, |acc, b| acc ^ b)
+pub use crate::line::checksum;
+
+impl ReplyBuf {
+    /// The `NAK` for a request the parser refused: its id, code and message.
+    pub fn rejected(&mut self, rejected: &Rejected) -> &[u8] {
+        self.nak(rejected.reply_to(), rejected.code(), rejected)
+    }
 }
 
 /// Parses request lines for one robot and one kind of connection.

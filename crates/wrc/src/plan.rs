@@ -11,7 +11,7 @@ use wrc_config::Config;
 use wrc_motion::{MoveEnd, MoveInfo, Period, Profile, Status, Sync, VelocityGenerator};
 use wrc_robot::{Pose, Posture, Robot};
 
-use crate::plot;
+use crate::plot::{self, Row};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -287,16 +287,6 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),
         Err(e) => Err(e).context("cannot write the CSV to standard output"),
     }
-}
-
-/// One CSV row: the pulses of period k and the commanded pulse position after it.
-pub struct Row {
-    /// Period index (0 = the state before the move).
-    pub k: u64,
-    /// Pulses emitted in the period, per axis.
-    pub pulses: Vec<i64>,
-    /// Commanded position after the period [pulse].
-    pub position: Vec<i64>,
 }
 
 fn produce(vg: &mut VelocityGenerator) -> anyhow::Result<Vec<Row>> {

@@ -6,7 +6,15 @@ use std::path::Path;
 use plotters::prelude::*;
 use wrc_robot::Robot;
 
-use crate::plan::Row;
+/// One CSV row: the pulses of period k and the commanded pulse position after it.
+pub struct Row {
+    /// Period index (0 = the state before the move).
+    pub k: u64,
+    /// Pulses emitted in the period, per axis.
+    pub pulses: Vec<i64>,
+    /// Commanded position after the period [pulse].
+    pub position: Vec<i64>,
+}
 
 /// Line colours, one per axis in axis order (wrapping after six).
 pub(crate) const COLOURS: [RGBColor; 6] = [

@@ -2,84 +2,19 @@
 //! board, PCI BAR resource file or UIO device of a real one), checks it, and implements
 //! [`MotionBoard`] on it with the protocols of [`crate::dpram`].
 
-mod mmap;
-
 use crate::dpram::FifoPosition;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use wrc_robot::MAX_AXES;
 
-pub use mmap::Mapping;
+pub use crate::mapping::{Mapping, OpenError};
 
 use crate::board::{
     AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
 };
 use crate::dpram::{AxisRecord, Dpram, MappingRecord};
-use crate::layout::{self, axis, command, control, io, mapping, Header, LayoutError};
-
-/// A DPRAM that cannot be used; every variant names the path.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum OpenError {
-    /// The operating system refused (missing file, permissions, mmap).
-    #[error("DPRAM {path}: {what}: {error}", path = path.display())]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// What was attempted.
-        what: &'static str,
-        /// Why it failed (in the message, so not also a `source`).
-        error: std::io::Error,
-    },
-    /// Not a regular file, PCI resource file or UIO device.
-    #[error("DPRAM {path}: cannot be mapped: expected a shared-memory file, a PCI resource file (/sys/bus/pci/devices/…/resourceN) or a UIO device (/dev/uioN)", path = path.display())]
-    NotMappable {
-        /// The path.
-        path: PathBuf,
-    },
-    /// Shorter than the layout.
-    #[error("DPRAM {path}: truncated: {len} bytes, the layout needs {need}", path = path.display(), need = layout::LAYOUT_SIZE)]
-    Truncated {
-        /// The path.
-        path: PathBuf,
-        /// Its length [byte].
-        len: u64,
-    },
-    /// The header is wrong (foreign file, other version, bad field, not initialised yet).
-    #[error("DPRAM {path}: {problem}", path = path.display())]
-    Layout {
-        /// The path.
-        path: PathBuf,
-        /// What is wrong.
-        problem: LayoutError,
-    },
-    /// A valid board, but not the one the configuration describes.
-    #[error("DPRAM {path}: the board reports {field} = {found}, the configuration expects {expected}", path = path.display())]
-    Mismatch {
-        /// The path.
-        path: PathBuf,
-        /// The header field.
-        field: &'static str,
-        /// What the board reports.
-        found: u32,
-        /// What was expected.
-        expected: u32,
-    },
-}
-
-impl OpenError {
-    /// True when waiting may help: the file does not exist yet or the board is still
-    /// initialising it.
-    pub fn is_not_ready(&self) -> bool {
-        match self {
-            OpenError::Io { error, .. } => error.kind() == std::io::ErrorKind::NotFound,
-            OpenError::Layout { problem, .. } => matches!(problem, LayoutError::NotReady),
-            OpenError::Truncated { len: 0, .. } => true,
-            _ => false,
-        }
-    }
-}
+use crate::layout::{self, axis, command, control, io, mapping, Header};
 
 /// What the configuration expects of a board; `None` accepts anything.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -11,8 +11,70 @@ use std::sync::Arc;
 
 use memmap2::{MmapOptions, MmapRaw};
 
-use crate::driver::OpenError;
-use crate::layout::LAYOUT_SIZE;
+use crate::layout::{self, LayoutError, LAYOUT_SIZE};
+
+/// A DPRAM that cannot be used; every variant names the path.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OpenError {
+    /// The operating system refused (missing file, permissions, mmap).
+    #[error("DPRAM {path}: {what}: {error}", path = path.display())]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// What was attempted.
+        what: &'static str,
+        /// Why it failed (in the message, so not also a `source`).
+        error: std::io::Error,
+    },
+    /// Not a regular file, PCI resource file or UIO device.
+    #[error("DPRAM {path}: cannot be mapped: expected a shared-memory file, a PCI resource file (/sys/bus/pci/devices/…/resourceN) or a UIO device (/dev/uioN)", path = path.display())]
+    NotMappable {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Shorter than the layout.
+    #[error("DPRAM {path}: truncated: {len} bytes, the layout needs {need}", path = path.display(), need = layout::LAYOUT_SIZE)]
+    Truncated {
+        /// The path.
+        path: PathBuf,
+        /// Its length [byte].
+        len: u64,
+    },
+    /// The header is wrong (foreign file, other version, bad field, not initialised yet).
+    #[error("DPRAM {path}: {problem}", path = path.display())]
+    Layout {
+        /// The path.
+        path: PathBuf,
+        /// What is wrong.
+        problem: LayoutError,
+    },
+    /// A valid board, but not the one the configuration describes.
+    #[error("DPRAM {path}: the board reports {field} = {found}, the configuration expects {expected}", path = path.display())]
+    Mismatch {
+        /// The path.
+        path: PathBuf,
+        /// The header field.
+        field: &'static str,
+        /// What the board reports.
+        found: u32,
+        /// What was expected.
+        expected: u32,
+    },
+}
+
+impl OpenError {
+    /// True when waiting may help: the file does not exist yet or the board is still
+    /// initialising it.
+    pub fn is_not_ready(&self) -> bool {
+        match self {
+            OpenError::Io { error, .. } => error.kind() == std::io::ErrorKind::NotFound,
+            OpenError::Layout { problem, .. } => matches!(problem, LayoutError::NotReady),
+            OpenError::Truncated { len: 0, .. } => true,
+            _ => false,
+        }
+    }
+}
 
 /// A mapped DPRAM window of at least [`LAYOUT_SIZE`] bytes.
 #[derive(Debug)]

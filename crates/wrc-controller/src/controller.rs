@@ -18,6 +18,8 @@ use wrc_rt::ipc::{mailbox, spsc, MessageQueue, Semaphore};
 use wrc_rt::{RealtimeMode, RunningRuntime, Runtime, RuntimeOptions, SchedReport, StopReport};
 
 use crate::clients::{ClientSet, Routes};
+pub use crate::start_error::StartError;
+
 use crate::host::{Host, HostWake, RealHost};
 
 use crate::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
@@ -27,7 +29,7 @@ use crate::io_monitor::IoMonitor;
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::pulse_generator::PulseGenerator;
 use crate::queries::TaskCell;
-use crate::rs232c::{open_serial, Parity, Rs232c, SerialError};
+use crate::rs232c::{open_serial, Parity, Rs232c};
 use crate::service::Service;
 use crate::shared::{Shared, StopKind};
 use crate::simulator_manager::SimulatorManager;
@@ -74,72 +76,6 @@ pub struct CellFiles {
     pub stations: PathBuf,
     /// The wafer map file (TOML).
     pub wafers: PathBuf,
-}
-
-/// Why the controller could not start.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum StartError {
-    /// A board could not be opened.
-    #[error("motion board: {0}")]
-    Board(#[from] wrc_board::OpenError),
-    /// The simulated wafer cell (under virtual time) does not fit the stations or robot.
-    #[error("simulated cell: {0}")]
-    SimCell(String),
-    /// A simulated board (under virtual time) could not be made.
-    #[cfg(feature = "sim")]
-    #[error("simulated board: {0}")]
-    SimBoard(#[from] wrc_board_sim::SimError),
-    /// The boards do not fit the robot's axes.
-    #[error("motion boards: {0}")]
-    Boards(#[from] wrc_board::MultiError),
-    /// An endpoint could not be bound.
-    #[error("cannot listen on {what} {at}: {reason}")]
-    Bind {
-        /// TCP port, Unix socket or UDP sender.
-        what: &'static str,
-        /// The address or path.
-        at: String,
-        /// Why.
-        reason: std::io::Error,
-    },
-    /// The serial port could not be used.
-    #[error(transparent)]
-    Serial(#[from] SerialError),
-    /// The configuration's motion settings.
-    #[error("{0}")]
-    Settings(#[from] wrc_motion::SettingsError),
-    /// The runtime could not start a task.
-    #[error("{0}")]
-    Runtime(#[from] wrc_rt::RuntimeError),
-    /// A task's event waiter (epoll over its sockets or tty and its reply queue) could not
-    /// be set up.
-    #[error("task {task}: cannot watch its connections and reply queue (epoll): {reason}")]
-    Waiter {
-        /// The task.
-        task: &'static str,
-        /// Why.
-        reason: std::io::Error,
-    },
-    /// The stations file or the wafer map is unusable.
-    #[error("wafer cell: {0}")]
-    Cell(#[from] crate::cell_service::CellError),
-    /// The trace directory could not be made.
-    #[error("cannot use the trace directory {path}: {reason}")]
-    Traces {
-        /// The directory.
-        path: String,
-        /// Why.
-        reason: std::io::Error,
-    },
-    /// The program directory could not be used.
-    #[error("cannot use the program directory {path}: {reason}")]
-    Programs {
-        /// The directory.
-        path: String,
-        /// Why.
-        reason: std::io::Error,
-    },
 }
 
 /// A running controller.

@@ -11,7 +11,7 @@ use wrc_rt::virtual_time::VirtualWake;
 use wrc_rt::wake::{FdRegistry, FdWake, Wake};
 use wrc_rt::{Notify, Runtime, Task, TaskSpec, Waiter};
 
-use crate::controller::StartError;
+use crate::start_error::StartError;
 
 /// What a task released by events waits on, as the assembly sees it.
 pub(crate) trait HostWake {

@@ -26,4 +26,5 @@ pub mod shared;
 #[cfg(feature = "sim")]
 pub mod simulation;
 pub mod simulator_manager;
+mod start_error;
 pub mod velocity_generator;

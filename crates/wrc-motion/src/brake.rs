@@ -26,6 +26,18 @@
 //! Real-time promise: `Copy`, no allocation, no panic, O(1) to build and to evaluate; every
 //! output is finite for finite input.
 
+/// Which limits a controlled stop ([`crate::VelocityGenerator::stop`]) brakes with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BrakeLimits {
+    /// STOP or HOLD: the limits the move was planned with, i.e. every axis's (and a line's
+    /// Cartesian) limits scaled by the move's speed override (velocity p, acceleration p²,
+    /// jerk p³).
+    Override,
+    /// ESTOP, IEC 60204-1 stop category 1: every axis's full limits whatever the speed
+    /// override (a straight line: its full joint and Cartesian limits).
+    Full,
+}
+
 /// Most constant-jerk phases of a brake: back inside ±A, towards the peak deceleration, at
 /// the peak, back to zero acceleration.
 const MAX_PHASES: usize = 4;

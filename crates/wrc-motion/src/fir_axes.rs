@@ -16,8 +16,8 @@
 use wrc_robot::MAX_AXES;
 
 use crate::brake::Brake1d;
+use crate::brake::BrakeLimits;
 use crate::double_s::DoubleS;
-use crate::generator::BrakeLimits;
 
 /// What one axis's fraction follows.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -12,6 +12,7 @@
 use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
 use crate::brake::Brake1d;
+pub use crate::brake::BrakeLimits;
 use crate::double_s::DoubleS;
 use crate::error::{PlanError, SettingsError};
 use crate::fir_axes::FirAxes;
@@ -43,18 +44,6 @@ pub enum MoveEnd {
     Completed,
     /// A controlled stop ended it before the target.
     Stopped,
-}
-
-/// Which limits a controlled stop ([`VelocityGenerator::stop`]) brakes with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BrakeLimits {
-    /// STOP or HOLD: the limits the move was planned with, i.e. every axis's (and a line's
-    /// Cartesian) limits scaled by the move's speed override (velocity p, acceleration p²,
-    /// jerk p³).
-    Override,
-    /// ESTOP, IEC 60204-1 stop category 1: every axis's full limits whatever the speed
-    /// override (a straight line: its full joint and Cartesian limits).
-    Full,
 }
 
 /// Where a move is going ([`MotionState::goal`]): what HOLD keeps to RESUME to.

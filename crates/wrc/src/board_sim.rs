@@ -225,8 +225,7 @@ fn run_cell_board(
     world_path: Option<PathBuf>,
     periods: Option<u64>,
 ) -> anyhow::Result<ExitCode> {
-    // SIGINT/SIGTERM are taken by a thread of their own (sigwait), so they are blocked here
-    // before any thread exists; threads inherit the mask.
+    // SIGINT/SIGTERM set the flag the board's loop watches.
     let stop = crate::up::stop_on_signals()?;
     let saver = WorldSaver::spawn(world_path.clone(), |line| {
         eprintln!("wrc board-sim: {line}")

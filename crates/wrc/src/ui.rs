@@ -43,11 +43,7 @@ pub struct UiArgs {
 
 /// Run `wrc ui` until SIGINT or SIGTERM.
 pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
-    let signals = crate::up::termination_signals();
-    // SAFETY: changes this thread's signal mask before any thread exists; threads inherit it.
-    unsafe {
-        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
-    }
+    let mut signals = crate::up::termination_signals()?;
     let listen = SocketAddr::new(args.listen, args.ui_port);
     let controller = Endpoint::parse(&args.controller)?;
     let ui = Ui::start(Options {
@@ -78,11 +74,7 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
     }
     use std::io::Write;
     let _ = std::io::stdout().flush();
-    let mut sig: libc::c_int = 0;
-    // SAFETY: waits for one of the blocked signals in `signals`.
-    unsafe {
-        libc::sigwait(&signals, &mut sig);
-    }
+    let _ = signals.forever().next();
     ui.stop();
     println!("wrc ui: stopped");
     Ok(ExitCode::SUCCESS)

@@ -62,40 +62,25 @@ pub struct UpArgs {
     no_rt: bool,
 }
 
-/// Signals that end `wrc up`, blocked in every thread and taken by `sigwait`.
-pub(crate) fn termination_signals() -> libc::sigset_t {
-    // SAFETY: sigemptyset/sigaddset only write the set we own.
-    unsafe {
-        let mut set: libc::sigset_t = std::mem::zeroed();
-        libc::sigemptyset(&mut set);
-        libc::sigaddset(&mut set, libc::SIGINT);
-        libc::sigaddset(&mut set, libc::SIGTERM);
-        set
-    }
+/// The signals that end `wrc up`, `wrc sim --listen` and `wrc board-sim`.
+const TERMINATION: [libc::c_int; 2] = [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM];
+
+/// SIGINT and SIGTERM, from now on delivered to the returned iterator (signal-hook's
+/// self-pipe) instead of ending the process; the caller waits on it.
+pub(crate) fn termination_signals() -> anyhow::Result<signal_hook::iterator::Signals> {
+    signal_hook::iterator::Signals::new(TERMINATION)
+        .context("cannot install the SIGINT/SIGTERM handler")
 }
 
-/// Block SIGINT and SIGTERM in this thread and every thread spawned after it, and take
-/// them on a thread of their own: the returned flag is set when one arrives. Call it before
-/// any other thread exists.
+/// A flag set when SIGINT or SIGTERM arrives (signal-hook's handler: it only stores to the
+/// flag, so whichever thread the kernel picks, a real-time one included, spends
+/// nanoseconds on it).
 pub(crate) fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
-    let signals = termination_signals();
-    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
-    unsafe {
-        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
-    }
     let stop = Arc::new(AtomicBool::new(false));
-    let stopper = stop.clone();
-    std::thread::Builder::new()
-        .name("signals".into())
-        .spawn(move || {
-            let mut sig: libc::c_int = 0;
-            // SAFETY: waits for one of the blocked signals in `signals`.
-            unsafe {
-                libc::sigwait(&signals, &mut sig);
-            }
-            stopper.store(true, Ordering::Relaxed);
-        })
-        .context("cannot start the signal thread")?;
+    for sig in TERMINATION {
+        signal_hook::flag::register(sig, stop.clone())
+            .context("cannot install the SIGINT/SIGTERM handler")?;
+    }
     Ok(stop)
 }
 
@@ -144,13 +129,10 @@ pub(crate) fn spawn_board(
     cmd.stdin(Stdio::null())
         .stdout(log.try_clone()?)
         .stderr(log);
-    // SAFETY: runs in the child between fork and exec and only calls async-signal-safe
-    // functions (sigprocmask, prctl).
+    // SAFETY: runs in the child between fork and exec and only calls an async-signal-safe
+    // function (prctl).
     unsafe {
         cmd.pre_exec(|| {
-            let mut empty: libc::sigset_t = std::mem::zeroed();
-            libc::sigemptyset(&mut empty);
-            libc::sigprocmask(libc::SIG_SETMASK, &empty, std::ptr::null_mut());
             // The simulated board dies with the controller, even on kill -9.
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
             Ok(())
@@ -200,12 +182,9 @@ fn spawn_ui(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     // SAFETY: runs in the child between fork and exec and only calls async-signal-safe
-    // functions (sigprocmask, prctl, setpriority).
+    // functions (prctl, setpriority).
     unsafe {
         cmd.pre_exec(|| {
-            let mut empty: libc::sigset_t = std::mem::zeroed();
-            libc::sigemptyset(&mut empty);
-            libc::sigprocmask(libc::SIG_SETMASK, &empty, std::ptr::null_mut());
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
             // The GUI is the least urgent thing on the machine.
             libc::setpriority(libc::PRIO_PROCESS, 0, 5);
@@ -315,12 +294,8 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             args.state_dir.display()
         )
     })?;
-    // Block SIGINT/SIGTERM before any thread exists, so that only sigwait below sees them.
-    let signals = termination_signals();
-    // SAFETY: changes this thread's signal mask; threads spawned later inherit it.
-    unsafe {
-        libc::pthread_sigmask(libc::SIG_BLOCK, &signals, std::ptr::null_mut());
-    }
+    // SIGINT/SIGTERM from now on are taken by signal-hook's self-pipe, read below.
+    let mut signals = termination_signals()?;
 
     let mut children = Vec::new();
     // The simulated cell (board 0, when it drives every robot axis) reads the same stations
@@ -474,11 +449,10 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     use std::io::Write;
     let _ = std::io::stdout().flush();
 
-    let mut sig: libc::c_int = 0;
-    // SAFETY: waits for one of the blocked signals in `signals`.
-    unsafe {
-        libc::sigwait(&signals, &mut sig);
-    }
+    let sig = signals
+        .forever()
+        .next()
+        .unwrap_or(signal_hook::consts::SIGTERM);
     println!("wrc: signal {sig}: stopping any motion, saving state, stopping tasks");
     let shared = running.shared().clone();
     let report = running.shutdown(Duration::from_secs(3));

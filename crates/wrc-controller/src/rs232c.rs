@@ -13,8 +13,9 @@
 use std::fs::{File, OpenOptions};
 use std::io;
 use std::os::unix::fs::OpenOptionsExt;
-use std::os::unix::io::AsRawFd;
 use std::path::Path;
+
+use nix::sys::termios::{self, BaudRate, ControlFlags, SetArg};
 use std::sync::Arc;
 
 use wrc_rt::ipc::MessageQueue;
@@ -65,11 +66,11 @@ pub enum SerialError {
 /// Open `path` non-blocking as a raw 8-bit line at `baud` with `parity`, one stop bit.
 pub fn open_serial(path: &Path, baud: u32, parity: Parity) -> Result<File, SerialError> {
     let speed = match baud {
-        9600 => libc::B9600,
-        19200 => libc::B19200,
-        38400 => libc::B38400,
-        57600 => libc::B57600,
-        115200 => libc::B115200,
+        9600 => BaudRate::B9600,
+        19200 => BaudRate::B19200,
+        38400 => BaudRate::B38400,
+        57600 => BaudRate::B57600,
+        115200 => BaudRate::B115200,
         other => return Err(SerialError::Baud(other)),
     };
     let file = OpenOptions::new()
@@ -81,36 +82,24 @@ pub fn open_serial(path: &Path, baud: u32, parity: Parity) -> Result<File, Seria
             path: path.display().to_string(),
             reason,
         })?;
-    let fd = file.as_raw_fd();
-    let configure = || -> std::io::Result<()> {
-        // SAFETY: `termios` is plain data that tcgetattr fills completely; `fd` is an open
-        // descriptor owned by `file` for the duration of these calls.
-        unsafe {
-            let mut t: libc::termios = std::mem::zeroed();
-            if libc::tcgetattr(fd, &mut t) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            libc::cfmakeraw(&mut t);
-            t.c_cflag |= libc::CLOCAL | libc::CREAD;
-            t.c_cflag &= !(libc::PARENB | libc::PARODD | libc::CSTOPB);
-            match parity {
-                Parity::None => {}
-                Parity::Even => t.c_cflag |= libc::PARENB,
-                Parity::Odd => t.c_cflag |= libc::PARENB | libc::PARODD,
-            }
-            if libc::cfsetispeed(&mut t, speed) != 0 || libc::cfsetospeed(&mut t, speed) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            if libc::tcsetattr(fd, libc::TCSANOW, &t) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
+    // Raw 8-bit, no echo, the receiver on, modem lines ignored, one stop bit, the parity.
+    let configure = || -> nix::Result<()> {
+        let mut t = termios::tcgetattr(&file)?;
+        termios::cfmakeraw(&mut t);
+        t.control_flags |= ControlFlags::CLOCAL | ControlFlags::CREAD;
+        t.control_flags &= !(ControlFlags::PARENB | ControlFlags::PARODD | ControlFlags::CSTOPB);
+        match parity {
+            Parity::None => {}
+            Parity::Even => t.control_flags |= ControlFlags::PARENB,
+            Parity::Odd => t.control_flags |= ControlFlags::PARENB | ControlFlags::PARODD,
         }
-        Ok(())
+        termios::cfsetspeed(&mut t, speed)?;
+        termios::tcsetattr(&file, SetArg::TCSANOW, &t)
     };
-    configure().map_err(|reason| SerialError::Configure {
+    configure().map_err(|errno| SerialError::Configure {
         path: path.display().to_string(),
         baud,
-        reason,
+        reason: std::io::Error::from(errno),
     })?;
     Ok(file)
 }

@@ -491,7 +491,7 @@ impl CellService {
                     // A SWAP's PUT half is pending, on disk, before it moves.
                     if let Some(put) = self.swap_put.take() {
                         if let Err(e) = self.wafers.begin(put) {
-                            eprintln!("wrc: SWAP: the wafer map refused its PUT half: {e}");
+                            tracing::warn!("wrc: SWAP: the wafer map refused its PUT half: {e}");
                         }
                     }
                     self.persist();
@@ -522,7 +522,7 @@ impl CellService {
                 } else {
                     // Settled by the vacuum sensor, exactly as at start-up.
                     let r = self.wafers.reconcile(sensed);
-                    eprintln!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                    tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
                 }
                 self.persist();
             }
@@ -547,11 +547,13 @@ impl CellService {
                 match self.wafers.apply_mapping(name.as_str(), &scan) {
                     Ok(changes) => {
                         for (slot, id) in &changes.removed {
-                            eprintln!("wrc: MAP {name}: wafer {id} of slot {slot} is gone");
+                            tracing::warn!("wrc: MAP {name}: wafer {id} of slot {slot} is gone");
                         }
                         self.persist();
                     }
-                    Err(e) => eprintln!("wrc: MAP {name}: the wafer map refused the result: {e}"),
+                    Err(e) => {
+                        tracing::warn!("wrc: MAP {name}: the wafer map refused the result: {e}")
+                    }
                 }
             }
             CellEvent::WaferLost { sensed } => {
@@ -567,7 +569,7 @@ impl CellService {
             if self.wafers.hand_of(b).is_some() && !sensed[b.index()] {
                 let at = wrc_cell::Location::Hand(b);
                 if let Ok(id) = self.wafers.remove(at) {
-                    eprintln!("wrc: wafer {id} was lost from the {at}; it left the wafer map");
+                    tracing::warn!("wrc: wafer {id} was lost from the {at}; it left the wafer map");
                 }
             }
         }
@@ -575,7 +577,7 @@ impl CellService {
 
     fn persist(&mut self) {
         if let Err(e) = self.save() {
-            eprintln!("wrc: cannot save the wafer map: {e}");
+            tracing::error!("wrc: cannot save the wafer map: {e}");
         }
         self.broadcast_map();
     }
@@ -594,10 +596,10 @@ impl CellService {
             self.reconciled = true;
             match r {
                 Reconciled::Committed(t) => {
-                    eprintln!("wrc: a transfer was under way at the last stop: {t} had happened (the vacuum sensor says so); committed")
+                    tracing::warn!("wrc: a transfer was under way at the last stop: {t} had happened (the vacuum sensor says so); committed")
                 }
                 Reconciled::Aborted(t) => {
-                    eprintln!("wrc: a transfer was under way at the last stop: {t} had not happened (the vacuum sensor says so); the wafer stays at its source")
+                    tracing::warn!("wrc: a transfer was under way at the last stop: {t} had not happened (the vacuum sensor says so); the wafer stays at its source")
                 }
                 _ => {}
             }

@@ -571,7 +571,7 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
             .collect();
         let _ = parts.watched.set(watched);
     } else {
-        eprintln!(
+        tracing::warn!(
             "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
         );
     }

@@ -163,12 +163,12 @@ impl Service {
         };
         match recorder.drain() {
             None => {}
-            Some(Ok(saved)) => eprintln!(
+            Some(Ok(saved)) => tracing::info!(
                 "wrc: trace of the last {:.1} s before the alarm saved in {}",
                 saved.seconds,
                 saved.path.display()
             ),
-            Some(Err(e)) => eprintln!("wrc: the alarm's trace could not be saved: {e}"),
+            Some(Err(e)) => tracing::error!("wrc: the alarm's trace could not be saved: {e}"),
         }
     }
 

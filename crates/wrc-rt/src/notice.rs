@@ -78,7 +78,9 @@ impl fmt::Display for Notice {
 /// Where notices go; called from non-real-time threads only.
 pub type NoticeSink = Arc<dyn Fn(&Notice) + Send + Sync>;
 
-/// The default sink: one line on standard error.
+/// The default sink: the process's log (`tracing`, at warning level; the binary's
+/// subscriber writes it to standard error). Real-time threads never call it: they queue
+/// notices, and the non-real-time reporter drains the queue into this sink.
 pub fn stderr_sink() -> NoticeSink {
-    Arc::new(|notice: &Notice| eprintln!("{notice}"))
+    Arc::new(|notice: &Notice| tracing::warn!("{notice}"))
 }

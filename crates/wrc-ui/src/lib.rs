@@ -147,7 +147,7 @@ impl Hub {
     fn note(&self, text: &str) {
         match self.notes.lock().ok().as_ref().and_then(|n| n.as_ref()) {
             Some(sink) => sink(text),
-            None => eprintln!("{text}"),
+            None => tracing::info!("{text}"),
         }
     }
 }

@@ -173,7 +173,7 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
 
 fn print_started(sim: &SimBoard, board: &BoardConfig) {
     let h = *sim.dpram().header();
-    eprintln!(
+    tracing::info!(
         "wrc board-sim: board {} with {} axes, period {} µs, FIFO depth {}, watchdog {} periods, DPRAM {} (epoch {})",
         h.board_id,
         h.axis_count,
@@ -197,7 +197,7 @@ fn load_cell(
     let cell = SimCell::new(config, board, stations)
         .with_context(|| format!("--stations {}", stations_path.display()))?;
     let Some(path) = world_path else {
-        eprintln!(
+        tracing::info!(
             "wrc board-sim: simulated cell of {} (wafers from its [station.sim] tables, not saved)",
             stations_path.display()
         );
@@ -208,7 +208,7 @@ fn load_cell(
         Origin::Loaded => "read from",
         Origin::Created => "new, written to",
     };
-    eprintln!(
+    tracing::info!(
         "wrc board-sim: simulated cell of {}; ground truth {how} {}",
         stations_path.display(),
         path.display()
@@ -228,7 +228,11 @@ fn run_cell_board(
     // SIGINT/SIGTERM set the flag the board's loop watches.
     let stop = crate::up::stop_on_signals()?;
     let saver = WorldSaver::spawn(world_path.clone(), |line| {
-        eprintln!("wrc board-sim: {line}")
+        if line.starts_with("FAULT") {
+            tracing::warn!("wrc board-sim: {line}")
+        } else {
+            tracing::info!("wrc board-sim: {line}")
+        }
     })
     .context("cannot start the world-saver thread")?;
 
@@ -256,7 +260,7 @@ fn run_cell_board(
     }
     saver.finish();
     if let Some(path) = &world_path {
-        eprintln!(
+        tracing::info!(
             "wrc board-sim: stopped; ground truth saved in {}",
             path.display()
         );

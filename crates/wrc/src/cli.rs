@@ -2,7 +2,9 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use std::sync::OnceLock;
+
+use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::bench;
 use crate::board_sim;
@@ -18,8 +20,59 @@ use crate::up;
 #[derive(Debug, Parser)]
 #[command(name = "wrc", version, about, long_about = None)]
 struct Cli {
+    /// What the controller's log shows on standard error (the process's own messages, the
+    /// real-time tasks' notices, the cell service's and the GUI server's): `error`, `warn`,
+    /// `info` (default), `debug` or `trace`. `wrc up` passes it on to its board and GUI
+    /// processes.
+    #[arg(long, global = true, value_enum, default_value_t = LogLevel::Info)]
+    log_level: LogLevel,
     #[command(subcommand)]
     command: Command,
+}
+
+/// `--log-level`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LogLevel {
+    /// Errors only.
+    Error,
+    /// Errors and warnings.
+    Warn,
+    /// And what happened (the default).
+    Info,
+    /// And details for finding a problem.
+    Debug,
+    /// Everything.
+    Trace,
+}
+
+impl LogLevel {
+    fn filter(self) -> tracing::Level {
+        match self {
+            LogLevel::Error => tracing::Level::ERROR,
+            LogLevel::Warn => tracing::Level::WARN,
+            LogLevel::Info => tracing::Level::INFO,
+            LogLevel::Debug => tracing::Level::DEBUG,
+            LogLevel::Trace => tracing::Level::TRACE,
+        }
+    }
+
+    /// The word on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LogLevel::Error => "error",
+            LogLevel::Warn => "warn",
+            LogLevel::Info => "info",
+            LogLevel::Debug => "debug",
+            LogLevel::Trace => "trace",
+        }
+    }
+}
+
+static LOG_LEVEL: OnceLock<LogLevel> = OnceLock::new();
+
+/// The `--log-level` this process runs with (for the processes it starts).
+pub fn log_level() -> LogLevel {
+    LOG_LEVEL.get().copied().unwrap_or(LogLevel::Info)
 }
 
 #[derive(Debug, Subcommand)]
@@ -56,6 +109,16 @@ enum Command {
 /// Parse the command line and run the subcommand; the exit code is the subcommand's.
 pub fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
+    let _ = LOG_LEVEL.set(cli.log_level);
+    // One line per message on standard error, as the messages are written (`wrc: …`): no
+    // time stamp (the journal or the terminal has one), no target, no level word.
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(cli.log_level.filter())
+        .without_time()
+        .with_target(false)
+        .with_level(false)
+        .try_init();
     match cli.command {
         Command::Up(args) => up::run(args),
         Command::Ui(args) => ui::run(args),

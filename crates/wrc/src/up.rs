@@ -106,7 +106,7 @@ pub(crate) fn spawn_board(
     let exe =
         std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
     let mut cmd = Command::new(exe);
-    cmd.arg("board-sim")
+    cmd.args(["--log-level", crate::cli::log_level().as_str(), "board-sim"])
         .arg("--dpram")
         .arg(dpram)
         .arg("--board-id")
@@ -171,7 +171,7 @@ fn spawn_ui(
     let exe = std::env::current_exe().context("cannot find the wrc executable to start wrc ui")?;
     let log_path = state_dir.join("ui.log");
     let mut cmd = Command::new(exe);
-    cmd.arg("ui")
+    cmd.args(["--log-level", crate::cli::log_level().as_str(), "ui"])
         .arg("--controller")
         .arg(socket)
         .arg("--sim-addr")
@@ -499,6 +499,6 @@ fn save_state(dir: &Path, shared: &wrc_controller::shared::Shared) {
                 .map_err(|e| e.to_string())
         });
     if let Err(e) = saved {
-        eprintln!("wrc: could not save the state in {}: {e}", dir.display());
+        tracing::error!("wrc: could not save the state in {}: {e}", dir.display());
     }
 }

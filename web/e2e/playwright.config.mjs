@@ -50,7 +50,7 @@ export default defineConfig({
     navigationTimeout: STEP_MS,
     // DOM snapshots of every action, but no screencast: grabbing the WebGL canvas frame by frame
     // slows the page down enough to miss the HOLD step's window on a loaded machine.
-    trace: { mode: 'retain-on-failure', snapshots: true, screenshots: false, sources: true },
+    trace: { mode: 'retain-on-failure', snapshots: false, screenshots: false, sources: true },
     screenshot: 'only-on-failure',
   },
 });

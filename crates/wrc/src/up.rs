@@ -1,5 +1,22 @@
 //! `wrc up`: the controller with its simulated boards, endpoints printed, stopped cleanly by
 //! SIGINT or SIGTERM (controlled stop of any motion, state saved, tasks stopped, exit 0).
+//!
+//! # Supervision, kept small
+//!
+//! `wrc up` is one process with the controller's tasks in it, and starts two kinds of child
+//! process from the same binary:
+//!
+//! - **`wrc board-sim`**, one per simulated board, before the controller (the controller maps
+//!   its DPRAM). Started, then waited for until its DPRAM is valid (10 s at most, its log
+//!   quoted if it exits). It dies with `wrc up` even on `kill -9` (`PR_SET_PDEATHSIG`), as a
+//!   board loses power with its host. It is **not restarted**: a board that stops is a
+//!   fault the controller must notice and report, not hide.
+//! - **`wrc ui`**, after the controller, at a lower CPU priority (nice 5): waited for until it
+//!   serves (10 s), its output copied to `STATE_DIR/ui.log`. Dies with `wrc up`; **not
+//!   restarted** either: the GUI is a client like any other, and a browser reconnects.
+//!
+//! At SIGINT/SIGTERM: the controller stops any motion and its tasks, the state is saved,
+//! then every child gets SIGTERM and 2 s to exit before SIGKILL, and is reaped.
 
 use std::net::SocketAddr;
 use std::os::unix::process::CommandExt;
@@ -244,12 +261,14 @@ fn forward_lines(
     });
 }
 
+/// SIGTERM to every child, 2 s to exit, then SIGKILL; every one reaped.
 pub(crate) fn stop_children(children: &mut [Child]) {
     for c in children.iter_mut() {
-        // SAFETY: kill with a pid we spawned and have not reaped.
-        unsafe {
-            libc::kill(c.id() as libc::pid_t, libc::SIGTERM);
-        }
+        // A pid we spawned and have not reaped (it may have exited: then this fails harmlessly).
+        let _ = nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(c.id() as i32),
+            nix::sys::signal::Signal::SIGTERM,
+        );
     }
     let deadline = Instant::now() + Duration::from_secs(2);
     for c in children.iter_mut() {

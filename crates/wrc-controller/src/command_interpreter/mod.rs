@@ -32,7 +32,9 @@ mod urgent;
 
 pub use urgent::UrgentPath;
 
-use crate::messages::{Incoming, MoveDone, MoveOrder, Outputs, SourceId, StoreLinks, Urgent};
+use crate::messages::{
+    Incoming, MoveDone, MoveOrder, OutLine, Outputs, SourceId, StoreLinks, Urgent,
+};
 use crate::shared::{RobotState, Shared};
 use motion::Ticket;
 use program::RunningProgram;
@@ -78,6 +80,33 @@ pub struct CommandLinks {
     pub owner_lost: Arc<AtomicBool>,
     /// The queues to and from the service thread (programs, wafer jobs).
     pub store: StoreLinks,
+}
+
+impl CommandLinks {
+    /// Links on these queues, with fresh ones for the rest (the urgent and forwarded
+    /// emergencies, the serial line's output, the owner-lost flag, the service's links):
+    /// one Command Interpreter wired on its own, as a test or a tool does. Override a field
+    /// with `CommandLinks { urgent, ..CommandLinks::new(…) }`.
+    pub fn new(
+        incoming: Arc<MessageQueue<Incoming>>,
+        orders: Arc<MessageQueue<MoveOrder>>,
+        done: Arc<MessageQueue<MoveDone>>,
+        network: Arc<MessageQueue<OutLine>>,
+    ) -> CommandLinks {
+        CommandLinks {
+            incoming,
+            urgent: Arc::new(MessageQueue::new(16)),
+            forwarded: Arc::new(MessageQueue::new(16)),
+            orders,
+            done,
+            out: Outputs {
+                network,
+                serial: Arc::new(MessageQueue::new(256)),
+            },
+            owner_lost: Arc::new(AtomicBool::new(false)),
+            store: StoreLinks::new(),
+        }
+    }
 }
 
 /// The Command Interpreter.

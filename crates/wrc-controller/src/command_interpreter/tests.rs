@@ -3,7 +3,7 @@
 //! order and done queues: the motion runner (tickets, HOLD/RESUME, WAIT), the program
 //! runner (DELAY on the cycle's clock), RESET's deadline, and message-released cycles.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_board::{DpramBoard, Expect, Mapping};
@@ -13,9 +13,7 @@ use wrc_protocol::{Command, ReplyTo, Request};
 use wrc_rt::ipc::MessageQueue;
 
 use super::{CommandInterpreter, CommandLinks, RESET_TIMEOUT_NS};
-use crate::messages::{
-    Incoming, MoveDone, MoveKind, MoveOrder, MoveOutcome, OutLine, Outputs, SourceId, StoreLinks,
-};
+use crate::messages::{Incoming, MoveDone, MoveKind, MoveOrder, MoveOutcome, OutLine, SourceId};
 use crate::shared::{RobotState, Shared, StopKind};
 
 const MS: u64 = 1_000_000;
@@ -58,19 +56,12 @@ impl Rig {
             robot,
             board,
             shared.clone(),
-            CommandLinks {
-                incoming: incoming.clone(),
-                urgent: Arc::new(MessageQueue::new(4)),
-                forwarded: Arc::new(MessageQueue::new(4)),
-                orders: orders.clone(),
-                done: done.clone(),
-                out: Outputs {
-                    network: network.clone(),
-                    serial: Arc::new(MessageQueue::new(16)),
-                },
-                owner_lost: Arc::new(AtomicBool::new(false)),
-                store: StoreLinks::new(),
-            },
+            CommandLinks::new(
+                incoming.clone(),
+                orders.clone(),
+                done.clone(),
+                network.clone(),
+            ),
         );
         Rig {
             ci,

@@ -1,7 +1,7 @@
 //! Counting allocator: a Command Interpreter cycle allocates and frees nothing, also while
 //! it runs a robot-language program (motions, PRINT, OUT, WAIT IN, DELAY, SUB calls).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
@@ -14,7 +14,7 @@ use wrc_controller::cell_service::transfer_steps;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
 use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer};
 use wrc_controller::messages::{
-    MoveDone, MoveOrder, MoveOutcome, OutLine, Outputs, ProgramStart, SourceId, StoreLinks,
+    MoveDone, MoveOrder, MoveOutcome, OutLine, ProgramStart, SourceId, StoreLinks,
 };
 use wrc_controller::shared::Shared;
 use wrc_protocol::{ProgramName, ReplyTo};
@@ -89,17 +89,13 @@ impl Rig {
             board,
             shared.clone(),
             CommandLinks {
-                incoming: Arc::new(MessageQueue::new(16)),
-                urgent: Arc::new(MessageQueue::new(16)),
-                forwarded: Arc::new(MessageQueue::new(16)),
-                orders: orders.clone(),
-                done: done.clone(),
-                out: Outputs {
-                    network: network.clone(),
-                    serial: Arc::new(MessageQueue::new(16)),
-                },
-                owner_lost: Arc::new(AtomicBool::new(false)),
                 store: links.clone(),
+                ..CommandLinks::new(
+                    Arc::new(MessageQueue::new(16)),
+                    orders.clone(),
+                    done.clone(),
+                    network.clone(),
+                )
             },
         );
         Rig {

@@ -13,9 +13,7 @@ use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use wrc_controller::error_check::{ErrorCheck, Limits};
-use wrc_controller::messages::{
-    Incoming, MoveOrder, OutLine, Outputs, SourceId, StoreLinks, Urgent,
-};
+use wrc_controller::messages::{Incoming, MoveOrder, OutLine, SourceId, Urgent};
 use wrc_controller::pulse_generator::PulseGenerator;
 use wrc_controller::shared::{RobotState, Shared};
 use wrc_controller::velocity_generator::VelocityGenerator;
@@ -91,17 +89,10 @@ impl Rig {
             attach(),
             shared.clone(),
             CommandLinks {
-                incoming: incoming.clone(),
                 urgent: urgent.clone(),
                 forwarded: forwarded.clone(),
-                orders: orders.clone(),
-                done,
-                out: Outputs {
-                    network: network.clone(),
-                    serial: Arc::new(MessageQueue::new(256)),
-                },
                 owner_lost,
-                store: StoreLinks::new(),
+                ..CommandLinks::new(incoming.clone(), orders.clone(), done, network.clone())
             },
         );
         ci.estop_input = settings.io.estop_input;

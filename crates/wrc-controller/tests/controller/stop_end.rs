@@ -4,7 +4,7 @@
 //! the Command Interpreter every 5th, and the Command Interpreter also in the cycle a
 //! request or a move's end releases, as its thread runs it).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use crate::motion::{sim_board, Motion};
@@ -12,7 +12,7 @@ use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
 use wrc_board_sim::SimBoard;
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
-use wrc_controller::messages::{Incoming, MoveDone, OutLine, Outputs, SourceId, StoreLinks};
+use wrc_controller::messages::{Incoming, MoveDone, OutLine, SourceId};
 use wrc_controller::pulse_generator::PulseGenerator;
 use wrc_controller::shared::Shared;
 use wrc_controller::velocity_generator::VelocityGenerator;
@@ -64,19 +64,7 @@ impl Rig {
             config.robot.clone(),
             ci_board,
             shared.clone(),
-            CommandLinks {
-                incoming: incoming.clone(),
-                urgent: Arc::new(MessageQueue::new(4)),
-                forwarded: Arc::new(MessageQueue::new(4)),
-                orders,
-                done: done.clone(),
-                out: Outputs {
-                    network: network.clone(),
-                    serial: Arc::new(MessageQueue::new(16)),
-                },
-                owner_lost: Arc::new(AtomicBool::new(false)),
-                store: StoreLinks::new(),
-            },
+            CommandLinks::new(incoming.clone(), orders, done.clone(), network.clone()),
         );
         Rig {
             sim,

@@ -65,8 +65,9 @@ test-rust: check-toolchain
 test: lint test-rust test-web test-fuzz
 
 # The browser application: Vitest unit tests, a type-checked build, then the end-to-end test
-# in a real headless Chromium (Debian's package, driven by playwright-core; no browser
-# download) against `wrc up` on free ports. Screenshots go to $(OUT)/gui/.
+# in a real headless Chromium (Debian's package, driven by @playwright/test; no browser
+# download) against `wrc up` on free ports. Screenshots, the HTML report and, on failure, the
+# trace, screenshot and controller output go to $(OUT)/gui/.
 test-web: web
 	cd web && npm test
 	$(MAKE) test-e2e

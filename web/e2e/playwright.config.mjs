@@ -11,6 +11,9 @@
 //   WRC_E2E_WEB_DIR=dist              serve this build (`wrc up --no-ui` + `wrc ui --web-dir`)
 //                                      instead of the one embedded in the binary
 //   WRC_E2E_STEP_MS, WRC_E2E_TOTAL_MS the longest wait for one thing and for the whole test
+//
+// A failed run: `npx playwright show-report <WRC_TEST_OUTPUT>/report`, or its trace with
+// `npx playwright show-trace <WRC_TEST_OUTPUT>/results/<test>/trace.zip`.
 
 import { defineConfig } from '@playwright/test';
 import { CHROMIUM, OUT_DIR, STEP_MS, TOTAL_MS } from './settings.mjs';
@@ -48,8 +51,10 @@ export default defineConfig({
     viewport: { width: 1600, height: 1000 },
     actionTimeout: STEP_MS,
     navigationTimeout: STEP_MS,
-    // DOM snapshots of every action, but no screencast: grabbing the WebGL canvas frame by frame
-    // slows the page down enough to miss the HOLD step's window on a loaded machine.
+    // A failed run keeps its trace: every action with its timing and call log, the console and
+    // the network. Without DOM snapshots and screencast: taking them at every action slows the
+    // page (its WebGL canvas) down enough to miss the HOLD step's window on a loaded machine;
+    // the failure's screenshot and page snapshot (error-context.md) show the end state.
     trace: { mode: 'retain-on-failure', snapshots: false, screenshots: false, sources: true },
     screenshot: 'only-on-failure',
   },

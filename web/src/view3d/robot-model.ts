@@ -19,11 +19,11 @@ import type { Materials } from './materials';
 import { armAxes, type ArmAxes, type ArmPose } from './sim-kinematics';
 
 // Drawing dimensions [mm] that the configuration does not give.
-/** Top of the base housing above the floor. */
+/** Top of the base housing above the floor [mm]. */
 export const BASE_H = 250;
 const BASE_R = 125;
 const COLUMN_R = 72;
-/** Shoulder (link 1 bottom) above the top of the base at z = 0. */
+/** Shoulder (link 1 bottom) above the top of the base at z = 0 [mm]. */
 const SHOULDER_Z = 20;
 const LINK1_T = 34;
 const LINK2_T = 28;
@@ -31,9 +31,9 @@ const LINK1_R = 44;
 const LINK2_R = 38;
 const HUB_T = 18;
 const FORK_T = 7;
-/** Link 2's bottom above link 1's. */
+/** Link 2's bottom above link 1's [mm]. */
 const ELBOW_DZ = LINK1_T + 2;
-/** The wrist hub's bottom above link 2's. */
+/** The wrist hub's bottom above link 2's [mm]. */
 const WRIST_DZ = LINK2_T + 2;
 export const WAFER_R = 150;
 export const WAFER_T = 2;

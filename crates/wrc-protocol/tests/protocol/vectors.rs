@@ -1,4 +1,4 @@
-//! The simulator-stream test vector shared with the browser's decoder (web/src/stream.ts):
+//! The simulator-stream test vector shared with the browser's decoder (web/src/protocol/stream.ts):
 //! `tests/vectors/sim_stream_v1.json` holds one datagram as the Rust encoder writes it and
 //! its decoded fields. This test keeps the file true; `WRC_BLESS=1` rewrites it.
 

@@ -1,7 +1,9 @@
 //! `wrc bench ui`: does the GUI disturb control? The Pulse Generator's wake-up latency is
 //! measured in three windows of one controller run, with the robot moving all along: no GUI;
 //! `wrc ui` (its own process) serving several browser-like WebSocket clients (simulator
-//! stream, status stream, TASKS polled every second); and after `kill -9` of `wrc ui`.
+//! stream, status stream, TASKS polled every second); and after `kill -9` of `wrc ui`. While
+//! the GUI is open, each browser also measures the GUI's update latency: `STATUS` sent every
+//! 200 ms through `wrc ui` to the controller, until its `ACK` is back in the browser.
 
 use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
 use std::path::PathBuf;
@@ -77,8 +79,17 @@ fn free_udp_addr() -> anyhow::Result<SocketAddr> {
     Ok(UdpSocket::bind("127.0.0.1:0")?.local_addr()?)
 }
 
-/// One browser-like client: reads every frame, subscribes, polls TASKS each second.
-fn browser(port: u16, stop: Arc<AtomicBool>, frames: Arc<AtomicU64>) -> anyhow::Result<()> {
+/// Round trips browser → `wrc ui` → controller → `wrc ui` → browser [ms].
+type RoundTrips = Arc<std::sync::Mutex<Vec<f64>>>;
+
+/// One browser-like client: reads every frame, subscribes, polls TASKS each second, and
+/// times a `STATUS` every 200 ms.
+fn browser(
+    port: u16,
+    stop: Arc<AtomicBool>,
+    frames: Arc<AtomicU64>,
+    trips: RoundTrips,
+) -> anyhow::Result<()> {
     let deadline = Instant::now() + Duration::from_secs(10);
     let stream = loop {
         match TcpStream::connect(("127.0.0.1", port)) {
@@ -92,14 +103,32 @@ fn browser(port: u16, stop: Arc<AtomicBool>, frames: Arc<AtomicU64>) -> anyhow::
         .context("WebSocket handshake")?;
     ws.send(Message::Text("SUBSCRIBE".into()))?;
     let mut last_poll = Instant::now();
+    let mut last_status = Instant::now();
+    let mut waiting: Option<(u32, Instant)> = None;
+    let mut next_id = 1u32;
     while !stop.load(Ordering::Acquire) {
         if last_poll.elapsed() >= Duration::from_secs(1) {
             last_poll = Instant::now();
             ws.send(Message::Text("TASKS".into()))?;
         }
+        if waiting.is_none() && last_status.elapsed() >= Duration::from_millis(200) {
+            last_status = Instant::now();
+            ws.send(Message::Text(format!("{next_id} STATUS").into()))?;
+            waiting = Some((next_id, Instant::now()));
+            next_id += 1;
+        }
         match ws.read() {
-            Ok(_) => {
+            Ok(message) => {
                 frames.fetch_add(1, Ordering::Relaxed);
+                if let (Message::Text(t), Some((id, sent))) = (&message, waiting) {
+                    if t.as_str().starts_with(&format!("ACK {id} ")) {
+                        let ms = sent.elapsed().as_secs_f64() * 1000.0;
+                        if let Ok(mut v) = trips.lock() {
+                            v.push(ms);
+                        }
+                        waiting = None;
+                    }
+                }
             }
             Err(tungstenite::Error::Io(e))
                 if matches!(
@@ -181,13 +210,18 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
         .context("cannot start wrc ui")?;
     let stop_browsers = Arc::new(AtomicBool::new(false));
     let frames = Arc::new(AtomicU64::new(0));
+    let trips: RoundTrips = Arc::default();
     let browsers: Vec<_> = (0..args.browsers)
         .map(|_| {
-            let (stop, frames) = (stop_browsers.clone(), frames.clone());
-            std::thread::spawn(move || browser(ui_port, stop, frames))
+            let (stop, frames, trips) = (stop_browsers.clone(), frames.clone(), trips.clone());
+            std::thread::spawn(move || browser(ui_port, stop, frames, trips))
         })
         .collect();
     std::thread::sleep(Duration::from_secs(1));
+    // Only the window's round trips count (not the connections' start).
+    if let Ok(mut v) = trips.lock() {
+        v.clear();
+    }
     eprintln!(
         "jitter, wrc ui serving {} browsers: {} s …",
         args.browsers, args.seconds
@@ -199,6 +233,16 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
     let frames_per_s = (frames.load(Ordering::Relaxed) - f0) as f64
         / args.seconds as f64
         / f64::from(args.browsers);
+    let mut round_trips = trips.lock().map(|v| v.clone()).unwrap_or_default();
+    round_trips.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        if round_trips.is_empty() {
+            0.0
+        } else {
+            round_trips[((round_trips.len() - 1) as f64 * q).round() as usize]
+        }
+    };
+    let (rt_p50, rt_p99, rt_max) = (at(0.5), at(0.99), at(1.0));
 
     // SAFETY: kill -9 of the child we started.
     unsafe {
@@ -253,12 +297,17 @@ fn measure(args: &UiBenchArgs, config: &Config, dir: &std::path::Path) -> anyhow
         "each of {} browsers received {frames_per_s:.0} frames/s while the GUI was open; controller state at the end: {state}",
         args.browsers
     );
+    println!(
+        "GUI update latency (STATUS from a browser through wrc ui to its ACK back, {} round trips) [ms]: p50 {rt_p50:.2}, p99 {rt_p99:.2}, max {rt_max:.2}",
+        round_trips.len()
+    );
     if let Some(path) = &args.json {
         let w = |w: Window| serde_json::json!({"cycles": w.cycles, "p50_us": w.p50_us, "p99_us": w.p99_us, "max_us": w.max_us, "overruns": w.overruns});
         let json = serde_json::json!({
             "seconds": args.seconds,
             "browsers": args.browsers,
             "frames_per_s_per_browser": frames_per_s,
+            "round_trip_ms": {"count": round_trips.len(), "p50": rt_p50, "p99": rt_p99, "max": rt_max},
             "no_gui": w(none),
             "gui_open": w(open),
             "after_kill": w(killed),

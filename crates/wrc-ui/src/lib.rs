@@ -1,10 +1,10 @@
 //! `wrc ui`: serves the web GUI and bridges the browser to the controller, in a process of
 //! its own so that a GUI fault can never disturb control (docs/gui.md).
 //!
-//! - HTTP: the built app (embedded, or a folder), one request per connection.
+//! - HTTP (axum on tokio, two worker threads): the built app (embedded, or a folder).
 //! - `/ws`: a WebSocket per browser tab, each with its own connection to the controller's
 //!   line protocol (Unix socket locally, TCP remotely); request lines in, reply and event
-//!   lines out, as text frames.
+//!   lines out, as text frames, each pushed the moment it arrives.
 //! - The controller's simulator datagrams (UDP) are fanned out to every WebSocket as binary
 //!   frames; a browser that is behind loses datagrams, never lines.
 //! - Loopback by default; any other listening address needs a token that every WebSocket
@@ -25,17 +25,22 @@
 #![deny(missing_docs)]
 
 pub mod assets;
-pub mod http;
 pub mod session;
 
-use std::io::Write;
-use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
+use std::net::{SocketAddr, TcpListener, UdpSocket};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+
+use axum::extract::ws::rejection::WebSocketUpgradeRejection;
+use axum::extract::{Query, State, WebSocketUpgrade};
+use axum::http::{header, HeaderMap, Method, StatusCode, Uri};
+use axum::response::{IntoResponse, Response};
+use axum::routing::any;
+use axum::serve::ListenerExt;
+use axum::Router;
+use tokio::sync::{broadcast, watch};
 
 pub use assets::Assets;
 use session::Datagram;
@@ -95,15 +100,19 @@ pub enum UiError {
     Thread(std::io::Error),
 }
 
-/// Where notes about sessions go (stderr when none is set).
+/// Where notes about sessions go (the log when none is set).
 type NoteSink = Box<dyn Fn(&str) + Send>;
 
-/// State shared by the server's threads and sessions.
+/// State shared by the server's tasks and sessions.
 pub struct Hub {
     endpoint: Endpoint,
-    stop: AtomicBool,
-    next_id: AtomicU64,
-    sessions: Mutex<Vec<(u64, SyncSender<Datagram>)>>,
+    /// Set once: stop serving.
+    stop: watch::Sender<bool>,
+    /// Browsers connected now.
+    sessions: AtomicUsize,
+    /// The simulator datagrams, fanned out to every session (each keeps at most
+    /// [`SIM_QUEUE`] it has not sent yet; older ones are dropped and counted).
+    sim: broadcast::Sender<Datagram>,
     /// Simulator datagrams received.
     pub sim_received: AtomicU64,
     /// Simulator datagrams not delivered to a browser that was behind.
@@ -112,36 +121,9 @@ pub struct Hub {
 }
 
 impl Hub {
-    fn register(&self) -> (u64, Receiver<Datagram>) {
-        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
-        let (tx, rx) = sync_channel(SIM_QUEUE);
-        if let Ok(mut s) = self.sessions.lock() {
-            s.push((id, tx));
-        }
-        (id, rx)
-    }
-
-    fn unregister(&self, id: u64) {
-        if let Ok(mut s) = self.sessions.lock() {
-            s.retain(|(i, _)| *i != id);
-        }
-    }
-
     /// Browsers connected now.
     pub fn sessions(&self) -> usize {
-        self.sessions.lock().map(|s| s.len()).unwrap_or(0)
-    }
-
-    fn broadcast(&self, datagram: &[u8]) {
-        let bytes = Datagram::copy_from_slice(datagram);
-        let Ok(sessions) = self.sessions.lock() else {
-            return;
-        };
-        for (_, tx) in sessions.iter() {
-            if let Err(TrySendError::Full(_)) = tx.try_send(bytes.clone()) {
-                self.sim_dropped.fetch_add(1, Ordering::Relaxed);
-            }
-        }
+        self.sessions.load(Ordering::Acquire)
     }
 
     fn note(&self, text: &str) {
@@ -158,7 +140,7 @@ pub struct Ui {
     sim_addr: Option<SocketAddr>,
     assets: Assets,
     hub: Arc<Hub>,
-    threads: Vec<JoinHandle<()>>,
+    thread: Option<JoinHandle<()>>,
 }
 
 fn token_ok(token: &str) -> bool {
@@ -175,6 +157,20 @@ fn same(a: &str, b: &str) -> bool {
             .zip(b.bytes())
             .fold(0u8, |acc, (x, y)| acc | (x ^ y))
             == 0
+}
+
+/// The `host[:port]` of an `Origin` (`http://host:port`) or `Host` header value.
+fn authority(value: &str) -> &str {
+    let rest = value.split_once("://").map_or(value, |(_, r)| r);
+    rest.split('/').next().unwrap_or(rest)
+}
+
+/// What every request handler sees.
+#[derive(Clone)]
+struct App {
+    hub: Arc<Hub>,
+    assets: Assets,
+    token: Option<String>,
 }
 
 impl Ui {
@@ -207,44 +203,42 @@ impl Ui {
             None => None,
         };
         let sim_addr = sim.as_ref().and_then(|s| s.local_addr().ok());
+        listener.set_nonblocking(true).map_err(UiError::Thread)?;
+        if let Some(s) = &sim {
+            s.set_nonblocking(true).map_err(UiError::Thread)?;
+        }
         let assets = Assets::locate(options.web_dir.as_deref());
         let hub = Arc::new(Hub {
             endpoint: options.controller.clone(),
-            stop: AtomicBool::new(false),
-            next_id: AtomicU64::new(0),
-            sessions: Mutex::new(Vec::new()),
+            stop: watch::channel(false).0,
+            sessions: AtomicUsize::new(0),
+            sim: broadcast::channel(SIM_QUEUE).0,
             sim_received: AtomicU64::new(0),
             sim_dropped: AtomicU64::new(0),
             notes: Mutex::new(None),
         });
-        let mut threads = Vec::new();
-        listener.set_nonblocking(true).map_err(UiError::Thread)?;
-        {
-            let hub = hub.clone();
-            let assets = assets.clone();
-            let token = options.token.clone();
-            threads.push(
-                std::thread::Builder::new()
-                    .name("wrc-ui-http".into())
-                    .spawn(move || accept_loop(listener, hub, assets, token))
-                    .map_err(UiError::Thread)?,
-            );
-        }
-        if let Some(socket) = sim {
-            let hub = hub.clone();
-            threads.push(
-                std::thread::Builder::new()
-                    .name("wrc-ui-sim".into())
-                    .spawn(move || sim_loop(socket, hub))
-                    .map_err(UiError::Thread)?,
-            );
-        }
+        // Two worker threads: the GUI is the least urgent thing on the machine.
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("wrc-ui")
+            .enable_all()
+            .build()
+            .map_err(UiError::Thread)?;
+        let app = App {
+            hub: hub.clone(),
+            assets: assets.clone(),
+            token: options.token.clone(),
+        };
+        let thread = std::thread::Builder::new()
+            .name("wrc-ui".into())
+            .spawn(move || runtime.block_on(serve(listener, sim, app)))
+            .map_err(UiError::Thread)?;
         Ok(Ui {
             addr,
             sim_addr,
             assets,
             hub,
-            threads,
+            thread: Some(thread),
         })
     }
 
@@ -268,7 +262,7 @@ impl Ui {
         &self.hub
     }
 
-    /// Send notes (a session that ended abnormally, …) to `sink` instead of stderr.
+    /// Send notes (a session that ended abnormally, …) to `sink` instead of the log.
     pub fn on_note(&self, sink: impl Fn(&str) + Send + 'static) {
         if let Ok(mut n) = self.hub.notes.lock() {
             *n = Some(Box::new(sink));
@@ -277,8 +271,8 @@ impl Ui {
 
     /// Stop serving: close every WebSocket (and its controller connection) and return.
     pub fn stop(mut self) {
-        self.hub.stop.store(true, Ordering::Release);
-        for t in self.threads.drain(..) {
+        self.hub.stop.send_replace(true);
+        if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
     }
@@ -286,127 +280,122 @@ impl Ui {
 
 impl Drop for Ui {
     fn drop(&mut self) {
-        self.hub.stop.store(true, Ordering::Release);
+        self.hub.stop.send_replace(true);
     }
 }
 
-fn accept_loop(listener: TcpListener, hub: Arc<Hub>, assets: Assets, token: Option<String>) {
-    let mut sessions: Vec<JoinHandle<()>> = Vec::new();
-    while !hub.stop.load(Ordering::Acquire) {
-        match listener.accept() {
-            Ok((stream, _)) => {
-                let hub = hub.clone();
-                let assets = assets.clone();
-                let token = token.clone();
-                if let Ok(h) = std::thread::Builder::new()
-                    .name("wrc-ui-conn".into())
-                    .spawn(move || serve(stream, hub, &assets, token.as_deref()))
-                {
-                    sessions.push(h);
-                }
-                sessions.retain(|h| !h.is_finished());
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(20)),
-        }
-    }
-    for h in sessions {
-        let _ = h.join();
-    }
-}
-
-fn serve(mut stream: TcpStream, hub: Arc<Hub>, assets: &Assets, token: Option<&str>) {
-    let _ = stream.set_nonblocking(false);
-    let _ = stream.set_read_timeout(Some(Duration::from_secs(10)));
-    let _ = stream.set_write_timeout(Some(Duration::from_secs(10)));
-    let head = match http::read_head(&mut stream) {
-        Ok(h) => h,
-        Err(http::HeadError::Io(_)) => return,
-        Err(e) => {
-            let _ = http::error(&mut stream, "400 Bad Request", &format!("{e}\n"));
-            return;
-        }
+/// The server: HTTP for the app's files, `/ws` for the WebSockets, the simulator's
+/// datagrams fanned out, until the hub says stop.
+async fn serve(listener: TcpListener, sim: Option<UdpSocket>, app: App) {
+    let hub = app.hub.clone();
+    let Ok(listener) = tokio::net::TcpListener::from_std(listener) else {
+        hub.note("wrc ui: cannot serve on the bound port");
+        return;
     };
-    let send_body = head.method != "HEAD";
-    if head.method != "GET" && head.method != "HEAD" {
-        let _ = http::error(&mut stream, "405 Method Not Allowed", "only GET\n");
-        return;
+    if let Some(sim) = sim.and_then(|s| tokio::net::UdpSocket::from_std(s).ok()) {
+        tokio::spawn(sim_loop(sim, hub.clone()));
     }
-    if head.path == "/ws" {
-        if !head.is_websocket() {
-            let _ = http::error(
-                &mut stream,
-                "400 Bad Request",
-                "WebSocket upgrade expected\n",
+    let router = Router::new()
+        .route("/ws", any(websocket))
+        .fallback(file)
+        .with_state(app);
+    // Lines go out the moment they are written (no Nagle delay waiting for the browser's
+    // ACK: that alone added 40 ms to some round trips).
+    let listener = listener.tap_io(|tcp| {
+        let _ = tcp.set_nodelay(true);
+    });
+    let mut stop = hub.stop.subscribe();
+    let _ = axum::serve(listener, router)
+        .with_graceful_shutdown(async move { stopped(&mut stop).await })
+        .await;
+}
+
+/// A short text answer; a refusal also closes the connection.
+fn plain(status: StatusCode, text: &'static str) -> Response {
+    let connection = if status.is_success() || status == StatusCode::NOT_FOUND {
+        "keep-alive"
+    } else {
+        "close"
+    };
+    (
+        status,
+        [
+            (header::CONTENT_TYPE, "text/plain; charset=utf-8"),
+            (header::CONNECTION, connection),
+        ],
+        text,
+    )
+        .into_response()
+}
+
+/// `/ws`: the token (off loopback) and the page's origin are checked before the upgrade.
+async fn websocket(
+    State(app): State<App>,
+    method: Method,
+    headers: HeaderMap,
+    Query(query): Query<Vec<(String, String)>>,
+    upgrade: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
+) -> Response {
+    if method != Method::GET {
+        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET\n");
+    }
+    let Ok(upgrade) = upgrade else {
+        return plain(StatusCode::BAD_REQUEST, "WebSocket upgrade expected\n");
+    };
+    if let Some(expected) = &app.token {
+        let given = query
+            .iter()
+            .find(|(k, _)| k == "token")
+            .map(|(_, v)| v.as_str());
+        if !given.is_some_and(|t| same(t, expected)) {
+            return plain(
+                StatusCode::FORBIDDEN,
+                "wrong or missing token: open the page as http://HOST:PORT/?token=…\n",
             );
-            return;
         }
-        if let Some(expected) = token {
-            if !head.query_param("token").is_some_and(|t| same(t, expected)) {
-                let _ = http::error(
-                    &mut stream,
-                    "403 Forbidden",
-                    "wrong or missing token: open the page as http://HOST:PORT/?token=…\n",
-                );
-                return;
-            }
-        }
-        if let (Some(origin), Some(host)) = (head.header("origin"), head.header("host")) {
-            if http::authority(origin) != http::authority(host) {
-                let _ = http::error(
-                    &mut stream,
-                    "403 Forbidden",
-                    "a page of another origin may not open the robot's WebSocket\n",
-                );
-                return;
-            }
-        }
-        let key = head.header("sec-websocket-key").unwrap_or_default();
-        let accept = tungstenite::handshake::derive_accept_key(key.as_bytes());
-        let response = format!(
-            "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: {accept}\r\n\r\n"
-        );
-        if stream.write_all(response.as_bytes()).is_err() {
-            return;
-        }
-        session::run(stream, hub);
-        return;
     }
-    match assets.get(&head.path) {
+    let header = |name: header::HeaderName| headers.get(name).and_then(|v| v.to_str().ok());
+    if let (Some(origin), Some(host)) = (header(header::ORIGIN), header(header::HOST)) {
+        if authority(origin) != authority(host) {
+            return plain(
+                StatusCode::FORBIDDEN,
+                "a page of another origin may not open the robot's WebSocket\n",
+            );
+        }
+    }
+    let hub = app.hub.clone();
+    upgrade
+        .max_message_size(session::MAX_MESSAGE)
+        .on_upgrade(move |socket| session::run(socket, hub))
+}
+
+/// Every other path: a file of the app (GET or HEAD).
+async fn file(State(app): State<App>, method: Method, uri: Uri) -> Response {
+    if method != Method::GET && method != Method::HEAD {
+        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET\n");
+    }
+    let path = uri.path();
+    match app.assets.get(path) {
         Some(body) => {
-            let cache = if head.path.starts_with("/assets/") {
-                "Cache-Control: public, max-age=31536000, immutable\r\n"
+            let cache = if path.starts_with("/assets/") {
+                "public, max-age=31536000, immutable"
             } else {
-                "Cache-Control: no-cache\r\n"
+                "no-cache"
             };
-            let _ = http::respond(
-                &mut stream,
-                "200 OK",
-                assets::content_type(if head.path == "/" {
-                    "index.html"
-                } else {
-                    &head.path
-                }),
-                cache,
-                &body,
-                send_body,
-            );
+            let kind = assets::content_type(if path == "/" { "index.html" } else { path });
+            (
+                [(header::CONTENT_TYPE, kind), (header::CACHE_CONTROL, cache)],
+                body.into_owned(),
+            )
+                .into_response()
         }
-        None if matches!(assets, Assets::Missing) => {
-            let _ = http::respond(
-                &mut stream,
-                "503 Service Unavailable",
-                "text/html; charset=utf-8",
-                "",
-                MISSING_PAGE.as_bytes(),
-                send_body,
-            );
-        }
-        None => {
-            let _ = http::error(&mut stream, "404 Not Found", "no such file\n");
-        }
+        None if matches!(app.assets, Assets::Missing) => (
+            StatusCode::SERVICE_UNAVAILABLE,
+            [(header::CONTENT_TYPE, "text/html; charset=utf-8")],
+            MISSING_PAGE,
+        )
+            .into_response(),
+        None => plain(StatusCode::NOT_FOUND, "no such file\n"),
     }
 }
 
@@ -415,16 +404,24 @@ const MISSING_PAGE: &str = "<!doctype html><meta charset=utf-8><title>wrc</title
 <code>cd web &amp;&amp; npm ci &amp;&amp; npm run build</code>) and reload, or start \
 <code>wrc ui --web-dir DIR</code>. The controller runs without it.</p>";
 
-fn sim_loop(socket: UdpSocket, hub: Arc<Hub>) {
-    let _ = socket.set_read_timeout(Some(Duration::from_millis(200)));
+/// Until the hub says stop (or is gone).
+async fn stopped(stop: &mut watch::Receiver<bool>) {
+    let _ = stop.wait_for(|s| *s).await;
+}
+
+async fn sim_loop(socket: tokio::net::UdpSocket, hub: Arc<Hub>) {
     let mut buf = [0u8; 2048];
-    while !hub.stop.load(Ordering::Acquire) {
-        match socket.recv(&mut buf) {
-            Ok(n) => {
-                hub.sim_received.fetch_add(1, Ordering::Relaxed);
-                hub.broadcast(&buf[..n]);
+    let mut stop = hub.stop.subscribe();
+    loop {
+        tokio::select! {
+            () = stopped(&mut stop) => return,
+            got = socket.recv(&mut buf) => {
+                if let Ok(n) = got {
+                    hub.sim_received.fetch_add(1, Ordering::Relaxed);
+                    // No browser connected: nobody to send it to.
+                    let _ = hub.sim.send(Datagram::copy_from_slice(&buf[..n]));
+                }
             }
-            Err(_) => continue,
         }
     }
 }

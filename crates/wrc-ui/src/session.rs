@@ -1,28 +1,30 @@
 //! One browser WebSocket: its own connection to the controller (so each browser tab is its
 //! own command source with its own control lock), request lines in, controller lines and
-//! simulator datagrams out. The controller connection is retried every second while it is
-//! down, and the browser is told (`EVT UI CONNECTED` / `EVT UI DISCONNECTED`).
+//! simulator datagrams out, each pushed the moment it arrives (one task per browser waits on
+//! all three at once). The controller connection is retried every second while it is down,
+//! and the browser is told (`EVT UI CONNECTED` / `EVT UI DISCONNECTED`).
 
-use std::io::{self, BufRead, BufReader, Write};
-use std::net::TcpStream;
-use std::os::unix::net::UnixStream;
+use std::io;
 use std::path::PathBuf;
+use std::pin::Pin;
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{self, Receiver, Sender};
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use tungstenite::protocol::{Role, WebSocketConfig};
-use tungstenite::{Bytes, Message, WebSocket};
+use axum::body::Bytes;
+use axum::extract::ws::{Message, WebSocket};
+use futures_util::{SinkExt, StreamExt};
+use tokio::io::{AsyncBufReadExt, AsyncRead, AsyncWrite, AsyncWriteExt, BufReader, Lines};
+use tokio::net::{TcpStream, UnixStream};
+use tokio::sync::broadcast::error::RecvError;
 
 use crate::Hub;
 
-/// How often a WebSocket is polled for requests while output is drained [ms].
-const POLL_MS: u64 = 5;
-/// A browser that has not taken its output for this long is disconnected.
+/// A browser that has not taken a message for this long is disconnected (it stopped
+/// reading: its socket's buffers are full).
 const WRITE_TIMEOUT: Duration = Duration::from_secs(3);
-/// Output a browser may have pending before it is disconnected [bytes] (docs/gui.md).
-pub const MAX_BACKLOG: usize = 1 << 20;
+/// Largest message a browser may send [bytes].
+pub const MAX_MESSAGE: usize = 1 << 20;
 /// Pause between attempts to reach the controller.
 const RETRY: Duration = Duration::from_secs(1);
 
@@ -58,15 +60,23 @@ impl Endpoint {
         }
     }
 
-    fn connect(&self) -> io::Result<Link> {
-        match self {
-            Endpoint::Unix(path) => UnixStream::connect(path).map(Link::Unix),
-            Endpoint::Tcp(addr) => {
-                let s = TcpStream::connect(addr)?;
-                s.set_nodelay(true)?;
-                Ok(Link::Tcp(s))
+    async fn connect(&self) -> io::Result<Link> {
+        let (read, write): (Reader, Writer) = match self {
+            Endpoint::Unix(path) => {
+                let (r, w) = UnixStream::connect(path).await?.into_split();
+                (Box::pin(r), Box::pin(w))
             }
-        }
+            Endpoint::Tcp(addr) => {
+                let s = TcpStream::connect(addr).await?;
+                s.set_nodelay(true)?;
+                let (r, w) = s.into_split();
+                (Box::pin(r), Box::pin(w))
+            }
+        };
+        Ok(Link {
+            lines: BufReader::new(read).lines(),
+            write,
+        })
     }
 }
 
@@ -79,219 +89,147 @@ impl std::fmt::Display for Endpoint {
     }
 }
 
-enum Link {
-    Unix(UnixStream),
-    Tcp(TcpStream),
+type Reader = Pin<Box<dyn AsyncRead + Send>>;
+type Writer = Pin<Box<dyn AsyncWrite + Send>>;
+
+/// The controller connection of one browser.
+struct Link {
+    lines: Lines<BufReader<Reader>>,
+    write: Writer,
 }
 
-impl Link {
-    fn reader(&self) -> io::Result<Box<dyn io::Read + Send>> {
-        Ok(match self {
-            Link::Unix(s) => Box::new(s.try_clone()?),
-            Link::Tcp(s) => Box::new(s.try_clone()?),
-        })
-    }
+/// Why a session ended abnormally (for the log).
+type Ended = Result<(), String>;
 
-    fn write_line(&mut self, line: &str) -> io::Result<()> {
-        let mut bytes = Vec::with_capacity(line.len() + 1);
-        bytes.extend_from_slice(line.as_bytes());
-        bytes.push(b'\n');
-        match self {
-            Link::Unix(s) => s.write_all(&bytes),
-            Link::Tcp(s) => s.write_all(&bytes),
-        }
-    }
-
-    fn shutdown(&self) {
-        let _ = match self {
-            Link::Unix(s) => s.shutdown(std::net::Shutdown::Both),
-            Link::Tcp(s) => s.shutdown(std::net::Shutdown::Both),
-        };
+/// Send one message, giving up on a browser that has stopped reading.
+async fn send(
+    ws: &mut futures_util::stream::SplitSink<WebSocket, Message>,
+    message: Message,
+) -> Ended {
+    match tokio::time::timeout(WRITE_TIMEOUT, ws.send(message)).await {
+        Ok(Ok(())) => Ok(()),
+        Ok(Err(e)) => Err(format!("browser: {e}")),
+        Err(_) => Err("the browser stopped reading; disconnected".into()),
     }
 }
 
-/// What the controller's reader thread hands the session.
-enum FromController {
-    Line(String),
-    Lost(String),
-}
-
-fn spawn_reader(link: &Link, to: Sender<FromController>) -> io::Result<()> {
-    let read = link.reader()?;
-    std::thread::Builder::new()
-        .name("wrc-ui-ctl".into())
-        .spawn(move || {
-            let mut reader = BufReader::new(read);
-            let mut line = String::new();
-            loop {
-                line.clear();
-                match reader.read_line(&mut line) {
-                    Ok(0) => {
-                        let _ = to.send(FromController::Lost(
-                            "the controller closed the connection".into(),
-                        ));
-                        return;
-                    }
-                    Ok(_) => {
-                        let text = line.trim_end_matches(['\n', '\r']).to_string();
-                        if to.send(FromController::Line(text)).is_err() {
-                            return;
-                        }
-                    }
-                    Err(e) => {
-                        let _ =
-                            to.send(FromController::Lost(format!("controller connection: {e}")));
-                        return;
-                    }
-                }
-            }
-        })?;
-    Ok(())
+fn text(line: String) -> Message {
+    Message::Text(line.into())
 }
 
 /// Serve one upgraded WebSocket until the browser leaves, stops reading, or the ui stops.
-pub fn run(stream: TcpStream, hub: Arc<Hub>) {
-    let _ = stream.set_nodelay(true);
-    if stream
-        .set_read_timeout(Some(Duration::from_millis(POLL_MS)))
-        .and(stream.set_write_timeout(Some(WRITE_TIMEOUT)))
-        .is_err()
-    {
-        return;
-    }
-    let config = WebSocketConfig::default()
-        .max_write_buffer_size(MAX_BACKLOG)
-        .max_message_size(Some(1 << 20));
-    let mut ws = WebSocket::from_raw_socket(stream, Role::Server, Some(config));
-    let (session_id, sim) = hub.register();
+pub async fn run(socket: WebSocket, hub: Arc<Hub>) {
+    hub.sessions.fetch_add(1, Ordering::AcqRel);
+    let mut stop = hub.stop.subscribe();
+    let mut sim = hub.sim.subscribe();
+    let (mut to_browser, mut from_browser) = socket.split();
     let endpoint = hub.endpoint.clone();
-    let (to_session, from_controller) = mpsc::channel();
     let mut link: Option<Link> = None;
-    let mut last_try: Option<Instant> = None;
     let mut told_down = false;
-    let result: Result<(), String> = (|| loop {
-        if hub.stop.load(Ordering::Acquire) {
-            return Ok(());
-        }
-        if link.is_none() && last_try.is_none_or(|t| t.elapsed() >= RETRY) {
-            last_try = Some(Instant::now());
-            match endpoint.connect() {
-                Ok(l) => match spawn_reader(&l, to_session.clone()) {
-                    Ok(()) => {
+    let mut retry = tokio::time::interval(RETRY);
+    retry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let result: Ended = async {
+        loop {
+            tokio::select! {
+                () = crate::stopped(&mut stop) => return Ok(()),
+                _ = retry.tick(), if link.is_none() => match endpoint.connect().await {
+                    Ok(l) => {
                         link = Some(l);
                         told_down = false;
-                        send_text(&mut ws, format!("EVT UI CONNECTED {endpoint}"))?;
+                        send(&mut to_browser, text(format!("EVT UI CONNECTED {endpoint}"))).await?;
                     }
-                    Err(e) => return Err(format!("cannot start the controller reader: {e}")),
+                    Err(e) if !told_down => {
+                        told_down = true;
+                        send(
+                            &mut to_browser,
+                            text(format!(
+                                "EVT UI DISCONNECTED cannot reach the controller at {endpoint}: {e}"
+                            )),
+                        )
+                        .await?;
+                    }
+                    Err(_) => {}
                 },
-                Err(e) if !told_down => {
-                    told_down = true;
-                    send_text(
-                        &mut ws,
-                        format!(
-                            "EVT UI DISCONNECTED cannot reach the controller at {endpoint}: {e}"
-                        ),
-                    )?;
-                }
-                Err(_) => {}
-            }
-        }
-        match ws.read() {
-            Ok(Message::Text(text)) => {
-                let text = text.as_str();
-                let text = text.strip_suffix('\n').unwrap_or(text);
-                for line in text.split('\n') {
-                    let line = line.strip_suffix('\r').unwrap_or(line);
-                    let sent = match link.as_mut() {
-                        Some(l) => l.write_line(line).is_ok(),
-                        None => false,
-                    };
-                    if !sent {
-                        send_text(
-                            &mut ws,
-                            format!(
-                                "EVT UI DISCONNECTED not connected to the controller; not sent: {}",
-                                cut(line, 80)
-                            ),
-                        )?;
+                message = from_browser.next() => match message {
+                    Some(Ok(Message::Text(t))) => {
+                        let t = t.as_str();
+                        let t = t.strip_suffix('\n').unwrap_or(t);
+                        for line in t.split('\n') {
+                            let line = line.strip_suffix('\r').unwrap_or(line);
+                            let sent = match link.as_mut() {
+                                Some(l) => {
+                                    let mut bytes = Vec::with_capacity(line.len() + 1);
+                                    bytes.extend_from_slice(line.as_bytes());
+                                    bytes.push(b'\n');
+                                    l.write.write_all(&bytes).await.is_ok()
+                                }
+                                None => false,
+                            };
+                            if !sent {
+                                send(
+                                    &mut to_browser,
+                                    text(format!(
+                                        "EVT UI DISCONNECTED not connected to the controller; not sent: {}",
+                                        cut(line, 80)
+                                    )),
+                                )
+                                .await?;
+                            }
+                        }
                     }
-                }
+                    Some(Ok(Message::Close(_))) | None => return Ok(()),
+                    Some(Ok(_)) => {}
+                    Some(Err(e)) => return Err(format!("browser: {e}")),
+                },
+                line = next_line(&mut link) => match line {
+                    Ok(Some(line)) => send(&mut to_browser, text(line)).await?,
+                    Ok(None) => {
+                        link = None;
+                        retry.reset();
+                        send(
+                            &mut to_browser,
+                            text("EVT UI DISCONNECTED the controller closed the connection".into()),
+                        )
+                        .await?;
+                    }
+                    Err(e) => {
+                        link = None;
+                        retry.reset();
+                        send(
+                            &mut to_browser,
+                            text(format!("EVT UI DISCONNECTED controller connection: {e}")),
+                        )
+                        .await?;
+                    }
+                },
+                datagram = sim.recv() => match datagram {
+                    Ok(bytes) => send(&mut to_browser, Message::Binary(bytes)).await?,
+                    // A browser that is behind loses datagrams, never lines.
+                    Err(RecvError::Lagged(n)) => {
+                        hub.sim_dropped.fetch_add(n, Ordering::Relaxed);
+                    }
+                    Err(RecvError::Closed) => return Ok(()),
+                },
             }
-            Ok(Message::Close(_)) => return Ok(()),
-            Ok(_) => {}
-            Err(tungstenite::Error::Io(e))
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) => {}
-            Err(tungstenite::Error::ConnectionClosed | tungstenite::Error::AlreadyClosed) => {
-                return Ok(())
-            }
-            Err(e) => return Err(format!("browser: {e}")),
         }
-        drain(&mut ws, &from_controller, &mut link)?;
-        let mut dropped = 0u64;
-        while let Ok(datagram) = sim.try_recv() {
-            match ws.write(Message::Binary(datagram)) {
-                Ok(()) => {}
-                Err(tungstenite::Error::WriteBufferFull(_)) => dropped += 1,
-                Err(e) => return Err(format!("browser: {e}")),
-            }
-        }
-        hub.sim_dropped.fetch_add(dropped, Ordering::Relaxed);
-        match ws.flush() {
-            Ok(()) => {}
-            Err(tungstenite::Error::Io(e))
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                return Err("the browser stopped reading; disconnected".into())
-            }
-            Err(tungstenite::Error::ConnectionClosed | tungstenite::Error::AlreadyClosed) => {
-                return Ok(())
-            }
-            Err(e) => return Err(format!("browser: {e}")),
-        }
-    })();
-    if let Some(l) = link.take() {
-        l.shutdown();
     }
-    hub.unregister(session_id);
+    .await;
+    hub.sessions.fetch_sub(1, Ordering::AcqRel);
     if let Err(why) = result {
         hub.note(&format!("wrc ui: WebSocket session ended: {why}"));
     }
-    let _ = ws.close(None);
-    let _ = ws.flush();
+    let _ = to_browser.close().await;
 }
 
-fn drain(
-    ws: &mut WebSocket<TcpStream>,
-    from_controller: &Receiver<FromController>,
-    link: &mut Option<Link>,
-) -> Result<(), String> {
-    while let Ok(out) = from_controller.try_recv() {
-        match out {
-            FromController::Line(text) => send_text(ws, text)?,
-            FromController::Lost(why) => {
-                if let Some(l) = link.take() {
-                    l.shutdown();
-                }
-                send_text(ws, format!("EVT UI DISCONNECTED {why}"))?;
-            }
-        }
-    }
-    Ok(())
-}
-
-fn send_text(ws: &mut WebSocket<TcpStream>, text: String) -> Result<(), String> {
-    match ws.write(Message::Text(text.into())) {
-        Ok(()) => Ok(()),
-        Err(tungstenite::Error::WriteBufferFull(_)) => {
-            Err("the browser stopped reading (over 1 MiB pending); disconnected".into())
-        }
-        Err(e) => Err(format!("browser: {e}")),
+/// The controller's next line; pending for ever while there is no connection.
+async fn next_line(link: &mut Option<Link>) -> io::Result<Option<String>> {
+    match link.as_mut() {
+        Some(l) => l
+            .lines
+            .next_line()
+            .await
+            .map(|line| line.map(|t| t.trim_end_matches('\r').to_string())),
+        None => std::future::pending().await,
     }
 }
 

@@ -177,14 +177,19 @@ class Controller {
         kill('SIGKILL');
         await Promise.race([exited, sleep(2000)]);
       } else {
-        // wrc ui may outlive wrc up for a moment; make sure nothing of the group is left.
-        await sleep(200);
-        try {
-          process.kill(-p.pid, 0);
-          kill('SIGKILL');
-        } catch {
-          /* the group is gone */
-        }
+        // wrc ui may outlive wrc up for a moment: wait until the group is gone (2 s at most),
+        // then make sure nothing of it is left.
+        const groupAlive = () => {
+          try {
+            process.kill(-p.pid, 0);
+            return true;
+          } catch {
+            return false;
+          }
+        };
+        const deadline = Date.now() + 2000;
+        while (groupAlive() && Date.now() < deadline) await sleep(20);
+        if (groupAlive()) kill('SIGKILL');
       }
     }
     rmSync(this.stateDir, { recursive: true, force: true });

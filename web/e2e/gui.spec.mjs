@@ -155,6 +155,10 @@ async function logCount(page, re) {
 // alone can take seconds per click, so a step as a whole gets twice that.
 const step = (title, body) => test.step(title, body, { timeout: 2 * STEP_MS });
 
+// Two animation frames: whatever changed has been drawn (for the screenshots).
+const framesDrawn = (page) =>
+  page.evaluate(() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done))));
+
 // ---------------------------------------------------------------------------------------------
 // the test
 
@@ -232,7 +236,7 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
   });
 
   await step('screenshots: control and simulator', async () => {
-    await page.waitForTimeout(500); // let the 3D view draw the last pose
+    await framesDrawn(page); // the 3D view has drawn the last pose
     await shot(page, '#panel-control', 'control.png');
     await shot(page, '#panel-simulator', 'simulator.png');
   });
@@ -336,7 +340,10 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
   await step('Plots tab', async () => {
     await id('tab-plots').click();
     await expect(page.locator('#panel-plots')).toBeVisible();
-    await page.waitForTimeout(1500); // a few timing updates
+    // The pulse chart has samples and the task table its rows.
+    await expect(page.locator('#panel-plots .plot-empty')).toBeHidden();
+    await expect(page.locator('#panel-plots .plot-table tbody tr').first()).toBeVisible();
+    await framesDrawn(page);
     await shot(page, '#panel-plots', 'plots.png');
   });
 
@@ -430,15 +437,17 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
     const robotAxes = await page.locator('[data-testid^="dest-j"]').count();
     const far = [150, -120, 200, 250, 0, 0, 0, 0].slice(0, robotAxes);
     await setDestination(page, 'joint', Object.fromEntries(far.map((v, i) => [`j${i + 1}`, v])));
+    const before = await id('current-axis-0').textContent();
     await id('go').click();
     await expect(id('state')).toHaveAttribute('data-state', 'MOVING');
-    await page.waitForTimeout(300);
+    // E-stop while the arm is really under way: once its position has changed.
+    await expect(id('current-axis-0')).not.toHaveText(before ?? '');
     await id('estop').click();
     // The controller's fault state for an E-stop is ESTOP (RESET leaves it, as ERROR).
     await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');
     await expect(id('header-error')).toContainText('201 emergency stop');
     await expect(id('command-log')).toContainText(/ABS MOVJ: 201/);
-    await page.waitForTimeout(300);
+    await framesDrawn(page);
     await shot(page, null, 'full.png');
   });
 

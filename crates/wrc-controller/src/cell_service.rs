@@ -30,24 +30,53 @@ use crate::shared::{RobotState, Shared};
 /// The job steps of a transfer ([`wrc_cell::plan`]'s), with its move to the approach pose
 /// made a joint move to the solution from which the straight line into the station keeps
 /// every limit, reached soonest from `from` ([`Station::approach_joints`]): the transfer's
-/// motions are checked here, before anything moves.
+/// motions are checked here, before anything moves. With `blend`, that move, the station's
+/// speed, its interlock and the line in are one [`JobStep::Approach`].
 pub fn transfer_steps(
     kind: TransferKind,
     station: &Station,
     slot: u16,
     robot: &Robot,
     from: &Joints,
+    blend: bool,
 ) -> Result<(Vec<JobStep>, Joints), StationError> {
     // GET enters lowered (under the wafer), PUT lifted (holding it).
     let approach = station.approach_joints(robot, slot, kind == TransferKind::Put, from)?;
-    let steps = wrc_cell::plan(kind, station, slot)?
-        .into_iter()
-        .map(|step| match step {
-            Step::Ptp(..) => JobStep::Joints(approach),
-            other => JobStep::Transfer(other),
-        })
-        .collect();
+    let plan = wrc_cell::plan(kind, station, slot)?;
+    let mut steps = Vec::with_capacity(plan.len());
+    let mut rest = plan.as_slice();
+    while let Some((step, after)) = rest.split_first() {
+        rest = after;
+        steps.push(match (step, after) {
+            (Step::Ptp(..), [Step::Speed(pct), Step::RequireInput(n), Step::Line(to), ..])
+                if blend =>
+            {
+                rest = &after[3..];
+                approach_step(approach, *to, *pct, Some(*n))
+            }
+            (Step::Ptp(..), [Step::Speed(pct), Step::Line(to), ..]) if blend => {
+                rest = &after[2..];
+                approach_step(approach, *to, *pct, None)
+            }
+            (Step::Ptp(..), _) => JobStep::Joints(approach),
+            (other, _) => JobStep::Transfer(*other),
+        });
+    }
     Ok((steps, approach))
+}
+
+fn approach_step(
+    via: Joints,
+    to: wrc_robot::Pose,
+    speed_pct: f64,
+    interlock: Option<u8>,
+) -> JobStep {
+    JobStep::Approach {
+        via,
+        to,
+        speed_pct,
+        interlock,
+    }
 }
 
 /// Why the wafer cell could not be opened.
@@ -82,6 +111,8 @@ pub struct CellService {
     reconciled: bool,
     /// The PUT half of a running SWAP: begun (and saved) when its GET half commits.
     swap_put: Option<Transfer>,
+    /// Transfers blend their approach into the line in (`[motion] blend`).
+    blend: bool,
 }
 
 impl CellService {
@@ -122,7 +153,14 @@ impl CellService {
             busy: None,
             reconciled,
             swap_put: None,
+            blend: false,
         })
+    }
+
+    /// Plan transfers with a blended approach ([`JobStep::Approach`]) or not.
+    pub fn with_blend(mut self, blend: bool) -> CellService {
+        self.blend = blend;
+        self
     }
 
     /// The height of a dual-blade robot's blade B above the hand [mm]; `None` for one hand.
@@ -439,6 +477,7 @@ impl CellService {
             slot,
             &self.robot,
             &from,
+            self.blend,
         )
         .map_err(refused)?;
         steps.extend(first);
@@ -450,6 +489,7 @@ impl CellService {
                 slot,
                 &self.robot,
                 &approach,
+                self.blend,
             )
             .map_err(refused)?;
             steps.push(JobStep::UseBlade(put.blade));

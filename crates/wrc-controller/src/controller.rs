@@ -318,13 +318,16 @@ pub(crate) fn assemble<H: Host>(
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone());
     let store = match &options.cell {
-        Some(files) => store.with_cell(crate::cell_service::CellService::open(
-            &robot,
-            &files.stations,
-            &files.wafers,
-            shared.clone(),
-            config.hand,
-        )?),
+        Some(files) => store.with_cell(
+            crate::cell_service::CellService::open(
+                &robot,
+                &files.stations,
+                &files.wafers,
+                shared.clone(),
+                config.hand,
+            )?
+            .with_blend(config.blend),
+        ),
         None => store,
     };
     // The trace recorder: samples from the Pulse Generator, lines from the Ethernet task's
@@ -438,7 +441,6 @@ pub(crate) fn assemble<H: Host>(
     );
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
-    interpreter.blend = config.blend;
     let ci_applied = ci_wake.notifier();
     host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
     // Released by every output request, so a vacuum valve opens at once; it releases the

@@ -510,6 +510,11 @@ impl VelocityGenerator {
     /// both costs). Returns whether anything moves. The law cannot stall short of the target:
     /// from any state of it, either speeding up is safe or its verified brake moves on.
     pub fn start_line(&mut self, target: &Pose) -> Result<bool, PlanError> {
+        self.start_line_at(target, self.scale())
+    }
+
+    /// [`VelocityGenerator::start_line`] at speed override `scale` (a fraction).
+    fn start_line_at(&mut self, target: &Pose, scale: f64) -> Result<bool, PlanError> {
         self.ensure_idle()?;
         let current = self.joints();
         let (path, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
@@ -528,13 +533,12 @@ impl VelocityGenerator {
                 LineLaw::Timed {
                     profile: LineProfile::start(&bounds, &|u: f64| table.at(u)),
                     bounds,
-                    scale: self.scale(),
+                    scale,
                     table: table.id,
                 }
             }
             Profile::Paper { mask_len } => {
-                let limits =
-                    check.constant_limits(&self.robot, length, &self.settings.line, self.scale());
+                let limits = check.constant_limits(&self.robot, length, &self.settings.line, scale);
                 if limits.v <= 0.0 {
                     self.nothing_to_do();
                     return Ok(false);
@@ -593,8 +597,7 @@ impl VelocityGenerator {
         let there =
             (0..self.robot.axis_count()).all(|i| (via_pulses[i] - self.position[i]).abs() <= 1);
         if there || on_segment(&here, &entry, target) {
-            self.settings.speed_pct = line_scale * 100.0;
-            return self.start_line(target);
+            return self.start_line_at(target, line_scale);
         }
         let (path, check) = line_path(&self.robot, via, target, Some(&mut self.table))?;
         let target_pulses = self.robot.joints_to_pulses(&check.end_joints);

@@ -9,6 +9,8 @@
 //! nothing (the allocation test runs one), and one that fails is reported without a message.
 
 use rsruckig::prelude::*;
+
+use crate::line_profile::advance;
 use wrc_robot::{Joints, Robot, MAX_AXES};
 
 /// Axes Ruckig plans at once; an arm has at most this many moving axes in an approach.
@@ -35,11 +37,7 @@ impl Phases {
         let mut start = 0.0;
         for i in 0..7 {
             let end = self.t_end[i].max(start);
-            let dt = (t.min(end) - start).max(0.0);
-            let j = self.j[i];
-            p += dt * (v + dt * (a / 2.0 + dt * j / 6.0));
-            v += dt * (a + dt * j / 2.0);
-            a += dt * j;
+            (p, v, a) = advance(p, v, a, self.j[i], (t.min(end) - start).max(0.0));
             if t <= end {
                 return (p, v, a);
             }
@@ -47,8 +45,7 @@ impl Phases {
         }
         // After the end: on with the final velocity and acceleration (the next part takes
         // over at the end, so this is only reached within rounding).
-        let dt = (t - start).max(0.0);
-        (p + dt * (v + dt * a / 2.0), v + dt * a, a)
+        advance(p, v, a, 0.0, (t - start).max(0.0))
     }
 }
 

@@ -322,9 +322,10 @@ impl Bounds {
     }
 }
 
-/// Position, velocity and acceleration of u after `dt` [s] at constant jerk `j`.
+/// Position, velocity and acceleration after `dt` [s] at constant jerk `j` (of u here, of
+/// an axis in a blended approach's first part).
 #[inline]
-fn advance(u: f64, v: f64, a: f64, j: f64, dt: f64) -> (f64, f64, f64) {
+pub(crate) fn advance(u: f64, v: f64, a: f64, j: f64, dt: f64) -> (f64, f64, f64) {
     (
         u + dt * (v + dt * (0.5 * a + dt * j / 6.0)),
         v + dt * (a + 0.5 * dt * j),

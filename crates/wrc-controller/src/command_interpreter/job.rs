@@ -14,8 +14,9 @@ use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
 use wrc_cell::{Blade, Step, MAX_BLADES};
+use wrc_protocol::ReplyTo;
 use wrc_protocol::{Code, Command};
-use wrc_robot::Joints;
+use wrc_robot::{Joints, Pose};
 
 use super::program::ProgramWait;
 use super::{deliver, CommandInterpreter};
@@ -478,14 +479,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     self.job_advance();
                 }
             },
-            JobStep::Joints(joints) => {
-                if !self.job_approach(joints) {
-                    self.job_move(Command::MovJ {
-                        joints,
-                        count: self.robot.axis_count(),
-                    });
-                }
-            }
+            JobStep::Joints(joints) => self.job_move(Command::MovJ {
+                joints,
+                count: self.robot.axis_count(),
+            }),
+            JobStep::Approach {
+                via,
+                to,
+                speed_pct,
+                interlock,
+            } => self.job_approach(via, to, speed_pct, interlock),
             JobStep::MapClear => {
                 self.board.clear_mapping();
                 let deadline = self.now_ns.saturating_add(BOARD_ACK_NS);
@@ -505,36 +508,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// A transfer's move to the approach pose `via` followed by the station's speed, its
-    /// interlock and the straight line in: with blending on, one blended approach
-    /// (docs/motion.md), the interlock checked now and watched until the approach is
-    /// committed to enter. Returns false when the steps after `via` are not that (a MAP's,
-    /// or blending off): the caller moves to `via` alone.
-    fn job_approach(&mut self, via: Joints) -> bool {
-        let Some(j) = self.job else {
-            return false;
-        };
-        if !self.blend {
-            return false;
-        }
-        let steps = j.job.steps();
-        let after = j.next + 1;
-        let (pct, guard, line, pose) = match steps.get(after..) {
-            Some(
-                [JobStep::Transfer(Step::Speed(pct)), JobStep::Transfer(Step::RequireInput(n)), JobStep::Transfer(Step::Line(pose)), ..],
-            ) => (*pct, Some(*n), after + 2, *pose),
-            Some(
-                [JobStep::Transfer(Step::Speed(pct)), JobStep::Transfer(Step::Line(pose)), ..],
-            ) => (*pct, None, after + 1, *pose),
-            _ => return false,
-        };
-        if let Some(n) = guard {
+    /// A blended approach ([`JobStep::Approach`], docs/motion.md): the interlock checked now
+    /// and watched until the approach is committed to enter; the first part at the override
+    /// in force, the line at the station's speed.
+    fn job_approach(&mut self, via: Joints, to: Pose, pct: f64, interlock: Option<u8>) {
+        if let Some(n) = interlock {
             if self.board.read_inputs(0) & (1u32 << (n & 31)) == 0 {
-                self.job_fault(
+                return self.job_fault(
                     Code::InterlockOpened,
                     "the station's interlock opened before the hand approached; nothing entered",
                 );
-                return true;
             }
         }
         let now = self.shared.speed_pct.load(Ordering::Acquire);
@@ -543,46 +526,28 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let start = self
             .robot
             .pulses_to_joints(&self.robot.joints_to_pulses(&via));
-        let end = match wrc_motion::check_line(&self.robot, &start, &pose) {
+        let end = match wrc_motion::check_line(&self.robot, &start, &to) {
             Ok((_, check)) => check.end_joints,
             Err(e) => {
                 let code = Code::from_number(crate::velocity_generator::refusal_code(&e))
                     .unwrap_or(Code::MotionFault);
-                self.end_job(Some((code, code.text())));
-                return true;
+                return self.end_job(Some((code, code.text())));
             }
         };
-        let next = self.next_ticket;
-        // Ordered at the override in force (the first part's); the line at the station's.
-        self.motion(
-            SourceId::CELL,
-            wrc_protocol::ReplyTo::default(),
-            MoveKind::Approach {
-                via,
-                to: pose,
-                line_pct: f64::from(near),
-            },
-            end,
-            false,
-        );
-        let ticket = self
-            .tickets
-            .iter()
-            .flatten()
-            .find(|t| t.from == SourceId::CELL && t.ticket >= next)
-            .map(|t| t.ticket);
-        let Some(ticket) = ticket else {
-            self.end_job(Some((Code::Busy, "too many motions queued; WAIT first")));
-            return true;
+        let kind = MoveKind::Approach {
+            via,
+            to,
+            line_pct: f64::from(near),
+        };
+        let Some(ticket) = self.motion(SourceId::CELL, ReplyTo::default(), kind, end, false) else {
+            return self.end_job(Some((Code::Busy, "too many motions queued; WAIT first")));
         };
         self.shared.speed_pct.store(near, Ordering::Release);
         if let Some(r) = self.job.as_mut() {
             r.saved_speed.get_or_insert(now);
-            r.next = line;
             r.wait = JobWait::Motion(ticket);
-            r.guard = guard.map(|n| (n, ticket));
+            r.guard = interlock.map(|n| (n, ticket));
         }
-        true
     }
 
     fn job_move(&mut self, command: Command) {

@@ -140,8 +140,6 @@ pub struct CommandInterpreter<B: MotionBoard> {
     periodic: bool,
     /// The hand's signals (vacuum valve and sensor, mapping sensor).
     pub hand: wrc_config::HandConfig,
-    /// Whether a transfer's approach blends into its straight line in (`[motion] blend`).
-    pub blend: bool,
     job: Option<job::RunningJob>,
     scan: wrc_board::MappingScan,
     /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
@@ -178,7 +176,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             now_ns: 0,
             periodic: true,
             hand: wrc_config::HandConfig::default(),
-            blend: false,
             job: None,
             scan: wrc_board::MappingScan::default(),
             hand_dropped: 0,

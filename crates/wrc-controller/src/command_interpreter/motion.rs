@@ -111,7 +111,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         Some(ticket)
     }
 
-    /// Validate and queue a motion; ACK or NAK.
+    /// Validate and queue a motion; ACK or NAK. Returns its ticket when it was queued.
     pub(super) fn motion(
         &mut self,
         from: SourceId,
@@ -119,7 +119,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         kind: MoveKind,
         end: Joints,
         home: bool,
-    ) {
+    ) -> Option<u32> {
         // A line is resumed as a line to its pose; every other motion as a PTP to the joint
         // target admission checked (the one the Velocity Generator goes to).
         let resume = match kind {
@@ -130,7 +130,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         };
         let Some(ticket) = self.new_ticket(from, to, home, resume) else {
             self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
-            return;
+            return None;
         };
         let order = MoveOrder {
             ticket,
@@ -147,12 +147,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 *t = None;
             }
             self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
-            return;
+            return None;
         }
         self.planned_end = end;
         let line = self.buf.ack(to, "");
         deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
+        Some(ticket)
     }
 
     pub(super) fn handle_done(&mut self, done: MoveDone) {

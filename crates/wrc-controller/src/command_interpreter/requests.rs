@@ -118,7 +118,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.motion(from, to, MoveKind::Joints(home), home, true);
             }
             Command::MovJ { joints, .. } => match self.robot.check_joints(&joints) {
-                Ok(()) => self.motion(from, to, MoveKind::Joints(joints), joints, false),
+                Ok(()) => {
+                    self.motion(from, to, MoveKind::Joints(joints), joints, false);
+                }
                 Err(e) => self.refuse(from, to, &wrc_motion::PlanError::Kinematics(e)),
             },
             Command::MovP { pose, posture } => {
@@ -129,7 +131,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 // soonest where the ranges allow several).
                 match wrc_motion::ptp_target(&self.robot, &self.planned_end, &pose, posture) {
                     Ok(end) => {
-                        self.motion(from, to, MoveKind::Pose(pose, Some(posture)), end, false)
+                        self.motion(from, to, MoveKind::Pose(pose, Some(posture)), end, false);
                     }
                     Err(e) => self.refuse(from, to, &e),
                 }
@@ -142,7 +144,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
                 match wrc_motion::check_line(&self.robot, &start, &pose) {
                     Ok((_, check)) => {
-                        self.motion(from, to, MoveKind::Line(pose), check.end_joints, false)
+                        self.motion(from, to, MoveKind::Line(pose), check.end_joints, false);
                     }
                     Err(e) => self.refuse(from, to, &e),
                 }

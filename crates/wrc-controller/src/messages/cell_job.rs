@@ -62,6 +62,21 @@ pub enum JobStep {
     MapRead,
     /// The following vacuum steps switch and read this blade's valve and sensor.
     UseBlade(Blade),
+    /// A blended approach (docs/motion.md): the move to the approach pose `via` flowing
+    /// into the straight line in to `to` at the station's `speed_pct`, with the station's
+    /// interlock checked when it starts and watched until it is committed to enter. Made by
+    /// [`crate::cell_service::transfer_steps`] from the plan's move to the approach pose,
+    /// speed, interlock and line in, when blending is on.
+    Approach {
+        /// The approach pose's joints (the solution the cell service chose).
+        via: wrc_robot::Joints,
+        /// The end of the line in (under or above the slot).
+        to: wrc_robot::Pose,
+        /// The station's speed override [%].
+        speed_pct: f64,
+        /// The station's interlock input, if it has one.
+        interlock: Option<u8>,
+    },
 }
 
 /// A job the cell service hands to the Command Interpreter.

@@ -207,54 +207,58 @@ fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
 #[test]
 fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing() {
     wrc_alloc_count::assert_installed();
-    let mut rig = Rig::new(true, true);
-    let stations = wrc_cell::Stations::embedded_demo();
-    let lp1 = stations.get("LP1").unwrap();
-    let from = SourceId::new(SourceId::TCP, 0, 1);
-    let to = ReplyTo {
-        id: Some(7),
-        checksum: false,
-    };
-    let mut job = CellJob::new(from, to, JobKind::Get, lp1.name);
-    job.slot = 1;
-    job.wafer = 1;
-    let robot = Robot::paper_default();
-    for step in transfer_steps(TransferKind::Get, lp1, 1, &robot, &robot.home())
-        .unwrap()
-        .0
-    {
-        assert!(job.push(step));
+    // Rest to rest (PTP, line in, Z up, line out), then with the approach blended into the
+    // line in (approach, Z up, line out).
+    for (blend, motions) in [(false, 4), (true, 3)] {
+        let mut rig = Rig::new(true, true);
+        let stations = wrc_cell::Stations::embedded_demo();
+        let lp1 = stations.get("LP1").unwrap();
+        let from = SourceId::new(SourceId::TCP, 0, 1);
+        let to = ReplyTo {
+            id: Some(7),
+            checksum: false,
+        };
+        let mut job = CellJob::new(from, to, JobKind::Get, lp1.name);
+        job.slot = 1;
+        job.wafer = 1;
+        let robot = Robot::paper_default();
+        for step in transfer_steps(TransferKind::Get, lp1, 1, &robot, &robot.home(), blend)
+            .unwrap()
+            .0
+        {
+            assert!(job.push(step));
+        }
+        rig.run_until(
+            1_000_000_000,
+            |links| links.jobs.try_send(JobOffer::Start(job)).ok().unwrap(),
+            &["ABS 7", "INF 7"],
+        );
+        let lines = &rig.lines;
+        // The job's own motions are not answered on the wire: only its ACK and INF are.
+        let replies: Vec<&String> = lines.iter().filter(|l| !l.starts_with("EVT")).collect();
+        assert_eq!(replies, ["ACK 7", "INF 7 W1"], "{lines:?}");
+        assert_eq!(rig.motions, motions, "blend {blend}: {lines:?}");
+        let events = &rig.links.cell_events;
+        assert_eq!(events.try_recv().ok(), Some(CellEvent::Commit));
+        assert_eq!(
+            events.try_recv().ok(),
+            Some(CellEvent::Ended {
+                kind: JobKind::Get,
+                started: true,
+                code: None,
+                sensed: [true, false],
+            })
+        );
+        assert_eq!(
+            rig.shared.speed_pct.load(Ordering::Acquire),
+            100,
+            "the speed near the station was restored"
+        );
+        assert_eq!(
+            rig.heap_calls, 0,
+            "allocations or frees in Command Interpreter cycles running a job (blend {blend})"
+        );
     }
-    rig.run_until(
-        1_000_000_000,
-        |links| links.jobs.try_send(JobOffer::Start(job)).ok().unwrap(),
-        &["ABS 7", "INF 7"],
-    );
-    let lines = &rig.lines;
-    // The job's own motions are not answered on the wire: only its ACK and INF are.
-    let replies: Vec<&String> = lines.iter().filter(|l| !l.starts_with("EVT")).collect();
-    assert_eq!(replies, ["ACK 7", "INF 7 W1"], "{lines:?}");
-    assert_eq!(rig.motions, 4, "PTP, line in, Z up, line out: {lines:?}");
-    let events = &rig.links.cell_events;
-    assert_eq!(events.try_recv().ok(), Some(CellEvent::Commit));
-    assert_eq!(
-        events.try_recv().ok(),
-        Some(CellEvent::Ended {
-            kind: JobKind::Get,
-            started: true,
-            code: None,
-            sensed: [true, false],
-        })
-    );
-    assert_eq!(
-        rig.shared.speed_pct.load(Ordering::Acquire),
-        100,
-        "the speed near the station was restored"
-    );
-    assert_eq!(
-        rig.heap_calls, 0,
-        "allocations or frees in Command Interpreter cycles running a job"
-    );
 }
 
 #[test]

@@ -437,11 +437,11 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
     const robotAxes = await page.locator('[data-testid^="dest-j"]').count();
     const far = [150, -120, 200, 250, 0, 0, 0, 0].slice(0, robotAxes);
     await setDestination(page, 'joint', Object.fromEntries(far.map((v, i) => [`j${i + 1}`, v])));
-    const before = await id('current-axis-0').textContent();
+    const before = await id('current-axis-1').textContent();
     await id('go').click();
     await expect(id('state')).toHaveAttribute('data-state', 'MOVING');
     // E-stop while the arm is really under way: once its position has changed.
-    await expect(id('current-axis-0')).not.toHaveText(before ?? '');
+    await expect(id('current-axis-1')).not.toHaveText(before ?? '');
     await id('estop').click();
     // The controller's fault state for an E-stop is ESTOP (RESET leaves it, as ERROR).
     await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');

@@ -16,6 +16,7 @@ use crate::diagnostic::{Diagnostic, Span};
 use crate::error::RuntimeErrorKind;
 use crate::statements::{ArgSpec, ArgTy, CommandOp, ConstCheck, StatementDef};
 use crate::value::{self, Arith, Cmp, Ty, Value};
+use crate::vm::ProgramNum;
 
 /// A checked expression: its type, and its value when the compiler knows it.
 #[derive(Debug, Clone)]
@@ -206,14 +207,6 @@ fn article(ty: Ty) -> &'static str {
         Ty::Str => "a string",
         Ty::Pose => "a pose",
         Ty::Joints => "joints",
-    }
-}
-
-fn fmt_num(x: f64) -> String {
-    if x.fract() == 0.0 && x.abs() < 1e15 {
-        format!("{}", x as i64)
-    } else {
-        format!("{x}")
     }
 }
 
@@ -534,9 +527,9 @@ impl Checker<'_> {
                                 s.span,
                                 format!(
                                     "this loop never runs: {} to {} with STEP {}{hint}",
-                                    fmt_num(a),
-                                    fmt_num(b),
-                                    fmt_num(st)
+                                    ProgramNum(a),
+                                    ProgramNum(b),
+                                    ProgramNum(st)
                                 ),
                             );
                         }
@@ -701,7 +694,11 @@ impl Checker<'_> {
             ),
             AxisRef::Number(x, span) => {
                 let ok = x.fract() == 0.0 && *x >= 1.0 && *x <= n as f64;
-                (ok.then(|| *x as usize - 1), *span, fmt_num(*x))
+                (
+                    ok.then(|| *x as usize - 1),
+                    *span,
+                    ProgramNum(*x).to_string(),
+                )
             }
         };
         match found {
@@ -742,7 +739,7 @@ impl Checker<'_> {
                 if x != 0.0 && x != 1.0 {
                     let msg = format!(
                         "a level must be 0 or 1 (or TRUE / FALSE), got {}",
-                        fmt_num(x)
+                        ProgramNum(x)
                     );
                     self.error(t.span, msg);
                     return None;
@@ -776,9 +773,9 @@ impl Checker<'_> {
                 Value::Num(x),
             ) if !(min..=max).contains(&x) => Some(format!(
                 "{what} {} is out of range; {what} takes {} to {}{unit}",
-                fmt_num(x),
-                fmt_num(min),
-                fmt_num(max)
+                ProgramNum(x),
+                ProgramNum(min),
+                ProgramNum(max)
             )),
             (ConstCheck::OutputBit, Value::Num(x)) if value::bit(Value::Num(x)).is_err() => {
                 let what = if def.keyword == "WAIT" {
@@ -788,27 +785,27 @@ impl Checker<'_> {
                 };
                 Some(format!(
                     "{what} {} does not exist; {what}s are 0 to 31",
-                    fmt_num(x)
+                    ProgramNum(x)
                 ))
             }
             (ConstCheck::WholeNumber, Value::Num(x)) if value::pulses(Value::Num(x)).is_err() => {
                 Some(format!(
                     "{} takes a whole number of pulses (at most 1e15), got {}",
                     def.keyword,
-                    fmt_num(x)
+                    ProgramNum(x)
                 ))
             }
             (ConstCheck::Slot, Value::Num(x)) if value::slot(Value::Num(x)).is_err() => {
                 Some(format!(
                     "slot {} does not exist; {} takes a whole slot number from 1 to {}",
-                    fmt_num(x),
+                    ProgramNum(x),
                     def.keyword,
                     value::MAX_SLOT
                 ))
             }
             (ConstCheck::Seconds, Value::Num(x)) if x < 0.0 => Some(format!(
                 "a time must be 0 or more seconds, got {}",
-                fmt_num(x)
+                ProgramNum(x)
             )),
             (ConstCheck::JointLimits, Value::Joints(j)) => self
                 .robot

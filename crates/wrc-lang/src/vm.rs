@@ -720,6 +720,16 @@ pub(crate) fn write_number(w: &mut impl fmt::Write, x: f64) -> fmt::Result {
     w.write_str(text)
 }
 
+/// A number in the language's one format ([`write_number`]), for `format!` and `{}`: what
+/// the checker's messages quote is what PRINT would show.
+pub(crate) struct ProgramNum(pub f64);
+
+impl fmt::Display for ProgramNum {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write_number(f, self.0)
+    }
+}
+
 fn write_value(w: &mut impl fmt::Write, program: &Program, v: &Value) -> fmt::Result {
     match v {
         Value::Num(x) => write_number(w, *x),

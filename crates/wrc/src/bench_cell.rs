@@ -30,6 +30,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use wrc_board::wrc_cell::{plan, Blade, Stations, Step, TransferKind, MAX_BLADES};
 use wrc_config::Config;
+use wrc_controller::messages::cell_job::JobKind;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
 use wrc_motion::reference::line_bound;
 use wrc_motion::DoubleS;
@@ -348,19 +349,11 @@ fn drive(
     Ok((trace, sent))
 }
 
-/// What a timed request does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
-    Get,
-    Put,
-    Swap,
-}
-
 /// One transfer as measured.
 #[derive(Debug, Clone)]
 struct Measured {
     line: String,
-    kind: Kind,
+    kind: JobKind,
     seconds: f64,
     moving_s: f64,
     /// Request read → the first period that moved the arm [s].
@@ -382,7 +375,7 @@ impl Figures {
         f64::from(self.wafers) * 3600.0 / self.total_s
     }
 
-    fn mean(&self, kind: Kind, f: impl Fn(&Measured) -> f64) -> f64 {
+    fn mean(&self, kind: JobKind, f: impl Fn(&Measured) -> f64) -> f64 {
         let v: Vec<f64> = self
             .transfers
             .iter()
@@ -396,8 +389,8 @@ impl Figures {
     fn swap_s(&self) -> Option<f64> {
         self.transfers
             .iter()
-            .any(|m| m.kind == Kind::Swap)
-            .then(|| self.mean(Kind::Swap, |m| m.seconds))
+            .any(|m| m.kind == JobKind::Swap)
+            .then(|| self.mean(JobKind::Swap, |m| m.seconds))
     }
 
     fn sum(&self, f: impl Fn(&Measured) -> f64) -> f64 {
@@ -413,19 +406,19 @@ fn reference(
     line: &str,
     start: Joints,
     hands: &mut [bool; MAX_BLADES],
-) -> anyhow::Result<(Kind, f64, Joints)> {
+) -> anyhow::Result<(JobKind, f64, Joints)> {
     let robot = &config.robot;
     let words: Vec<&str> = line.split_whitespace().collect();
     let blade = |w: &str| Blade::parse(w).with_context(|| format!("no blade {w}"));
     let (kind, name, slot, blade) = match words[..] {
-        ["GET", s, n] => (Kind::Get, s, n.parse::<u16>()?, Blade::A),
-        ["GET", s, n, b] => (Kind::Get, s, n.parse::<u16>()?, blade(b)?),
-        ["PUT", s, n] => (Kind::Put, s, n.parse::<u16>()?, Blade::A),
-        ["PUT", s, n, b] => (Kind::Put, s, n.parse::<u16>()?, blade(b)?),
+        ["GET", s, n] => (JobKind::Get, s, n.parse::<u16>()?, Blade::A),
+        ["GET", s, n, b] => (JobKind::Get, s, n.parse::<u16>()?, blade(b)?),
+        ["PUT", s, n] => (JobKind::Put, s, n.parse::<u16>()?, Blade::A),
+        ["PUT", s, n, b] => (JobKind::Put, s, n.parse::<u16>()?, blade(b)?),
         // The empty blade takes, the other puts.
         ["SWAP", s, n] => {
             let taker = if hands[0] { Blade::B } else { Blade::A };
-            (Kind::Swap, s, n.parse::<u16>()?, taker)
+            (JobKind::Swap, s, n.parse::<u16>()?, taker)
         }
         _ => bail!("not a transfer: {line}"),
     };
@@ -434,21 +427,23 @@ fn reference(
         .with_context(|| format!("no station {name}"))?;
     let at = |b: Blade| station.for_blade(config.hand.z_offset_mm(b.index()));
     let steps = match kind {
-        Kind::Get => plan(TransferKind::Get, &at(blade), slot)?,
-        Kind::Put => plan(TransferKind::Put, &at(blade), slot)?,
-        Kind::Swap => {
+        JobKind::Get => plan(TransferKind::Get, &at(blade), slot)?,
+        JobKind::Put => plan(TransferKind::Put, &at(blade), slot)?,
+        JobKind::Swap => {
             let mut steps = plan(TransferKind::Get, &at(blade), slot)?;
             steps.extend(plan(TransferKind::Put, &at(blade.other()), slot)?);
             steps
         }
+        JobKind::Map => bail!("MAP is not a transfer: {line}"),
     };
     match kind {
-        Kind::Get => hands[blade.index()] = true,
-        Kind::Put => hands[blade.index()] = false,
-        Kind::Swap => {
+        JobKind::Get => hands[blade.index()] = true,
+        JobKind::Put => hands[blade.index()] = false,
+        JobKind::Swap => {
             hands[blade.index()] = true;
             hands[blade.other().index()] = false;
         }
+        JobKind::Map => {}
     }
     let global = config.motion.speed_pct;
     let mut speed = global;
@@ -727,8 +722,8 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
             "{:<24} {:>9.1} {:>8.2} {:>8.2} {:>9} {:>7.0}% {:>7.0}% {:>10.2}x {:>6.1} periods",
             sequence.name(),
             f.wafers_per_hour(),
-            f.mean(Kind::Get, |m| m.seconds),
-            f.mean(Kind::Put, |m| m.seconds),
+            f.mean(JobKind::Get, |m| m.seconds),
+            f.mean(JobKind::Put, |m| m.seconds),
             f.swap_s()
                 .map_or_else(|| "-".to_string(), |s| format!("{s:.2}")),
             100.0 * moving / busy,
@@ -750,8 +745,8 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
                  time {worst:.1} periods per transfer",
                 "  the same, real time",
                 r.wafers_per_hour(),
-                r.mean(Kind::Get, |m| m.seconds),
-                r.mean(Kind::Put, |m| m.seconds),
+                r.mean(JobKind::Get, |m| m.seconds),
+                r.mean(JobKind::Put, |m| m.seconds),
             );
         }
         all.push(f);
@@ -770,8 +765,8 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
                     "wafers": f.wafers,
                     "seconds": f.total_s,
                     "wafers_per_hour": f.wafers_per_hour(),
-                    "get_s": f.mean(Kind::Get, |m| m.seconds),
-                    "put_s": f.mean(Kind::Put, |m| m.seconds),
+                    "get_s": f.mean(JobKind::Get, |m| m.seconds),
+                    "put_s": f.mean(JobKind::Put, |m| m.seconds),
                     "swap_s": f.swap_s(),
                     "transfers": f.transfers.iter().map(|m| json!({
                         "request": m.line,
@@ -875,8 +870,8 @@ mod tests {
         let config = unblended(&Sequence::SwapPm1Dual.config()).unwrap();
         assert_eq!(config.hand.blades(), 2);
         let f = run_sequence(&config, Sequence::SwapPm1Dual, 1, false).unwrap();
-        let kinds: Vec<Kind> = f.transfers.iter().map(|m| m.kind).collect();
-        assert_eq!(kinds, [Kind::Get, Kind::Swap, Kind::Put]);
+        let kinds: Vec<JobKind> = f.transfers.iter().map(|m| m.kind).collect();
+        assert_eq!(kinds, [JobKind::Get, JobKind::Swap, JobKind::Put]);
         for m in &f.transfers {
             assert!(m.seconds >= m.reference_s * 0.999, "{m:?}");
             assert!(m.seconds <= m.reference_s * 1.25, "{m:?}");
@@ -897,7 +892,7 @@ mod tests {
         let mut hands = [false, true];
         let (kind, swap_ref, _) =
             reference(&config, &stations, "SWAP PM1 1", start, &mut hands).unwrap();
-        assert_eq!((kind, hands), (Kind::Swap, [true, false]));
+        assert_eq!((kind, hands), (JobKind::Swap, [true, false]));
         let mut one = [false; 2];
         let (_, get_a, end) = reference(&config, &stations, "GET PM1 1", start, &mut one).unwrap();
         let (_, put_b, _) =
@@ -916,7 +911,7 @@ mod tests {
         let mut hands = [false; MAX_BLADES];
         let (kind, base, _) =
             reference(&config, &stations, "GET LP1 1", start, &mut hands).unwrap();
-        assert_eq!(kind, Kind::Get);
+        assert_eq!(kind, JobKind::Get);
         assert_eq!(hands, [true, false]);
         config.boards[0].sim.vacuum[0].delay_ms += 200.0;
         let (_, slower, _) =

@@ -93,6 +93,19 @@ impl SimIo {
         inputs ^ self.flipped
     }
 
+    /// Every vacuum sensor reads what it senses now, without its delay (a board that
+    /// restarts under a vacuum that has held all along): "valve on in `outputs` and a wafer
+    /// there".
+    pub fn settle(&mut self, outputs: u32) {
+        for (i, v) in self.vacuum.iter().enumerate() {
+            let Some(v) = v else { continue };
+            let on = outputs & (1 << (v.valve_output & 31)) != 0 && v.wafer;
+            self.held[i] = on;
+            self.held_periods[i] = v.delay_periods;
+            self.sensed[i] = on;
+        }
+    }
+
     /// The vacuum hand whose valve is output `valve_output` and whose sensor is input
     /// `sensor_input`; added with `delay_periods` and no wafer when there is none. `None`
     /// when it is missing and all [`MAX_VACUUM`] hands are taken.

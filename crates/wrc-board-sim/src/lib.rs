@@ -187,9 +187,11 @@ pub struct SimBoard {
     period_s: f64,
     substeps: u32,
     periods: u64,
-    /// The simulated cell, and the vacuum hand (of `io`) its wafer drives.
     /// The simulated cell and the vacuum hand of each of its blades.
     cell: Option<(SimCell, [Option<usize>; MAX_BLADES])>,
+    /// Started on the DPRAM of a board that ran before ([`SimBoard::take_over`]): its first
+    /// period settles the vacuum sensors at once.
+    restarted: bool,
 }
 
 /// Delay of the hand's vacuum sensor when `[board.sim] vacuum` does not list the hand [s].
@@ -199,10 +201,29 @@ impl SimBoard {
     /// Create (or take over) the DPRAM file at `path` and initialise it. An existing file
     /// that is not a wrc DPRAM is refused, not overwritten.
     pub fn create(path: &Path, settings: &SimSettings) -> Result<SimBoard, SimError> {
-        let map = Mapping::create(path)?;
+        SimBoard::take_over(Mapping::create(path)?, settings)
+    }
+
+    /// Initialise `map` as a board with `settings`, or, when it already holds a wrc DPRAM,
+    /// restart on it (see below). Memory that is neither is refused, not overwritten.
+    pub fn take_over(map: Mapping, settings: &SimSettings) -> Result<SimBoard, SimError> {
+        let mut kept = None;
         let (epoch, map) = match Dpram::attach(map) {
-            // A board restarting on its own DPRAM: a new epoch tells the host.
-            Ok(old) => (old.header().epoch.wrapping_add(1), old.into_mapping()),
+            // A board restarting on its own DPRAM: a new epoch tells the host. The axes stay
+            // where their encoders were (absolute encoders: the arm did not move while the
+            // board was down) and the outputs as they were latched (the vacuum holds its
+            // wafer), as on a board whose processor restarts under a powered drive.
+            Ok(old) => {
+                let mut restarted = settings.clone();
+                let mut record = AxisRecord::default();
+                for (channel, axis) in restarted.axes.iter_mut().enumerate() {
+                    if old.read_feedback(channel, &mut record).is_ok() {
+                        axis.initial = record.encoder;
+                    }
+                }
+                kept = Some((restarted, old.load(layout::io::OUTPUTS)));
+                (old.header().epoch.wrapping_add(1), old.into_mapping())
+            }
             // A new (zeroed) file, or a board that died while initialising.
             Err((map, LayoutError::NotReady))
                 if all_zero_header(&map)
@@ -221,7 +242,15 @@ impl SimBoard {
                 });
             }
         };
-        SimBoard::new(map, settings, epoch)
+        match kept {
+            Some((restarted, outputs)) => {
+                let mut board = SimBoard::new(map, &restarted, epoch)?;
+                board.dpram.store(layout::io::OUTPUTS, outputs);
+                board.restarted = true;
+                Ok(board)
+            }
+            None => SimBoard::new(map, settings, epoch),
+        }
     }
 
     /// Initialise `map` as a board with `settings`; `epoch` goes into the header.
@@ -275,6 +304,7 @@ impl SimBoard {
             substeps: settings.substeps.max(1),
             periods: 0,
             cell: None,
+            restarted: false,
         };
         board.publish();
         Ok(board)
@@ -338,6 +368,12 @@ impl SimBoard {
     /// The simulated cell, if one is attached.
     pub fn cell(&self) -> Option<&SimCell> {
         self.cell.as_ref().map(|(c, _)| c)
+    }
+
+    /// Take the simulated cell off this board (to attach it to the board that restarts in
+    /// its place: the wafers stay where they are).
+    pub fn take_cell(&mut self) -> Option<SimCell> {
+        self.cell.take().map(|(c, _)| c)
     }
 
     /// The simulated cell's event of the last period that had one, once (see
@@ -452,6 +488,10 @@ impl SimBoard {
         }
 
         let outputs = self.dpram.load(layout::io::OUTPUTS);
+        if std::mem::take(&mut self.restarted) {
+            // The sensors of a restarted board read the hand as it has been all along.
+            self.io.settle(outputs);
+        }
         let inputs = self.io.step(outputs);
         self.dpram.store(layout::io::OUTPUTS_APPLIED, outputs);
         self.dpram.store(layout::io::INPUTS, inputs);

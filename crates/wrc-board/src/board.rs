@@ -207,6 +207,14 @@ pub trait MotionBoard: Send {
     /// The outputs last written to board `board`.
     fn outputs(&self, board: usize) -> u32;
 
+    /// Board `board`'s heartbeat: its watchdog counter, which advances every board period
+    /// while the board runs (one atomic load). `None` for a board that does not exist or
+    /// has no heartbeat (a test double): it is never judged dead.
+    fn heartbeat(&self, board: usize) -> Option<u32> {
+        let _ = board;
+        None
+    }
+
     /// Tell the board(s) the host is alive; call once per cycle. The board stops all axes
     /// when this stops for its configured number of periods.
     fn refresh_watchdog(&mut self);
@@ -273,6 +281,9 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     }
     fn outputs(&self, board: usize) -> u32 {
         (**self).outputs(board)
+    }
+    fn heartbeat(&self, board: usize) -> Option<u32> {
+        (**self).heartbeat(board)
     }
     fn refresh_watchdog(&mut self) {
         (**self).refresh_watchdog()

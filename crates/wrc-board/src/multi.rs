@@ -174,6 +174,10 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         self.boards.get(board).map_or(0, |b| b.outputs(0))
     }
 
+    fn heartbeat(&self, board: usize) -> Option<u32> {
+        self.boards.get(board).and_then(|b| b.heartbeat(0))
+    }
+
     fn refresh_watchdog(&mut self) {
         for b in &mut self.boards {
             b.refresh_watchdog();

@@ -40,6 +40,9 @@
 //! next_id = 27                 # the next new id; every id in the map is below it
 //! hand = "W3"                  # omitted when the hand (blade A) is empty
 //! hand_b = "W4"                # blade B of a dual-blade robot; omitted when empty
+//! hand_uncertain = true        # the wafer on blade A is uncertain (the board stopped
+//!                              # answering while it was there); omitted when false
+//! hand_b_uncertain = true      # the same for blade B
 //!
 //! [pending]                    # omitted when no transfer is in progress
 //! kind = "get"                 # "get" or "put"
@@ -57,15 +60,16 @@
 //!
 //! # The `WAFERS` reply
 //!
-//! [`WaferMap::wafers_line`] gives one line: `hand=<tok> <STN>=<slots> … [pending=…]`, for
+//! [`WaferMap::wafers_line`] gives one line: `hand=<tok> <STN>=<slots> … [pending=…]` (the
+//! hand's token is `W<n>?` while its wafer is uncertain: the board stopped answering), for
 //! example `hand=- LP1=W1..W25 LP2=-x25 AL=- PM1=? PM2=W26 pending=get:LP1.3:W3`. `<slots>`
 //! lists every slot from slot 1 up, comma-separated, with the tokens `W<n>` (a wafer), `-`
 //! (empty), `?` (unknown), `D` (double), `X` (cross-slotted), compressed two ways: three or
 //! more wafers with ids rising by one in successive slots as `W<a>..W<b>`, and a token
 //! repeated n ≥ 2 times as `<tok>x<n>` (a lower-case x: in the protocol `*` only ever starts a checksum). With D the number of digits of the largest id, the
-//! line is at most `6 + D` bytes for the hand, `1 + len(name) + slots · (D + 2)` per station
+//! line is at most `7 + D` bytes for the hand (`hand=W<n>?`), `1 + len(name) + slots · (D + 2)` per station
 //! and `19 + len(name) + D` for a pending transfer: with the demo cell (58 places) and ids
-//! below 100 000 (D = 5), at most 461 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
+//! below 100 000 (D = 5), at most 462 bytes even when no run compresses. When it would exceed a protocol line, [`WaferMap::wafers_lines`] gives the
 //! same content as one line per place group (the hand, each station, the pending transfer),
 //! for one `EVT WAFER` line each.
 
@@ -465,6 +469,9 @@ pub struct WaferMap {
     /// robot's, not the map's.
     dual: bool,
     pending: Option<Transfer>,
+    /// The wafer on each blade is uncertain: the motion board stopped answering while it was
+    /// there, so no sensor has confirmed it since ([`WaferMap::mark_uncertain`]).
+    uncertain: [bool; MAX_BLADES],
     /// The next new id; every id in the map is below it. Up to `u32::MAX + 1`.
     next_id: u64,
 }
@@ -477,6 +484,7 @@ impl Default for WaferMap {
             hands: [None; MAX_BLADES],
             dual: false,
             pending: None,
+            uncertain: [false; MAX_BLADES],
             next_id: 1,
         }
     }
@@ -711,6 +719,7 @@ impl WaferMap {
                     return Err(WaferMapError::HandOccupied { wafer });
                 }
                 self.hands[b.index()] = Some(id);
+                self.uncertain[b.index()] = false;
             }
             Location::Slot { station, slot } => {
                 let (si, i) = self.find(station.as_str(), slot)?;
@@ -744,9 +753,12 @@ impl WaferMap {
     pub fn remove(&mut self, location: Location) -> Result<WaferId, WaferMapError> {
         self.refuse_if_pending()?;
         match location {
-            Location::Hand(b) => self.hands[b.index()]
-                .take()
-                .ok_or(WaferMapError::NoWafer { location }),
+            Location::Hand(b) => {
+                self.uncertain[b.index()] = false;
+                self.hands[b.index()]
+                    .take()
+                    .ok_or(WaferMapError::NoWafer { location })
+            }
             Location::Slot { station, slot } => {
                 let (si, i) = self.find(station.as_str(), slot)?;
                 match self.stations[si].slots[i] {
@@ -935,9 +947,11 @@ impl WaferMap {
             TransferKind::Get => {
                 self.stations[si].slots[i] = SlotState::Empty;
                 self.hands[t.blade.index()] = Some(t.wafer);
+                self.uncertain[t.blade.index()] = false;
             }
             TransferKind::Put => {
                 self.hands[t.blade.index()] = None;
+                self.uncertain[t.blade.index()] = false;
                 self.stations[si].slots[i] = SlotState::Wafer(t.wafer);
             }
         }
@@ -955,7 +969,42 @@ impl WaferMap {
     /// vacuum sensor of each blade senses a wafer (`sensed[blade.index()]`; a single-hand
     /// robot gives `false` for blade B), or compare the blades with the map (the first that
     /// disagrees is reported). See [`Reconciled`]. Never adds or drops an id.
+    ///
+    /// A blade whose wafer was uncertain ([`WaferMap::mark_uncertain`]) is certain again when
+    /// its sensor senses a wafer (or the blade ends up empty); one that senses none stays
+    /// uncertain, reported as [`Reconciled::HandWaferNotSensed`].
     pub fn reconcile(&mut self, sensed: [bool; MAX_BLADES]) -> Reconciled {
+        let r = self.settle(sensed);
+        for b in Blade::ALL {
+            let i = b.index();
+            if self.hands[i].is_none() || sensed[i] {
+                self.uncertain[i] = false;
+            }
+        }
+        r
+    }
+
+    /// The board stopped answering: every wafer the map has on a blade is uncertain until a
+    /// sensor confirms it ([`WaferMap::reconcile`]) or an operator places or removes it. A
+    /// pending transfer stays pending (its wafer is at its source or on the blade). Returns
+    /// how many wafers became uncertain.
+    pub fn mark_uncertain(&mut self) -> usize {
+        let mut n = 0;
+        for (flag, hand) in self.uncertain.iter_mut().zip(&self.hands) {
+            if hand.is_some() && !*flag {
+                *flag = true;
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// Whether the wafer on `blade` is uncertain ([`WaferMap::mark_uncertain`]).
+    pub fn is_uncertain(&self, blade: Blade) -> bool {
+        self.uncertain[blade.index()]
+    }
+
+    fn settle(&mut self, sensed: [bool; MAX_BLADES]) -> Reconciled {
         if let Some(t) = self.pending {
             let hand_has_wafer = sensed[t.blade.index()];
             let happened = match t.kind {
@@ -1049,6 +1098,8 @@ impl WaferMap {
             next_id: self.next_id as i64,
             hand: self.hands[0].map(|w| w.to_string()),
             hand_b: self.hands[1].map(|w| w.to_string()),
+            hand_uncertain: self.uncertain[0],
+            hand_b_uncertain: self.uncertain[1],
             pending: self.pending.map(|t| RawPending {
                 kind: match t.kind {
                     TransferKind::Get => "get".into(),
@@ -1105,6 +1156,7 @@ impl WaferMap {
             hands: [None; MAX_BLADES],
             dual: false,
             pending: None,
+            uncertain: [raw.hand_uncertain, raw.hand_b_uncertain],
             next_id: u64::try_from(raw.next_id)
                 .ok()
                 .filter(|n| (1..=MAX_NEXT_ID).contains(n))
@@ -1206,10 +1258,14 @@ impl WaferMap {
     /// `put`; `:B` when blade B makes it). Each is at most `len(name) + 1 + 50 · 12` bytes.
     pub fn wafers_lines(&self) -> Vec<String> {
         let mut lines = Vec::with_capacity(self.stations.len() + 3);
-        let token = |w: Option<WaferId>| w.map_or_else(|| "-".to_string(), |w| w.to_string());
-        lines.push(format!("hand={}", token(self.hands[0])));
+        let token = |b: usize| match self.hands[b] {
+            None => "-".to_string(),
+            Some(w) if self.uncertain[b] => format!("{w}?"),
+            Some(w) => w.to_string(),
+        };
+        lines.push(format!("hand={}", token(0)));
         if self.is_dual() {
-            lines.push(format!("hand.B={}", token(self.hands[1])));
+            lines.push(format!("hand.B={}", token(1)));
         }
         for s in &self.stations {
             lines.push(format!("{}={}", s.name, compact_slots(&s.slots)));
@@ -1335,6 +1391,10 @@ struct RawVersion {
     version: Option<i64>,
 }
 
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMap {
@@ -1344,6 +1404,10 @@ struct RawMap {
     hand: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     hand_b: Option<String>,
+    #[serde(default, skip_serializing_if = "is_false")]
+    hand_uncertain: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    hand_b_uncertain: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pending: Option<RawPending>,
     #[serde(default)]

@@ -30,6 +30,9 @@ pub struct BoardConfig {
     pub fifo_depth: u32,
     /// The board stops all axes when the host watchdog is stale this long [periods].
     pub watchdog_periods: u32,
+    /// The controller declares the board dead (fatal error 300) when its heartbeat has not
+    /// advanced for this long [board periods].
+    pub heartbeat_periods: u32,
     /// Whether the controller starts `wrc board-sim` for it (false: real hardware).
     pub simulate: bool,
     /// Simulated-board model.
@@ -102,6 +105,8 @@ pub(crate) struct RawBoard {
     fifo_depth: u32,
     #[serde(default = "default_watchdog_periods")]
     watchdog_periods: u32,
+    #[serde(default = "default_heartbeat_periods")]
+    heartbeat_periods: u32,
     #[serde(default = "default_true")]
     simulate: bool,
     #[serde(default)]
@@ -113,6 +118,9 @@ fn default_fifo_depth() -> u32 {
 }
 fn default_watchdog_periods() -> u32 {
     10
+}
+fn default_heartbeat_periods() -> u32 {
+    3
 }
 fn default_true() -> bool {
     true
@@ -199,6 +207,7 @@ pub(crate) fn boards(
                 axes: axes.to_vec(),
                 fifo_depth: default_fifo_depth(),
                 watchdog_periods: default_watchdog_periods(),
+                heartbeat_periods: default_heartbeat_periods(),
                 simulate: true,
                 sim: BoardSimConfig::default(),
             })
@@ -258,6 +267,12 @@ pub(crate) fn boards(
         if b.watchdog_periods == 0 {
             return Err(invalid(
                 key("watchdog_periods"),
+                "must be at least 1 period".into(),
+            ));
+        }
+        if b.heartbeat_periods == 0 {
+            return Err(invalid(
+                key("heartbeat_periods"),
                 "must be at least 1 period".into(),
             ));
         }
@@ -347,6 +362,7 @@ pub(crate) fn boards(
             axes,
             fifo_depth: b.fifo_depth,
             watchdog_periods: b.watchdog_periods,
+            heartbeat_periods: b.heartbeat_periods,
             simulate: b.simulate,
             sim: BoardSimConfig {
                 overspeed_margin: s.overspeed_margin,

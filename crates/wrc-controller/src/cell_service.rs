@@ -548,6 +548,14 @@ impl CellService {
                 if kind == JobKind::Map {
                     return;
                 }
+                if code == Some(Code::BoardLost) {
+                    // The board's sensors are stale: nothing is settled from them now
+                    // (`poll` may have seen the board dead first).
+                    if self.reconciled {
+                        self.board_lost(Some(kind));
+                    }
+                    return;
+                }
                 if code == Some(Code::WaferLost) {
                     // The wafer was on a blade (a PUT not yet released, or after a GET).
                     let _ = self.wafers.abort();
@@ -603,6 +611,25 @@ impl CellService {
         }
     }
 
+    /// The motion board stopped answering (during a job of `during`): nothing moves in the
+    /// map. A pending transfer stays pending, a wafer on a blade becomes uncertain, and
+    /// both are settled from the vacuum sensors once the board answers again (`poll`, as
+    /// at start-up); until then GET and PUT are refused.
+    fn board_lost(&mut self, during: Option<JobKind>) {
+        let n = self.wafers.mark_uncertain();
+        self.reconciled = false;
+        let what = if self.wafers.pending().is_some() {
+            "keeps the transfer pending"
+        } else if n > 0 {
+            "marks the wafer on the hand uncertain"
+        } else {
+            "keeps every wafer where it was"
+        };
+        let during = during.map_or(String::new(), |k| format!(" during {}", k.verb()));
+        tracing::warn!("wrc: the motion board stopped answering{during}: the wafer map {what} until the board's sensors answer again");
+        self.persist();
+    }
+
     /// The wafers on blades whose vacuum sensor no longer sees them leave the map.
     fn lose_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
         for b in Blade::ALL {
@@ -625,6 +652,9 @@ impl CellService {
     /// Periodic work: reconcile a transfer left pending by a crash once the inputs are
     /// known, and keep `shared.hand_wafers` saying which blades the map has a wafer on.
     pub fn poll(&mut self) {
+        if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
+            self.board_lost(None);
+        }
         if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
             let inputs = self.shared.inputs[0].load(Ordering::Acquire);
             let sensed = Blade::ALL.map(|b| {
@@ -640,6 +670,9 @@ impl CellService {
                 }
                 Reconciled::Aborted(t) => {
                     tracing::warn!("wrc: a transfer was under way at the last stop: {t} had not happened (the vacuum sensor says so); the wafer stays at its source")
+                }
+                Reconciled::HandWaferNotSensed(b, w) => {
+                    tracing::warn!("wrc: the wafer map has {w} on the {} but its vacuum sensor senses none; it stays in the map{}: find it, then place or remove it", wrc_cell::Location::Hand(b), if self.wafers.is_uncertain(b) { ", uncertain" } else { "" })
                 }
                 _ => {}
             }

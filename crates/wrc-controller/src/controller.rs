@@ -253,6 +253,7 @@ pub(crate) fn assemble<H: Host>(
     // Shared state, starting from the board's position.
     let shared = Arc::new(Shared::default());
     let mut feedback = wrc_board::Feedback::default();
+    let board_period_us = pg_board.period_us();
     let _ = pg_board.read_feedback(&mut feedback);
     let mut start = [0i64; wrc_robot::MAX_AXES];
     for (i, s) in start.iter_mut().enumerate().take(axis_count) {
@@ -397,6 +398,21 @@ pub(crate) fn assemble<H: Host>(
     if let Some(tap) = sample_tap {
         pulse_generator = pulse_generator.with_trace(tap);
     }
+    // Every board's heartbeat, each period: the longest of the boards' allowances.
+    let heartbeat_periods = config
+        .boards
+        .iter()
+        .map(|b| b.heartbeat_periods)
+        .max()
+        .unwrap_or(3);
+    let liveness = crate::pulse_generator::Liveness::new(
+        heartbeat_periods,
+        board_period_us,
+        (config.motion.period_s * 1e6).round() as u32,
+        urgent.clone(),
+        wake.clone(),
+    );
+    pulse_generator = pulse_generator.with_liveness(liveness);
     host.add_released(spec("pulse_generator"), pulse_generator, pg_wake)?;
     host.add(
         spec("simulator_manager"),

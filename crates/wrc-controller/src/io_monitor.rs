@@ -58,9 +58,17 @@ impl<B: MotionBoard> IoMonitor<B> {
 
     /// One period (public for tests that step the task by hand).
     pub fn step(&mut self) {
+        if self.shared.board_dead.load(Ordering::Acquire) {
+            // A board that does not answer has stale inputs and may lose what is written.
+            return;
+        }
+        // Inputs not (or no longer) real: the first read, or the first since a board stopped
+        // answering (the Pulse Generator cleared the flag). Every output is written again
+        // then: a restarted board may not hold them.
+        let rewrite = !self.shared.io_ready.load(Ordering::Acquire);
         for b in 0..self.board.board_count().min(4) {
             let wanted = self.shared.outputs[b].load(Ordering::Acquire);
-            if self.board.outputs(b) != wanted {
+            if rewrite || self.board.outputs(b) != wanted {
                 self.board.write_outputs(b, wanted);
                 if let Some(notify) = &self.applied {
                     notify.notify();
@@ -82,7 +90,7 @@ impl<B: MotionBoard> IoMonitor<B> {
             }
             self.previous[b] = inputs;
         }
-        if self.first {
+        if rewrite {
             self.shared.io_ready.store(true, Ordering::Release);
         }
         self.first = false;

@@ -11,21 +11,34 @@
 //! its queued periods. A HOLD's move is reported held, not stopped, so the Command
 //! Interpreter can resume it.
 //!
+//! Every period it also watches each board's heartbeat (the board's watchdog counter, which
+//! the board advances every one of its periods): a heartbeat that stands for the board's
+//! `heartbeat_periods` means a board that does not answer (a hung DSP, a dead board
+//! process). The task then raises fatal error 300 on the urgent path (`ABS` for the motion,
+//! `EVT ERROR`, state `ERROR`), pushes nothing more, and ends any motion where it stands:
+//! a dead board can neither brake nor report where the arm is. It stays so, whatever the
+//! heartbeat does, until a RESET re-attaches: it takes the board's position again
+//! ([`Shared::resync_from_board`]) and starts a new history of the board's FIFO (a
+//! restarted board starts an empty one).
+//!
 //! Real-time promise: the cycle does not allocate, block or print; the board calls are
 //! atomic memory operations on the mapped DPRAM.
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
+use wrc_board::layout::MAX_BOARDS;
 use wrc_board::{Feedback, FifoPosition, MotionBoard};
 use wrc_motion::{BrakeLimits, MotionState, MoveEnd, Period, Status, VelocityGenerator};
+use wrc_protocol::Code;
 use wrc_robot::MAX_AXES;
 use wrc_rt::ipc::mailbox::MailboxWriter;
 use wrc_rt::ipc::queue::MessageQueue;
 use wrc_rt::ipc::spsc::SpscReceiver;
+use wrc_rt::ipc::Semaphore;
 use wrc_rt::{CycleContext, Release, Task};
 
-use crate::messages::{Batch, MoveDone, MoveOutcome};
+use crate::messages::{Batch, MoveDone, MoveOutcome, Urgent};
 use crate::recorder::SampleTap;
 use crate::shared::{Shared, StopKind};
 use wrc_trace::Sample;
@@ -115,6 +128,64 @@ impl History {
     }
 }
 
+/// The boards' heartbeats as the Pulse Generator watches them, and where it reports a board
+/// that stopped answering.
+pub struct Liveness {
+    /// Periods of this task in which a heartbeat may stand before its board is dead.
+    limit: u32,
+    last: [Option<u32>; MAX_BOARDS],
+    still: [u32; MAX_BOARDS],
+    urgent: Arc<MessageQueue<Urgent>>,
+    wake: Arc<Semaphore>,
+}
+
+impl Liveness {
+    /// A board is dead when its heartbeat stands for `board_periods` of its own periods
+    /// (`board_period_us` long), counted in this task's periods (`period_us`): at least one
+    /// of them, and never less time than the board's. The fault goes on `urgent`, with
+    /// `wake` posted.
+    pub fn new(
+        board_periods: u32,
+        board_period_us: u32,
+        period_us: u32,
+        urgent: Arc<MessageQueue<Urgent>>,
+        wake: Arc<Semaphore>,
+    ) -> Liveness {
+        let board_time = u64::from(board_periods.max(1)) * u64::from(board_period_us);
+        let limit = board_time.div_ceil(u64::from(period_us.max(1))).max(1);
+        Liveness {
+            limit: u32::try_from(limit).unwrap_or(u32::MAX),
+            last: [None; MAX_BOARDS],
+            still: [0; MAX_BOARDS],
+            urgent,
+            wake,
+        }
+    }
+
+    /// The periods a heartbeat may stand.
+    pub fn limit(&self) -> u32 {
+        self.limit
+    }
+
+    /// One period's look at every heartbeat: true when some board's has stood too long.
+    fn dead<B: MotionBoard>(&mut self, board: &B) -> bool {
+        let mut dead = false;
+        for b in 0..board.board_count().min(MAX_BOARDS) {
+            let Some(beat) = board.heartbeat(b) else {
+                continue;
+            };
+            if self.last[b] == Some(beat) {
+                self.still[b] = self.still[b].saturating_add(1);
+            } else {
+                self.last[b] = Some(beat);
+                self.still[b] = 0;
+            }
+            dead |= self.still[b] >= self.limit;
+        }
+        dead
+    }
+}
+
 /// The Pulse Generator.
 pub struct PulseGenerator<B: MotionBoard> {
     board: B,
@@ -148,6 +219,10 @@ pub struct PulseGenerator<B: MotionBoard> {
     brake_end: Option<Status>,
     /// The trace recorder's tap: one sample per period.
     trace: Option<(SampleTap, Sample)>,
+    /// The boards' heartbeats, when watched.
+    liveness: Option<Liveness>,
+    /// A board stopped answering: nothing is pushed until a RESET re-attaches.
+    detached: bool,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -185,7 +260,83 @@ impl<B: MotionBoard> PulseGenerator<B> {
             history: History::new(last),
             brake_end: None,
             trace: None,
+            liveness: None,
+            detached: false,
         }
+    }
+
+    /// Watch every board's heartbeat each period ([`Liveness`]).
+    pub fn with_liveness(mut self, liveness: Liveness) -> Self {
+        self.liveness = Some(liveness);
+        self
+    }
+
+    /// Whether a board stopped answering and no RESET has re-attached it yet.
+    pub fn is_detached(&self) -> bool {
+        self.detached
+    }
+
+    /// This period's heartbeat check: publishes whether a board is dead, and on the first
+    /// period it is, detaches (fatal error 300 on the urgent path, the motion ended where
+    /// it stands).
+    fn watch_boards(&mut self) {
+        let Some(liveness) = self.liveness.as_mut() else {
+            return;
+        };
+        let dead = liveness.dead(&self.board);
+        if dead == self.shared.board_dead.load(Ordering::Acquire) {
+            return;
+        }
+        self.shared.board_dead.store(dead, Ordering::Release);
+        if !dead || self.detached {
+            return;
+        }
+        // Its inputs are stale from now on.
+        self.shared.io_ready.store(false, Ordering::Release);
+        if liveness
+            .urgent
+            .try_send(Urgent::Fault(Code::BoardLost.number()))
+            .is_ok()
+        {
+            liveness.wake.post();
+        }
+        self.detach();
+    }
+
+    /// Stop pushing to a board that does not answer, and end the motion where it stands:
+    /// the queued plan and any brake are dropped, the generator rests at the last position
+    /// the board reported (or the last one pushed), and a waiting stop is at rest at once.
+    /// The moves in flight end with the fault (the Command Interpreter aborts them).
+    fn detach(&mut self) {
+        self.detached = true;
+        self.pending = None;
+        while self.ring.try_recv().is_some() {}
+        self.stopping = false;
+        self.decel_pending = false;
+        self.completing = None;
+        self.brake_end = None;
+        self.ticket = 0;
+        let mut position = self.shared.commanded_pulses();
+        if self.board.read_feedback(&mut self.feedback).is_ok() {
+            let n = self.feedback.axis_count.min(MAX_AXES);
+            for (p, a) in position.iter_mut().zip(&self.feedback.axes[..n]) {
+                *p = a.encoder;
+            }
+        }
+        self.stopper.restore(&self.last);
+        self.stopper.abandon_at(&position);
+        self.last = self.stopper.state();
+        for (c, p) in self.shared.commanded.iter().zip(position) {
+            c.store(p, Ordering::Release);
+        }
+        self.resume.write(self.last);
+        if self.epoch_pending {
+            self.epoch_pending = false;
+            self.shared
+                .stopped_epoch
+                .store(self.epoch_seen, Ordering::Release);
+        }
+        self.publish_in_flight();
     }
 
     /// Record one sample per period into `tap` (commanded and encoder pulses, I/O, state,
@@ -330,6 +481,9 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// for the next period of this task.
     pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
+        if release == Release::Period {
+            self.watch_boards();
+        }
         let mut braking_now = false;
         let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
         if epoch != self.epoch_seen {
@@ -337,7 +491,21 @@ impl<B: MotionBoard> PulseGenerator<B> {
             let kind = self.shared.take_stop_kind();
             self.pending = None;
             while self.ring.try_recv().is_some() {}
-            if self.last.is_moving() {
+            if self.detached {
+                // Nothing moves through a board that does not answer: at rest at once. A
+                // RESET (which asks for the board's position) re-attaches a board that
+                // answers again.
+                let reattach = !self.shared.board_dead.load(Ordering::Acquire)
+                    && self.shared.resync_from_board.load(Ordering::Acquire);
+                if reattach {
+                    self.detached = false;
+                    self.history = History::new(self.last);
+                }
+            }
+            if self.detached {
+                self.resume.write(self.last);
+                self.shared.stopped_epoch.store(epoch, Ordering::Release);
+            } else if self.last.is_moving() {
                 // From the state of the period the board has reached (mid-brake too, when a
                 // stronger stop overtakes a HOLD or a STOP): ESTOP brakes with the full
                 // limits.
@@ -400,6 +568,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
         };
         if release == Release::Event && !braking_now {
             return; // nothing to do between periods but a new stop
+        }
+        if self.detached {
+            self.publish_in_flight();
+            return;
         }
         let mut period = Period::default();
         while self.queued() < lead {

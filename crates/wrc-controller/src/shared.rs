@@ -48,8 +48,14 @@ pub struct Shared {
     pub decel_ns: AtomicU64,
     /// How the Pulse Generator's stops braked: with a FIFO flush or behind the queue.
     pub stops: StopCounts,
-    /// The I/O Monitor has read the inputs at least once (`inputs` are real).
+    /// The I/O Monitor has read the inputs at least once (`inputs` are real). Cleared by the
+    /// Pulse Generator when a board stops answering (its inputs are stale), set again by the
+    /// I/O Monitor's first read once every board answers.
     pub io_ready: AtomicBool,
+    /// A board's heartbeat has stood for its `heartbeat_periods` (the Pulse Generator
+    /// watches it every period): the board is not answering. Cleared when every heartbeat
+    /// advances again; the controller stays in ERROR until a RESET re-attaches.
+    pub board_dead: AtomicBool,
     /// The blades the wafer map has a wafer on (bit 0: A, the hand; bit 1: B), set by the
     /// cell service.
     pub hand_wafers: AtomicU8,
@@ -85,6 +91,7 @@ impl Default for Shared {
             decel_ns: AtomicU64::new(0),
             stops: StopCounts::default(),
             io_ready: AtomicBool::new(false),
+            board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
             entry_committed: AtomicU32::new(0),
             stop_notify: OnceLock::new(),

@@ -69,6 +69,8 @@ pub struct Simulation {
     shared: Arc<Shared>,
     ethernet: Arc<dyn Notify>,
     boards: Vec<Arc<Mutex<SimBoard>>>,
+    /// Per board: its DPRAM, its settings and whether it runs ([`Simulation::kill_board`]).
+    board_lives: Vec<BoardLife>,
     pulse_log: PulseLog,
     service: Arc<Mutex<crate::service::Service>>,
     wall_start: Instant,
@@ -98,14 +100,25 @@ struct PulseRecorder {
 
 type PulseLog = Arc<PulseRecorder>;
 
-/// A task that steps one simulated board.
+/// A simulated board's DPRAM and settings, to restart it on, and whether it runs.
+struct BoardLife {
+    map: Mapping,
+    settings: SimSettings,
+    alive: Arc<std::sync::atomic::AtomicBool>,
+}
+
+/// A task that steps one simulated board (while it is alive).
 struct BoardTask {
     board: Arc<Mutex<SimBoard>>,
+    alive: Arc<std::sync::atomic::AtomicBool>,
     log: Option<PulseLog>,
 }
 
 impl wrc_rt::Task for BoardTask {
     fn cycle(&mut self, ctx: &CycleContext) {
+        if !self.alive.load(Ordering::Acquire) {
+            return; // a dead board does nothing at all: its heartbeat stands
+        }
         let mut board = lock(&self.board);
         board.step();
         // The cell's event was for `wrc board-sim`'s log and world file; here the world is
@@ -140,11 +153,18 @@ impl Simulation {
     ) -> Result<Simulation, StartError> {
         let mut boards = Vec::with_capacity(config.boards.len());
         let mut maps = Vec::with_capacity(config.boards.len());
+        let mut board_lives = Vec::with_capacity(config.boards.len());
         let mut cell = cell;
         for board in &config.boards {
             let map = Mapping::anonymous()?;
             let shared_map = map.share();
-            let mut sim = SimBoard::new(map, &SimSettings::from_config(config, board), 1)?;
+            let settings = SimSettings::from_config(config, board);
+            board_lives.push(BoardLife {
+                map: map.share(),
+                settings: settings.clone(),
+                alive: Arc::new(std::sync::atomic::AtomicBool::new(true)),
+            });
+            let mut sim = SimBoard::new(map, &settings, 1)?;
             if let Some(c) = cell.take() {
                 sim.attach_cell(c)?;
             }
@@ -171,12 +191,13 @@ impl Simulation {
         };
         let mut host = VirtualHost(VirtualRuntime::new(START_NS));
         let pulse_log = PulseLog::default();
-        for (board, sim) in config.boards.iter().zip(&boards) {
+        for ((board, sim), life) in config.boards.iter().zip(&boards).zip(&board_lives) {
             let period_us = u64::from(lock(sim).period_us());
             host.0.add(
                 TaskSpec::new(format!("board{}", board.id), BOARD_PRIORITY, period_us),
                 BoardTask {
                     board: sim.clone(),
+                    alive: life.alive.clone(),
                     log: (board.id == config.boards[0].id).then(|| pulse_log.clone()),
                 },
             )?;
@@ -231,6 +252,7 @@ impl Simulation {
             shared: parts.shared,
             ethernet: parts.ethernet,
             boards,
+            board_lives,
             pulse_log,
             service,
             wall_start: Instant::now(),
@@ -355,6 +377,34 @@ impl Simulation {
     /// Simulated board `index` (its DPRAM, servo axes and cell).
     pub fn board(&self, index: usize) -> Option<MutexGuard<'_, SimBoard>> {
         self.boards.get(index).map(|b| lock(b))
+    }
+
+    /// Board `index` stops dead (a hung DSP, a killed `wrc board-sim`): from its next period
+    /// on it does nothing, its heartbeat stands and its DPRAM keeps its last contents. False
+    /// for a board that does not exist.
+    pub fn kill_board(&mut self, index: usize) -> bool {
+        self.board_lives
+            .get(index)
+            .map(|l| l.alive.store(false, Ordering::Release))
+            .is_some()
+    }
+
+    /// Board `index` starts again on its DPRAM, as `wrc board-sim` does when restarted: a
+    /// new epoch, the axes where their encoders were, the outputs as latched, the simulated
+    /// cell (its wafers) taken over from the dead board.
+    pub fn restart_board(&mut self, index: usize) -> Result<(), StartError> {
+        let (Some(life), Some(board)) = (self.board_lives.get(index), self.boards.get(index))
+        else {
+            return Ok(());
+        };
+        let mut old = lock(board);
+        let mut fresh = SimBoard::take_over(life.map.share(), &life.settings)?;
+        if let Some(cell) = old.take_cell() {
+            fresh.attach_cell(cell)?;
+        }
+        *old = fresh;
+        life.alive.store(true, Ordering::Release);
+        Ok(())
     }
 
     /// Record (or stop recording) what board 0 executes: every board period's virtual

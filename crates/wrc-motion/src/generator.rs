@@ -347,6 +347,20 @@ impl VelocityGenerator {
         Ok(())
     }
 
+    /// Drop the move under way without braking and rest at `pulses`: for a board that no
+    /// longer answers, where no brake can be carried out and the arm is where the board
+    /// last said. Never allocates.
+    pub fn abandon_at(&mut self, pulses: &[i64; MAX_AXES]) {
+        self.active = Active::Idle;
+        self.k = 0;
+        self.stopped = false;
+        let mut p = *pulses;
+        for v in p.iter_mut().skip(self.robot.axis_count()) {
+            *v = 0;
+        }
+        self.position = p;
+    }
+
     /// Speed override in force for the next move [%].
     pub fn speed_pct(&self) -> f64 {
         self.settings.speed_pct

@@ -9,11 +9,16 @@
 //! - **`wrc board-sim`**, one per simulated board, before the controller (the controller maps
 //!   its DPRAM). Started, then waited for until its DPRAM is valid (10 s at most, its log
 //!   quoted if it exits). It dies with `wrc up` even on `kill -9` (`PR_SET_PDEATHSIG`), as a
-//!   board loses power with its host. It is **not restarted**: a board that stops is a
-//!   fault the controller must notice and report, not hide.
+//!   board loses power with its host. A board process that dies is reaped at once (SIGCHLD)
+//!   and logged; the controller notices on its own (the board's heartbeat stands: error 300,
+//!   docs/protocol.md). It is **restarted only with `--restart-boards`**, and then at most
+//!   once per 5 s of its life (a board that dies as it starts is left dead): a board that
+//!   stops is a fault the controller must report, not hide, and the restarted board runs
+//!   only once an operator's `RESET` re-attaches it.
 //! - **`wrc ui`**, after the controller, at a lower CPU priority (nice 5): waited for until it
-//!   serves (10 s), its output copied to `STATE_DIR/ui.log`. Dies with `wrc up`; **not
-//!   restarted** either: the GUI is a client like any other, and a browser reconnects.
+//!   serves (10 s), its output copied to `STATE_DIR/ui.log`. Dies with `wrc up`; reaped and
+//!   logged if it dies, **not restarted**: the GUI is a client like any other, and a
+//!   browser reconnects.
 //!
 //! At SIGINT/SIGTERM: the controller stops any motion and its tasks, the state is saved,
 //! then every child gets SIGTERM and 2 s to exit before SIGKILL, and is reaped.
@@ -77,6 +82,11 @@ pub struct UpArgs {
     /// Run without SCHED_FIFO even where it is allowed.
     #[arg(long)]
     no_rt: bool,
+    /// Start a simulated board again when its process dies (it takes over its DPRAM with a
+    /// new epoch; the controller stays in ERROR 300 until a RESET re-attaches it). Without
+    /// it a dead board stays dead: reaped and logged.
+    #[arg(long)]
+    restart_boards: bool,
 }
 
 /// The signals that end `wrc up`, `wrc sim --listen` and `wrc board-sim`.
@@ -177,6 +187,104 @@ pub(crate) fn spawn_board(
     Ok(child)
 }
 
+/// A simulated board's process under `wrc up`, and what starts it again.
+struct BoardProcess {
+    id: u32,
+    child: Option<Child>,
+    started: Instant,
+    dpram: PathBuf,
+    log: PathBuf,
+    watchdog: Option<u32>,
+    cell: Option<(PathBuf, PathBuf)>,
+}
+
+impl BoardProcess {
+    fn spawn(
+        config: Option<&Path>,
+        id: u32,
+        dpram: PathBuf,
+        log: PathBuf,
+        watchdog: Option<u32>,
+        cell: Option<(PathBuf, PathBuf)>,
+    ) -> anyhow::Result<BoardProcess> {
+        let child = spawn_board(
+            config,
+            id,
+            &dpram,
+            &log,
+            watchdog,
+            cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path())),
+        )?;
+        Ok(BoardProcess {
+            id,
+            child: Some(child),
+            started: Instant::now(),
+            dpram,
+            log,
+            watchdog,
+            cell,
+        })
+    }
+}
+
+/// A board must have run this long before `--restart-boards` starts it again.
+const RESTART_AFTER: Duration = Duration::from_secs(5);
+
+/// On SIGCHLD: reap every child that exited, say so, and start a dead board again when
+/// `restart` (see the module docs).
+fn reap(boards: &mut [BoardProcess], ui: &mut Option<Child>, config: Option<&Path>, restart: bool) {
+    for b in boards.iter_mut() {
+        let Some(child) = b.child.as_mut() else {
+            continue;
+        };
+        let Ok(Some(status)) = child.try_wait() else {
+            continue;
+        };
+        let pid = child.id();
+        b.child = None;
+        tracing::error!(
+            "wrc: simulated board {} (wrc board-sim, pid {pid}) exited: {status}; its log is {}",
+            b.id,
+            b.log.display()
+        );
+        if !restart {
+            tracing::error!("wrc: board {} is not restarted (wrc up --restart-boards would); the controller reports error 300 until it runs again", b.id);
+            continue;
+        }
+        if b.started.elapsed() < RESTART_AFTER {
+            tracing::error!(
+                "wrc: board {} is not restarted: it died within {} s of its start",
+                b.id,
+                RESTART_AFTER.as_secs()
+            );
+            continue;
+        }
+        let cell = b.cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path()));
+        match spawn_board(config, b.id, &b.dpram, &b.log, b.watchdog, cell) {
+            Ok(child) => {
+                tracing::warn!(
+                    "wrc: simulated board {} restarted (pid {}) on {}; RESET re-attaches it",
+                    b.id,
+                    child.id(),
+                    b.dpram.display()
+                );
+                b.child = Some(child);
+                b.started = Instant::now();
+            }
+            Err(e) => tracing::error!("wrc: board {} could not be restarted: {e:#}", b.id),
+        }
+    }
+    if let Some(child) = ui.as_mut() {
+        if let Ok(Some(status)) = child.try_wait() {
+            tracing::error!(
+                "wrc: the GUI (wrc ui, pid {}) exited: {status}; not restarted (the controller runs on without it)",
+                child.id()
+            );
+            *ui = None;
+        }
+    }
+}
+
 /// Start `wrc ui` on the controller's Unix socket and wait until it serves; returns the
 /// child and the GUI's address. Its output after the start goes to `STATE_DIR/ui.log`.
 fn spawn_ui(
@@ -261,6 +369,12 @@ fn forward_lines(
     });
 }
 
+/// [`stop_children`] for the board processes that run.
+fn stop_boards(boards: &mut [BoardProcess]) {
+    let mut children: Vec<Child> = boards.iter_mut().filter_map(|b| b.child.take()).collect();
+    stop_children(&mut children);
+}
+
 /// SIGTERM to every child, 2 s to exit, then SIGKILL; every one reaped.
 pub(crate) fn stop_children(children: &mut [Child]) {
     for c in children.iter_mut() {
@@ -301,7 +415,7 @@ pub enum SerialParity {
 
 /// Run `wrc up`.
 pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
-    let config = Config::load(args.config.as_deref())?;
+    let mut config = Config::load(args.config.as_deref())?;
     let parity = match args.parity {
         SerialParity::None => Parity::None,
         SerialParity::Even => Parity::Even,
@@ -316,7 +430,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     // SIGINT/SIGTERM from now on are taken by signal-hook's self-pipe, read below.
     let mut signals = termination_signals()?;
 
-    let mut children = Vec::new();
+    let mut boards_run: Vec<BoardProcess> = Vec::new();
     // The simulated cell (board 0, when it drives every robot axis) reads the same stations
     // file as the controller, so the controller's seeding from the demo cell happens here,
     // before the boards start.
@@ -348,6 +462,17 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         // at rest. A real board keeps its own setting.
         let lenient =
             (args.no_rt || !fifo_allowed()).then(|| (1.0 / config.motion.period_s).ceil() as u32);
+        // The same stalls would stop the board's heartbeat for as long: the controller then
+        // waits as long before it declares a board dead.
+        if let Some(p) = lenient {
+            for b in config.boards.iter_mut().filter(|b| b.heartbeat_periods < p) {
+                println!(
+                    "wrc: not real-time: the controller waits {p} periods for board {}'s heartbeat instead of {}",
+                    b.id, b.heartbeat_periods
+                );
+                b.heartbeat_periods = p;
+            }
+        }
         let mut paths = Vec::new();
         for b in &config.boards {
             let dpram = args.state_dir.join(format!("board{}.dpram", b.id));
@@ -361,11 +486,18 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
                 );
             }
             let cell = (simulate_cell && paths.is_empty())
-                .then_some((stations_path.as_path(), world_path.as_path()));
-            match spawn_board(args.config.as_deref(), b.id, &dpram, &log, watchdog, cell) {
-                Ok(child) => children.push(child),
+                .then(|| (stations_path.clone(), world_path.clone()));
+            match BoardProcess::spawn(
+                args.config.as_deref(),
+                b.id,
+                dpram.clone(),
+                log,
+                watchdog,
+                cell,
+            ) {
+                Ok(board) => boards_run.push(board),
                 Err(e) => {
-                    stop_children(&mut children);
+                    stop_boards(&mut boards_run);
                     return Err(e);
                 }
             }
@@ -411,7 +543,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     let running = match controller::start(&config, &options) {
         Ok(r) => r,
         Err(e) => {
-            stop_children(&mut children);
+            stop_boards(&mut boards_run);
             return Err(e).context("the controller could not start");
         }
     };
@@ -445,7 +577,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         );
     }
     for (b, path) in boards.iter().enumerate() {
-        let how = if children.is_empty() {
+        let how = if boards_run.is_empty() {
             "board"
         } else {
             "simulated board (wrc board-sim)"
@@ -468,17 +600,33 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     use std::io::Write;
     let _ = std::io::stdout().flush();
 
-    let sig = signals
-        .forever()
-        .next()
-        .unwrap_or(signal_hook::consts::SIGTERM);
+    // Children are reaped the moment they exit (SIGCHLD), so none is left a zombie.
+    signals
+        .add_signal(signal_hook::consts::SIGCHLD)
+        .context("cannot watch the child processes (SIGCHLD)")?;
+    let mut sig = signal_hook::consts::SIGTERM;
+    for s in signals.forever() {
+        if s == signal_hook::consts::SIGCHLD {
+            reap(
+                &mut boards_run,
+                &mut ui,
+                args.config.as_deref(),
+                args.restart_boards,
+            );
+            continue;
+        }
+        sig = s;
+        break;
+    }
     println!("wrc: signal {sig}: stopping any motion, saving state, stopping tasks");
     let shared = running.shared().clone();
     let report = running.shutdown(Duration::from_secs(3));
     save_state(&args.state_dir, &shared);
-    if let Some(ui) = ui {
-        children.push(ui);
-    }
+    let mut children: Vec<Child> = boards_run
+        .iter_mut()
+        .filter_map(|b| b.child.take())
+        .collect();
+    children.extend(ui);
     stop_children(&mut children);
     match report {
         Some(r) if !r.is_clean() => {

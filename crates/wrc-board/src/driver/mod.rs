@@ -220,6 +220,10 @@ impl MotionBoard for DpramBoard {
         }
     }
 
+    fn heartbeat(&self, board: usize) -> Option<u32> {
+        (board == 0).then(|| self.dpram.load(control::BOARD_WATCHDOG))
+    }
+
     fn refresh_watchdog(&mut self) {
         self.host_watchdog = self.host_watchdog.wrapping_add(1);
         self.dpram.store(control::HOST_WATCHDOG, self.host_watchdog);

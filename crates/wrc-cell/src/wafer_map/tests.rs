@@ -288,6 +288,53 @@ fn place_and_remove_keep_ids_unique_and_fresh() {
 }
 
 #[test]
+fn a_wafer_on_the_hand_is_uncertain_until_a_sensor_or_an_operator_settles_it() {
+    let mut holding = mapped();
+    let get = holding.prepare(TransferKind::Get, "LP1", 7).unwrap();
+    holding.begin(get).unwrap();
+    holding.commit().unwrap();
+
+    // The board stops answering: the wafer stays on the hand, uncertain, and is saved so.
+    let mut m = holding.clone();
+    assert_eq!(m.mark_uncertain(), 1);
+    assert_eq!(m.mark_uncertain(), 0, "already uncertain");
+    assert!(m.is_uncertain(Blade::A) && !m.is_uncertain(Blade::B));
+    assert_eq!(m.hand(), Some(WaferId(7)), "not lost, not moved");
+    assert!(
+        m.wafers_line().starts_with("hand=W7? "),
+        "{}",
+        m.wafers_line()
+    );
+    let text = m.to_text();
+    assert!(text.contains("hand_uncertain = true"), "{text}");
+    let back = WaferMap::from_text(&text, "m").unwrap();
+    assert_eq!(back, m);
+
+    // Back on a board that senses it: certain again.
+    let mut sensed = m.clone();
+    assert_eq!(sensed.reconcile([true, false]), Reconciled::Consistent);
+    assert_eq!(sensed, holding);
+    // One that does not: reported, and still uncertain (an operator must look).
+    let mut unsensed = m.clone();
+    assert_eq!(
+        unsensed.reconcile([false, false]),
+        Reconciled::HandWaferNotSensed(Blade::A, WaferId(7))
+    );
+    assert!(unsensed.is_uncertain(Blade::A));
+    // The operator removes it (or places it again): settled.
+    unsensed.remove(Location::HAND).unwrap();
+    assert!(!unsensed.is_uncertain(Blade::A));
+
+    // A pending transfer stays pending; an empty hand has nothing to be uncertain about.
+    let mut pending = mapped();
+    pending.begin(get).unwrap();
+    assert_eq!(pending.mark_uncertain(), 0);
+    assert_eq!(pending.pending(), Some(&get));
+    assert_eq!(pending.reconcile([true, false]), Reconciled::Committed(get));
+    assert!(!pending.is_uncertain(Blade::A));
+}
+
+#[test]
 fn reconcile_resolves_a_pending_transfer_from_the_vacuum_sensor() {
     let base = mapped();
     let get = base.prepare(TransferKind::Get, "LP1", 7).unwrap();
@@ -560,7 +607,7 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
     }
 
     // Worst case for the demo cell: every place full, no run compresses, 5-digit ids, plus
-    // the longest pending transfer: within the documented 461 bytes.
+    // the longest pending transfer: within the documented 462 bytes.
     let mut map = WaferMap::new(&demo());
     let mut next = 10_000u32;
     for st in ["LP1", "LP2", "AL", "PM1", "PM2", "BF1"] {
@@ -570,13 +617,16 @@ fn wafers_line_compresses_runs_and_fits_a_protocol_line() {
         }
     }
     let full = map.wafers_line();
-    assert!(full.len() <= 461 - 26, "{} bytes: {full}", full.len());
+    assert!(full.len() <= 462 - 26, "{} bytes: {full}", full.len());
     map.remove(at("LP2", 25)).unwrap();
     map.place(Location::HAND, WaferId(99_999)).unwrap();
     let put = map.prepare(TransferKind::Put, "LP2", 25).unwrap();
     map.begin(put).unwrap();
+    // ... with the wafer on the hand uncertain (the board stopped answering).
+    assert_eq!(map.mark_uncertain(), 1);
     let line = map.wafers_line();
-    assert!(line.len() <= 461, "{} bytes: {line}", line.len());
+    assert!(line.len() <= 462, "{} bytes: {line}", line.len());
+    assert!(line.starts_with("hand=W99999? "), "{line}");
     assert!(line.ends_with(" pending=put:LP2.25:W99999"), "{line}");
     let lines = map.wafers_lines();
     assert_eq!(lines.len(), 8);

@@ -203,6 +203,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             Command::Hold => self.hold(from, to),
             Command::Resume => self.resume(from, to),
             Command::Reset => {
+                if self.shared.board_dead.load(Ordering::Acquire) {
+                    return self.nak(
+                        from,
+                        to,
+                        Code::BoardLost,
+                        "the motion board does not answer (its heartbeat stands); RESET once it runs again",
+                    );
+                }
                 if let Some(input) = self.estop_input {
                     if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << input) != 0 {
                         return self.nak(

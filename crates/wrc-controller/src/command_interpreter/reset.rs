@@ -1,4 +1,7 @@
-//! RESET: answered once the board has carried it out and reports no fault.
+//! RESET: answered once the board has carried it out and reports no fault. A board that
+//! does not answer (its heartbeat stands) refuses it at once with 300; once it runs again
+//! (restarted, on the same DPRAM), RESET re-attaches it: the Pulse Generator takes its
+//! position and pushes again.
 
 use std::sync::atomic::Ordering;
 
@@ -12,6 +15,11 @@ use crate::shared::{RobotState, StopKind};
 impl<B: MotionBoard> CommandInterpreter<B> {
     /// The fault the board still reports, if any (a torn read counts as not yet clear).
     pub(super) fn board_fault(&mut self) -> Option<&'static str> {
+        if self.shared.board_dead.load(Ordering::Acquire) {
+            return Some(
+                "the motion board does not answer (its heartbeat stands); RESET once it runs again",
+            );
+        }
         if self.board.read_feedback(&mut self.feedback).is_err() {
             return Some("the board's feedback could not be read");
         }
@@ -37,7 +45,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some((from, to, deadline)) = self.reset_pending else {
             return;
         };
-        let fault = if self.board.command_pending() {
+        let dead = self.shared.board_dead.load(Ordering::Acquire);
+        let fault = if dead {
+            self.board_fault()
+        } else if self.board.command_pending() {
             Some("the board did not carry out the RESET")
         } else {
             self.board_fault()
@@ -54,9 +65,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 deliver(&self.io.out, from, line);
                 self.set_state(RobotState::Idle);
             }
-            Some(reason) if self.now_ns >= deadline => {
+            Some(reason) if dead || self.now_ns >= deadline => {
                 self.reset_pending = None;
-                let code = if self.shared.state() == RobotState::Estop {
+                let code = if dead {
+                    Code::BoardLost
+                } else if self.shared.state() == RobotState::Estop {
                     Code::InEstop
                 } else {
                     Code::InError

@@ -2,6 +2,7 @@
 
 mod alloc;
 mod blend;
+mod board_liveness;
 mod error_check;
 mod estop_input;
 mod ethernet;

@@ -21,6 +21,16 @@ pub struct Full;
 #[error("the board has not acknowledged the previous command yet")]
 pub struct Busy;
 
+/// A board's sign of life ([`MotionBoard::heartbeat`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Heartbeat {
+    /// The board's epoch: changes when the board restarts (a restarted board has lost its
+    /// FIFO and state, so the host must treat it as the board it knew dying).
+    pub epoch: u32,
+    /// The board's watchdog counter: advances every board period.
+    pub beat: u32,
+}
+
 /// One axis as the board last reported it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct AxisFeedback {
@@ -207,10 +217,11 @@ pub trait MotionBoard: Send {
     /// The outputs last written to board `board`.
     fn outputs(&self, board: usize) -> u32;
 
-    /// Board `board`'s heartbeat: its watchdog counter, which advances every board period
-    /// while the board runs (one atomic load). `None` for a board that does not exist or
-    /// has no heartbeat (a test double): it is never judged dead.
-    fn heartbeat(&self, board: usize) -> Option<u32> {
+    /// Board `board`'s heartbeat: its epoch (which changes when the board restarts) and its
+    /// watchdog counter (which advances every board period while the board runs); two
+    /// atomic loads. `None` for a board that does not exist or has no heartbeat (a test
+    /// double): it is never judged dead.
+    fn heartbeat(&self, board: usize) -> Option<Heartbeat> {
         let _ = board;
         None
     }
@@ -282,7 +293,7 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     fn outputs(&self, board: usize) -> u32 {
         (**self).outputs(board)
     }
-    fn heartbeat(&self, board: usize) -> Option<u32> {
+    fn heartbeat(&self, board: usize) -> Option<Heartbeat> {
         (**self).heartbeat(board)
     }
     fn refresh_watchdog(&mut self) {

@@ -27,7 +27,7 @@ pub mod multi;
 pub use wrc_cell;
 
 pub use board::{
-    AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
+    AxisFeedback, BoardFeedback, Busy, Feedback, Full, Heartbeat, MappingScan, MotionBoard, Torn,
 };
 pub use dpram::FifoPosition;
 pub use driver::{DpramBoard, Expect, Mapping, OpenError};

@@ -174,7 +174,7 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         self.boards.get(board).map_or(0, |b| b.outputs(0))
     }
 
-    fn heartbeat(&self, board: usize) -> Option<u32> {
+    fn heartbeat(&self, board: usize) -> Option<crate::board::Heartbeat> {
         self.boards.get(board).and_then(|b| b.heartbeat(0))
     }
 

@@ -14,7 +14,8 @@
 //! Every period it also watches each board's heartbeat (the board's watchdog counter, which
 //! the board advances every one of its periods): a heartbeat that stands for the board's
 //! `heartbeat_periods` means a board that does not answer (a hung DSP, a dead board
-//! process). The task then raises fatal error 300 on the urgent path (`ABS` for the motion,
+//! process), and a new epoch means a board that restarted (so the one it replaces died,
+//! with its FIFO and its state, however short the gap). The task then raises fatal error 300 on the urgent path (`ABS` for the motion,
 //! `EVT ERROR`, state `ERROR`), pushes nothing more, and ends any motion where it stands:
 //! a dead board can neither brake nor report where the arm is. It stays so, whatever the
 //! heartbeat does, until a RESET re-attaches: it takes the board's position again
@@ -28,7 +29,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_board::layout::MAX_BOARDS;
-use wrc_board::{Feedback, FifoPosition, MotionBoard};
+use wrc_board::{Feedback, FifoPosition, Heartbeat, MotionBoard};
 use wrc_motion::{BrakeLimits, MotionState, MoveEnd, Period, Status, VelocityGenerator};
 use wrc_protocol::Code;
 use wrc_robot::MAX_AXES;
@@ -133,7 +134,7 @@ impl History {
 pub struct Liveness {
     /// Periods of this task in which a heartbeat may stand before its board is dead.
     limit: u32,
-    last: [Option<u32>; MAX_BOARDS],
+    last: [Option<Heartbeat>; MAX_BOARDS],
     still: [u32; MAX_BOARDS],
     urgent: Arc<MessageQueue<Urgent>>,
     wake: Arc<Semaphore>,
@@ -167,19 +168,26 @@ impl Liveness {
         self.limit
     }
 
-    /// One period's look at every heartbeat: true when some board's has stood too long.
+    /// One period's look at every heartbeat: true when some board's has stood too long, or
+    /// when a board has restarted (a new epoch: the board it replaces died, with its FIFO
+    /// and its state).
     fn dead<B: MotionBoard>(&mut self, board: &B) -> bool {
         let mut dead = false;
         for b in 0..board.board_count().min(MAX_BOARDS) {
-            let Some(beat) = board.heartbeat(b) else {
+            let Some(now) = board.heartbeat(b) else {
                 continue;
             };
-            if self.last[b] == Some(beat) {
-                self.still[b] = self.still[b].saturating_add(1);
-            } else {
-                self.last[b] = Some(beat);
-                self.still[b] = 0;
+            match self.last[b] {
+                Some(last) if last == now => {
+                    self.still[b] = self.still[b].saturating_add(1);
+                }
+                Some(last) if last.epoch != now.epoch => {
+                    self.still[b] = 0;
+                    dead = true;
+                }
+                _ => self.still[b] = 0,
             }
+            self.last[b] = Some(now);
             dead |= self.still[b] >= self.limit;
         }
         dead

@@ -12,7 +12,7 @@
 //!   board loses power with its host. A board process that dies is reaped at once (SIGCHLD)
 //!   and logged; the controller notices on its own (the board's heartbeat stands: error 300,
 //!   docs/protocol.md). It is **restarted only with `--restart-boards`**, and then at most
-//!   once per 5 s of its life (a board that dies as it starts is left dead): a board that
+//!   when it ran for at least 1 s (a board that dies as it starts, on a bad configuration, is left dead): a board that
 //!   stops is a fault the controller must report, not hide, and the restarted board runs
 //!   only once an operator's `RESET` re-attaches it.
 //! - **`wrc ui`**, after the controller, at a lower CPU priority (nice 5): waited for until it
@@ -228,7 +228,7 @@ impl BoardProcess {
 }
 
 /// A board must have run this long before `--restart-boards` starts it again.
-const RESTART_AFTER: Duration = Duration::from_secs(5);
+const RESTART_AFTER: Duration = Duration::from_secs(1);
 
 /// On SIGCHLD: reap every child that exited, say so, and start a dead board again when
 /// `restart` (see the module docs).

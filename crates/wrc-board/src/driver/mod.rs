@@ -11,7 +11,7 @@ use wrc_robot::MAX_AXES;
 pub use crate::mapping::{Mapping, OpenError};
 
 use crate::board::{
-    AxisFeedback, BoardFeedback, Busy, Feedback, Full, MappingScan, MotionBoard, Torn,
+    AxisFeedback, BoardFeedback, Busy, Feedback, Full, Heartbeat, MappingScan, MotionBoard, Torn,
 };
 use crate::dpram::{AxisRecord, Dpram, MappingRecord};
 use crate::layout::{self, axis, command, control, io, mapping, Header};
@@ -220,8 +220,11 @@ impl MotionBoard for DpramBoard {
         }
     }
 
-    fn heartbeat(&self, board: usize) -> Option<u32> {
-        (board == 0).then(|| self.dpram.load(control::BOARD_WATCHDOG))
+    fn heartbeat(&self, board: usize) -> Option<Heartbeat> {
+        (board == 0).then(|| Heartbeat {
+            epoch: self.dpram.load(layout::header::EPOCH),
+            beat: self.dpram.load(control::BOARD_WATCHDOG),
+        })
     }
 
     fn refresh_watchdog(&mut self) {

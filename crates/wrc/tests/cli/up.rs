@@ -666,3 +666,112 @@ fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
     assert_eq!(watcher.where_().0, a, "stopped");
     assert_eq!(watcher.ask("RESET"), "ACK");
 }
+
+/// The pid of the `wrc board-sim` process that `wrc up` runs in `dir`.
+fn board_sim_pid(dir: &Path) -> Option<u32> {
+    let needle = dir.to_string_lossy().to_string();
+    std::fs::read_dir("/proc")
+        .unwrap()
+        .flatten()
+        .find_map(|entry| {
+            let cmd = std::fs::read(entry.path().join("cmdline")).ok()?;
+            let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
+            (cmd.contains("board-sim") && cmd.contains(&needle))
+                .then(|| entry.file_name().to_str()?.parse().ok())
+                .flatten()
+        })
+}
+
+/// Whether process `pid` is gone: reaped, not a zombie.
+fn reaped(pid: u32) -> Result<(), String> {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        Err(_) => Ok(()),
+        Ok(stat) => Err(format!("still there: {stat}")),
+    }
+}
+
+/// `kill -9` of the board process during a move: ABS 300, the dead process reaped.
+fn kill_board_mid_move(c: &Controller, host: &mut Client) -> u32 {
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    // The board has run for more than a second (`--restart-boards` restarts only such a
+    // board; one that dies as it starts is left dead).
+    c.board().wait_periods(120);
+    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
+    let pid = board_sim_pid(c.dir_path()).expect("a board-sim process");
+    // SAFETY: signals the board process of our own wrc up.
+    unsafe {
+        libc::kill(pid as libc::pid_t, libc::SIGKILL);
+    }
+    let abs = host.reply();
+    assert!(abs.starts_with("ABS 2 300 "), "{abs}; seen {:?}", host.seen);
+    assert!(host.status().contains("state=ERROR"));
+    // (The event came with the ABS, before the STATUS reply.)
+    assert!(
+        host.seen.iter().any(|l| l.starts_with("EVT ERROR 300 ")),
+        "{:?}",
+        host.seen
+    );
+    wait_until("the killed board process to be reaped", || reaped(pid));
+    pid
+}
+
+#[test]
+fn a_killed_board_is_reported_reaped_and_left_dead_without_restart_boards() {
+    let mut c = Controller::start(&[]);
+    let mut host = c.client();
+    kill_board_mid_move(&c, &mut host);
+    let (stood, _, _) = host.where_();
+    let refused = host.ask("3 RESET");
+    assert!(refused.starts_with("NAK 3 300 "), "{refused}");
+    assert_eq!(board_sim_pid(c.dir_path()), None, "not restarted");
+    assert_eq!(host.where_().0, stood, "the arm's position stands");
+    assert!(c.terminate().success());
+    let mut err = String::new();
+    c.child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(
+        err.contains("simulated board 0") && err.contains("signal: 9"),
+        "{err}"
+    );
+    assert!(err.contains("is not restarted"), "{err}");
+    let left = processes_mentioning(c.dir.path());
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn a_killed_board_restarts_with_restart_boards_and_reset_reattaches_it() {
+    let c = Controller::start(&["--restart-boards"]);
+    let mut host = c.client();
+    let dead = kill_board_mid_move(&c, &mut host);
+    let (stood, _, _) = host.where_();
+    let again = wait_until("the board to be restarted", || {
+        board_sim_pid(c.dir_path())
+            .filter(|&p| p != dead)
+            .ok_or_else(|| "no new board-sim yet".to_string())
+    });
+    assert_ne!(again, dead);
+    // RESET re-attaches it once its heartbeat runs again (300 until then).
+    wait_until("RESET to re-attach the restarted board", || {
+        let r = host.ask("4 RESET");
+        if r == "ACK 4" {
+            Ok(())
+        } else if r.starts_with("NAK 4 300 ") {
+            Err(r)
+        } else {
+            panic!("{r}")
+        }
+    });
+    let (joints, _, _) = host.where_();
+    for (a, b) in joints.iter().zip(&stood) {
+        assert!(
+            (a - b).abs() < 0.01,
+            "re-attached at {joints:?}, stood at {stood:?}"
+        );
+    }
+    assert_eq!(host.motion(5, "MOVJ 0 90 0 10"), "INF 5");
+}

@@ -100,8 +100,13 @@ describe('parseSlots', () => {
 
 describe('parseWaferPart', () => {
   it('reads the hand, a station, a pending transfer and its end', () => {
-    expect(parseWaferPart('hand=W3')).toEqual({ place: 'hand', wafer: 'W3' });
-    expect(parseWaferPart('hand=-')).toEqual({ place: 'hand', wafer: null });
+    expect(parseWaferPart('hand=W3')).toEqual({ place: 'hand', wafer: 'W3', uncertain: false });
+    expect(parseWaferPart('hand=-')).toEqual({ place: 'hand', wafer: null, uncertain: false });
+    // A wafer the map keeps on the hand while the board does not answer.
+    expect(parseWaferPart('hand=W3?')).toEqual({ place: 'hand', wafer: 'W3', uncertain: true });
+    expect(parseWaferPart('hand.B=W7?')).toEqual({ place: 'handB', wafer: 'W7', uncertain: true });
+    expect(parseWaferPart('hand=-?')).toBeNull();
+    expect(parseWaferPart('hand=W3??')).toBeNull();
     expect(parseWaferPart('LP1=W1,W2,-,W4..W25')).toEqual({
       place: 'station',
       name: 'LP1',
@@ -119,9 +124,9 @@ describe('parseWaferPart', () => {
   });
 
   it("reads blade B of a dual-blade robot and a transfer it makes (':B')", () => {
-    expect(parseWaferPart('hand.B=W7')).toEqual({ place: 'handB', wafer: 'W7' });
-    expect(parseWaferPart('hand.B=-')).toEqual({ place: 'handB', wafer: null });
-    expect(parseWaferPart('WAFER hand.B=w07')).toEqual({ place: 'handB', wafer: 'W7' });
+    expect(parseWaferPart('hand.B=W7')).toEqual({ place: 'handB', wafer: 'W7', uncertain: false });
+    expect(parseWaferPart('hand.B=-')).toEqual({ place: 'handB', wafer: null, uncertain: false });
+    expect(parseWaferPart('WAFER hand.B=w07')).toEqual({ place: 'handB', wafer: 'W7', uncertain: false });
     expect(parseWaferPart('pending=get:LP1.3:W3:B')).toEqual({
       place: 'pending',
       pending: { kind: 'get', blade: 'B', station: 'LP1', slot: 3, wafer: 'W3' },
@@ -135,7 +140,7 @@ describe('parseWaferPart', () => {
   });
 
   it('skips a leading WAFER (an event line without EVT) and blanks around it', () => {
-    expect(parseWaferPart('WAFER hand=W3')).toEqual({ place: 'hand', wafer: 'W3' });
+    expect(parseWaferPart('WAFER hand=W3')).toEqual({ place: 'hand', wafer: 'W3', uncertain: false });
     expect(parseWaferPart('  AL=-  ')).toEqual({ place: 'station', name: 'AL', slots: [E] });
   });
 
@@ -177,12 +182,15 @@ describe('applyWaferPart', () => {
     expect([...b.stations.keys()]).toEqual(['LP1', 'LP2', 'AL', 'PM1', 'PM2']);
     const c = applyWaferPart(b, { place: 'station', name: 'BUF', slots: [E] });
     expect([...c.stations.keys()]).toEqual(['LP1', 'LP2', 'AL', 'PM1', 'PM2', 'BUF']);
-    expect(applyWaferPart(c, { place: 'hand', wafer: null }).hand).toBeNull();
+    expect(applyWaferPart(c, { place: 'hand', wafer: null, uncertain: false }).hand).toBeNull();
     expect(c.hand).toBe('W3');
-    const d = applyWaferPart(c, { place: 'handB', wafer: 'W8' });
+    const d = applyWaferPart(c, { place: 'handB', wafer: 'W8', uncertain: false });
     expect(d.handB).toBe('W8');
     expect(d.hand).toBe('W3'); // blade B is its own place
     expect(c.handB).toBeNull();
+    const e = applyWaferPart(c, { place: 'hand', wafer: 'W3', uncertain: true });
+    expect(e.handUncertain).toBe(true);
+    expect(applyWaferPart(e, { place: 'hand', wafer: 'W3', uncertain: false }).handUncertain).toBe(false);
   });
 });
 

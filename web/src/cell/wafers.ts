@@ -52,6 +52,13 @@ export interface WaferMap {
   hand: string | null;
   /** The wafer on blade B of a dual-blade robot, or null when it is empty or there is none. */
   handB: string | null;
+  /**
+   * The wafer on the hand (blade A) is uncertain (`hand=W3?`): the motion board stopped
+   * answering while it was there, and no sensor has confirmed it since.
+   */
+  handUncertain: boolean;
+  /** The same for blade B (`hand.B=W7?`). */
+  handBUncertain: boolean;
   /** Each station's slots, slot 1 first, in the order the controller lists them. */
   stations: Map<string, SlotToken[]>;
   pending: PendingTransfer | null;
@@ -59,8 +66,8 @@ export interface WaferMap {
 
 /** One place of the map, as in one word of the `WAFERS` reply or one `EVT WAFER` line. */
 export type WaferPart =
-  | { place: 'hand'; wafer: string | null }
-  | { place: 'handB'; wafer: string | null }
+  | { place: 'hand'; wafer: string | null; uncertain: boolean }
+  | { place: 'handB'; wafer: string | null; uncertain: boolean }
   | { place: 'pending'; pending: PendingTransfer | null }
   | { place: 'station'; name: string; slots: SlotToken[] };
 
@@ -74,7 +81,7 @@ const CROSS: SlotToken = { state: 'cross', wafer: null };
 
 /** An empty map: no stations, nothing on either blade, no transfer. */
 export function emptyWaferMap(): WaferMap {
-  return { hand: null, handB: null, stations: new Map(), pending: null };
+  return { hand: null, handB: null, handUncertain: false, handBUncertain: false, stations: new Map(), pending: null };
 }
 
 /** The number of a wafer id `W<n>` (or `w<n>`), or null. */
@@ -156,14 +163,19 @@ function parsePending(v: string): PendingTransfer | null | undefined {
   return { kind: m[1].toLowerCase() as 'get' | 'put', blade, station: m[2], slot, wafer };
 }
 
-/** The wafer on a blade (`W3`, or `-` for none); undefined when malformed. */
-function parseBlade(value: string): string | null | undefined {
-  if (value === '-') return null;
-  return parseWaferId(value) ?? undefined;
+/**
+ * The wafer on a blade (`W3`, `W3?` while uncertain, or `-` for none); undefined when
+ * malformed.
+ */
+function parseBlade(value: string): { wafer: string | null; uncertain: boolean } | undefined {
+  if (value === '-') return { wafer: null, uncertain: false };
+  const uncertain = value.endsWith('?');
+  const wafer = parseWaferId(uncertain ? value.slice(0, -1) : value);
+  return wafer === null ? undefined : { wafer, uncertain };
 }
 
 /**
- * One place of the map: `hand=W3`, `hand=-`, `hand.B=W7`, `LP1=W1..W25`,
+ * One place of the map: `hand=W3`, `hand=W3?` (uncertain), `hand=-`, `hand.B=W7`, `LP1=W1..W25`,
  * `pending=get:LP1.3:W3[:B]`, `pending=-`. A leading `WAFER ` (an event line without its `EVT `) is skipped. Null when
  * malformed.
  */
@@ -177,7 +189,7 @@ export function parseWaferPart(text: string): WaferPart | null {
   if (key === 'hand' || key === 'hand.B') {
     const w = parseBlade(value);
     if (w === undefined) return null;
-    return key === 'hand' ? { place: 'hand', wafer: w } : { place: 'handB', wafer: w };
+    return key === 'hand' ? { place: 'hand', ...w } : { place: 'handB', ...w };
   }
   if (key === 'pending') {
     const p = parsePending(value);
@@ -192,9 +204,9 @@ export function parseWaferPart(text: string): WaferPart | null {
 export function applyWaferPart(map: WaferMap, part: WaferPart): WaferMap {
   switch (part.place) {
     case 'hand':
-      return { ...map, hand: part.wafer };
+      return { ...map, hand: part.wafer, handUncertain: part.uncertain };
     case 'handB':
-      return { ...map, handB: part.wafer };
+      return { ...map, handB: part.wafer, handBUncertain: part.uncertain };
     case 'pending':
       return { ...map, pending: part.pending };
     case 'station': {

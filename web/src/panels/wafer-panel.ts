@@ -483,12 +483,12 @@ export function mountWaferPanel(
     }
 
     setAttr(hand, 'data-wafer', map.hand ?? '');
-    setText(hand, map.hand ?? 'empty');
+    setText(hand, map.hand === null ? 'empty' : map.handUncertain ? `${map.hand}? (uncertain: the board stopped answering)` : map.hand);
     const dual = isDualBlade(v.robot, map);
     bladeBWrap.hidden = !dual;
     bladeChoice.hidden = !dual;
     setAttr(handB, 'data-wafer', map.handB ?? '');
-    setText(handB, map.handB ?? 'empty');
+    setText(handB, map.handB === null ? 'empty' : map.handBUncertain ? `${map.handB}? (uncertain)` : map.handB);
     const p = map.pending;
     setAttr(pending, 'data-pending', p ? '1' : '0');
     setAttr(pending, 'data-kind', p ? p.kind : '');

@@ -338,13 +338,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
             c.store(p, Ordering::Release);
         }
         self.resume.write(self.last);
-        if self.epoch_pending {
-            self.epoch_pending = false;
+        self.settle_pending_epoch();
+        self.publish_in_flight();
+    }
+
+    /// The stop epoch waiting for the move `completing` to end is at rest now.
+    fn settle_pending_epoch(&mut self) {
+        if std::mem::take(&mut self.epoch_pending) {
             self.shared
                 .stopped_epoch
                 .store(self.epoch_seen, Ordering::Release);
         }
-        self.publish_in_flight();
     }
 
     /// Record one sample per period into `tap` (commanded and encoder pulses, I/O, state,
@@ -637,12 +641,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             if executed && (left <= 1 || next_move || self.in_position()) {
                 self.completing = None;
                 // At rest before the end is reported: whoever hears of it sees no motion.
-                if self.epoch_pending {
-                    self.epoch_pending = false;
-                    self.shared
-                        .stopped_epoch
-                        .store(self.epoch_seen, Ordering::Release);
-                }
+                self.settle_pending_epoch();
                 self.publish_in_flight();
                 self.report(ticket, outcome);
             } else {

@@ -174,3 +174,25 @@ fn a_transfer_cut_by_a_dead_board_stays_pending_until_the_sensor_settles_it() {
     assert!(host.hand_empty());
     assert_eq!(host.motion(6, "GET LP1 2"), "INF 6 W2");
 }
+
+#[test]
+fn a_live_board_whose_encoder_sticks_still_trips_the_following_error() {
+    // The other side of the heartbeat: a board that runs, but whose axis does not follow
+    // its command, is caught by the following error (203), not by the heartbeat.
+    let mut host = homed();
+    assert_eq!(host.ask("3 MOVJ 90 60 -45 40"), "ACK 3");
+    host.wait_moving("J1 on its way", |j, _, _| j[0] > -60.0);
+    host.inject("encoder-stuck 0 on");
+    let end = host.until("ABS 3");
+    assert!(end.starts_with("ABS 3 203 "), "{end}");
+    assert!(host.status().contains("state=ERROR"));
+    assert!(!host
+        .sim
+        .shared()
+        .board_dead
+        .load(std::sync::atomic::Ordering::Acquire));
+    let refused = host.ask("4 RESET");
+    // The board answers: RESET is not refused for a dead board (the alarm may still be
+    // latched while the encoder is stuck, which is a different refusal).
+    assert!(!refused.starts_with("NAK 4 300"), "{refused}");
+}

@@ -15,9 +15,10 @@
 //! the board advances every one of its periods): a heartbeat that stands for the board's
 //! `heartbeat_periods` means a board that does not answer (a hung DSP, a dead board
 //! process), and a new epoch means a board that restarted (so the one it replaces died,
-//! with its FIFO and its state, however short the gap). The task then raises fatal error 300 on the urgent path (`ABS` for the motion,
-//! `EVT ERROR`, state `ERROR`), pushes nothing more, and ends any motion where it stands:
-//! a dead board can neither brake nor report where the arm is. It stays so, whatever the
+//! with its FIFO and its state, however short the gap). The task then raises fatal error
+//! 300 on the urgent path (`ABS` for the motion, `EVT ERROR`, state `ERROR`; retried each
+//! period while the urgent queue is full), pushes nothing more, and ends any motion where
+//! it stands: a dead board can neither brake nor report where the arm is. It stays so, whatever the
 //! heartbeat does, until a RESET re-attaches: it takes the board's position again
 //! ([`Shared::resync_from_board`]) and starts a new history of the board's FIFO (a
 //! restarted board starts an empty one).
@@ -138,6 +139,8 @@ pub struct Liveness {
     still: [u32; MAX_BOARDS],
     urgent: Arc<MessageQueue<Urgent>>,
     wake: Arc<Semaphore>,
+    /// A dead board's fault is not on the urgent queue yet (it was full).
+    unreported: bool,
 }
 
 impl Liveness {
@@ -160,12 +163,21 @@ impl Liveness {
             still: [0; MAX_BOARDS],
             urgent,
             wake,
+            unreported: false,
         }
     }
 
-    /// The periods a heartbeat may stand.
-    pub fn limit(&self) -> u32 {
-        self.limit
+    /// Put the dead board's fault on the urgent queue if it is not there yet.
+    fn report(&mut self) {
+        if self.unreported
+            && self
+                .urgent
+                .try_send(Urgent::Fault(Code::BoardLost.number()))
+                .is_ok()
+        {
+            self.unreported = false;
+            self.wake.post();
+        }
     }
 
     /// One period's look at every heartbeat: true when some board's has stood too long, or
@@ -279,11 +291,6 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self
     }
 
-    /// Whether a board stopped answering and no RESET has re-attached it yet.
-    pub fn is_detached(&self) -> bool {
-        self.detached
-    }
-
     /// This period's heartbeat check: publishes whether a board is dead, and on the first
     /// period it is, detaches (fatal error 300 on the urgent path, the motion ended where
     /// it stands).
@@ -292,23 +299,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
             return;
         };
         let dead = liveness.dead(&self.board);
-        if dead == self.shared.board_dead.load(Ordering::Acquire) {
-            return;
-        }
+        let newly_dead = dead && !self.detached && !self.shared.board_dead.load(Ordering::Acquire);
         self.shared.board_dead.store(dead, Ordering::Release);
-        if !dead || self.detached {
-            return;
+        if newly_dead {
+            // Its inputs are stale from now on.
+            self.shared.io_ready.store(false, Ordering::Release);
+            liveness.unreported = true;
         }
-        // Its inputs are stale from now on.
-        self.shared.io_ready.store(false, Ordering::Release);
-        if liveness
-            .urgent
-            .try_send(Urgent::Fault(Code::BoardLost.number()))
-            .is_ok()
-        {
-            liveness.wake.post();
+        liveness.report();
+        if newly_dead {
+            self.detach();
         }
-        self.detach();
     }
 
     /// Stop pushing to a board that does not answer, and end the motion where it stands:

@@ -606,7 +606,10 @@ fn the_local_gui_socket_speaks_the_protocol_and_streams_status() {
     use std::os::unix::net::UnixStream;
     let c = Controller::start(&[]);
     let path = c.dir.path().join("wrc.sock");
-    let s = UnixStream::connect(&path).unwrap();
+    // The TCP port answering (what `start` waits for) does not mean the socket is bound yet.
+    let s = wait_until("the local GUI socket", || {
+        UnixStream::connect(&path).map_err(|e| e.to_string())
+    });
     s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
     let mut w = s.try_clone().unwrap();
     let mut r = BufReader::new(s);

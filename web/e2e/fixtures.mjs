@@ -99,27 +99,39 @@ class Controller {
     proc.stderr.on('data', (d) => {
       this.output += d.toString();
     });
-    const deadline = Date.now() + 30_000;
-    while (!this.url) {
-      if (proc.exitCode !== null || proc.signalCode !== null) {
-        throw new Error(`wrc up exited (${proc.exitCode ?? proc.signalCode}) before serving the GUI`);
-      }
-      if (Date.now() > deadline) {
+    // Resolved by the line naming the GUI (or the process ending); 30 s is only the bound.
+    await new Promise((resolve, reject) => {
+      const done = (err) => {
+        clearTimeout(timer);
+        proc.stdout.off('data', seen);
+        proc.off('exit', ended);
+        if (err) reject(err);
+        else resolve();
+      };
+      const seen = () => {
+        if (this.url) done();
+      };
+      const ended = (code, signal) =>
+        done(this.url ? undefined : new Error(`wrc up exited (${code ?? signal}) before serving the GUI`));
+      const timer = setTimeout(async () => {
         // The line may be missing: fall back to the HTTP port itself.
         try {
           const r = await fetch(`http://127.0.0.1:${uiPort}/`);
           if (r.ok) {
             console.warn(`WARNING: no "wrc: GUI on http://127.0.0.1:${uiPort}" line on stdout, but the port serves`);
             this.url = `http://127.0.0.1:${uiPort}/`;
-            break;
+            return done();
           }
         } catch {
-          /* not yet */
+          /* not serving */
         }
-        throw new Error(`wrc up did not print "wrc: GUI on http://127.0.0.1:${uiPort}" within 30 s`);
-      }
-      await sleep(100);
-    }
+        done(new Error(`wrc up did not print "wrc: GUI on http://127.0.0.1:${uiPort}" within 30 s`));
+      }, 30_000);
+      proc.stdout.on('data', seen);
+      proc.on('exit', ended);
+      if (proc.exitCode !== null || proc.signalCode !== null) ended(proc.exitCode, proc.signalCode);
+      else seen();
+    });
     console.log(`GUI at ${this.url}`);
     this.#watchEvents(hostPort);
     await this.#checkBuild();

@@ -272,6 +272,19 @@ mod tests {
     }
 
     #[test]
+    fn a_board_heartbeat_of_zero_periods_is_refused_by_name() {
+        let e = err(&with("heartbeat_periods = 3", "heartbeat_periods = 0"));
+        assert!(
+            e.contains("cell.toml") && e.contains("heartbeat_periods") && e.contains("at least 1"),
+            "{e}"
+        );
+        let c =
+            Config::parse(&with("heartbeat_periods = 3", "heartbeat_periods = 7"), "c").unwrap();
+        assert_eq!(c.boards[0].heartbeat_periods, 7);
+        assert_eq!(Config::embedded_default().boards[0].heartbeat_periods, 3);
+    }
+
+    #[test]
     fn missing_file_is_named() {
         let e = Config::load(Some(Path::new("/nonexistent/wrc.toml")))
             .unwrap_err()

@@ -207,23 +207,26 @@ impl BoardProcess {
         watchdog: Option<u32>,
         cell: Option<(PathBuf, PathBuf)>,
     ) -> anyhow::Result<BoardProcess> {
-        let child = spawn_board(
-            config,
+        let mut board = BoardProcess {
             id,
-            &dpram,
-            &log,
-            watchdog,
-            cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path())),
-        )?;
-        Ok(BoardProcess {
-            id,
-            child: Some(child),
+            child: None,
             started: Instant::now(),
             dpram,
             log,
             watchdog,
             cell,
-        })
+        };
+        board.start(config)?;
+        Ok(board)
+    }
+
+    /// Start (or start again) its `wrc board-sim`.
+    fn start(&mut self, config: Option<&Path>) -> anyhow::Result<()> {
+        let cell = self.cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path()));
+        let child = spawn_board(config, self.id, &self.dpram, &self.log, self.watchdog, cell)?;
+        self.child = Some(child);
+        self.started = Instant::now();
+        Ok(())
     }
 }
 
@@ -259,18 +262,13 @@ fn reap(boards: &mut [BoardProcess], ui: &mut Option<Child>, config: Option<&Pat
             );
             continue;
         }
-        let cell = b.cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path()));
-        match spawn_board(config, b.id, &b.dpram, &b.log, b.watchdog, cell) {
-            Ok(child) => {
-                tracing::warn!(
-                    "wrc: simulated board {} restarted (pid {}) on {}; RESET re-attaches it",
-                    b.id,
-                    child.id(),
-                    b.dpram.display()
-                );
-                b.child = Some(child);
-                b.started = Instant::now();
-            }
+        match b.start(config) {
+            Ok(()) => tracing::warn!(
+                "wrc: simulated board {} restarted (pid {}) on {}; RESET re-attaches it",
+                b.id,
+                b.child.as_ref().map_or(0, Child::id),
+                b.dpram.display()
+            ),
             Err(e) => tracing::error!("wrc: board {} could not be restarted: {e:#}", b.id),
         }
     }

@@ -12,6 +12,7 @@
 // 1's support height [mm]; yaw: the direction the hand points into the station [deg]).
 
 import type { Bus, Unsubscribe } from '../protocol/bus';
+import { Listeners } from '../protocol/listeners';
 import type { StationSpec } from '../view3d/scene';
 import type { SimulatorHandle } from '../view3d/simulator';
 
@@ -159,18 +160,12 @@ export interface StationsHandle {
 /** Ask the controller for its stations after each connection and draw them in `sim`. */
 export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
   const drawn = new Map<string, { info: StationInfo; id: string }>();
-  const listeners = new Set<() => void>();
+  const listeners = new Listeners<[]>('stations');
   let token = 0;
   let disposed = false;
 
   function changed(): void {
-    for (const cb of [...listeners]) {
-      try {
-        cb();
-      } catch (e) {
-        console.error('wrc: stations listener failed', e);
-      }
-    }
+    listeners.emit();
   }
 
   function upsert(info: StationInfo): void {
@@ -238,12 +233,7 @@ export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
 
   return {
     stations: () => [...drawn.values()].map((d) => d.info),
-    onChange(cb) {
-      listeners.add(cb);
-      return () => {
-        listeners.delete(cb);
-      };
-    },
+    onChange: (cb) => listeners.add(cb),
     refresh,
     dispose() {
       disposed = true;

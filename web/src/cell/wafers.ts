@@ -17,6 +17,7 @@
 // Parsing never throws: a malformed part is left out (and reported in `bad`), the rest is used.
 
 import type { Bus, FirstReply, Unsubscribe } from '../protocol/bus';
+import { Listeners } from '../protocol/listeners';
 import type { WaferDisc } from '../view3d/scene';
 import type { SimulatorHandle } from '../view3d/simulator';
 import type { StationInfo, StationsHandle } from './stations';
@@ -344,19 +345,13 @@ export function createWaferStore(
   warn: (msg: string) => void = (m) => console.warn(`wrc: ${m}`),
 ): WaferStore {
   let st: WaferState = { available: null, map: emptyWaferMap(), refusal: '', ignored: [] };
-  const listeners = new Set<(s: WaferState) => void>();
+  const listeners = new Listeners<[WaferState]>('wafer map');
   let token = 0;
   let disposed = false;
 
   function set(next: WaferState): void {
     st = next;
-    for (const cb of [...listeners]) {
-      try {
-        cb(st);
-      } catch (e) {
-        console.error('wrc: wafer map listener failed', e);
-      }
-    }
+    listeners.emit(st);
   }
 
   /** `before` with `parts` added (each reported once through `warn`). */
@@ -409,12 +404,7 @@ export function createWaferStore(
 
   return {
     state: () => st,
-    onChange(cb) {
-      listeners.add(cb);
-      return () => {
-        listeners.delete(cb);
-      };
-    },
+    onChange: (cb) => listeners.add(cb),
     refresh,
     dispose() {
       disposed = true;

@@ -5,6 +5,7 @@
 
 import type { Bus, FinalReply, FirstReply, Unsubscribe } from './bus';
 import type { ControllerModel } from './controller-model';
+import { Listeners } from './listeners';
 import { replyRest, verbOf } from './protocol';
 
 /** What a log entry is: a request sent, a first reply, a final reply, or a note. */
@@ -23,13 +24,13 @@ export class CommandLog {
   /** Entries kept; older ones are dropped. */
   static readonly MAX_ENTRIES = 300;
   private readonly list: LogEntry[] = [];
-  private readonly listeners = new Set<(e: LogEntry) => void>();
+  private readonly listeners = new Listeners<[LogEntry]>('command log');
 
   add(kind: LogKind, text: string): void {
     const entry: LogEntry = { kind, text, at: new Date() };
     this.list.push(entry);
     if (this.list.length > CommandLog.MAX_ENTRIES) this.list.splice(0, this.list.length - CommandLog.MAX_ENTRIES);
-    for (const l of [...this.listeners]) l(entry);
+    this.listeners.emit(entry);
   }
 
   entries(): readonly LogEntry[] {
@@ -38,10 +39,7 @@ export class CommandLog {
 
   /** Called with every entry added from now on. */
   onAdd(cb: (e: LogEntry) => void): Unsubscribe {
-    this.listeners.add(cb);
-    return () => {
-      this.listeners.delete(cb);
-    };
+    return this.listeners.add(cb);
   }
 }
 

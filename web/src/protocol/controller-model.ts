@@ -5,6 +5,7 @@
 
 import type { Bus, FirstReply, RobotInfo, RobotState, SimSample, Unsubscribe } from './bus';
 import { frameThrottle } from '../frame-throttle';
+import { Listeners } from './listeners';
 import { errorText, parseErrorEvent, parseInputEvent, parseIo, parseStatus, verbOf } from './protocol';
 
 /** Everything the header and the Control panel show. */
@@ -56,9 +57,9 @@ export class ControllerModel {
     pulses: null,
     lastSample: 0,
   };
-  private listeners = new Set<(v: ControllerView) => void>();
+  private readonly listeners = new Listeners<[ControllerView]>('controller view');
   private notify = frameThrottle(() => {
-    for (const l of [...this.listeners]) l(this.v);
+    this.listeners.emit(this.v);
   });
 
   constructor(readonly bus: Bus) {
@@ -84,11 +85,9 @@ export class ControllerModel {
   }
 
   onChange(cb: (v: ControllerView) => void): Unsubscribe {
-    this.listeners.add(cb);
+    const off = this.listeners.add(cb);
     cb(this.v);
-    return () => {
-      this.listeners.delete(cb);
-    };
+    return off;
   }
 
   /** May this page command motions? (Nobody or we hold control; the controller checks too.) */

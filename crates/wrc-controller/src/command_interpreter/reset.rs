@@ -45,10 +45,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some((from, to, deadline)) = self.reset_pending else {
             return;
         };
+        // A board that died meanwhile never carries it out: refused at once (board_fault).
         let dead = self.shared.board_dead.load(Ordering::Acquire);
-        let fault = if dead {
-            self.board_fault()
-        } else if self.board.command_pending() {
+        let fault = if !dead && self.board.command_pending() {
             Some("the board did not carry out the RESET")
         } else {
             self.board_fault()

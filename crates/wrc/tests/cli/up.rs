@@ -448,18 +448,29 @@ fn simulator_datagrams_arrive_and_decode() {
     }
 }
 
-fn processes_mentioning(dir: &Path) -> Vec<String> {
+/// The wrc processes whose command line names `dir`: (pid, command line).
+fn wrc_processes_in(dir: &Path) -> Vec<(u32, String)> {
     let needle = dir.to_string_lossy().to_string();
     let mut found = Vec::new();
     for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Some(pid) = entry.file_name().to_str().and_then(|p| p.parse().ok()) else {
+            continue;
+        };
         if let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) {
             let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
             if cmd.contains(&needle) && cmd.contains("wrc") {
-                found.push(cmd);
+                found.push((pid, cmd));
             }
         }
     }
     found
+}
+
+fn processes_mentioning(dir: &Path) -> Vec<String> {
+    wrc_processes_in(dir)
+        .into_iter()
+        .map(|(_, cmd)| cmd)
+        .collect()
 }
 
 #[test]
@@ -672,17 +683,9 @@ fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
 
 /// The pid of the `wrc board-sim` process that `wrc up` runs in `dir`.
 fn board_sim_pid(dir: &Path) -> Option<u32> {
-    let needle = dir.to_string_lossy().to_string();
-    std::fs::read_dir("/proc")
-        .unwrap()
-        .flatten()
-        .find_map(|entry| {
-            let cmd = std::fs::read(entry.path().join("cmdline")).ok()?;
-            let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
-            (cmd.contains("board-sim") && cmd.contains(&needle))
-                .then(|| entry.file_name().to_str()?.parse().ok())
-                .flatten()
-        })
+    wrc_processes_in(dir)
+        .into_iter()
+        .find_map(|(pid, cmd)| cmd.contains("board-sim").then_some(pid))
 }
 
 /// Whether process `pid` is gone: reaped, not a zombie.

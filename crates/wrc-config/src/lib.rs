@@ -12,6 +12,7 @@
 
 mod board;
 mod hand;
+mod host;
 mod raw;
 mod tasks;
 
@@ -22,6 +23,8 @@ use wrc_robot::Robot;
 
 pub use board::{default_dpram, BoardConfig, BoardSimConfig, VacuumConfig};
 pub use hand::{BladeB, HandConfig};
+pub use host::{canonical, listed, parse_net, HostConfig, MAX_CONNECTIONS};
+pub use ipnet::IpNet;
 
 /// The embedded default configuration (`config/default.toml`).
 pub const DEFAULT_TOML: &str = include_str!("../../../config/default.toml");
@@ -88,6 +91,8 @@ pub struct Config {
     pub hand: HandConfig,
     /// The trace recorder (`[trace]`; defaults when absent).
     pub trace: TraceConfig,
+    /// The host port's admission (`[host]`; defaults when absent).
+    pub host: HostConfig,
 }
 
 /// The trace recorder's settings (`[trace]`).
@@ -171,6 +176,66 @@ mod tests {
     fn with(from: &str, to: &str) -> String {
         assert!(DEFAULT_TOML.contains(from), "{from}");
         DEFAULT_TOML.replacen(from, to, 1)
+    }
+
+    #[test]
+    fn host_admission_is_read_and_checked() {
+        let config = Config::embedded_default();
+        assert_eq!(config.host, HostConfig::default());
+        let text = with(
+            "idle_timeout_s = 600.0",
+            "idle_timeout_s = 30.0\nallow = [\"192.168.1.20\", \"10.1.0.0/16\"]\nmonitor = [\"fd00::/8\"]\ntoken_file = \"/etc/wrc/host.token\"",
+        );
+        let host = Config::parse(&text, "cell.toml").unwrap().host;
+        assert_eq!(host.idle_timeout_s, 30.0);
+        assert!(listed(&host.allow, "10.1.9.9".parse().unwrap()));
+        assert!(!listed(&host.allow, "192.168.1.21".parse().unwrap()));
+        assert!(listed(&host.monitor, "fd00::5".parse().unwrap()));
+        assert!(host.guards_the_network());
+        for (from, to, key, reason) in [
+            (
+                "max_connections = 256",
+                "max_connections = 0",
+                "host.max_connections",
+                "1 to 1024",
+            ),
+            (
+                "max_connections = 256",
+                "max_connections = 5000",
+                "host.max_connections",
+                "1 to 1024",
+            ),
+            (
+                "max_per_address = 64",
+                "max_per_address = 300",
+                "host.max_per_address",
+                "max_connections (256)",
+            ),
+            (
+                "idle_timeout_s = 600.0",
+                "idle_timeout_s = -1.0",
+                "host.idle_timeout_s",
+                "0 (never)",
+            ),
+            (
+                "idle_timeout_s = 600.0",
+                "idle_timeout_s = 600.0\nallow = [\"robot-1\"]",
+                "host.allow",
+                "\"robot-1\" is not an address",
+            ),
+            (
+                "idle_timeout_s = 600.0",
+                "idle_timeout_s = 600.0\ntoken_file = \"\"",
+                "host.token_file",
+                "is empty",
+            ),
+        ] {
+            let e = err(&with(from, to));
+            assert!(
+                e.contains("cell.toml") && e.contains(key) && e.contains(reason),
+                "{e}"
+            );
+        }
     }
 
     #[test]

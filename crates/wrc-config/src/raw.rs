@@ -22,6 +22,8 @@ pub(crate) struct RawConfig {
     hand: crate::hand::RawHand,
     #[serde(default)]
     trace: RawTrace,
+    #[serde(default)]
+    host: crate::host::RawHost,
 }
 
 #[derive(Debug, Deserialize)]
@@ -240,6 +242,7 @@ impl RawConfig {
             boards,
             tasks: crate::tasks::tasks(self.task, file)?,
             hand: self.hand.into_hand(file)?,
+            host: self.host.into_host(file)?,
         })
     }
 }

@@ -11,6 +11,16 @@
 //! at once, so many clients flooding requests are served round-robin, a bounded amount each
 //! per cycle, and none waits behind another's backlog.
 //!
+//! Admission (TCP hosts, with a [`HostAccess`]; docs/protocol.md "Connections"): a peer the
+//! rules do not know is told `EVT CLOSING DENIED` and closed; one whose address holds its
+//! limit of connections, or that finds every slot taken, gets the slot of the least recently
+//! active connection without control (of its own address, or of any), which is told
+//! `EVT CLOSING ADDRESS|FULL` first — so a flood of idle connections can never lock out a new
+//! client, and the controlling connection is never the one closed. A connection without
+//! control or subscription that sends nothing for the idle timeout is told
+//! `EVT CLOSING IDLE` and closed. A monitoring connection may send read-only verbs only
+//! (`NAK 107`); `AUTH <token>` lifts a token-guarded one to command.
+//!
 //! Real-time promise: every buffer is allocated when the set is made; a cycle makes only
 //! non-blocking socket calls (the I/O the task exists for) and, when a client comes or goes,
 //! one `epoll_ctl`; it never allocates or prints.
@@ -18,7 +28,7 @@
 use std::fmt::Write as _;
 use std::io::{self, Read, Write};
 
-use std::net::TcpStream;
+use std::net::{IpAddr, TcpStream};
 use std::os::fd::{AsFd, BorrowedFd};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::Ordering;
@@ -26,12 +36,14 @@ use std::sync::Arc;
 use wrc_rt::FixedText;
 
 use wrc_protocol::{
-    Code, Command, Event, LineReader, Parser, ReplyBuf, Request, StatusBody, WhereBody,
+    Access, CloseReason, Code, Command, Event, LineReader, Parser, ReplyBuf, Request, StatusBody,
+    WhereBody,
 };
 use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::wake::{FdRegistry, Token};
 
+use crate::host_access::{HostAccess, Rights, MAX_AUTH_FAILURES};
 use crate::messages::cell_job::JobKind;
 use crate::messages::{Incoming, OutLine, SourceId, StoreRequest, Urgent};
 use crate::recorder::MessageTap;
@@ -116,6 +128,26 @@ struct Slot {
     /// period only.
     backed_up: bool,
     generation: u32,
+    /// The peer's address (TCP); `None` for local clients.
+    peer: Option<IpAddr>,
+    /// What it may send.
+    rights: Rights,
+    /// When it last sent anything (or connected) [ns, the task's clock].
+    last_active_ns: u64,
+    /// Wrong `AUTH` tokens so far.
+    auth_failures: u8,
+}
+
+/// What [`ClientSet::add`] did with a new connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Added {
+    /// It has a slot.
+    Yes,
+    /// It has a slot; another connection was closed to make room.
+    Evicted,
+    /// It was told why and closed (its address may not connect, or no connection could make
+    /// room, or the kernel would not watch it).
+    Refused,
 }
 
 /// A fixed-capacity set of clients of one kind.
@@ -134,8 +166,14 @@ pub struct ClientSet {
     pub dropped_slow: u64,
     /// The trace recorder's tap: every line read and delivered.
     tap: Option<MessageTap>,
-    /// The owning task's cycle time, for the recorder [ns].
+    /// The owning task's cycle time, for the recorder and the idle timeout [ns].
     now_ns: u64,
+    /// Admission rules (TCP hosts); `None`: local clients, every slot may command.
+    access: Option<HostAccess>,
+    /// Connections closed by the idle timeout.
+    pub closed_idle: u64,
+    /// Connections closed to make room for a new one.
+    pub evicted: u64,
 }
 
 impl ClientSet {
@@ -161,6 +199,10 @@ impl ClientSet {
                 uploading: false,
                 backed_up: false,
                 generation: 0,
+                peer: None,
+                rights: Rights::Command,
+                last_active_ns: 0,
+                auth_failures: 0,
             })
             .collect();
         ClientSet {
@@ -176,7 +218,16 @@ impl ClientSet {
             dropped_slow: 0,
             tap: None,
             now_ns: 0,
+            access: None,
+            closed_idle: 0,
+            evicted: 0,
         }
+    }
+
+    /// Admit TCP hosts by `access` (its `max_connections` should be this set's capacity).
+    pub fn with_access(mut self, access: HostAccess) -> ClientSet {
+        self.access = Some(access);
+        self
     }
 
     /// Record every request line read and every line delivered into `tap`.
@@ -214,8 +265,51 @@ impl ClientSet {
         Ok(())
     }
 
-    /// Take a new client; `false` (and the stream is closed) when every slot is in use.
-    pub fn add(&mut self, stream: Stream) -> bool {
+    /// Take a new client from `peer` (`None`: a local one), by the set's admission rules:
+    /// see [`Added`]. Without rules, a client finds a free slot or is refused.
+    pub fn add(&mut self, mut stream: Stream, peer: Option<IpAddr>) -> Added {
+        let mut added = Added::Yes;
+        let rights = match (&self.access, peer) {
+            (Some(access), Some(peer)) => match access.rights(peer) {
+                Some(rights) => rights,
+                None => {
+                    let mut text = FixedText::<96>::new();
+                    let _ = write!(text, "{peer} may not connect to this controller");
+                    self.refuse(&mut stream, CloseReason::Denied, text.as_str());
+                    return Added::Refused;
+                }
+            },
+            _ => Rights::Command,
+        };
+        if let (Some(access), Some(peer)) = (&self.access, peer) {
+            let (limit, from_peer) = (access.max_per_address, self.connected_from(peer));
+            if from_peer >= limit {
+                let mut text = FixedText::<128>::new();
+                let _ = write!(
+                    text,
+                    "{peer} holds {from_peer} connections, the most one address may; \
+                     closing its least recently active one"
+                );
+                if !self.evict(Some(peer), CloseReason::Address, text.as_str()) {
+                    self.refuse(&mut stream, CloseReason::Address, text.as_str());
+                    return Added::Refused;
+                }
+                added = Added::Evicted;
+            }
+        }
+        if self.slots.iter().all(|s| s.stream.is_some()) {
+            let mut text = FixedText::<128>::new();
+            let _ = write!(
+                text,
+                "all {} connections are taken; closing the least recently active one",
+                self.slots.len()
+            );
+            if self.access.is_none() || !self.evict(None, CloseReason::Full, text.as_str()) {
+                self.refuse(&mut stream, CloseReason::Full, text.as_str());
+                return Added::Refused;
+            }
+            added = Added::Evicted;
+        }
         let kind = self.kind;
         let Some((i, slot)) = self
             .slots
@@ -223,13 +317,13 @@ impl ClientSet {
             .enumerate()
             .find(|(_, s)| s.stream.is_none())
         else {
-            return false;
+            return Added::Refused;
         };
         if let Some((registry, first)) = &self.poll {
             if registry.register(&stream, first + i).is_err() {
                 // The kernel would not watch it (out of memory or watches): refuse it rather
                 // than keep a client whose input would wait for the period.
-                return false;
+                return Added::Refused;
             }
         }
         slot.generation = slot.generation.wrapping_add(1);
@@ -241,10 +335,102 @@ impl ClientSet {
         slot.checksum = false;
         slot.uploading = false;
         slot.backed_up = false;
+        slot.peer = peer;
+        slot.rights = rights;
+        slot.last_active_ns = self.now_ns;
+        slot.auth_failures = 0;
         if let Some(tap) = &mut self.tap {
             tap.push(self.now_ns, Direction::Opened, slot.source, b"");
         }
-        true
+        added
+    }
+
+    /// Connections from `peer` now.
+    fn connected_from(&self, peer: IpAddr) -> usize {
+        self.slots
+            .iter()
+            .filter(|s| s.stream.is_some() && s.peer == Some(peer))
+            .count()
+    }
+
+    /// Close the least recently active connection (from `peer` only, if given) that holds
+    /// no control, after telling it `EVT CLOSING <reason> <text>`; `false` when there is
+    /// none.
+    fn evict(&mut self, peer: Option<IpAddr>, reason: CloseReason, text: &str) -> bool {
+        let owner = self.shared.owner.load(Ordering::Acquire);
+        let victim = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| {
+                s.stream.is_some() && s.source.0 != owner && peer.is_none_or(|p| s.peer == Some(p))
+            })
+            .min_by_key(|(_, s)| s.last_active_ns)
+            .map(|(i, _)| i);
+        match victim {
+            Some(i) => {
+                self.evicted += 1;
+                self.close_saying(i, reason, text);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Tell a connection that gets no slot why (one non-blocking write), and close it.
+    fn refuse(&mut self, stream: &mut Stream, reason: CloseReason, text: &str) {
+        let _ = stream.write(self.buf.event(false, &Event::Closing { reason, text }));
+    }
+
+    /// Tell slot `i` `EVT CLOSING <reason> <text>` (after what it still has to receive, as
+    /// far as its socket takes it now), and close it.
+    fn close_saying(&mut self, i: usize, reason: CloseReason, text: &str) {
+        let line = self
+            .buf
+            .event(self.slots[i].checksum, &Event::Closing { reason, text });
+        if let Some(tap) = self.tap.as_mut() {
+            tap.push(self.now_ns, Direction::Reply, self.slots[i].source, line);
+        }
+        let slot = &mut self.slots[i];
+        let _ = Self::push_out(slot, line);
+        if let Some(stream) = slot.stream.as_mut() {
+            let mut sent = 0;
+            while sent < slot.out_len {
+                match stream.write(&slot.out[sent..slot.out_len]) {
+                    Ok(n) if n > 0 => sent += n,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    _ => break,
+                }
+            }
+        }
+        self.close(i);
+    }
+
+    /// Close every connection the idle timeout has run out for: no control, no
+    /// subscription, no upload under way, and nothing sent for the whole timeout.
+    pub fn close_idle(&mut self) {
+        let Some(limit_ns) = self.access.as_ref().and_then(|a| a.idle_timeout_ns) else {
+            return;
+        };
+        let owner = self.shared.owner.load(Ordering::Acquire);
+        for i in 0..self.slots.len() {
+            let s = &self.slots[i];
+            let idle = s.stream.is_some()
+                && s.source.0 != owner
+                && !s.subscribed
+                && !s.uploading
+                && self.now_ns.saturating_sub(s.last_active_ns) >= limit_ns;
+            if idle {
+                let mut text = FixedText::<160>::new();
+                let _ = write!(
+                    text,
+                    "no request for {} s and no control or subscription; reconnect when needed",
+                    limit_ns / 1_000_000_000
+                );
+                self.closed_idle += 1;
+                self.close_saying(i, CloseReason::Idle, text.as_str());
+            }
+        }
     }
 
     /// Clients connected now.
@@ -334,6 +520,14 @@ impl ClientSet {
                 }
                 Ok(n) => {
                     self.handle_bytes(i, n);
+                    if self.slots[i].auth_failures >= MAX_AUTH_FAILURES {
+                        self.close_saying(
+                            i,
+                            CloseReason::Auth,
+                            "too many wrong tokens; connect again to retry",
+                        );
+                        break;
+                    }
                     if self.poll.is_some() {
                         break;
                     }
@@ -359,12 +553,14 @@ impl ClientSet {
             shared,
             tap,
             now_ns,
+            access,
             ..
         } = self;
         let slot = &mut slots[i];
+        slot.last_active_ns = *now_ns;
         while let Some(line) = slot.reader.read(&mut input) {
             if let (Some(tap), Ok(text)) = (tap.as_mut(), &line) {
-                tap.push(*now_ns, Direction::Request, slot.source, text);
+                tap.push(*now_ns, Direction::Request, slot.source, redacted(text));
             }
             if slot.uploading {
                 let source = slot.source;
@@ -382,12 +578,30 @@ impl ClientSet {
                     Err(rejected) => Some(buf.rejected(&rejected)),
                     Ok(request) => {
                         slot.checksum |= request.checksum;
-                        if matches!(request.command, Command::Stop | Command::Estop) {
-                            shared
-                                .urgent_read_ns
-                                .store(Shared::now_ns(), Ordering::Release);
+                        let to = request.reply_to();
+                        if let Command::Auth(token) = request.command {
+                            Some(authenticate(slot, &token, access.as_ref(), to, buf))
+                        } else if slot.rights != Rights::Command
+                            && request.command.verb().spec().access != Access::Read
+                        {
+                            Some(buf.nak(
+                                to,
+                                Code::MonitorOnly,
+                                match slot.rights {
+                                    Rights::Token => {
+                                        "this connection may only monitor until AUTH <token>"
+                                    }
+                                    _ => "this connection's address may only monitor",
+                                },
+                            ))
+                        } else {
+                            if matches!(request.command, Command::Stop | Command::Estop) {
+                                shared
+                                    .urgent_read_ns
+                                    .store(Shared::now_ns(), Ordering::Release);
+                            }
+                            route(slot, request, routes, buf)
                         }
-                        route(slot, request, routes, buf)
                     }
                 },
             };
@@ -653,6 +867,51 @@ fn route<'b>(
     }
 }
 
+/// `AUTH <token>` on `slot`: the control token lifts a token-guarded connection to command;
+/// a wrong one is refused on any connection (and counts towards [`MAX_AUTH_FAILURES`]); a
+/// connection that commands where no token is configured is told it needs none.
+fn authenticate<'b>(
+    slot: &mut Slot,
+    token: &wrc_protocol::AuthToken,
+    access: Option<&HostAccess>,
+    to: wrc_protocol::ReplyTo,
+    buf: &'b mut ReplyBuf,
+) -> &'b [u8] {
+    let configured = access.is_some_and(HostAccess::has_token);
+    if slot.rights == Rights::Monitor {
+        buf.nak(
+            to,
+            Code::AuthFailed,
+            "this connection's address may only monitor; no token changes that",
+        )
+    } else if !configured {
+        buf.ack(to, "rights=command")
+    } else if access.is_some_and(|a| a.token_matches(token)) {
+        slot.rights = Rights::Command;
+        slot.auth_failures = 0;
+        buf.ack(to, "rights=command")
+    } else {
+        slot.auth_failures = slot.auth_failures.saturating_add(1);
+        buf.nak(to, Code::AuthFailed, "wrong token")
+    }
+}
+
+/// A request line as the trace recorder keeps it: an `AUTH` line without its token.
+fn redacted(line: &[u8]) -> &[u8] {
+    let mut words = line.split(|b| *b == b' ').filter(|w| !w.is_empty());
+    let first = words.next().unwrap_or_default();
+    let verb = if !first.is_empty() && first.iter().all(u8::is_ascii_digit) {
+        words.next().unwrap_or_default()
+    } else {
+        first
+    };
+    if verb.eq_ignore_ascii_case(b"AUTH") {
+        b"AUTH <token not recorded>"
+    } else {
+        line
+    }
+}
+
 /// One line inside `UPLOAD`: program text for the store, or `.` to end it. A refused line
 /// (too long, or the store's queue full) cancels the upload with a NAK; nothing is stored.
 fn upload_line<'b>(
@@ -699,4 +958,24 @@ pub fn source_name(source: SourceId) -> Option<FixedText<24>> {
     let mut name = FixedText::new();
     let _ = write!(name, "{source}");
     Some(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::redacted;
+
+    #[test]
+    fn the_recorder_never_keeps_a_token() {
+        for line in [
+            &b"AUTH s3cret-token-0123456789"[..],
+            b"12 auth s3cret-token-0123456789",
+            b"  7   Auth  s3cret",
+            b"AUTH",
+        ] {
+            assert_eq!(redacted(line), b"AUTH <token not recorded>");
+        }
+        for line in [&b"STATUS"[..], b"12 MOVJ 1 2 3 4", b"AUTHOR", b"", b"12"] {
+            assert_eq!(redacted(line), line);
+        }
+    }
 }

@@ -35,8 +35,6 @@ use crate::shared::{Shared, StopKind};
 use crate::simulator_manager::SimulatorManager;
 use crate::velocity_generator::VelocityGenerator;
 
-/// Host clients served at once (TCP).
-pub const MAX_HOSTS: usize = 256;
 /// Local GUI clients served at once (Unix socket).
 pub const MAX_GUIS: usize = 16;
 
@@ -221,8 +219,14 @@ pub(crate) fn assemble<H: Host>(
         Some((path, baud, parity)) => Some(open_serial(path, *baud, *parity)?),
         None => None,
     };
+    let token = match (&options.tcp, &config.host.token_file) {
+        (Some(_), Some(path)) => Some(crate::host_access::read_token(path)?),
+        _ => None,
+    };
+    let host_access = crate::host_access::HostAccess::new(&config.host, token);
     let tcp = match options.tcp {
         Some(addr) => {
+            crate::host_access::check_exposure(addr, &config.host)?;
             let l = TcpListener::bind(addr).map_err(|reason| StartError::Bind {
                 what: "TCP port",
                 at: addr.to_string(),
@@ -295,7 +299,10 @@ pub(crate) fn assemble<H: Host>(
     let wake = Arc::new(Semaphore::new(0));
     // The Ethernet and RS232C tasks are released by their sockets or tty and by every line
     // pushed into their reply queues, as well as by their periods.
-    let ethernet_wake = host.wake("ethernet", Some(Ethernet::tokens(MAX_HOSTS, MAX_GUIS)))?;
+    let ethernet_wake = host.wake(
+        "ethernet",
+        Some(Ethernet::tokens(config.host.max_connections, MAX_GUIS)),
+    )?;
     let rs232c_wake = host.wake("rs232c", Some(Rs232c::TOKENS))?;
     let network_out = Arc::new(MessageQueue::with_notify(4096, ethernet_wake.notifier()));
     let serial_out = Arc::new(MessageQueue::with_notify(256, rs232c_wake.notifier()));
@@ -473,12 +480,13 @@ pub(crate) fn assemble<H: Host>(
     )?;
     let hosts = ClientSet::new(
         SourceId::TCP,
-        MAX_HOSTS,
+        config.host.max_connections,
         false,
         robot.clone(),
         shared.clone(),
         routes.clone(),
-    );
+    )
+    .with_access(host_access);
     let guis = ClientSet::new(
         SourceId::GUI,
         MAX_GUIS,
@@ -563,6 +571,10 @@ pub(crate) fn query_cells(
 
 /// Start the controller for `config` with `options`.
 pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> {
+    if options.tcp.is_some() {
+        // Every connection, the boards, files and the waiters' own descriptors.
+        crate::host_access::reserve_descriptors(config.host.max_connections + MAX_GUIS + 128)?;
+    }
     let mut host = RealHost(Runtime::new(RuntimeOptions {
         realtime: options.realtime,
         ..Default::default()

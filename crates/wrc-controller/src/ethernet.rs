@@ -25,7 +25,7 @@ use wrc_rt::{CycleContext, Release, Task};
 
 use wrc_rt::ipc::MessageQueue;
 
-use crate::clients::{ClientSet, Stream};
+use crate::clients::{Added, ClientSet, Stream};
 use crate::messages::OutLine;
 use crate::recorder::MessageTap;
 
@@ -44,7 +44,11 @@ pub struct Ethernet {
     guis: ClientSet,
     replies: Arc<MessageQueue<OutLine>>,
     registry: Option<FdRegistry>,
-    /// Connections refused because every slot was taken.
+    /// The TCP listener is out of the waiter after an accept failed (out of descriptors):
+    /// it is tried again on the period, so a failing accept cannot release the task in a
+    /// loop.
+    tcp_paused: bool,
+    /// Connections refused (their address may not connect, or no slot could be made free).
     pub refused: u64,
 }
 
@@ -65,6 +69,7 @@ impl Ethernet {
             guis,
             replies,
             registry: None,
+            tcp_paused: false,
             refused: 0,
         }
     }
@@ -94,19 +99,34 @@ impl Ethernet {
         Ok(self)
     }
 
-    fn accept(&mut self) {
+    fn accept(&mut self, period: bool) {
         if let Some(listener) = &self.tcp {
+            if self.tcp_paused && period {
+                if let Some(r) = &self.registry {
+                    self.tcp_paused = r.register(listener, TCP_LISTENER).is_err();
+                }
+            }
             loop {
                 match listener.accept() {
-                    Ok((stream, _)) => {
+                    Ok((stream, peer)) => {
                         let _ = stream.set_nonblocking(true);
                         let _ = stream.set_nodelay(true);
-                        if !self.hosts.add(Stream::Tcp(stream)) {
+                        let added = self.hosts.add(Stream::Tcp(stream), Some(peer.ip()));
+                        if added == Added::Refused {
                             self.refused += 1;
                         }
                     }
                     Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                    Err(_) => break,
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                    Err(_) => {
+                        // Out of descriptors (or memory): the connection stays in the
+                        // backlog, and the listener, still readable, would release the task
+                        // again at once. Leave it to the period until an accept succeeds.
+                        if let (Some(r), false) = (&self.registry, self.tcp_paused) {
+                            self.tcp_paused = r.deregister(listener).is_ok();
+                        }
+                        break;
+                    }
                 }
             }
         }
@@ -115,7 +135,7 @@ impl Ethernet {
                 match listener.accept() {
                     Ok((stream, _)) => {
                         let _ = stream.set_nonblocking(true);
-                        if !self.guis.add(Stream::Unix(stream)) {
+                        if self.guis.add(Stream::Unix(stream), None) == Added::Refused {
                             self.refused += 1;
                         }
                     }
@@ -137,7 +157,7 @@ impl Ethernet {
         // Without a registry (under virtual time) nothing marks a listener ready: every
         // cycle looks (a non-blocking accept).
         if period || listener_ready || self.registry.is_none() {
-            self.accept();
+            self.accept(period);
         }
         for set in [&mut self.hosts, &mut self.guis] {
             if period {
@@ -154,6 +174,7 @@ impl Ethernet {
         }
         for set in [&mut self.hosts, &mut self.guis] {
             if period {
+                set.close_idle();
                 set.status_stream();
                 set.flush();
             } else {

@@ -15,6 +15,7 @@ pub mod controller;
 pub mod error_check;
 pub mod ethernet;
 mod host;
+pub mod host_access;
 pub mod io_monitor;
 pub mod messages;
 pub mod pulse_generator;

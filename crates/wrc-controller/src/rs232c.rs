@@ -118,7 +118,7 @@ impl Rs232c {
         replies: Arc<MessageQueue<OutLine>>,
     ) -> Rs232c {
         if let Some(port) = port {
-            pendant.add(Stream::Serial(port));
+            pendant.add(Stream::Serial(port), None);
         }
         Rs232c { pendant, replies }
     }

@@ -507,9 +507,15 @@ impl SimClient {
     /// Read what the controller has written so far (non-blocking).
     fn fill(&mut self) -> Result<(), ClientError> {
         let mut buf = [0u8; 4096];
+        // The lines before the end are still delivered; the end is reported once they are
+        // read (the controller's last words, e.g. `EVT CLOSING`, come just before it).
+        let mut closed = false;
         loop {
             match self.stream.read(&mut buf) {
-                Ok(0) => return Err(ClientError::Closed),
+                Ok(0) => {
+                    closed = true;
+                    break;
+                }
                 Ok(n) => self.pending.extend_from_slice(&buf[..n]),
                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
@@ -520,6 +526,9 @@ impl SimClient {
             let line: Vec<u8> = self.pending.drain(..=end).collect();
             self.lines
                 .push_back(String::from_utf8_lossy(&line).trim_end().to_string());
+        }
+        if closed && self.lines.is_empty() {
+            return Err(ClientError::Closed);
         }
         Ok(())
     }

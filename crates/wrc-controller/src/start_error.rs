@@ -30,6 +30,10 @@ pub enum StartError {
         /// Why.
         reason: std::io::Error,
     },
+    /// The host port's admission: bound off loopback without saying who may connect, a
+    /// token file that cannot be used, too few file descriptors.
+    #[error("host port: {0}")]
+    Access(#[from] crate::host_access::AccessError),
     /// The serial port could not be used.
     #[error(transparent)]
     Serial(#[from] SerialError),

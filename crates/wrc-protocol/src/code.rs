@@ -57,6 +57,10 @@ pub enum Code {
     Malformed = 105,
     /// 106: an argument that is not a number is not one of the accepted words.
     BadArgument = 106,
+    /// 107: the connection may only monitor (read-only verbs) and the request acts.
+    MonitorOnly = 107,
+    /// 108: `AUTH` with a wrong token, or on a connection that cannot take control.
+    AuthFailed = 108,
     /// 110: the robot is not homed; send `HOME` first.
     NotHomed = 110,
     /// 111: the target is out of the arm's reach.
@@ -160,6 +164,8 @@ impl Code {
         Code::BadChecksum,
         Code::Malformed,
         Code::BadArgument,
+        Code::MonitorOnly,
+        Code::AuthFailed,
         Code::NotHomed,
         Code::OutOfReach,
         Code::JointLimit,
@@ -234,6 +240,8 @@ impl Code {
             Code::BadChecksum => "checksum mismatch",
             Code::Malformed => "malformed request",
             Code::BadArgument => "bad argument",
+            Code::MonitorOnly => "this connection may only monitor",
+            Code::AuthFailed => "wrong token",
             Code::NotHomed => "not homed; send HOME first",
             Code::OutOfReach => "target out of reach",
             Code::JointLimit => "target beyond a joint limit",
@@ -317,6 +325,8 @@ mod tests {
             (Code::BadChecksum, 104),
             (Code::Malformed, 105),
             (Code::BadArgument, 106),
+            (Code::MonitorOnly, 107),
+            (Code::AuthFailed, 108),
             (Code::NotHomed, 110),
             (Code::OutOfReach, 111),
             (Code::JointLimit, 112),

@@ -66,16 +66,16 @@ pub mod verb;
 pub use code::{Code, Severity};
 pub use line::{LineError, LineReader, MAX_LINE};
 pub use reply::{
-    reply_field, Event, HelpBody, IoBody, Num, ReplyBuf, ReplyKind, ReplyTo, StatusBody, WhereBody,
-    REPLY_CAPACITY,
+    reply_field, CloseReason, Event, HelpBody, IoBody, Num, ReplyBuf, ReplyKind, ReplyTo,
+    StatusBody, WhereBody, REPLY_CAPACITY,
 };
 pub use request::{
-    checksum, ArgumentCount, Arity, AxisArg, Command, ParseError, Parser, ProgramName, Rejected,
-    Request, StationName, Token, MAX_ID_DIGITS, OUTPUT_COUNT,
+    checksum, ArgumentCount, Arity, AuthToken, AxisArg, Command, ParseError, Parser, ProgramName,
+    Rejected, Request, StationName, Token, MAX_ID_DIGITS, OUTPUT_COUNT,
 };
 pub use sim_stream::{DecodeError, EncodeError, SimFrame};
 pub use state::State;
-pub use verb::{Verb, VerbSpec};
+pub use verb::{Access, Verb, VerbSpec};
 /// Re-exported from `wrc-cell` because `GET` and `PUT` carry one.
 pub use wrc_cell::Blade;
 /// Re-exported from `wrc-robot` because requests carry them.

@@ -410,6 +410,45 @@ pub enum Event<'a> {
     /// `EVT WAFER <place>=<tokens>`: one part of the wafer map, when `WAFERS` does not fit
     /// on one line (to the requester only).
     Wafer(&'a str),
+    /// `EVT CLOSING <reason> <text>`: the controller is about to close this connection (to
+    /// that connection only).
+    Closing {
+        /// Why.
+        reason: CloseReason,
+        /// What happened and what to do, e.g. `no request for 600 s; …`.
+        text: &'a str,
+    },
+}
+
+/// Why the controller closes a connection (`EVT CLOSING <reason> …`; docs/protocol.md
+/// "Connections").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CloseReason {
+    /// `IDLE`: no request within the idle timeout, and the connection holds no control.
+    Idle,
+    /// `FULL`: every connection slot is taken; the least recently active connection
+    /// without control makes room for a new one.
+    Full,
+    /// `ADDRESS`: its address has the most connections one address may hold; its least
+    /// recently active one without control makes room for a new one.
+    Address,
+    /// `DENIED`: its address may not connect.
+    Denied,
+    /// `AUTH`: too many wrong tokens.
+    Auth,
+}
+
+impl CloseReason {
+    /// The word written after `CLOSING`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CloseReason::Idle => "IDLE",
+            CloseReason::Full => "FULL",
+            CloseReason::Address => "ADDRESS",
+            CloseReason::Denied => "DENIED",
+            CloseReason::Auth => "AUTH",
+        }
+    }
 }
 
 impl Event<'_> {
@@ -428,6 +467,7 @@ impl Event<'_> {
             Event::Task(_) => "TASK",
             Event::Station(_) => "STATION",
             Event::Wafer(_) => "WAFER",
+            Event::Closing { .. } => "CLOSING",
         }
     }
 }
@@ -441,6 +481,7 @@ impl Display for Event<'_> {
             Event::Control { owner } => f.write_str(owner.unwrap_or("none")),
             Event::Status { status, position } => write!(f, "{status} {position}"),
             Event::Program { name, state } => write!(f, "{name} {state}"),
+            Event::Closing { reason, text } => write!(f, "{} {text}", reason.as_str()),
             Event::Print(text)
             | Event::Diag(text)
             | Event::Axis(text)
@@ -609,15 +650,22 @@ mod tests {
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
         assert!(text(&help).ends_with(
-            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP\n"
+            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP,AUTH\n"
         ));
     }
 
     #[test]
     fn events() {
         let mut out = ReplyBuf::new();
-        let cases: [(Event<'_>, &str); 6] = [
+        let cases: [(Event<'_>, &str); 7] = [
             (Event::State(State::Estop), "EVT STATE ESTOP\n"),
+            (
+                Event::Closing {
+                    reason: CloseReason::Idle,
+                    text: "no request for 600 s",
+                },
+                "EVT CLOSING IDLE no request for 600 s\n",
+            ),
             (
                 Event::Error {
                     code: Code::FollowingError,

@@ -169,6 +169,8 @@ pub enum Command {
     /// `TRACE SAVE [<name>]`: the trace file's name (a program-like name), or a name made
     /// from the time.
     TraceSave(Option<ProgramName>),
+    /// `AUTH <token>`: the control token, answered by the connection itself.
+    Auth(AuthToken),
 }
 
 impl Command {
@@ -213,6 +215,7 @@ impl Command {
             Command::Continue => Verb::Continue,
             Command::Abort => Verb::Abort,
             Command::Delete(_) => Verb::Delete,
+            Command::Auth(_) => Verb::Auth,
         }
     }
 }
@@ -220,6 +223,46 @@ impl Command {
 /// A stored program's name: 1 to 32 ASCII letters, digits, `_` or `-` (so also a safe file
 /// name), kept inline so requests never allocate.
 pub type ProgramName = wrc_robot::InlineName<32>;
+
+/// The control token of `AUTH`: 16 to 64 ASCII letters, digits, `_` or `-`, kept inline so
+/// requests never allocate. Its `Debug` form does not show it.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct AuthToken(wrc_robot::InlineName<64>);
+
+impl AuthToken {
+    /// Fewest characters in a token.
+    pub const MIN_LEN: usize = 16;
+
+    /// `text` as a token, if it is 16 to 64 letters, digits, `_` or `-`.
+    pub fn new(text: &str) -> Option<AuthToken> {
+        if text.len() < Self::MIN_LEN {
+            return None;
+        }
+        wrc_robot::InlineName::new(text).map(AuthToken)
+    }
+
+    /// The token's text.
+    pub fn as_str(&self) -> &str {
+        self.0.as_str()
+    }
+
+    /// Whether it equals `other`, in a time that depends on the lengths only (a wrong
+    /// guess does not say how many leading characters were right).
+    pub fn matches(&self, other: &AuthToken) -> bool {
+        let (a, b) = (self.as_str().as_bytes(), other.as_str().as_bytes());
+        let mut diff = u8::from(a.len() != b.len());
+        for (x, y) in a.iter().zip(b) {
+            diff |= x ^ y;
+        }
+        diff == 0
+    }
+}
+
+impl fmt::Debug for AuthToken {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("AuthToken(..)")
+    }
+}
 
 /// A station's name: 1-16 letters, digits, `_` or `-`, stored inline (no allocation).
 pub type StationName = wrc_robot::InlineName<16>;
@@ -444,6 +487,9 @@ pub enum ParseError {
     /// A checksum on a connection that does not take them.
     #[error("checksums are accepted on the serial port only")]
     ChecksumNotAccepted,
+    /// An `AUTH` token that is not 16-64 letters, digits, `_` or `-` (not echoed).
+    #[error("a token is 16-64 letters, digits, _ or -")]
+    BadToken,
 }
 
 impl ParseError {
@@ -468,7 +514,8 @@ impl ParseError {
             | ParseError::BadProgramName(_)
             | ParseError::BadTraceName(_)
             | ParseError::TraceAction(_)
-            | ParseError::BadStationName(_) => Code::BadArgument,
+            | ParseError::BadStationName(_)
+            | ParseError::BadToken => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::SlotNumber(_) => Code::SlotUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
@@ -743,6 +790,12 @@ impl Parser {
                         .map(|n| Command::TraceSave(Some(n)))
                         .ok_or_else(|| ParseError::BadTraceName(Token::new(word))),
                 }
+            }
+            Verb::Auth => {
+                args.exactly(1)?;
+                AuthToken::new(as_str(args.words[0]))
+                    .map(Command::Auth)
+                    .ok_or(ParseError::BadToken)
             }
             Verb::Stn => simple(Command::Stn),
             Verb::Teach => station_name(args).map(Command::Teach),
@@ -1049,6 +1102,36 @@ mod tests {
             assert_eq!(e.code(), Code::ArgumentCount);
             assert_eq!(e.to_string(), format!("{line} takes no arguments, got 1"));
         }
+    }
+
+    #[test]
+    fn auth_takes_one_token_and_never_echoes_a_bad_one() {
+        let r = ok("4 AUTH s3cret-token-0123456789");
+        let Command::Auth(token) = r.command else {
+            panic!("{r:?}");
+        };
+        assert_eq!(token.as_str(), "s3cret-token-0123456789");
+        assert!(
+            !format!("{r:?}").contains("s3cret"),
+            "Debug shows the token"
+        );
+        for bad in [
+            "AUTH short",
+            "AUTH s3cret.token.0123456789",
+            &format!("AUTH {}", "x".repeat(65)),
+        ] {
+            let e = err(bad);
+            assert_eq!(e.code(), Code::BadArgument, "{bad}");
+            assert!(
+                !e.to_string().contains("short") && !e.to_string().contains("s3cret"),
+                "{e}"
+            );
+        }
+        assert_eq!(err("AUTH").code(), Code::ArgumentCount);
+        assert_eq!(
+            err("AUTH a-token-of-16-chars b").code(),
+            Code::ArgumentCount
+        );
     }
 
     #[test]

@@ -84,6 +84,21 @@ pub enum Verb {
     Map,
     /// `SWAP`: at one slot, take its wafer with the empty blade and put the other blade's.
     Swap,
+    /// `AUTH`: present the control token on a connection from off the machine.
+    Auth,
+}
+
+/// What a verb does, which decides who may send it (docs/protocol.md "Connections").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Access {
+    /// It only reads: every connection may send it, a monitoring one included.
+    Read,
+    /// It acts without needing control (a stop, control itself, an upload): every
+    /// connection that may command, whoever holds control.
+    Act,
+    /// It moves the robot or changes its settings: refused (code 120) while another source
+    /// holds control.
+    Control,
 }
 
 /// What the controller needs to know about a verb, and what `HELP` and the docs say.
@@ -98,9 +113,17 @@ pub struct VerbSpec {
     /// The request runs in three phases: `ACK` when accepted, then `INF` when it finished
     /// normally or `ABS` when it ended abnormally.
     pub completes_later: bool,
+    /// Who may send it: [`Access::Control`] verbs are refused (code 120) while another
+    /// source holds control; a monitoring connection may send [`Access::Read`] verbs only.
+    pub access: Access,
+}
+
+impl VerbSpec {
     /// The request is refused (code 120) while another source holds control. `STOP`,
     /// `ESTOP` and queries are accepted from every source.
-    pub needs_control: bool,
+    pub fn needs_control(&self) -> bool {
+        self.access == Access::Control
+    }
 }
 
 impl Verb {
@@ -144,6 +167,7 @@ impl Verb {
         Verb::Put,
         Verb::Map,
         Verb::Swap,
+        Verb::Auth,
     ];
 
     /// The verb's table entry.
@@ -153,14 +177,14 @@ impl Verb {
             args: &'static str,
             summary: &'static str,
             completes_later: bool,
-            needs_control: bool,
+            access: Access,
         ) -> VerbSpec {
             VerbSpec {
                 name,
                 args,
                 summary,
                 completes_later,
-                needs_control,
+                access,
             }
         }
         match self {
@@ -169,122 +193,129 @@ impl Verb {
                 "",
                 "state, homed, speed, owner, last error",
                 false,
-                false,
+                Access::Read,
             ),
-            Verb::Where => v("WHERE", "", "joint positions and tool pose", false, false),
-            Verb::Home => v("HOME", "", "home every axis", true, true),
+            Verb::Where => v("WHERE", "", "joint positions and tool pose", false, Access::Read),
+            Verb::Home => v("HOME", "", "home every axis", true, Access::Control),
             Verb::MovJ => v(
                 "MOVJ",
                 "<j1> ... <jn>",
                 "joint PTP move [deg|mm]",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::MovP => v(
                 "MOVP",
                 "<x> <y> <z> <yaw> [L|R]",
                 "PTP move to a pose [mm, deg]",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::MovL => v(
                 "MOVL",
                 "<x> <y> <z> <yaw>",
                 "straight-line move to a pose [mm, deg]",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::Jog => v(
                 "JOG",
                 "<axis> <pulses>",
                 "move one axis [pulse]",
                 true,
-                true,
+                Access::Control,
             ),
-            Verb::Speed => v("SPEED", "<1-100>", "speed override [%]", false, true),
-            Verb::Stop => v("STOP", "", "controlled stop", false, false),
-            Verb::Estop => v("ESTOP", "", "emergency stop", false, false),
+            Verb::Speed => v("SPEED", "<1-100>", "speed override [%]", false, Access::Control),
+            Verb::Stop => v("STOP", "", "controlled stop", false, Access::Act),
+            Verb::Estop => v("ESTOP", "", "emergency stop", false, Access::Act),
             Verb::Hold => v(
                 "HOLD",
                 "",
                 "brake on the path and keep the motion (RESUME continues it)",
                 false,
-                false,
+                Access::Act,
             ),
             Verb::Resume => v(
                 "RESUME",
                 "",
                 "continue a held motion on its path to its target",
                 false,
-                true,
+                Access::Control,
             ),
-            Verb::Reset => v("RESET", "", "clear ERROR or ESTOP", false, true),
-            Verb::Io => v("IO", "", "input and output words", false, false),
-            Verb::Out => v("OUT", "<n> 0|1", "set output n", false, true),
-            Verb::Wait => v("WAIT", "", "INF when the robot stands still", true, false),
-            Verb::Control => v("CONTROL", "", "take control", false, false),
-            Verb::Release => v("RELEASE", "", "give control back", false, false),
-            Verb::Help => v("HELP", "", "list the verbs", false, false),
-            Verb::Subscribe => v("SUBSCRIBE", "", "start the status stream", false, false),
-            Verb::Unsubscribe => v("UNSUBSCRIBE", "", "stop the status stream", false, false),
+            Verb::Reset => v("RESET", "", "clear ERROR or ESTOP", false, Access::Control),
+            Verb::Io => v("IO", "", "input and output words", false, Access::Read),
+            Verb::Out => v("OUT", "<n> 0|1", "set output n", false, Access::Control),
+            Verb::Wait => v("WAIT", "", "INF when the robot stands still", true, Access::Read),
+            Verb::Control => v("CONTROL", "", "take control", false, Access::Act),
+            Verb::Release => v("RELEASE", "", "give control back", false, Access::Act),
+            Verb::Help => v("HELP", "", "list the verbs", false, Access::Read),
+            Verb::Subscribe => v("SUBSCRIBE", "", "start the status stream", false, Access::Read),
+            Verb::Unsubscribe => v("UNSUBSCRIBE", "", "stop the status stream", false, Access::Read),
             Verb::Upload => v(
                 "UPLOAD",
                 "<name>",
                 "store a program: its lines follow, then a line \".\"",
                 false,
-                false,
+                Access::Act,
             ),
-            Verb::Programs => v("PROGRAMS", "", "list the stored programs", false, false),
-            Verb::Run => v("RUN", "<name>", "run a stored program", true, true),
-            Verb::Pause => v("PAUSE", "", "pause the running program", false, true),
-            Verb::Continue => v("CONTINUE", "", "continue a paused program", false, true),
-            Verb::Abort => v("ABORT", "", "end the running program", false, false),
-            Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, true),
-            Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, false),
-            Verb::Tasks => v("TASKS", "", "the real-time tasks' timing", false, false),
+            Verb::Programs => v("PROGRAMS", "", "list the stored programs", false, Access::Read),
+            Verb::Run => v("RUN", "<name>", "run a stored program", true, Access::Control),
+            Verb::Pause => v("PAUSE", "", "pause the running program", false, Access::Control),
+            Verb::Continue => v("CONTINUE", "", "continue a paused program", false, Access::Control),
+            Verb::Abort => v("ABORT", "", "end the running program", false, Access::Act),
+            Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, Access::Control),
+            Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, Access::Read),
+            Verb::Tasks => v("TASKS", "", "the real-time tasks' timing", false, Access::Read),
             Verb::Trace => v(
                 "TRACE",
                 "SAVE [<name>]",
                 "save the trace recorder's last seconds to a file",
                 false,
-                false,
+                Access::Act,
             ),
-            Verb::Stn => v("STN", "", "list the stations", false, false),
+            Verb::Stn => v("STN", "", "list the stations", false, Access::Read),
             Verb::Teach => v(
                 "TEACH",
                 "<station>",
                 "store the current pose as the station's taught pose",
                 false,
-                true,
+                Access::Control,
             ),
-            Verb::Wafers => v("WAFERS", "", "where every wafer is", false, false),
+            Verb::Wafers => v("WAFERS", "", "where every wafer is", false, Access::Read),
             Verb::Get => v(
                 "GET",
                 "<station> <slot> [A|B]",
                 "take the wafer in a station slot onto the hand (or blade A or B)",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::Put => v(
                 "PUT",
                 "<station> <slot> [A|B]",
                 "put the hand's (or blade A's or B's) wafer into a station slot",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::Map => v(
                 "MAP",
                 "<station>",
                 "scan a station's slots with the mapping sensor",
                 true,
-                true,
+                Access::Control,
             ),
             Verb::Swap => v(
                 "SWAP",
                 "<station> <slot>",
                 "dual-blade robot: take the slot's wafer with the empty blade, put the other blade's there",
                 true,
-                true,
+                Access::Control,
+            ),
+            Verb::Auth => v(
+                "AUTH",
+                "<token>",
+                "present the control token (connections from off the machine)",
+                false,
+                Access::Read,
             ),
         }
     }

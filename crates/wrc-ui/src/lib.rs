@@ -17,6 +17,7 @@
 //!     controller: Endpoint::parse("/tmp/wrc/wrc.sock").expect("a socket path"),
 //!     sim_addr: Some("127.0.0.1:7200".parse().unwrap()),
 //!     token: None,
+//!     controller_token: None,
 //!     web_dir: None,
 //! })
 //! .expect("starts");
@@ -60,6 +61,9 @@ pub struct Options {
     pub sim_addr: Option<SocketAddr>,
     /// Token every WebSocket must present (`?token=`); required off loopback.
     pub token: Option<String>,
+    /// The controller's control token, sent as `AUTH <token>` on each TCP connection to it
+    /// (a controller bound off loopback with `[host] token_file`); `None`: not sent.
+    pub controller_token: Option<String>,
     /// Serve the app from this folder instead of the embedded one.
     pub web_dir: Option<PathBuf>,
 }
@@ -106,6 +110,7 @@ type NoteSink = Box<dyn Fn(&str) + Send>;
 /// State shared by the server's tasks and sessions.
 pub struct Hub {
     endpoint: Endpoint,
+    controller_token: Option<String>,
     /// Set once: stop serving.
     stop: watch::Sender<bool>,
     /// Browsers connected now.
@@ -210,6 +215,7 @@ impl Ui {
         let assets = Assets::locate(options.web_dir.as_deref());
         let hub = Arc::new(Hub {
             endpoint: options.controller.clone(),
+            controller_token: options.controller_token.clone(),
             stop: watch::channel(false).0,
             sessions: AtomicUsize::new(0),
             sim: broadcast::channel(SIM_QUEUE).0,
@@ -470,6 +476,7 @@ mod tests {
             controller: Endpoint::parse("127.0.0.1:1").unwrap(),
             sim_addr: None,
             token: None,
+            controller_token: None,
             web_dir: None,
         };
         assert!(matches!(

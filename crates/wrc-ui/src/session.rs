@@ -60,7 +60,32 @@ impl Endpoint {
         }
     }
 
-    async fn connect(&self) -> io::Result<Link> {
+    /// Connect; on TCP with `token`, present it (`AUTH`) and wait for the controller's
+    /// answer, so a refused token is an error here and its reply never reaches the browser.
+    async fn connect(&self, token: Option<&str>) -> io::Result<Link> {
+        let mut link = self.open().await?;
+        if let (Endpoint::Tcp(_), Some(token)) = (self, token) {
+            link.write
+                .write_all(format!("AUTH {token}\n").as_bytes())
+                .await?;
+            loop {
+                let Some(line) = link.lines.next_line().await? else {
+                    return Err(io::Error::other("the controller closed the connection"));
+                };
+                if line.starts_with("ACK") {
+                    break;
+                }
+                if line.starts_with("NAK") {
+                    return Err(io::Error::other(format!(
+                        "the controller refused the control token: {line}"
+                    )));
+                }
+            }
+        }
+        Ok(link)
+    }
+
+    async fn open(&self) -> io::Result<Link> {
         let (read, write): (Reader, Writer) = match self {
             Endpoint::Unix(path) => {
                 let (r, w) = UnixStream::connect(path).await?.into_split();
@@ -132,7 +157,7 @@ pub async fn run(socket: WebSocket, hub: Arc<Hub>) {
         loop {
             tokio::select! {
                 () = crate::stopped(&mut stop) => return Ok(()),
-                _ = retry.tick(), if link.is_none() => match endpoint.connect().await {
+                _ = retry.tick(), if link.is_none() => match endpoint.connect(hub.controller_token.as_deref()).await {
                     Ok(l) => {
                         link = Some(l);
                         told_down = false;

@@ -751,7 +751,11 @@ impl Flood {
 
 /// Run `wrc bench controller`.
 pub fn run(args: ControllerArgs) -> anyhow::Result<ExitCode> {
-    let config = Config::embedded_default();
+    let mut config = Config::embedded_default();
+    // The flood's clients all come from 127.0.0.1: one address may hold every connection, or
+    // each new client would close the least recently active one (docs/protocol.md
+    // "Connections").
+    config.host.max_per_address = config.host.max_connections;
     let realtime = if args.no_rt {
         RealtimeMode::Off
     } else {

@@ -22,6 +22,10 @@ pub struct RunArgs {
     /// Controller address: HOST:PORT for TCP, or the path of the local Unix socket.
     #[arg(long, default_value = "127.0.0.1:7100")]
     addr: String,
+    /// The controller's control token file (its `[host] token_file`), presented with AUTH
+    /// before the upload on TCP.
+    #[arg(long, value_name = "FILE")]
+    token_file: Option<PathBuf>,
     /// Robot configuration to check the program against here (the controller checks it
     /// again with its own); default: the embedded paper robot.
     #[arg(long, value_name = "FILE")]
@@ -171,8 +175,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Ok(checked) => checked,
         Err(code) => return Ok(code),
     };
-    let (mut reader, mut writer) =
-        crate::connection::connect(&args.addr, Duration::from_secs_f64(args.timeout))?;
+    let (mut reader, mut writer) = crate::connection::connect(
+        &args.addr,
+        Duration::from_secs_f64(args.timeout),
+        args.token_file.as_deref(),
+    )?;
     writer.write_all(checked.upload.as_bytes())?;
     writer.flush()?;
 

@@ -16,6 +16,10 @@ pub struct SendArgs {
     /// Controller address: HOST:PORT for TCP, or the path of the local Unix socket.
     #[arg(long, default_value = "127.0.0.1:7100")]
     addr: String,
+    /// The controller's control token file (its `[host] token_file`), presented with AUTH
+    /// before the command on TCP.
+    #[arg(long, value_name = "FILE")]
+    token_file: Option<std::path::PathBuf>,
     /// Give up after this long without the final reply [s].
     #[arg(long, default_value_t = 120.0)]
     timeout: f64,
@@ -48,7 +52,8 @@ pub fn run(args: SendArgs) -> anyhow::Result<ExitCode> {
     let completes_later = verb.is_some_and(|v| v.spec().completes_later);
 
     let timeout = Duration::from_secs_f64(args.timeout);
-    let (reader, mut writer) = crate::connection::connect(&args.addr, timeout)?;
+    let (reader, mut writer) =
+        crate::connection::connect(&args.addr, timeout, args.token_file.as_deref())?;
     writer.write_all(format!("{line}\n").as_bytes())?;
     writer.flush()?;
     for reply in reader.lines() {

@@ -44,7 +44,8 @@ pub struct ReplayArgs {
 
 /// Run `wrc trace save`.
 pub fn save(args: SaveArgs) -> anyhow::Result<ExitCode> {
-    let (mut reader, mut writer) = crate::connection::connect(&args.addr, Duration::from_secs(30))?;
+    let (mut reader, mut writer) =
+        crate::connection::connect(&args.addr, Duration::from_secs(30), None)?;
     let request = match &args.name {
         Some(name) => format!("1 TRACE SAVE {name}\n"),
         None => "1 TRACE SAVE\n".to_string(),

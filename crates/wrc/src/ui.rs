@@ -36,6 +36,11 @@ pub struct UiArgs {
         hide_env_values = true
     )]
     token: Option<String>,
+    /// The controller's control token file (its `[host] token_file`): each browser's TCP
+    /// connection to the controller presents it with AUTH, so the GUI may command a
+    /// controller that asks for it.
+    #[arg(long, value_name = "FILE")]
+    controller_token_file: Option<PathBuf>,
     /// Serve the app from this folder (a `web/dist` build) instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     web_dir: Option<PathBuf>,
@@ -46,7 +51,16 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
     let mut signals = crate::up::termination_signals()?;
     let listen = SocketAddr::new(args.listen, args.ui_port);
     let controller = Endpoint::parse(&args.controller)?;
+    let controller_token = match &args.controller_token_file {
+        Some(file) => Some(
+            wrc_controller::host_access::read_token(file)?
+                .as_str()
+                .to_string(),
+        ),
+        None => None,
+    };
     let ui = Ui::start(Options {
+        controller_token,
         listen,
         controller: controller.clone(),
         sim_addr: (!args.no_sim).then_some(args.sim_addr),

@@ -48,9 +48,23 @@ pub struct UpArgs {
     /// starting simulated boards; once per board, in configuration order.
     #[arg(long, value_name = "PATH")]
     board: Vec<PathBuf>,
-    /// Host protocol TCP address.
+    /// Host protocol TCP address. Off loopback (e.g. 0.0.0.0:7100) the configuration or
+    /// --allow/--monitor/--token-file must say who may use it (docs/protocol.md
+    /// "Connections").
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7100")]
     port: SocketAddr,
+    /// An address or network that may connect and command (adds to [host] allow;
+    /// repeatable), e.g. 192.168.1.20 or 192.168.1.0/24.
+    #[arg(long, value_name = "ADDR[/LEN]", value_parser = net)]
+    allow: Vec<wrc_config::IpNet>,
+    /// An address or network that may connect to monitor only (adds to [host] monitor;
+    /// repeatable).
+    #[arg(long, value_name = "ADDR[/LEN]", value_parser = net)]
+    monitor: Vec<wrc_config::IpNet>,
+    /// The file holding the control token ([host] token_file): connections from off the
+    /// machine command only after AUTH <token>.
+    #[arg(long, value_name = "FILE")]
+    token_file: Option<PathBuf>,
     /// Simulator datagrams go to this UDP address.
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:7200")]
     sim_addr: SocketAddr,
@@ -411,9 +425,24 @@ pub enum SerialParity {
     Odd,
 }
 
+/// An address or network of `--allow`/`--monitor`.
+fn net(text: &str) -> Result<wrc_config::IpNet, String> {
+    wrc_config::parse_net(text).ok_or_else(|| {
+        format!("{text:?} is not an address or a network (e.g. 192.168.1.20, 10.1.0.0/16)")
+    })
+}
+
 /// Run `wrc up`.
 pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     let mut config = Config::load(args.config.as_deref())?;
+    config.host.allow.extend(&args.allow);
+    config.host.monitor.extend(&args.monitor);
+    if let Some(file) = &args.token_file {
+        config.host.token_file = Some(file.clone());
+    }
+    // Before any board starts: a port the network can reach needs someone to say who may
+    // use it.
+    wrc_controller::host_access::check_exposure(args.port, &config.host)?;
     let parity = match args.parity {
         SerialParity::None => Parity::None,
         SerialParity::Even => Parity::Even,

@@ -52,7 +52,7 @@ pub(super) fn is_motion(command: &Command) -> bool {
 /// motion: a wafer job or a program owns the arm, ERROR, ESTOP, a stop or a HOLD under way,
 /// a held motion (RESUME or STOP first), not homed (HOME excepted).
 pub(super) fn admit(command: &Command, s: &Situation) -> Result<(), Refused> {
-    if command.verb().spec().needs_control && s.owner != SourceId::NONE && s.owner != s.acting {
+    if command.verb().spec().needs_control() && s.owner != SourceId::NONE && s.owner != s.acting {
         return Err(Refused::ControlHeld(s.owner));
     }
     if !is_motion(command) {

@@ -6,6 +6,7 @@ mod board_liveness;
 mod error_check;
 mod estop_input;
 mod ethernet;
+mod host_access;
 mod motion;
 mod pipeline;
 mod sessions;

@@ -559,6 +559,7 @@ fn every_verb_is_carried_out_by_someone() {
             "PUT" => "PUT PM1 1 B",
             "MAP" => "MAP PM1",
             "SWAP" => "SWAP PM1 1",
+            "AUTH" => "AUTH s3cret-token-0123456789",
             "STATUS" | "WHERE" | "HOME" | "STOP" | "ESTOP" | "HOLD" | "RESUME" | "RESET" | "IO"
             | "WAIT" | "CONTROL" | "RELEASE" | "HELP" | "SUBSCRIBE" | "UNSUBSCRIBE"
             | "PROGRAMS" | "PAUSE" | "CONTINUE" | "ABORT" | "ROBOT" | "TASKS" | "STN"

@@ -781,3 +781,145 @@ fn a_killed_board_restarts_with_restart_boards_and_reset_reattaches_it() {
     }
     assert_eq!(host.motion(5, "MOVJ 0 90 0 10"), "INF 5");
 }
+
+/// Raise this process's descriptor limit to its hard limit; the descriptors it may open then.
+fn descriptors_allowed() -> u64 {
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: get/setrlimit read and write the struct they are given, alive for each call.
+    unsafe {
+        assert_eq!(libc::getrlimit(libc::RLIMIT_NOFILE, &mut limit), 0);
+        limit.rlim_cur = limit.rlim_max;
+        libc::setrlimit(libc::RLIMIT_NOFILE, &limit);
+        libc::getrlimit(libc::RLIMIT_NOFILE, &mut limit);
+    }
+    limit.rlim_cur
+}
+
+#[test]
+fn a_flood_of_idle_connections_cannot_lock_out_a_new_clients_status_and_estop() {
+    // 1,500 idle connections (fewer only where this process may not open that many) against
+    // the default limits: 256 connections, 64 per address.
+    let flood_size = 1500.min(descriptors_allowed().saturating_sub(200) as usize);
+    assert!(
+        flood_size > 300,
+        "too few descriptors to flood: {flood_size}"
+    );
+    let c = Controller::start(&[]);
+    let mut host = c.client();
+    assert_eq!(host.motion(1, "HOME"), "INF 1");
+    let flood: Vec<TcpStream> = (0..flood_size)
+        .map(|_| TcpStream::connect(("127.0.0.1", c.port)).unwrap())
+        .collect();
+    // The host that was there before the flood spoke before it: it was among the least
+    // recently active and has been closed to make room (its address held 64).
+    let mut late = c.client();
+    assert!(
+        late.ask("2 STATUS").starts_with("ACK 2 state=IDLE"),
+        "{:?}",
+        late.seen
+    );
+    assert_eq!(late.ask("3 ESTOP"), "ACK 3");
+    late.wait_state("ESTOP");
+    // The first flood connections were told why they were closed.
+    let mut first = BufReader::new(&flood[0]);
+    first
+        .get_ref()
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    let mut line = String::new();
+    first.read_line(&mut line).unwrap();
+    assert!(
+        line.starts_with("EVT CLOSING ADDRESS 127.0.0.1 holds 64 connections"),
+        "{line}"
+    );
+    assert_eq!(late.ask("4 RESET"), "ACK 4");
+    assert!(late.status().contains("state=IDLE"), "{:?}", late.seen);
+    let told = loop {
+        let l = host.line();
+        if l.is_empty() {
+            break false;
+        }
+        if l.starts_with("EVT CLOSING ADDRESS ") {
+            break true;
+        }
+    };
+    assert!(told, "{:?}", host.seen);
+}
+
+#[test]
+fn a_host_port_off_loopback_needs_an_allow_list_or_a_token() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["up", "--no-rt", "--no-ui"])
+        .args(["--port", &format!("0.0.0.0:{}", free_port())])
+        .args(["--sim-addr", &format!("127.0.0.1:{}", free_udp_port())])
+        .arg("--state-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("reachable from the network") && stderr.contains("[host] allow"),
+        "{stderr}"
+    );
+    assert!(
+        wrc_processes_in(dir.path()).is_empty(),
+        "a refused start left processes behind"
+    );
+}
+
+#[test]
+fn a_control_token_file_must_be_private_and_wrc_send_presents_it() {
+    use std::os::unix::fs::PermissionsExt;
+    let keys = tempfile::tempdir().unwrap();
+    let token = keys.path().join("host.token");
+    std::fs::write(&token, "s3cret-token-0123456789\n").unwrap();
+    std::fs::set_permissions(&token, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["up", "--no-rt", "--no-ui"])
+        .args(["--port", &format!("127.0.0.1:{}", free_port())])
+        .args(["--sim-addr", &format!("127.0.0.1:{}", free_udp_port())])
+        .arg("--token-file")
+        .arg(&token)
+        .arg("--state-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("chmod 600"),
+        "{stderr}"
+    );
+
+    std::fs::set_permissions(&token, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let c = Controller::start(&["--token-file", token.to_str().unwrap()]);
+    let send = |token_file: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_wrc"))
+            .args(["send", "--addr", &format!("127.0.0.1:{}", c.port)])
+            .arg("--token-file")
+            .arg(token_file)
+            .arg("STATUS")
+            .output()
+            .unwrap()
+    };
+    let good = send(&token);
+    assert!(
+        good.status.success() && String::from_utf8_lossy(&good.stdout).starts_with("ACK state="),
+        "{good:?}"
+    );
+    let wrong = keys.path().join("wrong.token");
+    std::fs::write(&wrong, "wrong-token-0123456789\n").unwrap();
+    std::fs::set_permissions(&wrong, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let refused = send(&wrong);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success()
+            && stderr.contains("refused the control token: NAK 108 wrong token"),
+        "{refused:?}"
+    );
+}

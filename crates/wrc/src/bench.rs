@@ -41,6 +41,10 @@ enum BenchWhat {
     /// seconds per GET and PUT, moving vs waiting, and each transfer against the
     /// time-optimal time of its path (virtual time; `--real-time` on `wrc up`).
     Cell(crate::bench_cell::CellArgs),
+    /// A sustained run of `wrc up` under random valid and invalid requests from several
+    /// clients while the robot moves: no crash, every request answered, no descriptor or
+    /// memory left behind, the Pulse Generator's jitter at the end as at the start.
+    Soak(crate::bench_soak::SoakArgs),
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
     Ui(crate::bench_ui::UiBenchArgs),
@@ -80,6 +84,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Motion(args) => crate::bench_motion::run(args),
         BenchWhat::Stop(args) => crate::bench_stop::run(args),
         BenchWhat::Cell(args) => crate::bench_cell::run(args),
+        BenchWhat::Soak(args) => crate::bench_soak::run(args),
     }
 }
 

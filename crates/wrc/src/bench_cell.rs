@@ -19,11 +19,12 @@
 //!   vacuum change. A blended transfer may come under 1. A `SWAP`'s reference is its GET's
 //!   and its PUT's, each with its blade's height offset.
 
+use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitCode, Stdio};
-use std::time::{Duration, Instant};
+use std::process::ExitCode;
+use std::time::Duration;
 
 use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
@@ -36,6 +37,8 @@ use wrc_motion::reference::line_bound;
 use wrc_motion::DoubleS;
 use wrc_robot::{Joints, Posture, MAX_AXES};
 use wrc_trace::{Direction, TraceFile};
+
+use crate::up_process::UpProcess;
 
 /// Arguments of `wrc bench cell`.
 #[derive(Debug, Args)]
@@ -214,68 +217,20 @@ fn ends(line: &str, id: u32) -> bool {
 
 /// The real-time controller: `wrc up` in its own state directory, over TCP.
 struct RealTime {
-    child: Child,
     reader: BufReader<TcpStream>,
     writer: TcpStream,
-}
-
-impl Drop for RealTime {
-    fn drop(&mut self) {
-        crate::up::stop_children(std::slice::from_mut(&mut self.child));
-    }
+    _up: UpProcess,
 }
 
 impl RealTime {
     fn start(dir: &Path, config: &Path) -> anyhow::Result<RealTime> {
-        let port = std::net::TcpListener::bind("127.0.0.1:0")?
-            .local_addr()?
-            .port();
-        let sim = std::net::UdpSocket::bind("127.0.0.1:0")?.local_addr()?;
-        let child = Command::new(std::env::current_exe()?)
-            .args(["up", "--no-ui", "--config"])
-            .arg(config)
-            .args(["--port", &format!("127.0.0.1:{port}")])
-            .args(["--sim-addr", &sim.to_string()])
-            .arg("--state-dir")
-            .arg(dir)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .context("cannot start wrc up")?;
-        let mut child = Some(child);
-        let began = Instant::now();
-        let stream = loop {
-            match TcpStream::connect(("127.0.0.1", port)) {
-                Ok(s) => break s,
-                Err(_) if began.elapsed() < Duration::from_secs(30) => {
-                    std::thread::sleep(Duration::from_millis(50))
-                }
-                Err(e) => {
-                    if let Some(mut c) = child.take() {
-                        crate::up::stop_children(std::slice::from_mut(&mut c));
-                    }
-                    bail!("wrc up did not open its port within 30 s: {e}")
-                }
-            }
-        };
-        let mut child = child.take().expect("started");
-        // From here on a failure stops the controller before it is reported.
-        let configured = (|| -> std::io::Result<TcpStream> {
-            stream.set_read_timeout(Some(Duration::from_secs_f64(PATIENCE_S)))?;
-            stream.set_nodelay(true)?;
-            stream.try_clone()
-        })();
-        match configured {
-            Ok(reader) => Ok(RealTime {
-                child,
-                reader: BufReader::new(reader),
-                writer: stream,
-            }),
-            Err(e) => {
-                crate::up::stop_children(std::slice::from_mut(&mut child));
-                Err(e.into())
-            }
-        }
+        let up = UpProcess::start(dir, &[OsStr::new("--config"), config.as_os_str()])?;
+        let writer = up.connect(Duration::from_secs_f64(PATIENCE_S))?;
+        Ok(RealTime {
+            reader: BufReader::new(writer.try_clone()?),
+            writer,
+            _up: up,
+        })
     }
 
     fn line(&mut self) -> anyhow::Result<String> {

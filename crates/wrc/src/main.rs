@@ -5,6 +5,7 @@ mod bench_cell;
 mod bench_controller;
 mod bench_motion;
 mod bench_rt;
+mod bench_soak;
 mod bench_stop;
 mod bench_ui;
 mod board_sim;
@@ -20,6 +21,7 @@ mod trace;
 mod trace_replay;
 mod ui;
 mod up;
+mod up_process;
 
 /// The unit tests count heap allocations per thread (`bench_rt`'s zero-allocation test).
 #[cfg(test)]

@@ -8,6 +8,7 @@ mod lines;
 mod plan;
 mod program;
 mod sim;
+mod soak;
 mod stations;
 mod trace;
 mod ui;

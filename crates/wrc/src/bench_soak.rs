@@ -1,0 +1,668 @@
+//! `wrc bench soak`: a sustained run of `wrc up` under random valid and invalid requests from
+//! several clients while the robot moves, watching for what only a long run reveals: a
+//! crash, a request left unanswered, descriptors or memory that grow, real-time jitter that
+//! drifts.
+//!
+//! One client holds control and keeps the robot moving (random joint moves within 90 % of
+//! each axis's range, straight lines to random poses — some refused, as they must be — speed
+//! changes; it resumes a motion another client held and resets after an E-stop). The others
+//! send, every 5 to 45 ms at random, queries (65.5 %), invalid lines (25 %: unknown verbs,
+//! bad numbers and arguments, non-ASCII bytes, over-long lines, checksums on TCP), `CONTROL`
+//! (4 %, refused: the mover holds it), `HOLD` and `STOP` (0.2 % each), `ESTOP` (0.02 %), and
+//! reconnect (5 %). Every request carries an id
+//! and must be answered within [`REPLY_S`]; an invalid line must get exactly one `NAK`
+//! before the reply to the request sent after it.
+//!
+//! Figures: requests and replies, motions ended (`INF`, `ABS` by code, refusals by code), the
+//! controller's resident memory after the warm-up (the first tenth of the run) and at the end,
+//! its open descriptors before the clients connect and after they have gone, and the Pulse
+//! Generator's wake-up latency p99 in the first and the last tenth of the run (from the
+//! `TASKS` latency histograms). It passes when the controller runs to the end, every request
+//! was answered as the protocol says, no descriptor is left over, and its memory grew by at
+//! most [`RSS_SLACK_KIB`] KiB or [`RSS_SLACK_PCT`] %.
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use clap::Args;
+use serde_json::json;
+use wrc_config::Config;
+use wrc_robot::{Joints, MAX_AXES};
+
+use crate::up_process::UpProcess;
+
+/// How long a request may wait for its reply, and a motion for its end [s].
+const REPLY_S: u64 = 10;
+/// How long a motion may take from its `ACK` to its `INF`/`ABS` [s].
+const MOTION_S: u64 = 120;
+/// Resident-memory growth allowed from the warm-up to the end [KiB] …
+const RSS_SLACK_KIB: u64 = 4096;
+/// … or [%] of the warm-up figure, whichever is larger.
+const RSS_SLACK_PCT: u64 = 10;
+
+/// Arguments of `wrc bench soak`.
+#[derive(Debug, Args)]
+pub struct SoakArgs {
+    /// How long the clients run [s].
+    #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u64).range(5..=86_400))]
+    seconds: u64,
+    /// Clients at once: one moves the robot, the others send random requests.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=32))]
+    clients: u32,
+    /// Seed of the random requests (the same seed sends the same requests).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Run the controller without SCHED_FIFO.
+    #[arg(long)]
+    no_rt: bool,
+    /// Write every figure as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+}
+
+/// One connection; its lines arrive through a reader thread, so waits have a deadline.
+struct Conn {
+    writer: TcpStream,
+    lines: Receiver<String>,
+}
+
+impl Conn {
+    fn open(up: &UpProcess) -> anyhow::Result<Conn> {
+        let writer = up.connect(Duration::from_secs(3600))?;
+        let mut reader = BufReader::new(writer.try_clone()?);
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || loop {
+            let mut line = String::new();
+            match reader.read_line(&mut line) {
+                Ok(n) if n > 0 => {
+                    if tx.send(line.trim_end().to_string()).is_err() {
+                        return;
+                    }
+                }
+                _ => return,
+            }
+        });
+        Ok(Conn { writer, lines })
+    }
+
+    fn send(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
+        self.writer.write_all(bytes)?;
+        self.writer.write_all(b"\n")?;
+        Ok(())
+    }
+
+    /// The next line before `deadline`; `None` when none came.
+    fn line(&mut self, deadline: Instant) -> anyhow::Result<Option<String>> {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match self.lines.recv_timeout(left) {
+            Ok(l) => Ok(Some(l)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => bail!("the controller closed the connection"),
+        }
+    }
+
+    /// Send `line` with `id`; its `ACK`/`NAK`, the `NAK`s without that id that came before
+    /// it (answers to invalid lines), and the lines without an id of the reply (`EVT TASK`).
+    fn ask(&mut self, id: u32, line: &str) -> anyhow::Result<Asked> {
+        self.send(format!("{id} {line}").as_bytes())?;
+        self.reply(id)
+    }
+
+    fn reply(&mut self, id: u32) -> anyhow::Result<Asked> {
+        let deadline = Instant::now() + Duration::from_secs(REPLY_S);
+        let mut asked = Asked::default();
+        let id_text = id.to_string();
+        while let Some(l) = self.line(deadline)? {
+            let mut words = l.split(' ');
+            let kind = words.next().unwrap_or("");
+            let its = words.next() == Some(id_text.as_str());
+            match kind {
+                "ACK" | "NAK" if its => {
+                    asked.reply = Some(l);
+                    return Ok(asked);
+                }
+                "NAK" => asked.other_naks += 1,
+                _ => asked.lines.push(l),
+            }
+        }
+        Ok(asked)
+    }
+
+    /// The `INF`/`ABS` of motion `id`, resuming it when another client held it; `None` when
+    /// it did not end within [`MOTION_S`].
+    fn motion_end(&mut self, id: u32, ids: &mut u32) -> anyhow::Result<Option<String>> {
+        let deadline = Instant::now() + Duration::from_secs(MOTION_S);
+        let id_text = id.to_string();
+        while Instant::now() < deadline {
+            let probe = Instant::now() + Duration::from_secs(1);
+            match self.line(probe.min(deadline))? {
+                Some(l) => {
+                    let mut words = l.split(' ');
+                    if matches!(words.next(), Some("INF" | "ABS"))
+                        && words.next() == Some(id_text.as_str())
+                    {
+                        return Ok(Some(l));
+                    }
+                }
+                None => {
+                    // Quiet for a second: held by another client's HOLD?
+                    *ids += 1;
+                    let status = self.ask(*ids, "STATUS")?;
+                    if let Some(reply) = &status.reply {
+                        if reply.contains("state=HELD") {
+                            *ids += 1;
+                            self.ask(*ids, "RESUME")?;
+                        }
+                    }
+                    for l in status.lines {
+                        let mut words = l.split(' ');
+                        if matches!(words.next(), Some("INF" | "ABS"))
+                            && words.next() == Some(id_text.as_str())
+                        {
+                            return Ok(Some(l));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(None)
+    }
+}
+
+impl Drop for Conn {
+    fn drop(&mut self) {
+        // The reader thread holds the other handle: end the connection for both.
+        let _ = self.writer.shutdown(std::net::Shutdown::Both);
+    }
+}
+
+/// What [`Conn::ask`] saw.
+#[derive(Default)]
+struct Asked {
+    /// The request's `ACK`/`NAK`; `None` when it did not come in time.
+    reply: Option<String>,
+    /// `NAK`s for other lines that came first.
+    other_naks: u32,
+    /// Other lines (events, `EVT TASK`, ends of motions) that came first.
+    lines: Vec<String>,
+}
+
+/// What the clients did.
+#[derive(Default, Debug, Clone)]
+struct Tally {
+    requests: u64,
+    replies: u64,
+    invalid_lines: u64,
+    /// Requests (or invalid lines) not answered as the protocol says.
+    unanswered: u64,
+    wrong: Vec<String>,
+    motions: u64,
+    inf: u64,
+    abs: BTreeMap<String, u64>,
+    refused: BTreeMap<String, u64>,
+    reconnects: u64,
+    estops: u64,
+}
+
+impl Tally {
+    fn merge(&mut self, o: Tally) {
+        self.requests += o.requests;
+        self.replies += o.replies;
+        self.invalid_lines += o.invalid_lines;
+        self.unanswered += o.unanswered;
+        self.wrong.extend(o.wrong);
+        self.motions += o.motions;
+        self.inf += o.inf;
+        for (k, v) in o.abs {
+            *self.abs.entry(k).or_default() += v;
+        }
+        for (k, v) in o.refused {
+            *self.refused.entry(k).or_default() += v;
+        }
+        self.reconnects += o.reconnects;
+        self.estops += o.estops;
+    }
+
+    fn problem(&mut self, what: String) {
+        self.unanswered += 1;
+        if self.wrong.len() < 10 {
+            self.wrong.push(what);
+        }
+    }
+
+    /// Count the reply of a request; `false` when none came.
+    fn answered(&mut self, line: &str, asked: &Asked) -> bool {
+        self.requests += 1;
+        match &asked.reply {
+            Some(_) => {
+                self.replies += 1;
+                true
+            }
+            None => {
+                self.problem(format!("no reply to {line:?} within {REPLY_S} s"));
+                false
+            }
+        }
+    }
+}
+
+/// The code of a `NAK <id> <code> …` or `ABS <id> <code> …` line.
+fn code_of(line: &str) -> String {
+    line.split(' ').nth(2).unwrap_or("?").to_string()
+}
+
+/// The client that holds control and keeps the robot moving.
+fn mover(up: &UpProcess, config: &Config, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut t = Tally::default();
+    let mut c = Conn::open(up)?;
+    let mut ids = 0u32;
+    ask_counted(&mut c, &mut t, &mut ids, "CONTROL")?;
+    let robot = &config.robot;
+    while !quit.load(Ordering::Acquire) {
+        let line = match rng.usize(0..20) {
+            0 => format!("SPEED {}", rng.usize(20..=100)),
+            1..=4 => {
+                let mut j: Joints = [0.0; MAX_AXES];
+                for (i, a) in robot.axes().iter().enumerate() {
+                    let mid = (a.min + a.max) / 2.0;
+                    j[i] = mid + (rng.f64() - 0.5) * 0.9 * (a.max - a.min);
+                }
+                let p = robot.forward(&j);
+                format!("MOVL {:.3} {:.3} {:.3} {:.3}", p.x, p.y, p.z, p.yaw)
+            }
+            _ => {
+                let joints: Vec<String> = robot
+                    .axes()
+                    .iter()
+                    .map(|a| {
+                        let mid = (a.min + a.max) / 2.0;
+                        format!("{:.3}", mid + (rng.f64() - 0.5) * 0.9 * (a.max - a.min))
+                    })
+                    .collect();
+                format!("MOVJ {}", joints.join(" "))
+            }
+        };
+        let asked = ask_counted(&mut c, &mut t, &mut ids, &line)?;
+        let Some(reply) = asked.reply else { continue };
+        if line.starts_with("SPEED") {
+            continue;
+        }
+        if reply.starts_with("NAK") {
+            let code = code_of(&reply);
+            *t.refused.entry(code.clone()).or_default() += 1;
+            match code.as_str() {
+                "110" | "122" | "123" => recover(&mut c, &mut t, &mut ids, quit)?,
+                // Still braking from another client's STOP: wait for standstill.
+                "121" => {
+                    let wait = ask_counted(&mut c, &mut t, &mut ids, "WAIT")?;
+                    let id = ids;
+                    if wait.reply.is_some_and(|r| r.starts_with("ACK")) {
+                        c.motion_end(id, &mut ids)?;
+                    }
+                }
+                _ => {}
+            }
+            continue;
+        }
+        t.motions += 1;
+        let id = ids;
+        match c.motion_end(id, &mut ids)? {
+            Some(end) if end.starts_with("INF") => t.inf += 1,
+            Some(end) => {
+                let code = code_of(&end);
+                *t.abs.entry(code.clone()).or_default() += 1;
+                if code != "200" {
+                    recover(&mut c, &mut t, &mut ids, quit)?;
+                }
+            }
+            None => t.problem(format!("{line:?} did not end within {MOTION_S} s")),
+        }
+    }
+    Ok(t)
+}
+
+/// Send `line` with the next id and count its reply.
+fn ask_counted(c: &mut Conn, t: &mut Tally, ids: &mut u32, line: &str) -> anyhow::Result<Asked> {
+    *ids += 1;
+    let asked = c.ask(*ids, line)?;
+    t.answered(line, &asked);
+    Ok(asked)
+}
+
+/// After an E-stop or a fault: wait for standstill, `RESET` (once the E-stop request is
+/// gone), `HOME` when needed.
+fn recover(c: &mut Conn, t: &mut Tally, ids: &mut u32, quit: &AtomicBool) -> anyhow::Result<()> {
+    let deadline = Instant::now() + Duration::from_secs(MOTION_S);
+    while Instant::now() < deadline && !quit.load(Ordering::Acquire) {
+        *ids += 1;
+        let asked = c.ask(*ids, "RESET")?;
+        if !t.answered("RESET", &asked) {
+            return Ok(());
+        }
+        if asked.reply.as_deref().is_some_and(|r| r.starts_with("ACK")) {
+            *ids += 1;
+            let status = c.ask(*ids, "STATUS")?;
+            t.answered("STATUS", &status);
+            if status.reply.is_some_and(|r| r.contains("homed=0")) {
+                *ids += 1;
+                let home = c.ask(*ids, "HOME")?;
+                t.answered("HOME", &home);
+                let id = *ids;
+                if home.reply.is_some_and(|r| r.starts_with("ACK")) {
+                    c.motion_end(id, ids)?;
+                }
+            }
+            return Ok(());
+        }
+        // Still moving, or the E-stop is being handled: wait for standstill.
+        *ids += 1;
+        let wait = c.ask(*ids, "WAIT")?;
+        t.answered("WAIT", &wait);
+        let id = *ids;
+        if wait.reply.is_some_and(|r| r.starts_with("ACK")) {
+            c.motion_end(id, ids)?;
+        }
+    }
+    Ok(())
+}
+
+/// An invalid line with id `id`: exactly one `NAK` answers it.
+fn invalid_line(rng: &mut fastrand::Rng, id: u32) -> Vec<u8> {
+    match rng.usize(0..8) {
+        0 => format!("{id} FROB{}", rng.u32(..)).into_bytes(),
+        1 => format!("{id} MOVJ 1 x 3 4").into_bytes(),
+        2 => format!("{id} MOVJ 1 2").into_bytes(),
+        3 => {
+            let mut l = format!("{id} STATUS ").into_bytes();
+            l.extend([0xFF, 0xFE, rng.u8(0x80..=0xFF)]);
+            l
+        }
+        4 => {
+            let mut l = format!("{id} STATUS ").into_bytes();
+            l.extend(std::iter::repeat_n(b'A', 300 + rng.usize(0..2000)));
+            l
+        }
+        5 => format!("{id} OUT {} 7", rng.u8(0..32)).into_bytes(),
+        6 => format!("{id} SPEED {}", 101 + rng.u32(0..1000)).into_bytes(),
+        _ => format!("{id} STATUS*{:02X}", rng.u8(..)).into_bytes(),
+    }
+}
+
+/// A client that sends random requests, valid and not.
+fn chatter(up: &UpProcess, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
+    const QUERIES: [&str; 9] = [
+        "STATUS", "WHERE", "IO", "TASKS", "WAFERS", "STN", "HELP", "ROBOT", "PROGRAMS",
+    ];
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut t = Tally::default();
+    let mut c = Conn::open(up)?;
+    let mut ids = 0u32;
+    while !quit.load(Ordering::Acquire) {
+        // A host's pace: a request every 5 to 45 ms.
+        std::thread::sleep(Duration::from_millis(rng.u64(5..45)));
+        ids += 1;
+        let roll = rng.usize(0..10_000);
+        if roll < 2_500 {
+            // An invalid line, then a query: one NAK must come before the query's reply.
+            t.invalid_lines += 1;
+            c.send(&invalid_line(&mut rng, ids))?;
+            ids += 1;
+            let asked = c.ask(ids, "STATUS")?;
+            if t.answered("STATUS", &asked) && asked.other_naks != 1 {
+                t.problem(format!("{} NAKs for one invalid line", asked.other_naks));
+            }
+            continue;
+        }
+        if roll < 3_000 {
+            t.reconnects += 1;
+            c = Conn::open(up)?;
+            continue;
+        }
+        let line = match roll {
+            3_000..=9_549 => QUERIES[rng.usize(0..QUERIES.len())],
+            9_550..=9_957 => "CONTROL",
+            9_958..=9_977 => "HOLD",
+            9_978..=9_997 => "STOP",
+            _ => {
+                t.estops += 1;
+                "ESTOP"
+            }
+        };
+        let asked = c.ask(ids, line)?;
+        t.answered(line, &asked);
+    }
+    Ok(t)
+}
+
+/// The controller's resident memory [KiB] and open descriptors.
+fn usage(pid: u32) -> anyhow::Result<(u64, u64)> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status"))?;
+    let rss = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .context("no VmRSS in /proc/PID/status")?;
+    let fds = std::fs::read_dir(format!("/proc/{pid}/fd"))?.count() as u64;
+    Ok((rss, fds))
+}
+
+/// The Pulse Generator's latency histogram now (`TASKS`): (upper bound [µs], count).
+fn pg_histogram(c: &mut Conn, id: u32) -> anyhow::Result<Vec<(u64, u64)>> {
+    let asked = c.ask(id, "TASKS")?;
+    let line = asked
+        .lines
+        .iter()
+        .find(|l| l.starts_with("EVT TASK pulse_generator "))
+        .context("TASKS did not list the Pulse Generator")?;
+    let hist = line
+        .split(' ')
+        .find_map(|w| w.strip_prefix("lat_hist="))
+        .unwrap_or("");
+    Ok(hist
+        .split(',')
+        .filter_map(|bin| {
+            let (u, n) = bin.split_once(':')?;
+            Some((u.parse().ok()?, n.parse().ok()?))
+        })
+        .collect())
+}
+
+/// The p99 [µs] (a bin's upper bound) of the samples added from `a` to `b`.
+fn window_p99(a: &[(u64, u64)], b: &[(u64, u64)]) -> Option<u64> {
+    let before = |u: u64| a.iter().find(|(x, _)| *x == u).map_or(0, |(_, n)| *n);
+    let delta: Vec<(u64, u64)> = b
+        .iter()
+        .map(|&(u, n)| (u, n.saturating_sub(before(u))))
+        .collect();
+    let total: u64 = delta.iter().map(|(_, n)| n).sum();
+    if total == 0 {
+        return None;
+    }
+    let mut seen = 0;
+    delta.iter().find_map(|&(u, n)| {
+        seen += n;
+        (seen * 100 >= total * 99).then_some(u)
+    })
+}
+
+/// Run `wrc bench soak`.
+pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
+    let config = Config::embedded_default();
+    let dir = crate::sim::state_dir(None)?;
+    let extra: &[&str] = if args.no_rt { &["--no-rt"] } else { &[] };
+    let up = UpProcess::start(&dir.path, extra)?;
+    let pid = up.child.id();
+    let mut probe = Conn::open(&up)?;
+    let mut ids = 1u32;
+    // The robot must be homed before it moves.
+    let home = probe.ask(ids, "HOME")?;
+    if !home.reply.is_some_and(|r| r.starts_with("ACK")) {
+        bail!("HOME was refused");
+    }
+    if probe
+        .motion_end(ids, &mut ids)?
+        .is_none_or(|l| !l.starts_with("INF"))
+    {
+        bail!("HOME did not end with INF");
+    }
+    let mut next = || {
+        ids += 1;
+        ids
+    };
+    let (_, fds_before) = usage(pid)?;
+    eprintln!(
+        "soak: {} clients for {} s (seed {}), controller pid {pid} …",
+        args.clients, args.seconds, args.seed
+    );
+    let quit = Arc::new(AtomicBool::new(false));
+    let up = Arc::new(up);
+    let workers: Vec<_> = (0..args.clients)
+        .map(|i| {
+            let (up, quit, config) = (up.clone(), quit.clone(), config.clone());
+            let seed = args.seed.wrapping_mul(1000).wrapping_add(u64::from(i));
+            std::thread::spawn(move || {
+                if i == 0 {
+                    mover(&up, &config, seed, &quit)
+                } else {
+                    chatter(&up, seed, &quit)
+                }
+            })
+        })
+        .collect();
+    let began = Instant::now();
+    let at = |fraction: f64| began + Duration::from_secs_f64(args.seconds as f64 * fraction);
+    let h0 = pg_histogram(&mut probe, next())?;
+    sleep_until(at(0.1));
+    let h1 = pg_histogram(&mut probe, next())?;
+    let (rss_warm, _) = usage(pid)?;
+    sleep_until(at(0.9));
+    let h2 = pg_histogram(&mut probe, next())?;
+    sleep_until(at(1.0));
+    let h3 = pg_histogram(&mut probe, next())?;
+    quit.store(true, Ordering::Release);
+    let mut tally = Tally::default();
+    let mut failures = Vec::new();
+    for (i, w) in workers.into_iter().enumerate() {
+        match w.join() {
+            Ok(Ok(t)) => tally.merge(t),
+            Ok(Err(e)) => failures.push(format!("client {i}: {e:#}")),
+            Err(_) => failures.push(format!("client {i} panicked")),
+        }
+    }
+    // The clients are gone: the controller closes their connections within its period.
+    let mut up = Arc::try_unwrap(up).map_err(|_| anyhow::anyhow!("a client still runs"))?;
+    let settle = Instant::now() + Duration::from_secs(5);
+    let (mut rss_end, mut fds_end) = usage(pid)?;
+    while fds_end > fds_before && Instant::now() < settle {
+        std::thread::sleep(Duration::from_millis(50));
+        (rss_end, fds_end) = usage(pid)?;
+    }
+    let id = next();
+    let alive = up.alive() && probe.ask(id, "STATUS")?.reply.is_some();
+    let (p99_first, p99_last) = (window_p99(&h0, &h1), window_p99(&h2, &h3));
+    let rss_allowed = rss_warm + (rss_warm * RSS_SLACK_PCT / 100).max(RSS_SLACK_KIB);
+    let pass = alive
+        && failures.is_empty()
+        && tally.unanswered == 0
+        && fds_end <= fds_before
+        && rss_end <= rss_allowed;
+
+    let secs = began.elapsed().as_secs_f64();
+    println!(
+        "wrc bench soak: {} clients, {:.0} s, seed {}",
+        args.clients, secs, args.seed
+    );
+    println!(
+        "  requests           {} ({:.0}/s), answered {}",
+        tally.requests,
+        tally.requests as f64 / secs,
+        tally.replies
+    );
+    println!(
+        "  invalid lines      {} (one NAK each expected)",
+        tally.invalid_lines
+    );
+    println!(
+        "  not as expected    {}{}",
+        tally.unanswered,
+        if tally.wrong.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", tally.wrong.join("; "))
+        }
+    );
+    println!(
+        "  motions            {} ended INF {}, ABS {:?}; refused {:?}",
+        tally.motions, tally.inf, tally.abs, tally.refused
+    );
+    println!(
+        "  reconnects         {}, ESTOPs {}",
+        tally.reconnects, tally.estops
+    );
+    println!(
+        "  controller         {}",
+        if alive { "running" } else { "DEAD" }
+    );
+    println!("  descriptors        {fds_before} before the clients, {fds_end} after");
+    println!("  resident memory    {rss_warm} KiB after the warm-up, {rss_end} KiB at the end (allowed {rss_allowed})");
+    println!(
+        "  PG latency p99     {} µs in the first tenth, {} µs in the last",
+        p99_first.map_or("-".into(), |v| v.to_string()),
+        p99_last.map_or("-".into(), |v| v.to_string())
+    );
+    for f in &failures {
+        println!("  client failed      {f}");
+    }
+    println!(
+        "  verdict            {}",
+        if pass { "pass" } else { "FAIL" }
+    );
+    if let Some(path) = &args.json {
+        let report = json!({
+            "seconds": secs,
+            "clients": args.clients,
+            "seed": args.seed,
+            "requests": tally.requests,
+            "replies": tally.replies,
+            "invalid_lines": tally.invalid_lines,
+            "unanswered": tally.unanswered,
+            "problems": tally.wrong,
+            "motions": tally.motions,
+            "inf": tally.inf,
+            "abs": tally.abs,
+            "refused": tally.refused,
+            "reconnects": tally.reconnects,
+            "estops": tally.estops,
+            "alive": alive,
+            "client_failures": failures,
+            "fds_before": fds_before,
+            "fds_after": fds_end,
+            "rss_warm_kib": rss_warm,
+            "rss_end_kib": rss_end,
+            "rss_allowed_kib": rss_allowed,
+            "pg_latency_p99_us_first": p99_first,
+            "pg_latency_p99_us_last": p99_last,
+            "pass": pass,
+        });
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(if pass {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+fn sleep_until(t: Instant) {
+    std::thread::sleep(t.saturating_duration_since(Instant::now()));
+}

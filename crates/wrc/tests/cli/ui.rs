@@ -314,3 +314,50 @@ fn a_remote_gui_needs_a_token_off_loopback() {
     assert!(r.starts_with("ACK 7 owner=tcp"), "{r}");
     stop(&mut ui);
 }
+
+/// A controller that asks for a control token: `wrc ui --controller-token-file` presents it
+/// on each browser's connection, and a wrong one is reported instead of connecting.
+#[test]
+fn the_gui_presents_the_controllers_token() {
+    use std::os::unix::fs::PermissionsExt;
+    let keys = tempfile::tempdir().unwrap();
+    let write_token = |name: &str, text: &str| {
+        let path = keys.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).unwrap();
+        path
+    };
+    let good = write_token("good.token", "s3cret-token-0123456789\n");
+    let wrong = write_token("wrong.token", "wrong-token-0123456789\n");
+    let c = Controller::start(&["--token-file", good.to_str().unwrap()]);
+    let controller = format!("127.0.0.1:{}", c.port);
+    let gui = |token: &std::path::Path| {
+        let ui_port = free_port();
+        let child = Command::new(env!("CARGO_BIN_EXE_wrc"))
+            .args(["ui", "--no-sim", "--ui-port", &ui_port.to_string()])
+            .args(["--controller", &controller])
+            .arg("--controller-token-file")
+            .arg(token)
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap();
+        (child, ui_port)
+    };
+    let (mut ui, port) = gui(&good);
+    let mut ws = connect_ws(port, "").unwrap();
+    let hello = wait_for(&mut ws, |t| t.starts_with("EVT UI"));
+    assert_eq!(hello, format!("EVT UI CONNECTED tcp:{controller}"));
+    let (_, r) = ask(&mut ws, "7 CONTROL");
+    assert!(r.starts_with("ACK 7 owner=tcp"), "{r}");
+    stop(&mut ui);
+
+    let (mut ui, port) = gui(&wrong);
+    let mut ws = connect_ws(port, "").unwrap();
+    let hello = wait_for(&mut ws, |t| t.starts_with("EVT UI"));
+    assert!(
+        hello.starts_with("EVT UI DISCONNECTED")
+            && hello.contains("refused the control token: NAK 108 wrong token"),
+        "{hello}"
+    );
+    stop(&mut ui);
+}

@@ -723,3 +723,34 @@ impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A dead board's fault is not lost when the urgent queue is full (a burst of STOP and
+    /// ESTOP lines): it is retried every period until it is on the queue, then sent once.
+    #[test]
+    fn a_dead_boards_fault_waits_for_room_on_a_full_urgent_queue() {
+        let urgent = Arc::new(MessageQueue::new(1));
+        let wake = Arc::new(Semaphore::new(0));
+        let mut liveness = Liveness::new(3, 10_000, 10_000, urgent.clone(), wake.clone());
+        let stop = Urgent::Stop(
+            crate::messages::SourceId::NONE,
+            wrc_protocol::ReplyTo::default(),
+        );
+        assert!(urgent.try_send(stop).is_ok());
+        liveness.unreported = true;
+        for _ in 0..3 {
+            liveness.report();
+            assert!(liveness.unreported, "reported into a full queue");
+        }
+        assert!(matches!(urgent.try_recv(), Ok(Urgent::Stop(..))));
+        liveness.report();
+        assert!(!liveness.unreported);
+        assert!(matches!(urgent.try_recv(), Ok(Urgent::Fault(300))));
+        assert!(wake.try_wait(), "the urgent path was not woken");
+        liveness.report();
+        assert!(urgent.try_recv().is_err(), "the fault was sent twice");
+    }
+}

@@ -393,16 +393,7 @@ impl ClientSet {
         }
         let slot = &mut self.slots[i];
         let _ = Self::push_out(slot, line);
-        if let Some(stream) = slot.stream.as_mut() {
-            let mut sent = 0;
-            while sent < slot.out_len {
-                match stream.write(&slot.out[sent..slot.out_len]) {
-                    Ok(n) if n > 0 => sent += n,
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                    _ => break,
-                }
-            }
-        }
+        let _ = Self::send_queued(slot);
         self.close(i);
     }
 
@@ -425,7 +416,7 @@ impl ClientSet {
                 let _ = write!(
                     text,
                     "no request for {} s and no control or subscription; reconnect when needed",
-                    limit_ns / 1_000_000_000
+                    wrc_protocol::Num(limit_ns as f64 / 1e9)
                 );
                 self.closed_idle += 1;
                 self.close_saying(i, CloseReason::Idle, text.as_str());
@@ -591,7 +582,9 @@ impl ClientSet {
                                     Rights::Token => {
                                         "this connection may only monitor until AUTH <token>"
                                     }
-                                    _ => "this connection's address may only monitor",
+                                    Rights::Monitor | Rights::Command => {
+                                        "this connection's address may only monitor"
+                                    }
                                 },
                             ))
                         } else {
@@ -710,31 +703,32 @@ impl ClientSet {
             if slot.out_len == 0 || (slot.backed_up && !backed_up_too) {
                 continue;
             }
-            let Some(stream) = slot.stream.as_mut() else {
-                continue;
-            };
-            let mut sent = 0;
-            let mut failed = false;
-            while sent < slot.out_len {
-                match stream.write(&slot.out[sent..slot.out_len]) {
-                    Ok(0) => break,
-                    Ok(n) => sent += n,
-                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                    Err(_) => {
-                        failed = true;
-                        break;
-                    }
-                }
-            }
-            if failed {
+            if !Self::send_queued(slot) {
                 self.close(i);
-                continue;
             }
-            slot.out.copy_within(sent..slot.out_len, 0);
-            slot.out_len -= sent;
-            slot.backed_up = slot.out_len > 0;
         }
+    }
+
+    /// Write as much of `slot`'s queued output as its socket takes now (no blocking), keep
+    /// the rest; `false` when the connection failed.
+    fn send_queued(slot: &mut Slot) -> bool {
+        let Some(stream) = slot.stream.as_mut() else {
+            return true;
+        };
+        let mut sent = 0;
+        while sent < slot.out_len {
+            match stream.write(&slot.out[sent..slot.out_len]) {
+                Ok(0) => break,
+                Ok(n) => sent += n,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(_) => return false,
+            }
+        }
+        slot.out.copy_within(sent..slot.out_len, 0);
+        slot.out_len -= sent;
+        slot.backed_up = slot.out_len > 0;
+        true
     }
 }
 

@@ -27,7 +27,11 @@ fuzz_target!(|input: &[u8]| {
     let parser = Parser::new(axis_count).with_checksum(serial);
 
     let whole = frame(stream, &[]);
-    assert_eq!(whole, frame(stream, cuts), "framing depends on the chunk boundaries");
+    assert_eq!(
+        whole,
+        frame(stream, cuts),
+        "framing depends on the chunk boundaries"
+    );
 
     let mut out = ReplyBuf::new();
     for line in &whole {
@@ -60,7 +64,10 @@ fn frame(stream: &[u8], cuts: &[u8]) -> Vec<Result<Vec<u8>, LineError>> {
         rest = tail;
         while let Some(line) = reader.read(&mut chunk) {
             if let Ok(line) = line {
-                assert!(line.len() <= MAX_LINE, "a line over the limit was passed on");
+                assert!(
+                    line.len() <= MAX_LINE,
+                    "a line over the limit was passed on"
+                );
                 assert!(!line.contains(&b'\n'), "a line holds an LF");
                 assert!(
                     !line.iter().all(|&b| matches!(b, b' ' | b'\t' | b'\r')),
@@ -69,7 +76,10 @@ fn frame(stream: &[u8], cuts: &[u8]) -> Vec<Result<Vec<u8>, LineError>> {
             }
             lines.push(line.map(<[u8]>::to_vec));
         }
-        assert!(chunk.is_empty(), "read returned None before the chunk was used up");
+        assert!(
+            chunk.is_empty(),
+            "read returned None before the chunk was used up"
+        );
     }
     assert!(reader.pending() <= MAX_LINE + 1);
     lines
@@ -114,7 +124,11 @@ fn check_line(parser: &Parser, line: &[u8], out: &mut ReplyBuf) {
             let mut words = words.iter();
             assert_eq!(words.next(), Some(&"NAK"));
             if let Some(id) = rejected.id {
-                assert_eq!(words.next(), Some(&id.to_string().as_str()), "id not echoed");
+                assert_eq!(
+                    words.next(),
+                    Some(&id.to_string().as_str()),
+                    "id not echoed"
+                );
             }
             let code = rejected.code().number().to_string();
             assert_eq!(words.next(), Some(&code.as_str()), "code missing");

@@ -20,7 +20,9 @@ fuzz_target!(|input: &[u8]| {
             return;
         };
         assert!((1..=MAX_AXES).contains(&frame.axis_count));
-        assert!(frame.positions[frame.axis_count..].iter().all(|&p| p == 0.0));
+        assert!(frame.positions[frame.axis_count..]
+            .iter()
+            .all(|&p| p == 0.0));
         assert!(frame.pulses[frame.axis_count..].iter().all(|&p| p == 0));
         let mut buf = [0u8; MAX_DATAGRAM_LEN];
         let len = encode(&frame, &mut buf).expect("a decoded frame encodes");

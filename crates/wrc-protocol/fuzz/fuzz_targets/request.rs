@@ -1,10 +1,13 @@
 //! Fuzz the host protocol's request path: a byte stream, as a socket or the serial port
 //! delivers it cut into chunks, framed by `LineReader` and each line parsed by `Parser`
-//! for a TCP connection (no checksums) or the serial port (`*HH` accepted).
+//! for a TCP connection (no checksums) or the serial port (`*HH` accepted). As the host
+//! tasks do, an accepted `UPLOAD` makes the following lines program text, blank ones
+//! included, up to a line `.` or an over-long line.
 //!
 //! Input: one mode byte (bit 0: serial; bits 1-4: axis count - 1), up to three chunk
 //! lengths (0: the rest of the stream), then the stream. Asserts: the lines do not depend on
-//! where the stream was cut; every line fits the limit and holds no LF; an accepted line
+//! where the stream was cut; every line fits the limit and holds no LF, and outside an
+//! upload none is blank; an accepted line
 //! is the same request on the other kind of connection (with its checksum removed, or a
 //! correct one appended); every reply — `ACK`, the `NAK` of a refused line, the `NAK 103`
 //! of an over-long one — is one line of printable ASCII that echoes the id, carries the
@@ -14,7 +17,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use wrc_protocol::{
-    checksum, LineError, LineReader, Parser, ReplyBuf, Verb, MAX_LINE, REPLY_CAPACITY,
+    checksum, Command, LineError, LineReader, Parser, ReplyBuf, Request, Verb, MAX_LINE,
+    REPLY_CAPACITY,
 };
 
 fuzz_target!(|input: &[u8]| {
@@ -26,30 +30,32 @@ fuzz_target!(|input: &[u8]| {
     let (cuts, stream) = rest.split_at(rest.len().min(3));
     let parser = Parser::new(axis_count).with_checksum(serial);
 
-    let whole = frame(stream, &[]);
+    let whole = frame(&parser, stream, &[]);
     assert_eq!(
         whole,
-        frame(stream, cuts),
+        frame(&parser, stream, cuts),
         "framing depends on the chunk boundaries"
     );
 
     let mut out = ReplyBuf::new();
-    for line in &whole {
+    for (uploading, line) in &whole {
         match line {
             Err(too_long) => {
                 let reply = out.line_error(too_long).to_vec();
                 assert!(reply.starts_with(b"NAK 103 "), "{reply:?}");
                 one_line(&reply, false);
             }
+            Ok(_) if *uploading => {}
             Ok(line) => check_line(&parser, line, &mut out),
         }
     }
 });
 
 /// The lines of `stream` fed in chunks of the lengths in `cuts`, cycled (0 or none: the
-/// rest at once).
-fn frame(stream: &[u8], cuts: &[u8]) -> Vec<Result<Vec<u8>, LineError>> {
+/// rest at once), each with whether it is an upload's program text.
+fn frame(parser: &Parser, stream: &[u8], cuts: &[u8]) -> Vec<(bool, Result<Vec<u8>, LineError>)> {
     let mut reader = LineReader::new();
+    let mut uploading = false;
     let mut lines = Vec::new();
     let mut rest = stream;
     for k in 0.. {
@@ -62,19 +68,38 @@ fn frame(stream: &[u8], cuts: &[u8]) -> Vec<Result<Vec<u8>, LineError>> {
         };
         let (mut chunk, tail) = rest.split_at(n);
         rest = tail;
-        while let Some(line) = reader.read(&mut chunk) {
-            if let Ok(line) = line {
-                assert!(
-                    line.len() <= MAX_LINE,
-                    "a line over the limit was passed on"
-                );
-                assert!(!line.contains(&b'\n'), "a line holds an LF");
-                assert!(
-                    !line.iter().all(|&b| matches!(b, b' ' | b'\t' | b'\r')),
-                    "a blank line was passed on"
-                );
+        loop {
+            reader.keep_blank_lines(uploading);
+            let Some(line) = reader.read(&mut chunk) else {
+                break;
+            };
+            let was_uploading = uploading;
+            match line {
+                Ok(line) => {
+                    assert!(
+                        line.len() <= MAX_LINE,
+                        "a line over the limit was passed on"
+                    );
+                    assert!(!line.contains(&b'\n'), "a line holds an LF");
+                    if uploading {
+                        uploading = line != b".";
+                    } else {
+                        assert!(
+                            !line.iter().all(|&b| matches!(b, b' ' | b'\t' | b'\r')),
+                            "a blank line was passed on"
+                        );
+                        uploading = matches!(
+                            parser.parse(line),
+                            Ok(Request {
+                                command: Command::Upload(_),
+                                ..
+                            })
+                        );
+                    }
+                }
+                Err(_) => uploading = false,
             }
-            lines.push(line.map(<[u8]>::to_vec));
+            lines.push((was_uploading, line.map(<[u8]>::to_vec)));
         }
         assert!(
             chunk.is_empty(),

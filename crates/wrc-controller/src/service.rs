@@ -30,8 +30,6 @@ use crate::upload::{self, ProgramText};
 /// The service thread's longest wait between two looks at its queues [ns].
 const POLL_NS: u64 = 50_000_000;
 
-pub use crate::upload::MAX_PROGRAM_LINES;
-
 struct Upload {
     from: SourceId,
     to: ReplyTo,

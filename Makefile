@@ -10,7 +10,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop soak demo clean
+.PHONY: test-fuzz fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop soak demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -132,22 +132,42 @@ clean:
 	$(CARGO) clean
 	rm -rf $(OUT) web/dist
 
-# Fuzz for a bounded time each: the DPRAM layout reader (wrc-board) and the robot-language
-# compiler and VM (wrc-lang). cargo-fuzz builds with sanitizers, which need nightly features:
+# Fuzzing (cargo-fuzz, libFuzzer): every reader of outside input, one fuzz crate per library
+# crate (crates/<crate>/fuzz, outside the workspace, its own Cargo.lock). `make test-fuzz`, part
+# of `make test`, runs each target for FUZZ_SECONDS (default 10); `make fuzz` runs each for
+# FUZZ_SECONDS=300 (`make fuzz FUZZ_SECONDS=3600` for longer). A target starts from its
+# committed seeds (fuzz/seeds/<target>/, from the docs' examples) and the inputs it kept
+# before (fuzz/corpus/<target>/, not committed); a crash stops the run and leaves the input in
+# fuzz/artifacts/<target>/ (libFuzzer's progress lines are left out of the output; its final
+# statistics are kept). cargo-fuzz builds with sanitizers, which need nightly features:
 # the nightly toolchain when installed, otherwise the stable one with RUSTC_BOOTSTRAP=1 (stable
-# ships the sanitizer runtimes on x86_64 Linux). cargo-fuzz is installed from crates.io when
-# missing.
-FUZZ_SECONDS ?= 20
-FUZZ_TARGETS := crates/wrc-board/fuzz:layout_reader crates/wrc-lang/fuzz:compile
-test-fuzz: check-toolchain
+# ships the sanitizer runtimes on x86_64 Linux). The fuzz crates share one build directory,
+# target/fuzz. cargo-fuzz is installed from crates.io when missing.
+FUZZ_SECONDS ?= 10
+fuzz: FUZZ_SECONDS = 300
+# <crate>:<target>[:<longest input in bytes, default 8192>]
+FUZZ_TARGETS := \
+  wrc-board:layout_reader \
+  wrc-lang:compile \
+  wrc-protocol:request \
+  wrc-protocol:sim_stream \
+  wrc-config:config \
+  wrc-cell:stations \
+  wrc-cell:wafer_map \
+  wrc-cell:world \
+  wrc-trace:trace_file:65536 \
+  wrc-controller:upload
+FUZZ_CARGO = $(if $(shell rustup toolchain list 2>/dev/null | grep '^nightly'),$(CARGO) +nightly,RUSTC_BOOTSTRAP=1 $(CARGO))
+test-fuzz fuzz: check-toolchain
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --locked
-	@set -e; for t in $(FUZZ_TARGETS); do \
-	  dir=$${t%%:*}; target=$${t##*:}; \
-	  if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then \
-	    echo "wrc: fuzzing $$target with the nightly toolchain"; \
-	    (cd $$dir && $(CARGO) +nightly fuzz run $$target -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192); \
-	  else \
-	    echo "wrc: fuzzing $$target with stable and RUSTC_BOOTSTRAP=1 (no nightly toolchain)"; \
-	    (cd $$dir && RUSTC_BOOTSTRAP=1 $(CARGO) fuzz run $$target -- -max_total_time=$(FUZZ_SECONDS) -max_len=8192); \
-	  fi; \
+	@echo "wrc: fuzzing each target for $(FUZZ_SECONDS) s with $(FUZZ_CARGO)"
+	@set -eo pipefail; for t in $(FUZZ_TARGETS); do \
+	  IFS=: read -r crate target max_len <<< "$$t"; \
+	  dir=crates/$$crate/fuzz; \
+	  mkdir -p $$dir/corpus/$$target; \
+	  echo "wrc: fuzzing $$crate $$target"; \
+	  (cd $$dir && $(FUZZ_CARGO) fuzz run --target-dir $(CURDIR)/target/fuzz $$target \
+	    corpus/$$target $$(test -d seeds/$$target && echo seeds/$$target) \
+	    -- -max_total_time=$(FUZZ_SECONDS) -max_len=$${max_len:-8192} -print_final_stats=1 2>&1 \
+	    | { grep -v -e '^#' -e '^INFO:' -e ' # Uses: ' || true; }); \
 	done

@@ -95,10 +95,16 @@ pub struct Config {
     pub host: HostConfig,
 }
 
+/// Most samples the trace recorder may keep, `[trace] seconds` over the motion period: an
+/// hour at 1 ms, about 1 GB of memory (288 bytes a sample, docs/trace.md). A configuration
+/// asking for more is refused.
+pub const MAX_TRACE_SAMPLES: usize = 3_600_000;
+
 /// The trace recorder's settings (`[trace]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TraceConfig {
-    /// Seconds of per-period samples kept and saved (1 to 3600) [s].
+    /// Seconds of per-period samples kept and saved (1 to 3600, and at most
+    /// [`MAX_TRACE_SAMPLES`] motion periods) [s].
     pub seconds: f64,
     /// Requests and replies kept (100 to 1 000 000) [messages].
     pub messages: usize,
@@ -347,6 +353,25 @@ mod tests {
             Config::parse(&with("heartbeat_periods = 3", "heartbeat_periods = 7"), "c").unwrap();
         assert_eq!(c.boards[0].heartbeat_periods, 7);
         assert_eq!(Config::embedded_default().boards[0].heartbeat_periods, 3);
+    }
+
+    /// Regression: `[trace] seconds = 3600` with `period_ms = 0.1` was accepted, and the
+    /// controller then asked for a 10 GB trace ring at start-up and was killed (the `config`
+    /// fuzz target's malloc limit caught the allocation).
+    #[test]
+    fn a_trace_ring_too_large_for_memory_is_refused_by_name() {
+        let big = with("seconds = 30.0 ", "seconds = 3600.0");
+        let e = err(&big.replacen("period_ms = 10.0", "period_ms = 0.1", 1));
+        assert!(
+            e.contains("cell.toml")
+                && e.contains("trace.seconds")
+                && e.contains("36000000 samples")
+                && e.contains("lengthen motion.period_ms"),
+            "{e}"
+        );
+        // An hour at 1 ms is the most there is.
+        let hour = Config::parse(&big.replacen("period_ms = 10.0", "period_ms = 1.0", 1), "c");
+        assert_eq!(hour.unwrap().trace.seconds, 3600.0);
     }
 
     #[test]

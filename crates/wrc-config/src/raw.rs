@@ -218,6 +218,22 @@ impl RawConfig {
                 ),
             ));
         }
+        // The recorder keeps every sample of the last `seconds` in memory, one per motion
+        // period; refuse what no machine could hold rather than fail at start-up.
+        let samples = (t.seconds / motion.period_s).ceil();
+        if samples > crate::MAX_TRACE_SAMPLES as f64 {
+            return Err(invalid(
+                "trace.seconds".into(),
+                format!(
+                    "{} s of samples at the {} ms motion period is {samples} samples, more \
+                     than the {} the recorder keeps in memory (an hour at 1 ms, about 1 GB): \
+                     record fewer seconds or lengthen motion.period_ms",
+                    t.seconds,
+                    motion.period_s * 1000.0,
+                    crate::MAX_TRACE_SAMPLES
+                ),
+            ));
+        }
         if !(100..=1_000_000).contains(&t.messages) {
             return Err(invalid(
                 "trace.messages".into(),

@@ -549,7 +549,13 @@ impl ClientSet {
         } = self;
         let slot = &mut slots[i];
         slot.last_active_ns = *now_ns;
-        while let Some(line) = slot.reader.read(&mut input) {
+        loop {
+            // An upload's blank lines are program text (its line numbers count them); between
+            // requests they are skipped.
+            slot.reader.keep_blank_lines(slot.uploading);
+            let Some(line) = slot.reader.read(&mut input) else {
+                break;
+            };
             if let (Some(tap), Ok(text)) = (tap.as_mut(), &line) {
                 tap.push(*now_ns, Direction::Request, slot.source, redacted(text));
             }

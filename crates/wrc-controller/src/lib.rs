@@ -28,4 +28,5 @@ pub mod shared;
 pub mod simulation;
 pub mod simulator_manager;
 mod start_error;
+pub mod upload;
 pub mod velocity_generator;

@@ -1,6 +1,6 @@
 //! The service thread: the controller's non-real-time work, released by its queues. It
-//! serves the program store (uploaded robot-language programs received line by line,
-//! compiled with the controller's robot (`wrc-lang`), kept on disk
+//! serves the program store (uploaded robot-language programs received line by line
+//! ([`crate::upload`]), compiled with the controller's robot (`wrc-lang`), kept on disk
 //! (`STATE_DIR/programs/<name>.wrl`, written atomically), listed and deleted; for
 //! `RUN` compiles the stored text and hands the program to the Command Interpreter), the
 //! wafer cell ([`crate::cell_service`]: stations, the wafer map, GET/PUT/MAP planning) and
@@ -11,13 +11,12 @@
 //! program (moving a box does not allocate) and sends it back here when it is done with it,
 //! so the memory is also freed here.
 
-use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use wrc_lang::{Program, Severity};
+use wrc_lang::Program;
 use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo};
 use wrc_robot::Robot;
 use wrc_rt::clock::monotonic_now_ns;
@@ -26,20 +25,16 @@ use wrc_rt::Waiter;
 use crate::cell_service::CellService;
 use crate::messages::{Outputs, ProgramStart, SourceId, StoreLinks, StoreRequest};
 use crate::queries::TaskCells;
+use crate::upload::{self, ProgramText};
 
 /// The service thread's longest wait between two looks at its queues [ns].
 const POLL_NS: u64 = 50_000_000;
-
-/// Most lines in an uploaded program.
-pub const MAX_PROGRAM_LINES: usize = 10_000;
 
 struct Upload {
     from: SourceId,
     to: ReplyTo,
     name: ProgramName,
-    text: String,
-    lines: usize,
-    too_long: bool,
+    text: ProgramText,
 }
 
 /// The service thread's state: the program store, the wafer cell and the queries (runs on
@@ -209,21 +204,12 @@ impl Service {
                     from,
                     to,
                     name,
-                    text: String::new(),
-                    lines: 0,
-                    too_long: false,
+                    text: ProgramText::new(),
                 });
             }
             StoreRequest::Line { from, len, text } => {
                 if let Some(u) = self.uploads.iter_mut().find(|u| u.from == from) {
-                    u.lines += 1;
-                    if u.lines > MAX_PROGRAM_LINES {
-                        u.too_long = true;
-                    } else {
-                        u.text
-                            .push_str(&String::from_utf8_lossy(&text[..usize::from(len)]));
-                        u.text.push('\n');
-                    }
+                    u.text.push_line(&text[..usize::from(len)]);
                 }
             }
             StoreRequest::Cancel { from } => self.uploads.retain(|u| u.from != from),
@@ -348,40 +334,14 @@ impl Service {
         name: &ProgramName,
         source: &str,
     ) -> Option<(Program, usize)> {
-        let file = format!("{name}.wrl");
-        let compiled = wrc_lang::compile(source, &file, &self.robot);
-        let mut errors = 0;
-        let mut warnings = 0;
-        let mut first_error = String::new();
-        for d in &compiled.diagnostics {
-            let severity = match d.severity {
-                Severity::Error => {
-                    errors += 1;
-                    "error"
-                }
-                _ => {
-                    warnings += 1;
-                    "warning"
-                }
-            };
-            // Replies are printable ASCII: write the compiler's ellipsis as three dots rather
-            // than let the line writer turn it into '?'.
-            let message = d.message.replace('\u{2026}', "...");
-            let mut text = String::new();
-            let _ = write!(text, "{file}:{}:{}: {severity}: {}", d.line, d.col, message);
-            if severity == "error" && first_error.is_empty() {
-                first_error = format!("{}:{} {}", d.line, d.col, message);
-            }
-            let line = self.buf.event(to.checksum, &Event::Diag(&text));
+        let verdict = upload::check(name, source, &self.robot);
+        for text in &verdict.diagnostics {
+            let line = self.buf.event(to.checksum, &Event::Diag(text));
             self.out.send(from, line);
         }
-        match compiled.program {
-            Some(program) if errors == 0 => Some((program, warnings)),
-            _ => {
-                let text = format!(
-                    "{name}: {errors} error{}; first: {first_error}",
-                    if errors == 1 { "" } else { "s" }
-                );
+        match verdict.result {
+            Ok(compiled) => Some(compiled),
+            Err(text) => {
                 self.reply_nak(from, to, Code::ProgramInvalid, &text);
                 None
             }
@@ -394,15 +354,12 @@ impl Service {
             to,
             name,
             text,
-            lines,
-            too_long,
         } = upload;
-        if too_long {
-            let text = format!(
-                "{name}: {lines} lines; a program may have at most {MAX_PROGRAM_LINES}; nothing stored"
-            );
-            return self.reply_nak(from, to, Code::ProgramInvalid, &text);
-        }
+        let lines = text.lines();
+        let text = match text.finish(&name) {
+            Ok(text) => text,
+            Err(refusal) => return self.reply_nak(from, to, Code::ProgramInvalid, &refusal),
+        };
         let Some((_, warnings)) = self.compile(from, to, &name, &text) else {
             return;
         };

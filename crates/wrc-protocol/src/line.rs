@@ -40,10 +40,12 @@ impl LineError {
 /// Splits a byte stream into lines of at most [`MAX_LINE`] bytes.
 ///
 /// A line ends at LF; a CR right before the LF is dropped. Lines that are empty or only
-/// spaces, tabs and CRs are skipped (clients send them to wake a connection up). Any other
-/// bytes, including NUL and non-UTF-8, are handed on unchanged for the parser to judge. A
-/// line over the limit yields exactly one [`LineError::TooLong`], when its LF arrives, and
-/// the reader carries on with the next line.
+/// spaces, tabs and CRs are skipped (clients send them to wake a connection up), except
+/// while [`keep_blank_lines`](LineReader::keep_blank_lines) is on: the text of an `UPLOAD`,
+/// where a blank line is a line of the program. Any other bytes, including NUL and
+/// non-UTF-8, are handed on unchanged for the parser to judge. A line over the limit yields
+/// exactly one [`LineError::TooLong`], when its LF arrives, and the reader carries on with
+/// the next line.
 ///
 /// Feed it with [`LineReader::read`] (pull style) or [`LineReader::feed`] (callback style).
 /// The reader holds a 257-byte buffer and never allocates.
@@ -69,6 +71,8 @@ pub struct LineReader {
     discarding: Option<u32>,
     /// The last byte discarded was a CR (not counted when the LF ends the line).
     discarded_cr: bool,
+    /// Hand on blank lines instead of skipping them.
+    keep_blank: bool,
 }
 
 impl Default for LineReader {
@@ -85,7 +89,15 @@ impl LineReader {
             len: 0,
             discarding: None,
             discarded_cr: false,
+            keep_blank: false,
         }
+    }
+
+    /// Hand on blank lines (`keep: true`, for the lines of an `UPLOAD`, which are program
+    /// text taken verbatim) or skip them (`false`, the default, between requests). Takes
+    /// effect from the next line completed.
+    pub fn keep_blank_lines(&mut self, keep: bool) {
+        self.keep_blank = keep;
     }
 
     /// Take bytes from the front of `input` until one line is complete and return it
@@ -115,9 +127,10 @@ impl LineReader {
             if end > MAX_LINE {
                 return Some(Err(LineError::TooLong { len: end as u32 }));
             }
-            if self.buf[..end]
-                .iter()
-                .all(|&b| matches!(b, b' ' | b'\t' | b'\r'))
+            if !self.keep_blank
+                && self.buf[..end]
+                    .iter()
+                    .all(|&b| matches!(b, b' ' | b'\t' | b'\r'))
             {
                 continue;
             }
@@ -244,6 +257,24 @@ mod tests {
         let mut r = LineReader::new();
         let out = collect(&mut r, &[b"\0\xC3\x28\x7F\n"]);
         assert_eq!(out, vec![Ok(b"\0\xC3\x28\x7F".to_vec())]);
+    }
+
+    /// Regression: an uploaded program lost its blank lines (the reader skipped them as it
+    /// does between requests), so the stored program was not the text sent and every
+    /// diagnostic after a blank line named the wrong line (found by the `upload` fuzz
+    /// target on examples/fig7_ptp.wrl).
+    #[test]
+    fn blank_lines_are_handed_on_while_kept() {
+        let mut r = LineReader::new();
+        r.keep_blank_lines(true);
+        let out = collect(&mut r, &[b"A\n\n  \r\n\t\nB\n"]);
+        let lines: Vec<&[u8]> = vec![b"A", b"", b"  ", b"\t", b"B"];
+        assert_eq!(
+            out,
+            lines.iter().map(|l| Ok(l.to_vec())).collect::<Vec<_>>()
+        );
+        r.keep_blank_lines(false);
+        assert_eq!(collect(&mut r, &[b"\n \nC\n"]), vec![Ok(b"C".to_vec())]);
     }
 
     #[test]

@@ -116,7 +116,7 @@ pub enum DecodeError {
         expected: usize,
     },
     /// An unknown state number.
-    #[error("state {0} is not a known state (0 to 4)")]
+    #[error("state {0} is not a known state (0 to {last})", last = State::ALL.len() - 1)]
     State(u8),
     /// The homed byte is neither 0 nor 1.
     #[error("homed byte {0} is neither 0 nor 1")]
@@ -351,6 +351,12 @@ mod tests {
             })
         );
         assert_eq!(with(7, 6), Err(DecodeError::State(6)));
+        // The message names the highest state number there is.
+        assert_eq!(
+            DecodeError::State(6).to_string(),
+            "state 6 is not a known state (0 to 5)"
+        );
+        assert_eq!(with(7, 5).map(|f| f.state), Ok(State::Held));
         assert_eq!(with(24, 2), Err(DecodeError::Homed(2)));
         assert_eq!(with(26, 1), Err(DecodeError::Reserved(26)));
         assert_eq!(with(39, 1), Err(DecodeError::Reserved(39)));

@@ -129,6 +129,30 @@ fn a_program_maps_and_moves_wafers_with_get_and_put() {
     );
 }
 
+/// Regression: the connection's line reader skipped an upload's blank lines as it skips
+/// blank lines between requests, so the stored program lost them and every diagnostic (and
+/// a running program's `ABS … line n`) after a blank line named the wrong line (found by
+/// the `upload` fuzz target on examples/fig7_ptp.wrl).
+#[test]
+fn an_upload_keeps_its_blank_lines_and_diagnostics_name_the_line_sent() {
+    let mut host = VHost::start();
+    host.send_raw("1 UPLOAD blanks\nHOME\n\n  \r\nBOGUS 1\n.\n");
+    let diag = host.line();
+    assert!(
+        diag.starts_with("EVT DIAG blanks.wrl:4:1: error: "),
+        "{diag}"
+    );
+    let nak = host.reply();
+    assert!(
+        nak.starts_with("NAK 1 126 blanks: 1 error; first: 4:1 "),
+        "{nak}"
+    );
+    // Blank lines between requests are still skipped, with no reply.
+    host.send_raw("\n \n");
+    host.send_raw("2 UPLOAD blanks\nHOME\n\n.\n");
+    assert_eq!(host.reply(), "ACK 2 name=blanks lines=2 warnings=0");
+}
+
 #[test]
 fn mapping_reports_absent_double_and_cross_slotted_wafers_and_get_refuses_them() {
     let scratch = tempfile::tempdir().unwrap();

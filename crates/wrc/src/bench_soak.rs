@@ -43,6 +43,8 @@ use crate::up_process::UpProcess;
 const REPLY_S: u64 = 10;
 /// How long a motion may take from its `ACK` to its `INF`/`ABS` [s].
 const MOTION_S: u64 = 120;
+/// The probe connection's pace of `STATUS` while it waits [s] (under the idle timeout).
+const KEEP_ALIVE_S: u64 = 30;
 /// Resident-memory growth allowed from the warm-up to the end [KiB] …
 const RSS_SLACK_KIB: u64 = 4096;
 /// … or [%] of the warm-up figure, whichever is larger.
@@ -540,14 +542,18 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         .collect();
     let began = Instant::now();
     let at = |fraction: f64| began + Duration::from_secs_f64(args.seconds as f64 * fraction);
-    let h0 = pg_histogram(&mut probe, next())?;
-    sleep_until(at(0.1));
-    let h1 = pg_histogram(&mut probe, next())?;
-    let (rss_warm, _) = usage(pid)?;
-    sleep_until(at(0.9));
-    let h2 = pg_histogram(&mut probe, next())?;
-    sleep_until(at(1.0));
-    let h3 = pg_histogram(&mut probe, next())?;
+    let watched = (|| -> anyhow::Result<_> {
+        let h0 = pg_histogram(&mut probe, next())?;
+        keep_alive_until(&mut probe, &mut next, at(0.1))?;
+        let h1 = pg_histogram(&mut probe, next())?;
+        let (rss_warm, _) = usage(pid)?;
+        keep_alive_until(&mut probe, &mut next, at(0.9))?;
+        let h2 = pg_histogram(&mut probe, next())?;
+        keep_alive_until(&mut probe, &mut next, at(1.0))?;
+        let h3 = pg_histogram(&mut probe, next())?;
+        Ok((h0, h1, h2, h3, rss_warm))
+    })();
+    // Whatever happened, the clients stop (and with the last of them the controller).
     quit.store(true, Ordering::Release);
     let mut tally = Tally::default();
     let mut failures = Vec::new();
@@ -560,6 +566,7 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     }
     // The clients are gone: the controller closes their connections within its period.
     let mut up = Arc::try_unwrap(up).map_err(|_| anyhow::anyhow!("a client still runs"))?;
+    let (h0, h1, h2, h3, rss_warm) = watched?;
     let settle = Instant::now() + Duration::from_secs(5);
     let (mut rss_end, mut fds_end) = usage(pid)?;
     while fds_end > fds_before && Instant::now() < settle {
@@ -663,6 +670,21 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-fn sleep_until(t: Instant) {
-    std::thread::sleep(t.saturating_duration_since(Instant::now()));
+/// Wait until `t`, with a `STATUS` on the probe connection every [`KEEP_ALIVE_S`]: it holds
+/// no control, so the controller would close it after its idle timeout.
+fn keep_alive_until(
+    probe: &mut Conn,
+    next: &mut impl FnMut() -> u32,
+    t: Instant,
+) -> anyhow::Result<()> {
+    loop {
+        let left = t.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Ok(());
+        }
+        std::thread::sleep(left.min(Duration::from_secs(KEEP_ALIVE_S)));
+        if probe.ask(next(), "STATUS")?.reply.is_none() {
+            bail!("the controller did not answer STATUS within {REPLY_S} s");
+        }
+    }
 }

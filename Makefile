@@ -169,5 +169,5 @@ test-fuzz fuzz: check-toolchain
 	  (cd $$dir && $(FUZZ_CARGO) fuzz run --target-dir $(CURDIR)/target/fuzz $$target \
 	    corpus/$$target $$(test -d seeds/$$target && echo seeds/$$target) \
 	    -- -max_total_time=$(FUZZ_SECONDS) -max_len=$${max_len:-8192} -print_final_stats=1 2>&1 \
-	    | { grep -v -e '^#' -e '^INFO:' -e ' # Uses: ' || true; }); \
+	    | { grep -v -e '^#' -e '^INFO:' -e 'NEW_FUNC' -e ' # Uses: ' || true; }); \
 	done

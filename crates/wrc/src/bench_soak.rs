@@ -542,14 +542,24 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         .collect();
     let began = Instant::now();
     let at = |fraction: f64| began + Duration::from_secs_f64(args.seconds as f64 * fraction);
+    // Resident memory every keep-alive [s since the start, KiB]: a leak climbs, a cache
+    // filling up levels off.
+    let mut rss_series: Vec<(u64, u64)> = Vec::new();
     let watched = (|| -> anyhow::Result<_> {
+        let mut watch = |probe: &mut Conn, next: &mut dyn FnMut() -> u32, t: Instant| {
+            keep_alive_until(probe, next, t, &mut |at| {
+                if let Ok((rss, _)) = usage(pid) {
+                    rss_series.push((at.duration_since(began).as_secs(), rss));
+                }
+            })
+        };
         let h0 = pg_histogram(&mut probe, next())?;
-        keep_alive_until(&mut probe, &mut next, at(0.1))?;
+        watch(&mut probe, &mut next, at(0.1))?;
         let h1 = pg_histogram(&mut probe, next())?;
         let (rss_warm, _) = usage(pid)?;
-        keep_alive_until(&mut probe, &mut next, at(0.9))?;
+        watch(&mut probe, &mut next, at(0.9))?;
         let h2 = pg_histogram(&mut probe, next())?;
-        keep_alive_until(&mut probe, &mut next, at(1.0))?;
+        watch(&mut probe, &mut next, at(1.0))?;
         let h3 = pg_histogram(&mut probe, next())?;
         Ok((h0, h1, h2, h3, rss_warm))
     })();
@@ -621,6 +631,13 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     );
     println!("  descriptors        {fds_before} before the clients, {fds_end} after");
     println!("  resident memory    {rss_warm} KiB after the warm-up, {rss_end} KiB at the end (allowed {rss_allowed})");
+    let step = rss_series.len().div_ceil(8).max(1);
+    let series: Vec<String> = rss_series
+        .iter()
+        .step_by(step)
+        .map(|(t, kib)| format!("{t} s {kib}"))
+        .collect();
+    println!("  memory over time   {} KiB", series.join(", "));
     println!(
         "  PG latency p99     {} µs in the first tenth, {} µs in the last",
         p99_first.map_or("-".into(), |v| v.to_string()),
@@ -654,6 +671,7 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
             "fds_before": fds_before,
             "fds_after": fds_end,
             "rss_warm_kib": rss_warm,
+            "rss_series_s_kib": rss_series,
             "rss_end_kib": rss_end,
             "rss_allowed_kib": rss_allowed,
             "pg_latency_p99_us_first": p99_first,
@@ -674,8 +692,9 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
 /// no control, so the controller would close it after its idle timeout.
 fn keep_alive_until(
     probe: &mut Conn,
-    next: &mut impl FnMut() -> u32,
+    next: &mut dyn FnMut() -> u32,
     t: Instant,
+    each: &mut dyn FnMut(Instant),
 ) -> anyhow::Result<()> {
     loop {
         let left = t.saturating_duration_since(Instant::now());
@@ -686,5 +705,6 @@ fn keep_alive_until(
         if probe.ask(next(), "STATUS")?.reply.is_none() {
             bail!("the controller did not answer STATUS within {REPLY_S} s");
         }
+        each(Instant::now());
     }
 }

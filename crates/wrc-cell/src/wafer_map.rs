@@ -999,6 +999,19 @@ impl WaferMap {
         n
     }
 
+    /// The vacuum sensor of `blade` stopped sensing its wafer while it moved: the wafer
+    /// stays in the map, uncertain, until a sensor confirms it ([`WaferMap::reconcile`]) or
+    /// it is removed. The sensor cannot tell a wafer that fell from one it no longer sees.
+    /// False (nothing changed) when the map has no wafer on the blade.
+    pub fn mark_blade_uncertain(&mut self, blade: Blade) -> bool {
+        let i = blade.index();
+        if self.hands[i].is_none() {
+            return false;
+        }
+        self.uncertain[i] = true;
+        true
+    }
+
     /// Whether the wafer on `blade` is uncertain ([`WaferMap::mark_uncertain`]).
     pub fn is_uncertain(&self, blade: Blade) -> bool {
         self.uncertain[blade.index()]

@@ -113,6 +113,21 @@ pub struct CellService {
     swap_put: Option<Transfer>,
     /// Transfers blend their approach into the line in (`[motion] blend`).
     blend: bool,
+    /// A wafer the vacuum sensor lost in motion (213) is in the map, uncertain, until the
+    /// RESET that ends the fault settles it from the sensor ([`CellService::poll`]).
+    settle_at_reset: SettleAtReset,
+}
+
+/// Where the settling of wafers lost in motion stands: waiting for the fault's state
+/// (`ERROR`) to be seen, then for the RESET that ends it (`IDLE` again).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SettleAtReset {
+    /// Nothing to settle.
+    No,
+    /// A wafer was lost; the fault has not yet been seen.
+    Lost,
+    /// The robot is in the fault; settle at the RESET.
+    InFault,
 }
 
 impl CellService {
@@ -154,6 +169,7 @@ impl CellService {
             reconciled,
             swap_put: None,
             blend: false,
+            settle_at_reset: SettleAtReset::No,
         })
     }
 
@@ -456,6 +472,16 @@ impl CellService {
             .wafers
             .prepare_blade(tkind, station.name.as_str(), slot, blade)
             .map_err(|e| (map_error_code(&e), e.to_string()))?;
+        // A wafer the map does not know on the taking blade would be driven into the slot's.
+        if tkind == TransferKind::Get && self.sensed()[blade.index()] {
+            return Err((
+                Code::HandFull,
+                format!(
+                    "the vacuum sensor senses a wafer on the {} that the wafer map does not have; take it off or identify it first; nothing moved",
+                    wrc_cell::Location::Hand(blade)
+                ),
+            ));
+        }
         if let Some(n) = station.interlock_input {
             if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << (n & 31)) == 0 {
                 return Err((
@@ -559,7 +585,7 @@ impl CellService {
                 if code == Some(Code::WaferLost) {
                     // The wafer was on a blade (a PUT not yet released, or after a GET).
                     let _ = self.wafers.abort();
-                    self.lose_unsensed(sensed);
+                    self.doubt_unsensed(sensed);
                     return self.persist();
                 }
                 if self.wafers.pending().is_none() {
@@ -605,7 +631,7 @@ impl CellService {
                 }
             }
             CellEvent::WaferLost { sensed } => {
-                self.lose_unsensed(sensed);
+                self.doubt_unsensed(sensed);
                 self.persist();
             }
         }
@@ -630,16 +656,50 @@ impl CellService {
         self.persist();
     }
 
-    /// The wafers on blades whose vacuum sensor no longer sees them leave the map.
-    fn lose_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
+    /// The wafers on blades whose vacuum sensor no longer sees them in motion (213) stay in
+    /// the map, uncertain (`W3?`): the sensor cannot tell a wafer that fell from a wafer it
+    /// no longer sees (a failed sensor), and the vacuum stays on. The RESET that ends the
+    /// fault settles them from the sensor ([`CellService::poll`]): a wafer sensed again is
+    /// kept, one still not sensed leaves the map. Removing it at once left a wafer that was
+    /// still held out of the map, and the next GET drove it into a slot's wafer.
+    fn doubt_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
         for b in Blade::ALL {
-            if self.wafers.hand_of(b).is_some() && !sensed[b.index()] {
+            if sensed[b.index()] || !self.wafers.mark_blade_uncertain(b) {
+                continue;
+            }
+            if let Some(id) = self.wafers.hand_of(b) {
                 let at = wrc_cell::Location::Hand(b);
-                if let Ok(id) = self.wafers.remove(at) {
-                    tracing::warn!("wrc: wafer {id} was lost from the {at}; it left the wafer map");
-                }
+                tracing::warn!("wrc: the vacuum sensor lost wafer {id} on the {at} in motion; it stays in the wafer map, uncertain, until RESET settles it from the sensor (kept if sensed, removed if not)");
+            }
+            self.settle_at_reset = SettleAtReset::Lost;
+        }
+    }
+
+    /// What each blade's vacuum sensor senses now.
+    fn sensed(&self) -> [bool; MAX_BLADES] {
+        let inputs = self.shared.inputs[0].load(Ordering::Acquire);
+        Blade::ALL.map(|b| {
+            self.hand
+                .blade(b.index())
+                .is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0)
+        })
+    }
+
+    /// The RESET after a wafer was lost in motion: each uncertain wafer its sensor senses is
+    /// confirmed, each it does not leaves the map.
+    fn settle_lost(&mut self) {
+        let sensed = self.sensed();
+        let _ = self.wafers.reconcile(sensed);
+        for b in Blade::ALL {
+            if !self.wafers.is_uncertain(b) {
+                continue;
+            }
+            let at = wrc_cell::Location::Hand(b);
+            if let Ok(id) = self.wafers.remove(at) {
+                tracing::warn!("wrc: wafer {id} was lost from the {at}: its vacuum sensor still senses none at RESET; it left the wafer map");
             }
         }
+        self.persist();
     }
 
     fn persist(&mut self) {
@@ -655,13 +715,18 @@ impl CellService {
         if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
             self.board_lost(None);
         }
+        match (self.settle_at_reset, self.shared.state()) {
+            (SettleAtReset::Lost, RobotState::Error | RobotState::Estop) => {
+                self.settle_at_reset = SettleAtReset::InFault;
+            }
+            (SettleAtReset::InFault, RobotState::Idle) if self.reconciled => {
+                self.settle_at_reset = SettleAtReset::No;
+                self.settle_lost();
+            }
+            _ => {}
+        }
         if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
-            let inputs = self.shared.inputs[0].load(Ordering::Acquire);
-            let sensed = Blade::ALL.map(|b| {
-                self.hand
-                    .blade(b.index())
-                    .is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0)
-            });
+            let sensed = self.sensed();
             let r = self.wafers.reconcile(sensed);
             self.reconciled = true;
             match r {

@@ -325,6 +325,17 @@ fn a_wafer_on_the_hand_is_uncertain_until_a_sensor_or_an_operator_settles_it() {
     unsensed.remove(Location::HAND).unwrap();
     assert!(!unsensed.is_uncertain(Blade::A));
 
+    // The vacuum sensor lost the wafer in motion: that blade only, and only with a wafer.
+    let mut lost = holding.clone();
+    assert!(lost.mark_blade_uncertain(Blade::A));
+    assert!(lost.is_uncertain(Blade::A) && !lost.is_uncertain(Blade::B));
+    assert!(
+        !lost.mark_blade_uncertain(Blade::B),
+        "blade B holds nothing"
+    );
+    assert!(!lost.is_uncertain(Blade::B));
+    assert_eq!(lost, m, "the same uncertainty as a lost board's");
+
     // A pending transfer stays pending; an empty hand has nothing to be uncertain about.
     let mut pending = mapped();
     pending.begin(get).unwrap();

@@ -455,6 +455,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| args.state_dir.join("stations.toml"));
     let world_path = args.state_dir.join("world.toml");
+    check_state_files(&stations_path, &args.state_dir.join("wafers.toml"))?;
     let simulate_cell = args.board.is_empty()
         && config
             .boards
@@ -654,6 +655,20 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Refuse to start, before any board or task runs, when the stations file or the wafer map
+/// exists but cannot be used: the error names the file, and nothing is written (the
+/// controller would refuse them too, but only after the simulated boards had started and
+/// rewritten the cell's world file on their way down). Missing files are made later.
+fn check_state_files(stations: &Path, wafers: &Path) -> anyhow::Result<()> {
+    if stations.exists() {
+        wrc_cell::Stations::load(stations)?;
+    }
+    if wafers.exists() {
+        wrc_cell::WaferMap::load(wafers)?;
+    }
+    Ok(())
 }
 
 /// What `state.toml` records at shutdown, for the operator (nothing reads it back).

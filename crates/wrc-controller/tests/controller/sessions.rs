@@ -659,3 +659,37 @@ fn a_wafer_whose_vacuum_sensor_drops_in_motion_stays_uncertain_until_reset_settl
     assert!(r.contains("does not have"), "{r}");
     assert_eq!(host.truth("LP1"), "0111111111111111111111111");
 }
+
+/// Regression (found by `wrc bench faults`, whose recovery transfers start wherever a fault
+/// left the arm): from the far side of the robot every candidate of a blended approach,
+/// entering at rest too, passed through the half-plane in front of the station's approach
+/// pose (far to the side of the station), so a GET was accepted and then ended `ABS 113`
+/// with nothing moved, although the same transfer without blending runs. The entry at rest
+/// is now the unblended move to the approach pose, checked as that one is.
+#[test]
+fn a_transfer_from_the_far_side_of_the_robot_runs_instead_of_ending_abs_113() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    for (id, slot) in [(10, 1), (20, 19)] {
+        assert_eq!(host.motion(id, "MOVJ 60 60 -90 100"), format!("INF {id}"));
+        assert_eq!(
+            host.motion(id + 1, &format!("GET LP1 {slot}")),
+            format!("INF {} W{slot}", id + 1)
+        );
+        assert!(!host.hand_empty());
+        assert_eq!(
+            host.motion(id + 2, "MOVJ 60 60 -90 100"),
+            format!("INF {}", id + 2)
+        );
+        assert_eq!(
+            host.motion(id + 3, &format!("PUT LP1 {slot}")),
+            format!("INF {} W{slot}", id + 3)
+        );
+        assert!(host.hand_empty());
+    }
+    let map = host.ask("30 WAFERS");
+    assert_eq!(map_codes(&map, "LP1"), host.truth("LP1"));
+    assert!(map.contains(" LP1=W1..W25 "), "{map}");
+}

@@ -119,7 +119,8 @@ pub struct CellService {
 }
 
 /// Where the settling of wafers lost in motion stands: waiting for the fault's state
-/// (`ERROR`) to be seen, then for the RESET that ends it (`IDLE` again).
+/// (`ERROR`) to be seen, then for the RESET that ends it (`IDLE` again), then for the I/O
+/// Monitor to read the vacuum sensor after it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum SettleAtReset {
     /// Nothing to settle.
@@ -128,6 +129,10 @@ enum SettleAtReset {
     Lost,
     /// The robot is in the fault; settle at the RESET.
     InFault,
+    /// RESET ended the fault when the I/O Monitor had read the inputs this many times:
+    /// settle from its next reading (the one before may predate a sensor that answers
+    /// again).
+    Reset(u64),
 }
 
 impl CellService {
@@ -387,7 +392,7 @@ impl CellService {
                 "a transfer or mapping is in progress".to_string(),
             ));
         }
-        if !self.reconciled {
+        if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
             return Err((
                 Code::TransferBusy,
                 "the wafer map is being reconciled with the vacuum sensor; repeat in a moment"
@@ -719,7 +724,13 @@ impl CellService {
             (SettleAtReset::Lost, RobotState::Error | RobotState::Estop) => {
                 self.settle_at_reset = SettleAtReset::InFault;
             }
-            (SettleAtReset::InFault, RobotState::Idle) if self.reconciled => {
+            (SettleAtReset::InFault, RobotState::Idle) => {
+                let samples = self.shared.io_samples.load(Ordering::Acquire);
+                self.settle_at_reset = SettleAtReset::Reset(samples);
+            }
+            (SettleAtReset::Reset(at), _)
+                if self.reconciled && self.shared.io_samples.load(Ordering::Acquire) > at =>
+            {
                 self.settle_at_reset = SettleAtReset::No;
                 self.settle_lost();
             }

@@ -630,18 +630,19 @@ fn a_wafer_whose_vacuum_sensor_drops_in_motion_stays_uncertain_until_reset_settl
         until_hand(&mut host, "W1?");
         // No transfer while the robot is in the fault; none would take a slot's wafer.
         expect_nak(&mut host, id + 1, "GET LP1 2", 122);
+        // The arm stands (WAIT ends with the fault's code once it does).
+        let waited = host.motion(id + 5, "WAIT");
+        assert!(
+            waited.starts_with(&format!("ABS {} 213", id + 5)),
+            "{waited}"
+        );
+        // The sensor answers again and RESET comes at once, before the I/O Monitor's next
+        // period has read the input: the settling waits for a reading taken after RESET.
         if sensor_back {
             host.inject("sensor-flip 0 off");
-            wait_input(&mut host, 0, true);
         }
-        host.poll("RESET after the brake", |host| {
-            let r = host.ask(&format!("{} RESET", id + 2));
-            if r.starts_with("ACK") {
-                Ok(())
-            } else {
-                Err(r)
-            }
-        });
+        let r = host.ask(&format!("{} RESET", id + 2));
+        assert!(r.starts_with("ACK"), "{r}");
         if sensor_back {
             // Sensed again: the wafer is confirmed on the hand, and GET is refused (133).
             until_hand(&mut host, "W1");

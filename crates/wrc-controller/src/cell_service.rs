@@ -5,8 +5,8 @@
 //! the pending transfer *before* anything moves, and hands the job to the Command
 //! Interpreter ([`crate::cell_job`]). It commits and saves the map when the Command
 //! Interpreter reports the vacuum sensor's confirmation, settles a failed transfer from the
-//! vacuum sensor (as at start-up), applies mappings, and tells every connection what changed
-//! (`EVT WAFER`).
+//! vacuum sensor (as at start-up, once the arm stands still and the sensor has answered),
+//! applies mappings, and tells every connection what changed (`EVT WAFER`).
 //!
 //! At start-up it reconciles a transfer left pending by a crash from the vacuum sensor,
 //! once the I/O Monitor has read the inputs; until then `GET` and `PUT` are refused (138).
@@ -116,6 +116,25 @@ pub struct CellService {
     /// A wafer the vacuum sensor lost in motion (213) is in the map, uncertain, until the
     /// RESET that ends the fault settles it from the sensor ([`CellService::poll`]).
     settle_at_reset: SettleAtReset,
+    /// A transfer that ended abnormally stays pending until the arm stands still and the
+    /// vacuum sensor has had its time to answer ([`CellService::poll`]).
+    settle_ended: SettleEnded,
+    /// I/O Monitor readings that cover `[hand] vacuum_settle_ms` (see
+    /// [`CellService::with_io_period`]).
+    settle_samples: u64,
+}
+
+/// Where the settling of a transfer that ended abnormally stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SettleEnded {
+    /// Nothing to settle.
+    No,
+    /// Waiting for the arm to stand still (a stop's brake may still carry the hand through
+    /// a slot's support height, picking or leaving the wafer).
+    UntilRest,
+    /// Standing still: settle from the I/O Monitor's reading after this count (the sensor
+    /// answers a pick or a release after its delay, at most `vacuum_settle_ms`).
+    UntilSample(u64),
 }
 
 /// Where the settling of wafers lost in motion stands: waiting for the fault's state
@@ -175,7 +194,17 @@ impl CellService {
             swap_put: None,
             blend: false,
             settle_at_reset: SettleAtReset::No,
+            settle_ended: SettleEnded::No,
+            settle_samples: settle_samples(&hand, DEFAULT_IO_PERIOD_S),
         })
+    }
+
+    /// The I/O Monitor's period [s] (Table 1: 0.1 s unless the configuration says
+    /// otherwise): how many of its readings cover `[hand] vacuum_settle_ms`, the time the
+    /// vacuum sensor has to answer before a transfer that ended abnormally is settled.
+    pub fn with_io_period(mut self, period_s: f64) -> CellService {
+        self.settle_samples = settle_samples(&self.hand, period_s);
+        self
     }
 
     /// Plan transfers with a blended approach ([`JobStep::Approach`]) or not.
@@ -598,12 +627,13 @@ impl CellService {
                 }
                 if !started {
                     let _ = self.wafers.abort();
+                    self.persist();
                 } else {
-                    // Settled by the vacuum sensor, exactly as at start-up.
-                    let r = self.wafers.reconcile(sensed);
-                    tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                    // Settled by the vacuum sensor, exactly as at start-up, once the arm
+                    // stands still and the sensor has answered: the sensor this event
+                    // carries may predate a pick or a release the brake still makes.
+                    self.settle_ended = SettleEnded::UntilRest;
                 }
-                self.persist();
             }
             CellEvent::Mapped {
                 station_index,
@@ -649,6 +679,8 @@ impl CellService {
     fn board_lost(&mut self, during: Option<JobKind>) {
         let n = self.wafers.mark_uncertain();
         self.reconciled = false;
+        // A pending transfer is settled when the board answers again, as at start-up.
+        self.settle_ended = SettleEnded::No;
         let what = if self.wafers.pending().is_some() {
             "keeps the transfer pending"
         } else if n > 0 {
@@ -678,6 +710,14 @@ impl CellService {
             }
             self.settle_at_reset = SettleAtReset::Lost;
         }
+    }
+
+    /// Whether the arm stands still: nothing in flight, at rest in the current stop epoch
+    /// (what RESET waits for too).
+    fn stands_still(&self) -> bool {
+        let s = &self.shared;
+        s.in_flight.load(Ordering::Acquire) == 0
+            && s.stopped_epoch.load(Ordering::Acquire) == s.stop_epoch.load(Ordering::Acquire)
     }
 
     /// What each blade's vacuum sensor senses now.
@@ -720,6 +760,23 @@ impl CellService {
         if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
             self.board_lost(None);
         }
+        let samples = self.shared.io_samples.load(Ordering::Acquire);
+        match self.settle_ended {
+            SettleEnded::UntilRest if self.stands_still() => {
+                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples);
+            }
+            SettleEnded::UntilSample(after)
+                if samples > after
+                    && self.reconciled
+                    && !self.shared.board_dead.load(Ordering::Acquire) =>
+            {
+                self.settle_ended = SettleEnded::No;
+                let r = self.wafers.reconcile(self.sensed());
+                tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                self.persist();
+            }
+            _ => {}
+        }
         match (self.settle_at_reset, self.shared.state()) {
             (SettleAtReset::Lost, RobotState::Error | RobotState::Estop) => {
                 self.settle_at_reset = SettleAtReset::InFault;
@@ -760,6 +817,16 @@ impl CellService {
             .fold(0u8, |m, b| m | 1 << b.index());
         self.shared.hand_wafers.store(holding, Ordering::Release);
     }
+}
+
+/// The I/O Monitor's period when the configuration does not give one (Table 1) [s].
+const DEFAULT_IO_PERIOD_S: f64 = 0.1;
+
+/// I/O Monitor readings (of `io_period_s` each) that cover the vacuum sensor's settling
+/// time, and one more: the reading after them answers for the sensor.
+fn settle_samples(hand: &HandConfig, io_period_s: f64) -> u64 {
+    let periods = (hand.vacuum_settle_s / io_period_s.max(1e-3)).ceil();
+    periods.clamp(1.0, 1000.0) as u64
 }
 
 /// The code of a wafer-map refusal.

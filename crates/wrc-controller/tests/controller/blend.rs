@@ -53,7 +53,7 @@ fn past_lp2_approach(host: &mut VHost) -> f64 {
 
 /// The map and the cell agree, and W1 is where `hand` says.
 fn map_is_the_cell(host: &mut VHost, on_hand: bool) {
-    let map = host.ask("WAFERS");
+    let map = host.settled_wafers();
     if on_hand {
         assert!(map.contains("hand=W1 "), "{map}");
         assert!(map.contains(" LP2=-x25 "), "{map}");

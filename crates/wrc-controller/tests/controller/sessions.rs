@@ -494,7 +494,7 @@ fn an_estop_between_the_halves_of_a_swap_leaves_the_map_as_the_cell_is() {
     assert_eq!(host.ask("ESTOP"), "ACK");
     assert!(host.until("ABS 8").starts_with("ABS 8 201"));
     assert!(host.ask("RESET").starts_with("ACK"));
-    let wafers = host.ask("WAFERS");
+    let wafers = host.settled_wafers();
     assert!(wafers.contains("hand=W1 hand.B=W2 "), "{wafers}");
     assert!(wafers.contains(" PM1=- "), "{wafers}");
     assert!(!wafers.contains("pending="), "{wafers}");
@@ -693,4 +693,36 @@ fn a_transfer_from_the_far_side_of_the_robot_runs_instead_of_ending_abs_113() {
     let map = host.ask("30 WAFERS");
     assert_eq!(map_codes(&map, "LP1"), host.truth("LP1"));
     assert!(map.contains(" LP1=W1..W25 "), "{map}");
+}
+
+/// Regression (found by `wrc bench faults`, a pendant unplugged during a GET): a transfer
+/// that ended abnormally was settled from the vacuum sensor at the moment it ended, but the
+/// sensor answers a pick only after its delay (and a brake can still carry the hand through
+/// the slot's support height). A GET stopped just after its pick was taken as not having
+/// happened: the map kept the wafer in its slot while it was on the hand. It is settled now
+/// once the arm stands still and the sensor has had `vacuum_settle_ms` to answer.
+#[test]
+fn a_get_stopped_right_after_its_pick_is_settled_once_the_sensor_has_answered() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert_eq!(host.ask("4 GET LP1 1"), "ACK 4");
+    // The wafer leaves its slot for the hand in the cell; its vacuum sensor answers 50 ms
+    // later. The stop comes in between.
+    for _ in 0..20_000 {
+        if !host.hand_empty() {
+            break;
+        }
+        host.sim.run_for_ns(1_000_000);
+    }
+    assert!(!host.hand_empty(), "the GET never picked its wafer");
+    assert_eq!(host.ask("ESTOP"), "ACK");
+    assert!(host.until("ABS 4").starts_with("ABS 4 201"));
+    // Pending until the arm stands and the sensor has answered; then on the hand.
+    let map = host.settled_wafers();
+    assert!(map.contains(" hand=W1 "), "{map}");
+    assert!(map.contains(" LP1=-,W2..W25 "), "{map}");
+    assert!(!host.hand_empty());
+    assert_eq!(host.truth("LP1"), "0111111111111111111111111");
 }

@@ -421,6 +421,14 @@ impl CellService {
                 "a transfer or mapping is in progress".to_string(),
             ));
         }
+        if !self.shared.io_ready.load(Ordering::Acquire) {
+            // Right after start-up (or while a board does not answer) the inputs are not
+            // read yet: an interlock or a vacuum sensor judged on them would be judged on 0.
+            return Err((
+                Code::TransferBusy,
+                "the controller has not read its inputs yet; repeat in a moment".to_string(),
+            ));
+        }
         if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
             return Err((
                 Code::TransferBusy,

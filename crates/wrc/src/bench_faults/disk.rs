@@ -278,9 +278,21 @@ fn comment_end(text: &[u8]) -> usize {
 
 /// A state directory with a homed, mapped cell: what the corrupt-file rounds copy. The
 /// shared session's, when it runs (idle between rounds: its files are a consistent
-/// snapshot, each written atomically); otherwise one made once and stopped cleanly.
-fn template(ctx: &mut Ctx, shared: &Option<Session>) -> anyhow::Result<PathBuf> {
+/// snapshot, each written atomically), with the hand's wafer put down first (`wrc up`
+/// starts its simulated board afresh, with the vacuum off: a wafer left on the hand would
+/// fall); otherwise one made once and stopped cleanly.
+fn template(ctx: &mut Ctx, shared: &mut Option<Session>) -> anyhow::Result<PathBuf> {
     if let Some(s) = shared {
+        s.park()?;
+        // The board writes its world file a moment after each change: wait for it to show
+        // the cell the map shows.
+        let settled = s.check_map();
+        if !settled.problems.is_empty() {
+            anyhow::bail!(
+                "the shared cell is not consistent to copy: {}",
+                settled.problems.join("; ")
+            );
+        }
         let dir = ctx.dir("corrupt-template-shared")?;
         let state = s.up.state.clone();
         for f in STATE_FILES {
@@ -320,7 +332,7 @@ fn copy_state(from: &Path, dir: &Path) -> anyhow::Result<()> {
 pub(super) fn corrupt_round(
     ctx: &mut Ctx,
     file: &str,
-    shared: &Option<Session>,
+    shared: &mut Option<Session>,
 ) -> anyhow::Result<Round> {
     let template = template(ctx, shared)?;
     let n = std::fs::read_dir(&ctx.root)?.count();

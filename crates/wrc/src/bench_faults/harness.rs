@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
-use wrc_cell::{Stations, Tracking, WaferMap, World};
+use wrc_cell::{Blade, Stations, Tracking, WaferMap, World};
 
 /// How long any single wait of the campaign may take before the round gives up on it: long
 /// next to what it waits for (a transfer takes about 5 s), short next to the campaign.
@@ -216,13 +216,22 @@ impl Conn {
         Ok(end)
     }
 
-    /// Start an action (`ACK` required); its id.
+    /// Start an action (`ACK` required); its id. A `NAK 138` ("repeat in a moment": the
+    /// controller is still reading its inputs or settling the map) is repeated, as a host
+    /// does, for at most [`PATIENCE`].
     pub(super) fn start(&mut self, line: &str) -> anyhow::Result<u32> {
-        let (id, reply) = self.request(line)?;
-        if !reply.starts_with("ACK") {
-            bail!("`{line}` was refused: {reply}");
+        let deadline = Instant::now() + PATIENCE;
+        loop {
+            let (id, reply) = self.request(line)?;
+            if reply.starts_with("ACK") {
+                return Ok(id);
+            }
+            let busy = reply.split_whitespace().nth(2) == Some("138");
+            if !busy || Instant::now() >= deadline {
+                bail!("`{line}` was refused: {reply}");
+            }
+            std::thread::sleep(Duration::from_millis(50));
         }
-        Ok(id)
     }
 
     /// Run an action to its end; its `INF`/`ABS`.
@@ -709,6 +718,14 @@ pub(super) fn check_map(
         let mut trial = tracking.clone();
         match (&map, &world) {
             (Ok(map), Ok(world)) => {
+                // A wafer the controller is still settling from its sensor (`W3?`, for a
+                // moment after RESET) is not a map to judge yet.
+                if Blade::ALL.iter().any(|b| map.is_uncertain(*b)) {
+                    problems.push(format!(
+                        "the hand's wafer is still uncertain: `{}`",
+                        map.wafers_line()
+                    ));
+                }
                 if let Some(body) = &body {
                     if *body != map.wafers_line() {
                         problems.push(format!(

@@ -81,6 +81,7 @@ pub(super) fn board_kill(s: &mut Session, ctx: &mut Ctx) -> anyhow::Result<Round
     let pid = *processes(&state, "board-sim")
         .first()
         .context("no board-sim process")?;
+    let epoch = s.board()?.feedback().boards[0].epoch;
     let mark = s.host.lines.mark();
     let t0 = kill9(pid)?;
     let found = s
@@ -106,7 +107,13 @@ pub(super) fn board_kill(s: &mut Session, ctx: &mut Ctx) -> anyhow::Result<Round
         round.stopped = Verdict::Fail("the board was not restarted".into());
         return Ok(round);
     };
+    // Judged once the new process has taken the DPRAM over (a new epoch, its own count of
+    // periods from 0).
     let board = s.board()?;
+    poll(PATIENCE, || {
+        (board.feedback().boards[0].epoch != epoch).then_some(())
+    })
+    .context("the restarted board did not take its DPRAM over")?;
     let from = board.feedback().boards[0].period_count;
     let at_rest = board.rest_after(from, 0, STILL_PERIODS).is_some();
     let still = s.host.joints()?;

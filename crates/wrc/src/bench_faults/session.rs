@@ -32,8 +32,10 @@ pub(super) struct Session {
     /// The board's DPRAM and world file.
     pub(super) dpram: PathBuf,
     pub(super) world: PathBuf,
-    /// The teaching pendant's line, when started with one.
+    /// The teaching pendant's line, when started with one (until it is unplugged).
     pub(super) pendant: Option<Pendant>,
+    /// Started with a pendant line (a restart gets a fresh one).
+    with_pendant: bool,
 }
 
 impl Session {
@@ -72,6 +74,7 @@ impl Session {
             dpram: dir.join("board0.dpram"),
             world: dir.join("world.toml"),
             pendant: line.map(Pendant::attach).transpose()?,
+            with_pendant: pendant,
         };
         s.prepare()?;
         Ok(s)
@@ -148,7 +151,7 @@ impl Session {
         let tracking = std::mem::take(&mut self.tracking);
         let options = self.options.clone();
         let dir = self.dpram.parent().map(Path::to_path_buf);
-        let pendant = self.pendant.is_some();
+        let pendant = self.with_pendant;
         drop(self);
         let mut s = Session::start(options, dir.as_deref(), pendant)?;
         s.tracking = tracking;

@@ -74,7 +74,7 @@ pub use stations::{stn_line, Stations, StationsError, DEMO_NAME, DEMO_TOML};
 pub use transfer::{plan, plan_get, plan_put, Step, TransferKind};
 pub use wafer_map::{
     parse_slot_list, Location, MappingChanges, Reconciled, SlotFault, SlotState, Transfer, WaferId,
-    WaferMap, WaferMapError, FORMAT_VERSION,
+    WaferMap, WaferMapError, END_LINE, FORMAT_VERSION,
 };
 pub use world::{
     Mismatch, SlotContent, Tracking, World, WorldError, WorldEvent, SEAT_TOLERANCE_DEG,

@@ -32,11 +32,11 @@
 //! [`SlotState::Fault`] (the mapping saw a double or cross-slotted wafer there: GET and PUT
 //! refuse it until it is mapped clean).
 //!
-//! # File format (TOML, version 1)
+//! # File format (TOML, version 2)
 //!
 //! ```toml
 //! # wrc wafer map ...
-//! version = 1
+//! version = 2
 //! next_id = 27                 # the next new id; every id in the map is below it
 //! hand = "W3"                  # omitted when the hand (blade A) is empty
 //! hand_b = "W4"                # blade B of a dual-blade robot; omitted when empty
@@ -54,9 +54,13 @@
 //! [[station]]
 //! name = "LP1"
 //! slots = ["W1", "W2", "-", "?", "double", "cross"]   # slot 1 first
+//!
+//! # end of the wafer map
 //! ```
 //!
-//! Slot tokens: `W<n>` a wafer, `-` empty, `?` unknown, `double`, `cross`.
+//! Slot tokens: `W<n>` a wafer, `-` empty, `?` unknown, `double`, `cross`. The last line is
+//! [`END_LINE`]: a version 2 file without it was cut short and is refused (version 1, which
+//! had none, is still read and is written back as version 2).
 //!
 //! # The `WAFERS` reply
 //!
@@ -85,8 +89,15 @@ use crate::station::{parse_station_name, same_name, StationName, MAX_SLOTS};
 use crate::stations::Stations;
 use crate::transfer::TransferKind;
 
-/// Version of the wafer map file format written by [`WaferMap::to_text`].
-pub const FORMAT_VERSION: u32 = 1;
+/// Version of the wafer map file format written by [`WaferMap::to_text`]. Version 2 ends
+/// with [`END_LINE`]; version 1 (no end line) is still read.
+pub const FORMAT_VERSION: u32 = 2;
+
+/// The last line of a version 2 wafer map: a file that does not end with it was cut short.
+/// TOML cannot tell: a file cut at the end of a line (a lost stretch of a disk, a partial
+/// copy) is often still valid TOML, with the pending transfer, the hand or whole stations
+/// missing, which the map would otherwise take as unknown and write back.
+pub const END_LINE: &str = "# end of the wafer map";
 
 /// A wafer's id in the map, shown as `W<n>`. Ids are handed out rising from `W1` and never
 /// reused (the next id is saved with the map).
@@ -442,7 +453,9 @@ pub enum WaferMapError {
         reason: String,
     },
     /// A file written by another version of wrc.
-    #[error("wafer map {file} has format version {found}; this wrc reads version {supported}")]
+    #[error(
+        "wafer map {file} has format version {found}; this wrc reads versions 1 to {supported}"
+    )]
     Version {
         /// The file.
         file: String,
@@ -999,6 +1012,19 @@ impl WaferMap {
         n
     }
 
+    /// The vacuum sensor of `blade` stopped sensing its wafer while it moved: the wafer
+    /// stays in the map, uncertain, until a sensor confirms it ([`WaferMap::reconcile`]) or
+    /// it is removed. The sensor cannot tell a wafer that fell from one it no longer sees.
+    /// False (nothing changed) when the map has no wafer on the blade.
+    pub fn mark_blade_uncertain(&mut self, blade: Blade) -> bool {
+        let i = blade.index();
+        if self.hands[i].is_none() {
+            return false;
+        }
+        self.uncertain[i] = true;
+        true
+    }
+
     /// Whether the wafer on `blade` is uncertain ([`WaferMap::mark_uncertain`]).
     pub fn is_uncertain(&self, blade: Blade) -> bool {
         self.uncertain[blade.index()]
@@ -1124,7 +1150,7 @@ impl WaferMap {
         format!(
             "# wrc wafer map: where every wafer is. Written atomically by the controller on \
              every change;\n# do not edit while it runs. Format: the wrc-cell crate's \
-             wafer_map module.\n{body}"
+             wafer_map module.\n{body}\n{END_LINE}\n"
         )
     }
 
@@ -1140,15 +1166,23 @@ impl WaferMap {
         // The version first, so a newer format is named as such rather than as unknown keys.
         let version: RawVersion = toml::from_str(text).map_err(toml_err)?;
         match version.version {
-            None => return Err(corrupt("it has no format version (version = 1)".into())),
-            Some(v) if v != i64::from(FORMAT_VERSION) => {
+            None => return Err(corrupt("it has no format version (version = 2)".into())),
+            // Version 1 had no end line.
+            Some(1) => {}
+            Some(v) if v == i64::from(FORMAT_VERSION) => {
+                if text.trim_end().lines().next_back().map(str::trim) != Some(END_LINE) {
+                    return Err(corrupt(format!(
+                        "it does not end with the line `{END_LINE}`: it was cut short"
+                    )));
+                }
+            }
+            Some(v) => {
                 return Err(WaferMapError::Version {
                     file: file.to_string(),
                     found: v,
                     supported: FORMAT_VERSION,
                 })
             }
-            Some(_) => {}
         }
         let raw: RawMap = toml::from_str(text).map_err(toml_err)?;
         let mut map = WaferMap {

@@ -5,8 +5,8 @@
 //! the pending transfer *before* anything moves, and hands the job to the Command
 //! Interpreter ([`crate::cell_job`]). It commits and saves the map when the Command
 //! Interpreter reports the vacuum sensor's confirmation, settles a failed transfer from the
-//! vacuum sensor (as at start-up), applies mappings, and tells every connection what changed
-//! (`EVT WAFER`).
+//! vacuum sensor (as at start-up, once the arm stands still and the sensor has answered),
+//! applies mappings, and tells every connection what changed (`EVT WAFER`).
 //!
 //! At start-up it reconciles a transfer left pending by a crash from the vacuum sensor,
 //! once the I/O Monitor has read the inputs; until then `GET` and `PUT` are refused (138).
@@ -113,6 +113,45 @@ pub struct CellService {
     swap_put: Option<Transfer>,
     /// Transfers blend their approach into the line in (`[motion] blend`).
     blend: bool,
+    /// A wafer the vacuum sensor lost in motion (213) is in the map, uncertain, until the
+    /// RESET that ends the fault settles it from the sensor ([`CellService::poll`]).
+    settle_at_reset: SettleAtReset,
+    /// A transfer that ended abnormally stays pending until the arm stands still and the
+    /// vacuum sensor has had its time to answer ([`CellService::poll`]).
+    settle_ended: SettleEnded,
+    /// I/O Monitor readings that cover `[hand] vacuum_settle_ms` (see
+    /// [`CellService::with_io_period`]).
+    settle_samples: u64,
+}
+
+/// Where the settling of a transfer that ended abnormally stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SettleEnded {
+    /// Nothing to settle.
+    No,
+    /// Waiting for the arm to stand still (a stop's brake may still carry the hand through
+    /// a slot's support height, picking or leaving the wafer).
+    UntilRest,
+    /// Standing still: settle from the I/O Monitor's reading after this count (the sensor
+    /// answers a pick or a release after its delay, at most `vacuum_settle_ms`).
+    UntilSample(u64),
+}
+
+/// Where the settling of wafers lost in motion stands: waiting for the fault's state
+/// (`ERROR`) to be seen, then for the RESET that ends it (`IDLE` again), then for the I/O
+/// Monitor to read the vacuum sensor after it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum SettleAtReset {
+    /// Nothing to settle.
+    No,
+    /// A wafer was lost; the fault has not yet been seen.
+    Lost,
+    /// The robot is in the fault; settle at the RESET.
+    InFault,
+    /// RESET ended the fault when the I/O Monitor had read the inputs this many times:
+    /// settle from its next reading (the one before may predate a sensor that answers
+    /// again).
+    Reset(u64),
 }
 
 impl CellService {
@@ -154,7 +193,18 @@ impl CellService {
             reconciled,
             swap_put: None,
             blend: false,
+            settle_at_reset: SettleAtReset::No,
+            settle_ended: SettleEnded::No,
+            settle_samples: settle_samples(&hand, DEFAULT_IO_PERIOD_S),
         })
+    }
+
+    /// The I/O Monitor's period [s] (Table 1: 0.1 s unless the configuration says
+    /// otherwise): how many of its readings cover `[hand] vacuum_settle_ms`, the time the
+    /// vacuum sensor has to answer before a transfer that ended abnormally is settled.
+    pub fn with_io_period(mut self, period_s: f64) -> CellService {
+        self.settle_samples = settle_samples(&self.hand, period_s);
+        self
     }
 
     /// Plan transfers with a blended approach ([`JobStep::Approach`]) or not.
@@ -371,7 +421,15 @@ impl CellService {
                 "a transfer or mapping is in progress".to_string(),
             ));
         }
-        if !self.reconciled {
+        if !self.shared.io_ready.load(Ordering::Acquire) {
+            // Right after start-up (or while a board does not answer) the inputs are not
+            // read yet: an interlock or a vacuum sensor judged on them would be judged on 0.
+            return Err((
+                Code::TransferBusy,
+                "the controller has not read its inputs yet; repeat in a moment".to_string(),
+            ));
+        }
+        if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
             return Err((
                 Code::TransferBusy,
                 "the wafer map is being reconciled with the vacuum sensor; repeat in a moment"
@@ -456,6 +514,16 @@ impl CellService {
             .wafers
             .prepare_blade(tkind, station.name.as_str(), slot, blade)
             .map_err(|e| (map_error_code(&e), e.to_string()))?;
+        // A wafer the map does not know on the taking blade would be driven into the slot's.
+        if tkind == TransferKind::Get && self.sensed()[blade.index()] {
+            return Err((
+                Code::HandFull,
+                format!(
+                    "the vacuum sensor senses a wafer on the {} that the wafer map does not have; take it off or identify it first; nothing moved",
+                    wrc_cell::Location::Hand(blade)
+                ),
+            ));
+        }
         if let Some(n) = station.interlock_input {
             if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << (n & 31)) == 0 {
                 return Err((
@@ -559,7 +627,7 @@ impl CellService {
                 if code == Some(Code::WaferLost) {
                     // The wafer was on a blade (a PUT not yet released, or after a GET).
                     let _ = self.wafers.abort();
-                    self.lose_unsensed(sensed);
+                    self.doubt_unsensed(sensed);
                     return self.persist();
                 }
                 if self.wafers.pending().is_none() {
@@ -567,12 +635,13 @@ impl CellService {
                 }
                 if !started {
                     let _ = self.wafers.abort();
+                    self.persist();
                 } else {
-                    // Settled by the vacuum sensor, exactly as at start-up.
-                    let r = self.wafers.reconcile(sensed);
-                    tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                    // Settled by the vacuum sensor, exactly as at start-up, once the arm
+                    // stands still and the sensor has answered: the sensor this event
+                    // carries may predate a pick or a release the brake still makes.
+                    self.settle_ended = SettleEnded::UntilRest;
                 }
-                self.persist();
             }
             CellEvent::Mapped {
                 station_index,
@@ -605,7 +674,7 @@ impl CellService {
                 }
             }
             CellEvent::WaferLost { sensed } => {
-                self.lose_unsensed(sensed);
+                self.doubt_unsensed(sensed);
                 self.persist();
             }
         }
@@ -618,6 +687,8 @@ impl CellService {
     fn board_lost(&mut self, during: Option<JobKind>) {
         let n = self.wafers.mark_uncertain();
         self.reconciled = false;
+        // A pending transfer is settled when the board answers again, as at start-up.
+        self.settle_ended = SettleEnded::No;
         let what = if self.wafers.pending().is_some() {
             "keeps the transfer pending"
         } else if n > 0 {
@@ -630,16 +701,58 @@ impl CellService {
         self.persist();
     }
 
-    /// The wafers on blades whose vacuum sensor no longer sees them leave the map.
-    fn lose_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
+    /// The wafers on blades whose vacuum sensor no longer sees them in motion (213) stay in
+    /// the map, uncertain (`W3?`): the sensor cannot tell a wafer that fell from a wafer it
+    /// no longer sees (a failed sensor), and the vacuum stays on. The RESET that ends the
+    /// fault settles them from the sensor ([`CellService::poll`]): a wafer sensed again is
+    /// kept, one still not sensed leaves the map. Removing it at once left a wafer that was
+    /// still held out of the map, and the next GET drove it into a slot's wafer.
+    fn doubt_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
         for b in Blade::ALL {
-            if self.wafers.hand_of(b).is_some() && !sensed[b.index()] {
+            if sensed[b.index()] || !self.wafers.mark_blade_uncertain(b) {
+                continue;
+            }
+            if let Some(id) = self.wafers.hand_of(b) {
                 let at = wrc_cell::Location::Hand(b);
-                if let Ok(id) = self.wafers.remove(at) {
-                    tracing::warn!("wrc: wafer {id} was lost from the {at}; it left the wafer map");
-                }
+                tracing::warn!("wrc: the vacuum sensor lost wafer {id} on the {at} in motion; it stays in the wafer map, uncertain, until RESET settles it from the sensor (kept if sensed, removed if not)");
+            }
+            self.settle_at_reset = SettleAtReset::Lost;
+        }
+    }
+
+    /// Whether the arm stands still: nothing in flight, at rest in the current stop epoch
+    /// (what RESET waits for too).
+    fn stands_still(&self) -> bool {
+        let s = &self.shared;
+        s.in_flight.load(Ordering::Acquire) == 0
+            && s.stopped_epoch.load(Ordering::Acquire) == s.stop_epoch.load(Ordering::Acquire)
+    }
+
+    /// What each blade's vacuum sensor senses now.
+    fn sensed(&self) -> [bool; MAX_BLADES] {
+        let inputs = self.shared.inputs[0].load(Ordering::Acquire);
+        Blade::ALL.map(|b| {
+            self.hand
+                .blade(b.index())
+                .is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0)
+        })
+    }
+
+    /// The RESET after a wafer was lost in motion: each uncertain wafer its sensor senses is
+    /// confirmed, each it does not leaves the map.
+    fn settle_lost(&mut self) {
+        let sensed = self.sensed();
+        let _ = self.wafers.reconcile(sensed);
+        for b in Blade::ALL {
+            if !self.wafers.is_uncertain(b) {
+                continue;
+            }
+            let at = wrc_cell::Location::Hand(b);
+            if let Ok(id) = self.wafers.remove(at) {
+                tracing::warn!("wrc: wafer {id} was lost from the {at}: its vacuum sensor still senses none at RESET; it left the wafer map");
             }
         }
+        self.persist();
     }
 
     fn persist(&mut self) {
@@ -655,13 +768,41 @@ impl CellService {
         if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
             self.board_lost(None);
         }
+        let samples = self.shared.io_samples.load(Ordering::Acquire);
+        match self.settle_ended {
+            SettleEnded::UntilRest if self.stands_still() => {
+                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples);
+            }
+            SettleEnded::UntilSample(after)
+                if samples > after
+                    && self.reconciled
+                    && !self.shared.board_dead.load(Ordering::Acquire) =>
+            {
+                self.settle_ended = SettleEnded::No;
+                let r = self.wafers.reconcile(self.sensed());
+                tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                self.persist();
+            }
+            _ => {}
+        }
+        match (self.settle_at_reset, self.shared.state()) {
+            (SettleAtReset::Lost, RobotState::Error | RobotState::Estop) => {
+                self.settle_at_reset = SettleAtReset::InFault;
+            }
+            (SettleAtReset::InFault, RobotState::Idle) => {
+                let samples = self.shared.io_samples.load(Ordering::Acquire);
+                self.settle_at_reset = SettleAtReset::Reset(samples);
+            }
+            (SettleAtReset::Reset(at), _)
+                if self.reconciled && self.shared.io_samples.load(Ordering::Acquire) > at =>
+            {
+                self.settle_at_reset = SettleAtReset::No;
+                self.settle_lost();
+            }
+            _ => {}
+        }
         if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
-            let inputs = self.shared.inputs[0].load(Ordering::Acquire);
-            let sensed = Blade::ALL.map(|b| {
-                self.hand
-                    .blade(b.index())
-                    .is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0)
-            });
+            let sensed = self.sensed();
             let r = self.wafers.reconcile(sensed);
             self.reconciled = true;
             match r {
@@ -684,6 +825,16 @@ impl CellService {
             .fold(0u8, |m, b| m | 1 << b.index());
         self.shared.hand_wafers.store(holding, Ordering::Release);
     }
+}
+
+/// The I/O Monitor's period when the configuration does not give one (Table 1) [s].
+const DEFAULT_IO_PERIOD_S: f64 = 0.1;
+
+/// I/O Monitor readings (of `io_period_s` each) that cover the vacuum sensor's settling
+/// time, and one more: the reading after them answers for the sensor.
+fn settle_samples(hand: &HandConfig, io_period_s: f64) -> u64 {
+    let periods = (hand.vacuum_settle_s / io_period_s.max(1e-3)).ceil();
+    periods.clamp(1.0, 1000.0) as u64
 }
 
 /// The code of a wafer-map refusal.

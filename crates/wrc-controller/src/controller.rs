@@ -334,7 +334,13 @@ pub(crate) fn assemble<H: Host>(
                 shared.clone(),
                 config.hand,
             )?
-            .with_blend(config.blend),
+            .with_blend(config.blend)
+            .with_io_period(
+                config
+                    .tasks
+                    .get("io_monitor")
+                    .map_or(0.1, |t| t.period_us as f64 * 1e-6),
+            ),
         ),
         None => store,
     };

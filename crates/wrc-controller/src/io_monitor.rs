@@ -90,6 +90,7 @@ impl<B: MotionBoard> IoMonitor<B> {
             }
             self.previous[b] = inputs;
         }
+        self.shared.io_samples.fetch_add(1, Ordering::AcqRel);
         if rewrite {
             self.shared.io_ready.store(true, Ordering::Release);
         }

@@ -583,6 +583,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
             return; // nothing to do between periods but a new stop
         }
         if self.detached {
+            // Nothing goes to a board that does not answer, and nothing waits for it: a
+            // period the Velocity Generator pushed after the stop was taken (its cycle began
+            // before it) is dropped here, or it would count as motion in flight for ever
+            // and no RESET could re-attach the board.
+            self.pending = None;
+            while self.ring.try_recv().is_some() {}
             self.publish_in_flight();
             return;
         }

@@ -444,6 +444,7 @@ mod tests {
         service: Service,
         links: StoreLinks,
         network: Arc<MessageQueue<OutLine>>,
+        shared: Arc<Shared>,
         _dir: tempfile::TempDir,
     }
 
@@ -456,6 +457,7 @@ mod tests {
             let shared = Arc::new(Shared::default());
             shared.homed.store(true, Ordering::Release);
             shared.inputs[0].store(1 << 14, Ordering::Release);
+            shared.io_ready.store(true, Ordering::Release);
             for (c, p) in shared
                 .commanded
                 .iter()
@@ -467,7 +469,7 @@ mod tests {
                 &robot,
                 &dir.path().join("stations.toml"),
                 &dir.path().join("wafers.toml"),
-                shared,
+                shared.clone(),
                 HandConfig::default(),
             )
             .unwrap();
@@ -484,6 +486,7 @@ mod tests {
                 service,
                 links,
                 network,
+                shared,
                 _dir: dir,
             }
         }
@@ -509,6 +512,53 @@ mod tests {
                 .filter(|l| !l.starts_with("EVT"))
                 .collect()
         }
+    }
+
+    /// Regression (found by `wrc bench faults`, a transfer sent the moment `wrc up` said it
+    /// was ready): before the I/O Monitor's first period the inputs read 0, and a GET was
+    /// refused because the station's interlock "was closed" (135). Until the inputs are
+    /// read, a transfer is asked to repeat (138), as while the map is reconciled.
+    #[test]
+    fn a_transfer_before_the_inputs_are_read_is_asked_to_repeat_not_refused_for_the_interlock() {
+        let mut r = Rig::new();
+        let mut codes = [0u8; MAX_MAP_SLOTS];
+        codes[..25].fill(1);
+        r.links
+            .cell_events
+            .try_send(CellEvent::Mapped {
+                station_index: 0,
+                count: 25,
+                codes,
+            })
+            .ok()
+            .unwrap();
+        r.shared.io_ready.store(false, Ordering::Release);
+        r.shared.inputs[0].store(0, Ordering::Release);
+        let get = |r: &Rig, id: u32| {
+            r.request(StoreRequest::Job {
+                from: HOST,
+                to: ReplyTo {
+                    id: Some(id),
+                    checksum: false,
+                },
+                kind: JobKind::Get,
+                station: StationName::new("LP1").unwrap(),
+                slot: 1,
+                blade: wrc_cell::Blade::A,
+            })
+        };
+        get(&r, 1);
+        r.service.step();
+        let replies = r.replies();
+        assert!(replies[0].starts_with("NAK 1 138 "), "{replies:?}");
+        assert!(r.links.jobs.try_recv().is_err(), "nothing handed over");
+        // Read: the interlock is asserted, and the GET goes ahead.
+        r.shared.inputs[0].store(1 << 14, Ordering::Release);
+        r.shared.io_ready.store(true, Ordering::Release);
+        get(&r, 2);
+        r.service.step();
+        assert!(r.replies().is_empty(), "the GET is not refused");
+        assert!(matches!(r.links.jobs.try_recv(), Ok(JobOffer::Start(_))));
     }
 
     /// Pins the bug where `WAFERS` sent right after a job's `INF` could show the map from

@@ -52,6 +52,10 @@ pub struct Shared {
     /// Pulse Generator when a board stops answering (its inputs are stale), set again by the
     /// I/O Monitor's first read once every board answers.
     pub io_ready: AtomicBool,
+    /// How many times the I/O Monitor has read the inputs (counted after `inputs` is
+    /// stored): who needs inputs read after some moment waits for the count to pass the one
+    /// it saw then (`inputs` may be an I/O Monitor period old).
+    pub io_samples: AtomicU64,
     /// A board's heartbeat has stood for its `heartbeat_periods` (the Pulse Generator
     /// watches it every period): the board is not answering. Cleared when every heartbeat
     /// advances again; the controller stays in ERROR until a RESET re-attaches.
@@ -91,6 +95,7 @@ impl Default for Shared {
             decel_ns: AtomicU64::new(0),
             stops: StopCounts::default(),
             io_ready: AtomicBool::new(false),
+            io_samples: AtomicU64::new(0),
             board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
             entry_committed: AtomicU32::new(0),

@@ -62,8 +62,8 @@ pub enum PlanError {
     #[error("the straight line needs the elbow to change posture on the way; move in two steps or use MOVP")]
     PostureChange,
 
-    /// No blended approach to the line's start keeps the hand behind it and every joint in
-    /// range (not even from rest): the transfer cannot blend there.
+    /// No blended approach to the line's start keeps every joint in range (and, entering
+    /// moving, the hand behind the start): the transfer cannot be made from here.
     #[error("no approach to the station's line keeps the hand behind its approach pose; teach the approach pose further back")]
     ApproachCrossesEntry,
     /// A number is NaN or infinite.

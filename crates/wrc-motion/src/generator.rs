@@ -582,9 +582,11 @@ impl VelocityGenerator {
     /// is Ruckig's time-optimal synchronised move to that moving state, within every axis's
     /// limits at the override. The line is entered at 90 % of the fastest speed its limits
     /// allow without acceleration, at ½ or ¼ of it, or at rest (a rest-to-rest approach in
-    /// one move): of those whose first part keeps the TCP behind the line's start and every
-    /// joint in range, the one that gets to `target` soonest (from the approach pose
-    /// itself, entering at rest). Refused ([`PlanError::ApproachCrossesEntry`]) if none does.
+    /// one move): of those whose first part keeps every joint in range and, entering
+    /// moving, the TCP behind the line's start, the one that gets to `target` soonest (from
+    /// the approach pose itself, entering at rest). Entering at rest is the unblended
+    /// transfer's move to the approach pose, committed only there. Refused
+    /// ([`PlanError::ApproachCrossesEntry`]) if none passes.
     ///
     /// From the hand already on the line between its start and `target` (a `RESUME` after
     /// a HOLD inside) it is the line alone. Returns whether anything moves. Only under the
@@ -659,20 +661,28 @@ impl VelocityGenerator {
                 continue;
             };
             // Every point of the first part: each joint in range, the TCP never further in
-            // than the line's start (or than where it starts, if a stop left it inside).
+            // than the line's start (or than where it starts, if a stop left it inside). The
+            // entry at rest is the move to the approach pose a transfer makes without
+            // blending: only its joints are checked, so blending never refuses a transfer
+            // that the unblended one makes (the half-plane behind the line's start also
+            // holds poses far to the side of the station, which a move from the other side
+            // of the robot passes through).
             let step = ts.min(0.002);
             let samples = (ptp.duration() / step).ceil() as u64;
             let keeps = (0..=samples).all(|k| {
                 let q = ptp.state(k as f64 * step).0;
-                self.robot.check_joints(&q).is_ok() && along(&self.robot.forward(&q)) <= inner
+                self.robot.check_joints(&q).is_ok()
+                    && (v0 == 0.0 || along(&self.robot.forward(&q)) <= inner)
             });
             if !keeps {
                 continue;
             }
-            // The last period from which every axis's full-limit brake ends behind the start.
+            // The last period from which every axis's full-limit brake ends behind the start;
+            // entering at rest, the end of the first part (at the approach pose, where a
+            // transfer without blending checks the station's interlock).
             let periods = (ptp.duration() / ts).ceil() as u64;
-            let mut last_ok = 0u64;
-            for k in 0..=periods {
+            let mut last_ok = if v0 == 0.0 { periods + 2 } else { 0u64 };
+            for k in (0..=periods).filter(|_| v0 > 0.0) {
                 let (q, v, a) = ptp.state(k as f64 * ts);
                 let mut stop = q;
                 for (i, s) in stop.iter_mut().enumerate().take(self.robot.axis_count()) {

@@ -48,6 +48,12 @@ enum BenchWhat {
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
     Ui(crate::bench_ui::UiBenchArgs),
+    /// Fault-injection campaign on loopback: kill -9 of the board, the controller and the
+    /// GUI, E-stop, vacuum loss, following error, serial garbage and unplugging, a client
+    /// dropping mid-command, a full or read-only state directory, corrupt state files; each
+    /// injected at random (seeded) moments and judged: detected, stopped safely, wafer map
+    /// consistent with the simulated cell, recovered.
+    Faults(crate::bench_faults::FaultsArgs),
 }
 
 #[derive(Debug, Args)]
@@ -85,6 +91,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Stop(args) => crate::bench_stop::run(args),
         BenchWhat::Cell(args) => crate::bench_cell::run(args),
         BenchWhat::Soak(args) => crate::bench_soak::run(args),
+        BenchWhat::Faults(args) => crate::bench_faults::run(args),
     }
 }
 

@@ -263,6 +263,7 @@ fn on_simulated_board_process<T>(
         &dir.join("board0.dpram"),
         &dir.join("board0.log"),
         None,
+        false,
         None,
     )?;
     let pid = board.id();

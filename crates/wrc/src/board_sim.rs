@@ -94,6 +94,12 @@ struct RunArgs {
     /// be on this board).
     #[arg(long, value_name = "FILE")]
     stations: Option<PathBuf>,
+    /// Step the board at SCHED_FIFO priority 1 where allowed (the lowest real-time priority,
+    /// below every controller task): like the DSP card it stands for, it must not be
+    /// delayed by host load, or a controller watching its heartbeat declares it dead. Where
+    /// SCHED_FIFO is not allowed it says so once and runs on normal scheduling.
+    #[arg(long)]
+    realtime: bool,
     /// The cell's ground truth: read at start (created from the stations' [station.sim]
     /// wafers when missing, refused when unusable), rewritten atomically after every change
     /// and at SIGINT/SIGTERM. Needs --stations.
@@ -164,11 +170,29 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     let Some(cell) = cell else {
         print_started(&sim, &board);
+        step_in_real_time(args.realtime);
         let stop = AtomicBool::new(false);
         runner::run(&mut sim, &MonotonicClock, &stop, args.periods);
         return Ok(ExitCode::SUCCESS);
     };
-    run_cell_board(sim, cell, &board, args.world, args.periods)
+    run_cell_board(sim, cell, &board, args.world, args.periods, args.realtime)
+}
+
+/// SCHED_FIFO priority of a simulated board's stepping thread under `--realtime`: the
+/// lowest, below every task of the controller.
+const BOARD_FIFO_PRIORITY: i32 = 1;
+
+/// With `realtime`, put the calling (stepping) thread on SCHED_FIFO; threads started
+/// before it (the world saver) stay on normal scheduling.
+fn step_in_real_time(realtime: bool) {
+    if !realtime {
+        return;
+    }
+    if let Err(e) = wrc_rt::sched_policy::set_current_thread_fifo(BOARD_FIFO_PRIORITY) {
+        tracing::warn!(
+            "wrc board-sim: --realtime: SCHED_FIFO is not allowed here ({e}); the board steps on normal scheduling"
+        );
+    }
 }
 
 fn print_started(sim: &SimBoard, board: &BoardConfig) {
@@ -224,6 +248,7 @@ fn run_cell_board(
     board: &BoardConfig,
     world_path: Option<PathBuf>,
     periods: Option<u64>,
+    realtime: bool,
 ) -> anyhow::Result<ExitCode> {
     // SIGINT/SIGTERM set the flag the board's loop watches.
     let stop = crate::up::stop_on_signals()?;
@@ -238,6 +263,7 @@ fn run_cell_board(
 
     sim.attach_cell(cell)?;
     print_started(&sim, board);
+    step_in_real_time(realtime);
     let save = world_path.is_some();
     runner::run_with(&mut sim, &MonotonicClock, &stop, periods, |board| {
         // Outside the step: at most one text a change, written by the saver thread.

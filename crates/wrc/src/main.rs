@@ -3,6 +3,7 @@
 mod bench;
 mod bench_cell;
 mod bench_controller;
+mod bench_faults;
 mod bench_motion;
 mod bench_rt;
 mod bench_soak;

@@ -126,22 +126,24 @@ pub(crate) fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
 }
 
 /// Whether this process may run threads under SCHED_FIFO (a probe thread tries it).
-fn fifo_allowed() -> bool {
+pub(crate) fn fifo_allowed() -> bool {
     std::thread::spawn(|| wrc_rt::sched_policy::set_current_thread_fifo(1).is_ok())
         .join()
         .unwrap_or(false)
 }
 
 /// Start `wrc board-sim` for board `id` on `dpram`; `watchdog_periods` overrides the
-/// configured host-watchdog limit; `cell` = (stations file, world file) makes it simulate
-/// the wafer cell, and then waits until the board is up so a refusal (an unusable world
-/// file, stations out of reach) is reported here with the board's own words.
+/// configured host-watchdog limit; `realtime` steps it at SCHED_FIFO (`--realtime`);
+/// `cell` = (stations file, world file) makes it simulate the wafer cell, and then waits
+/// until the board is up so a refusal (an unusable world file, stations out of reach) is
+/// reported here with the board's own words.
 pub(crate) fn spawn_board(
     config: Option<&Path>,
     id: u32,
     dpram: &Path,
     log: &Path,
     watchdog_periods: Option<u32>,
+    realtime: bool,
     cell: Option<(&Path, &Path)>,
 ) -> anyhow::Result<Child> {
     let exe =
@@ -157,6 +159,9 @@ pub(crate) fn spawn_board(
     }
     if let Some(p) = watchdog_periods {
         cmd.arg("--watchdog-periods").arg(p.to_string());
+    }
+    if realtime {
+        cmd.arg("--realtime");
     }
     if let Some((stations, world)) = cell {
         cmd.arg("--stations")
@@ -208,6 +213,8 @@ struct BoardProcess {
     started: Instant,
     dpram: PathBuf,
     log: PathBuf,
+    /// `None`: normal scheduling, the host watchdog at 1 s (see [`run`]); otherwise the
+    /// board steps at SCHED_FIFO with its configured watchdog.
     watchdog: Option<u32>,
     cell: Option<(PathBuf, PathBuf)>,
 }
@@ -237,7 +244,18 @@ impl BoardProcess {
     /// Start (or start again) its `wrc board-sim`.
     fn start(&mut self, config: Option<&Path>) -> anyhow::Result<()> {
         let cell = self.cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path()));
-        let child = spawn_board(config, self.id, &self.dpram, &self.log, self.watchdog, cell)?;
+        // Without a lenient watchdog the controller runs real-time, and watches the board's
+        // heartbeat as closely: the board steps at SCHED_FIFO like the DSP it stands for.
+        let realtime = self.watchdog.is_none();
+        let child = spawn_board(
+            config,
+            self.id,
+            &self.dpram,
+            &self.log,
+            self.watchdog,
+            realtime,
+            cell,
+        )?;
         self.child = Some(child);
         self.started = Instant::now();
         Ok(())
@@ -466,6 +484,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| args.state_dir.join("stations.toml"));
     let world_path = args.state_dir.join("world.toml");
+    check_state_files(&stations_path, &args.state_dir.join("wafers.toml"))?;
     let simulate_cell = args.board.is_empty()
         && config
             .boards
@@ -665,6 +684,20 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Refuse to start, before any board or task runs, when the stations file or the wafer map
+/// exists but cannot be used: the error names the file, and nothing is written (the
+/// controller would refuse them too, but only after the simulated boards had started and
+/// rewritten the cell's world file on their way down). Missing files are made later.
+fn check_state_files(stations: &Path, wafers: &Path) -> anyhow::Result<()> {
+    if stations.exists() {
+        wrc_cell::Stations::load(stations)?;
+    }
+    if wafers.exists() {
+        wrc_cell::WaferMap::load(wafers)?;
+    }
+    Ok(())
 }
 
 /// What `state.toml` records at shutdown, for the operator (nothing reads it back).

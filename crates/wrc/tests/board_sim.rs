@@ -435,3 +435,57 @@ fn an_unusable_world_file_or_a_world_without_stations_is_refused() {
         "{err}"
     );
 }
+
+/// The scheduling policy of each thread of process `pid` (field 41 of
+/// `/proc/PID/task/TID/stat`: 0 normal, 1 SCHED_FIFO).
+fn thread_policies(pid: u32) -> Vec<u32> {
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return Vec::new();
+    };
+    tasks
+        .flatten()
+        .filter_map(|t| {
+            let stat = std::fs::read_to_string(t.path().join("stat")).ok()?;
+            // Fields after the command name, which is in parentheses: state is field 3.
+            let rest = stat.rsplit_once(')')?.1;
+            rest.split_whitespace().nth(41 - 3)?.parse().ok()
+        })
+        .collect()
+}
+
+/// Regression: under SCHED_FIFO the controller declares a board dead when its heartbeat
+/// stands for 3 periods (30 ms), but `wrc up` stepped its simulated boards on normal
+/// scheduling, so a busy machine (a build on 2 cores) stalled a board that long and a
+/// healthy board was reported lost (ABS 300 in the middle of a MAP, found by `wrc bench
+/// faults`). `--realtime` steps the board at SCHED_FIFO, and `wrc up` passes it whenever it
+/// runs real-time.
+#[test]
+fn a_realtime_board_steps_at_sched_fifo_where_allowed() {
+    let allowed = std::thread::spawn(|| wrc_rt::sched_policy::set_current_thread_fifo(1).is_ok())
+        .join()
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board0.dpram");
+    let child = Command::new(WRC)
+        .args(["board-sim", "--realtime", "--dpram"])
+        .arg(&path)
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn wrc board-sim");
+    let pid = child.id();
+    let _board = Board(child);
+    DpramBoard::open_waiting(&path, Expect::default(), PATIENCE).expect("board came up");
+    let policies = wait_until("the board's stepping thread scheduled", || {
+        let p = thread_policies(pid);
+        if !allowed || p.contains(&1) {
+            Ok(p)
+        } else {
+            Err(format!("{p:?}"))
+        }
+    });
+    if allowed {
+        assert!(policies.contains(&1), "{policies:?}");
+    } else {
+        assert!(policies.iter().all(|&p| p == 0), "{policies:?}");
+    }
+}

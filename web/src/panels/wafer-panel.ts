@@ -483,7 +483,7 @@ export function mountWaferPanel(
     }
 
     setAttr(hand, 'data-wafer', map.hand ?? '');
-    setText(hand, map.hand === null ? 'empty' : map.handUncertain ? `${map.hand}? (uncertain: the board stopped answering)` : map.hand);
+    setText(hand, map.hand === null ? 'empty' : map.handUncertain ? `${map.hand}? (uncertain: its vacuum sensor has not confirmed it)` : map.hand);
     const dual = isDualBlade(v.robot, map);
     bladeBWrap.hidden = !dual;
     bladeChoice.hidden = !dual;

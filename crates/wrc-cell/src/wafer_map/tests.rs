@@ -325,6 +325,17 @@ fn a_wafer_on_the_hand_is_uncertain_until_a_sensor_or_an_operator_settles_it() {
     unsensed.remove(Location::HAND).unwrap();
     assert!(!unsensed.is_uncertain(Blade::A));
 
+    // The vacuum sensor lost the wafer in motion: that blade only, and only with a wafer.
+    let mut lost = holding.clone();
+    assert!(lost.mark_blade_uncertain(Blade::A));
+    assert!(lost.is_uncertain(Blade::A) && !lost.is_uncertain(Blade::B));
+    assert!(
+        !lost.mark_blade_uncertain(Blade::B),
+        "blade B holds nothing"
+    );
+    assert!(!lost.is_uncertain(Blade::B));
+    assert_eq!(lost, m, "the same uncertainty as a lost board's");
+
     // A pending transfer stays pending; an empty hand has nothing to be uncertain about.
     let mut pending = mapped();
     pending.begin(get).unwrap();
@@ -443,7 +454,7 @@ fn the_text_form_round_trips_and_names_its_version() {
     map.begin(t).unwrap();
     let text = map.to_text();
     assert!(
-        text.contains("version = 1") && text.contains("[pending]"),
+        text.contains("version = 2") && text.contains("[pending]"),
         "{text}"
     );
     assert_eq!(WaferMap::from_text(&text, "m.toml").unwrap(), map);
@@ -480,8 +491,8 @@ fn corrupt_files_are_errors_never_an_empty_map() {
     };
     bad("", "no format version");
     bad(
-        "version = 2\nwhatever = 1\n",
-        "format version 2; this wrc reads version 1",
+        "version = 3\nwhatever = 1\n",
+        "format version 3; this wrc reads versions 1 to 2",
     );
     bad("version = \"one\"", "version");
     bad("version = 1\nnext_id = 1\n[[station]\n", "line 3");
@@ -529,6 +540,49 @@ fn corrupt_files_are_errors_never_an_empty_map() {
         "version = 1\nnext_id = 1\n[[station]]\nname = \"A\"\nslots = []\n",
         "station A has 0 slots",
     );
+}
+
+/// Regression (found by `wrc bench faults`): a wafer map cut at the end of a line is
+/// still valid TOML. Cut before the stations, the controller took every slot as unknown and
+/// wrote the map back, forgetting 24 wafers; cut before `[pending]` or `hand`, it lost the
+/// transfer under way or the hand's wafer. Every cut short of the end line is refused.
+#[test]
+fn a_map_cut_at_any_line_is_refused_and_a_version_1_map_is_still_read() {
+    let mut map = mapped();
+    let t = map.prepare(TransferKind::Get, "LP1", 4).unwrap();
+    map.begin(t).unwrap();
+    map.commit().unwrap();
+    let t = map.prepare(TransferKind::Put, "LP2", 1).unwrap();
+    map.begin(t).unwrap();
+    let text = map.to_text();
+    assert!(text.ends_with(&format!("\n{END_LINE}\n")), "{text}");
+    let mut cuts = 0;
+    for (at, _) in text.match_indices('\n') {
+        let cut = &text[..=at];
+        if cut == text {
+            continue;
+        }
+        let e = WaferMap::from_text(cut, "wafers.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("wafers.toml"), "{e}");
+        if e.contains("cut short") {
+            cuts += 1;
+        }
+    }
+    assert!(cuts >= 4, "valid TOML cut short at {cuts} lines");
+    // Blank lines or spaces after the end line are not a cut.
+    assert_eq!(
+        WaferMap::from_text(&format!("{text}\n  \n"), "wafers.toml").unwrap(),
+        map
+    );
+    // A file of an earlier wrc (version 1, no end line) is read, and written as version 2.
+    let old = text
+        .replace("version = 2", "version = 1")
+        .replace(&format!("\n{END_LINE}\n"), "\n");
+    let read = WaferMap::from_text(&old, "wafers.toml").unwrap();
+    assert_eq!(read, map);
+    assert!(read.to_text().contains("version = 2"));
 }
 
 #[test]

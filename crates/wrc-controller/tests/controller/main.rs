@@ -3,6 +3,7 @@
 mod alloc;
 mod blend;
 mod board_liveness;
+mod detached;
 mod error_check;
 mod estop_input;
 mod ethernet;

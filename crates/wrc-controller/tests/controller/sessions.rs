@@ -518,7 +518,7 @@ fn an_estop_between_the_halves_of_a_swap_leaves_the_map_as_the_cell_is() {
     assert_eq!(host.ask("ESTOP"), "ACK");
     assert!(host.until("ABS 8").starts_with("ABS 8 201"));
     assert!(host.ask("RESET").starts_with("ACK"));
-    let wafers = host.ask("WAFERS");
+    let wafers = host.settled_wafers();
     assert!(wafers.contains("hand=W1 hand.B=W2 "), "{wafers}");
     assert!(wafers.contains(" PM1=- "), "{wafers}");
     assert!(!wafers.contains("pending="), "{wafers}");
@@ -608,4 +608,146 @@ fn every_verb_is_carried_out_by_someone() {
             "{name}: {reply}"
         );
     }
+}
+
+/// Poll `WAFERS` until its hand token is `hand`; the reply then.
+fn until_hand(host: &mut VHost, hand: &str) -> String {
+    let want = format!(" hand={hand} ");
+    host.poll(&format!("hand={hand} in the map"), |host| {
+        let map = host.ask("WAFERS");
+        if map.contains(&want) {
+            Ok(map)
+        } else {
+            Err(map)
+        }
+    })
+}
+
+/// Regression (found by `wrc bench faults`): a vacuum sensor that dropped while the hand
+/// carried a wafer (213) took the wafer out of the map at once, although the vacuum stayed
+/// on and the wafer was still held; once the sensor answered again the map had an empty
+/// hand with a wafer on it, and the next GET drove that wafer into the slot's (a collision
+/// in the cell, and the map took the slot's wafer as taken). Now the wafer stays in the
+/// map, uncertain, GET is refused, and the RESET that ends the fault settles it from the
+/// sensor: kept when it senses the wafer, removed when it does not.
+#[test]
+fn a_wafer_whose_vacuum_sensor_drops_in_motion_stays_uncertain_until_reset_settles_it() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert_eq!(host.motion(4, "GET LP1 1"), "INF 4 W1");
+
+    // The sensor drops on a move; the wafer stays on the hand in the cell.
+    for (round, sensor_back) in [(0u32, true), (1, false)] {
+        let id = 10 + 10 * round;
+        let target = if round == 0 {
+            "MOVP 0 -300 100 -90"
+        } else {
+            "MOVP 250 100 100 0"
+        };
+        assert_eq!(host.ask(&format!("{id} {target}")), format!("ACK {id}"));
+        host.inject("sensor-flip 0 on");
+        let end = host.reply();
+        assert!(end.starts_with(&format!("ABS {id} 213 ")), "{end}");
+        host.until("EVT ERROR 213 ");
+        assert!(!host.hand_empty(), "the cell still holds the wafer");
+        until_hand(&mut host, "W1?");
+        // No transfer while the robot is in the fault; none would take a slot's wafer.
+        expect_nak(&mut host, id + 1, "GET LP1 2", 122);
+        // The arm stands (WAIT ends with the fault's code once it does).
+        let waited = host.motion(id + 5, "WAIT");
+        assert!(
+            waited.starts_with(&format!("ABS {} 213", id + 5)),
+            "{waited}"
+        );
+        // The sensor answers again and RESET comes at once, before the I/O Monitor's next
+        // period has read the input: the settling waits for a reading taken after RESET.
+        if sensor_back {
+            host.inject("sensor-flip 0 off");
+        }
+        let r = host.ask(&format!("{} RESET", id + 2));
+        assert!(r.starts_with("ACK"), "{r}");
+        if sensor_back {
+            // Sensed again: the wafer is confirmed on the hand, and GET is refused (133).
+            until_hand(&mut host, "W1");
+            expect_nak(&mut host, id + 3, "GET LP1 2", 133);
+        } else {
+            // Still not sensed: it is taken as lost and leaves the map, as before.
+            until_hand(&mut host, "-");
+        }
+    }
+    // The sensor answers again after that RESET: a wafer the map does not know is sensed
+    // on the hand, and GET refuses to drive it into the slot's wafer.
+    host.inject("sensor-flip 0 off");
+    wait_input(&mut host, 0, true);
+    let r = expect_nak(&mut host, 40, "GET LP1 2", 133);
+    assert!(r.contains("does not have"), "{r}");
+    assert_eq!(host.truth("LP1"), "0111111111111111111111111");
+}
+
+/// Regression (found by `wrc bench faults`, whose recovery transfers start wherever a fault
+/// left the arm): from the far side of the robot every candidate of a blended approach,
+/// entering at rest too, passed through the half-plane in front of the station's approach
+/// pose (far to the side of the station), so a GET was accepted and then ended `ABS 113`
+/// with nothing moved, although the same transfer without blending runs. The entry at rest
+/// is now the unblended move to the approach pose, checked as that one is.
+#[test]
+fn a_transfer_from_the_far_side_of_the_robot_runs_instead_of_ending_abs_113() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    for (id, slot) in [(10, 1), (20, 19)] {
+        assert_eq!(host.motion(id, "MOVJ 60 60 -90 100"), format!("INF {id}"));
+        assert_eq!(
+            host.motion(id + 1, &format!("GET LP1 {slot}")),
+            format!("INF {} W{slot}", id + 1)
+        );
+        assert!(!host.hand_empty());
+        assert_eq!(
+            host.motion(id + 2, "MOVJ 60 60 -90 100"),
+            format!("INF {}", id + 2)
+        );
+        assert_eq!(
+            host.motion(id + 3, &format!("PUT LP1 {slot}")),
+            format!("INF {} W{slot}", id + 3)
+        );
+        assert!(host.hand_empty());
+    }
+    let map = host.ask("30 WAFERS");
+    assert_eq!(map_codes(&map, "LP1"), host.truth("LP1"));
+    assert!(map.contains(" LP1=W1..W25 "), "{map}");
+}
+
+/// Regression (found by `wrc bench faults`, a pendant unplugged during a GET): a transfer
+/// that ended abnormally was settled from the vacuum sensor at the moment it ended, but the
+/// sensor answers a pick only after its delay (and a brake can still carry the hand through
+/// the slot's support height). A GET stopped just after its pick was taken as not having
+/// happened: the map kept the wafer in its slot while it was on the hand. It is settled now
+/// once the arm stands still and the sensor has had `vacuum_settle_ms` to answer.
+#[test]
+fn a_get_stopped_right_after_its_pick_is_settled_once_the_sensor_has_answered() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert_eq!(host.ask("4 GET LP1 1"), "ACK 4");
+    // The wafer leaves its slot for the hand in the cell; its vacuum sensor answers 50 ms
+    // later. The stop comes in between.
+    for _ in 0..20_000 {
+        if !host.hand_empty() {
+            break;
+        }
+        host.sim.run_for_ns(1_000_000);
+    }
+    assert!(!host.hand_empty(), "the GET never picked its wafer");
+    assert_eq!(host.ask("ESTOP"), "ACK");
+    assert!(host.until("ABS 4").starts_with("ABS 4 201"));
+    // Pending until the arm stands and the sensor has answered; then on the hand.
+    let map = host.settled_wafers();
+    assert!(map.contains(" hand=W1 "), "{map}");
+    assert!(map.contains(" LP1=-,W2..W25 "), "{map}");
+    assert!(!host.hand_empty());
+    assert_eq!(host.truth("LP1"), "0111111111111111111111111");
 }

@@ -199,6 +199,19 @@ impl VHost {
         })
     }
 
+    /// `WAFERS` once no transfer is pending any more: one that ended abnormally is settled
+    /// from the vacuum sensor when the arm stands still and the sensor has answered.
+    pub fn settled_wafers(&mut self) -> String {
+        self.poll("no transfer pending in the map", |host| {
+            let map = host.ask("WAFERS");
+            if map.contains("pending=") {
+                Err(map)
+            } else {
+                Ok(map)
+            }
+        })
+    }
+
     /// Inject a board fault (`wrc board-sim inject`'s words: `sensor-flip 14 on`, …) into
     /// board 0 now.
     pub fn inject(&mut self, fault: &str) {

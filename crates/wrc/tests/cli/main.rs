@@ -3,6 +3,7 @@
 mod bench_stop;
 mod compile;
 mod crate_graph;
+mod faults;
 mod hold;
 mod lines;
 mod plan;

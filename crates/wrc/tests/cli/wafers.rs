@@ -49,7 +49,7 @@ fn a_vacuum_sensor_that_sees_no_wafer_stops_the_get_with_212() {
 }
 
 #[test]
-fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_leaves_the_map() {
+fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_reset_settles_the_map() {
     let c = Controller::start(&[]);
     let mut host = c.client();
     assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
@@ -66,13 +66,69 @@ fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_leaves_the_map() {
         host.line();
     }
     assert!(host.status().contains("state=ERROR"));
-    // The wafer left the map with the hand's vacuum: the map does not invent where it is.
-    wait_until("W1 off the hand and out of the map", || {
+    // The sensor cannot tell a wafer that fell from one it no longer sees: the wafer stays
+    // in the map, uncertain, until RESET settles it from the sensor.
+    wait_until("W1 uncertain on the hand", || {
         let map = host.ask("6 WAFERS");
-        if map.starts_with("ACK 6 hand=- LP1=-,W2..W25 ") {
+        if map.starts_with("ACK 6 hand=W1? LP1=-,W2..W25 ") {
             Ok(())
         } else {
             Err(map)
         }
     });
+    // Still not sensed at RESET: taken as lost, it leaves the map; the map does not invent
+    // where it is.
+    wait_until("RESET once the arm stands still", || {
+        let r = host.ask("7 RESET");
+        if r == "ACK 7" {
+            Ok(())
+        } else {
+            Err(r)
+        }
+    });
+    wait_until("W1 off the hand and out of the map", || {
+        let map = host.ask("8 WAFERS");
+        if map.starts_with("ACK 8 hand=- LP1=-,W2..W25 ") {
+            Ok(())
+        } else {
+            Err(map)
+        }
+    });
+}
+
+/// Regression (found by `wrc bench faults`): a corrupt wafer map was refused by the
+/// controller only after `wrc up` had started the simulated board, which wrote the cell's
+/// world file (and its DPRAM) on its way down. Now the state files are checked before
+/// anything starts: the refusal names the file, and nothing in the state directory is
+/// written.
+#[test]
+fn a_corrupt_wafer_map_is_refused_before_anything_starts_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let corrupt = b"version = 1\nnext_id = 26\nhand = \"W\x00\"\n".to_vec();
+    std::fs::write(dir.path().join("wafers.toml"), &corrupt).unwrap();
+    let (port, sim) = (crate::up::free_port(), crate::up::free_port());
+    let out = wrc(&[
+        "up",
+        "--no-rt",
+        "--no-ui",
+        "--port",
+        &format!("127.0.0.1:{port}"),
+        "--sim-addr",
+        &format!("127.0.0.1:{sim}"),
+        "--state-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("wafers.toml"), "{stderr}");
+    assert_eq!(
+        std::fs::read(dir.path().join("wafers.toml")).unwrap(),
+        corrupt
+    );
+    let mut written: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(written, ["wafers.toml"], "nothing else written");
 }

@@ -481,7 +481,8 @@ pub(crate) fn assemble<H: Host>(
             shared.clone(),
             vec![network_out.clone(), serial_out.clone()],
         )
-        .with_applied(ci_applied),
+        .with_applied(ci_applied)
+        .primed(),
         io_wake,
     )?;
     let hosts = ClientSet::new(

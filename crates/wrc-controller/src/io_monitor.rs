@@ -50,6 +50,15 @@ impl<B: MotionBoard> IoMonitor<B> {
         self
     }
 
+    /// Read the inputs (and write the outputs) once now, before any task runs, so the
+    /// controller never serves a request on inputs it has not read: a transfer sent the
+    /// moment the host port opens judges the station's interlock and the vacuum sensor on
+    /// the board's real inputs.
+    pub fn primed(mut self) -> Self {
+        self.step();
+        self
+    }
+
     fn broadcast(&self, text: &[u8]) {
         for q in &self.events {
             let _ = q.try_send(OutLine::new(SourceId::NONE, text));

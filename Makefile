@@ -2,6 +2,12 @@
 #   make run    the main job: the controller with a simulated board and the web GUI (wrc up)
 #   make test   every test (Rust, fuzz, web unit tests, the browser end-to-end test), lint and
 #               format check
+# Also: make faults   the fault-injection campaign (wrc bench faults: kill -9 of the board, the
+#               controller and the GUI, E-stop, vacuum loss, following error, serial garbage
+#               and unplugging, a client dropping mid-command, a full or read-only state
+#               directory, corrupt state files), FAULT_ROUNDS injections of each kind at
+#               seeded random moments, on loopback and temporary directories only, at most
+#               FAULT_MINUTES (default 5 rounds, 10 minutes); its table is in the README
 # Toolchains present on the machine (cargo) are assumed; anything else is installed when
 # missing (as root) or named with the command to install it.
 
@@ -10,7 +16,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop soak demo clean
+.PHONY: test-fuzz fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop soak faults demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -127,6 +133,21 @@ soak: build
 bench-ui: build
 	@mkdir -p $(OUT)
 	$(WRC) bench ui --json $(OUT)/bench-ui.json
+
+# Fault-injection campaign (README, "Faults"): every fault kind injected FAULT_ROUNDS times at
+# random moments of a transfer or a move (seed FAULT_SEED), each round judged: detected (and
+# how fast), stopped safely, wafer map consistent with the simulated cell, recovered. Free
+# loopback ports and temporary directories only (never /tmp/wrc, 7100, 7200 or 8080); the
+# full and read-only state directory run in a user and mount namespace of their own
+# (util-linux's unshare and nsenter). Bounded by FAULT_MINUTES; exit 1 if any round failed.
+FAULT_ROUNDS ?= 5
+FAULT_SEED ?= 2026
+FAULT_MINUTES ?= 10
+faults: build
+	@scripts/need.sh unshare util-linux
+	@scripts/need.sh nsenter util-linux
+	@mkdir -p $(OUT)
+	$(WRC) bench faults --seed $(FAULT_SEED) --rounds $(FAULT_ROUNDS) --max-minutes $(FAULT_MINUTES) --json $(OUT)/faults.json
 
 clean:
 	$(CARGO) clean

@@ -484,12 +484,16 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         .clone()
         .unwrap_or_else(|| args.state_dir.join("stations.toml"));
     let world_path = args.state_dir.join("world.toml");
-    check_state_files(&stations_path, &args.state_dir.join("wafers.toml"))?;
     let simulate_cell = args.board.is_empty()
         && config
             .boards
             .first()
             .is_some_and(|b| (0..config.robot.axis_count()).all(|axis| b.axes.contains(&axis)));
+    check_state_files(
+        &stations_path,
+        &args.state_dir.join("wafers.toml"),
+        simulate_cell.then_some(world_path.as_path()),
+    )?;
     if simulate_cell {
         if !stations_path.exists() {
             wrc_board::wrc_cell::Stations::embedded_demo().save_atomic(&stations_path)?;
@@ -687,15 +691,38 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// Refuse to start, before any board or task runs, when the stations file or the wafer map
-/// exists but cannot be used: the error names the file, and nothing is written (the
-/// controller would refuse them too, but only after the simulated boards had started and
-/// rewritten the cell's world file on their way down). Missing files are made later.
-fn check_state_files(stations: &Path, wafers: &Path) -> anyhow::Result<()> {
-    if stations.exists() {
-        wrc_cell::Stations::load(stations)?;
-    }
+/// exists but cannot be used, or (with the simulated cell) the cell's world file does not
+/// fit the stations: the error names the file, and nothing is written (the controller and
+/// the board would refuse them too, but only after the simulated board had started, and a
+/// world file that no longer fits a stations file cut short was blamed on the world file).
+/// Missing files are made later.
+fn check_state_files(
+    stations_path: &Path,
+    wafers: &Path,
+    world: Option<&Path>,
+) -> anyhow::Result<()> {
+    let stations = if stations_path.exists() {
+        Some(wrc_cell::Stations::load(stations_path)?)
+    } else {
+        None
+    };
     if wafers.exists() {
         wrc_cell::WaferMap::load(wafers)?;
+    }
+    if let (Some(stations), Some(world)) = (stations, world.filter(|w| w.exists())) {
+        let text = std::fs::read_to_string(world).with_context(|| {
+            format!(
+                "cannot read the simulated cell's world file {}",
+                world.display()
+            )
+        })?;
+        if let Err(e) = wrc_cell::World::from_text(&text, &stations) {
+            bail!(
+                "the stations file {} does not fit the simulated cell saved in {} ({e}); if the stations file was cut short or edited by mistake, restore it: the world file holds where the simulated wafers are",
+                stations_path.display(),
+                world.display()
+            );
+        }
     }
     Ok(())
 }

@@ -132,3 +132,60 @@ fn a_corrupt_wafer_map_is_refused_before_anything_starts_and_nothing_is_written(
     written.sort();
     assert_eq!(written, ["wafers.toml"], "nothing else written");
 }
+
+/// Regression (found by `wrc bench faults`): a stations file cut at the end of a station is
+/// still a valid, shorter cell. `wrc up` started the simulated board on it, which refused
+/// the world file ("6 stations saved, 2 configured") and advised removing the world file,
+/// the cell's ground truth. Now `wrc up` checks the world against the stations before
+/// anything starts, names the stations file and says to restore it; nothing is written.
+#[test]
+fn a_stations_file_cut_short_is_refused_by_name_before_the_board_starts() {
+    use wrc_board::wrc_cell::{Stations, World, DEMO_TOML};
+    let dir = tempfile::tempdir().unwrap();
+    let third = DEMO_TOML
+        .match_indices("[[station]]")
+        .nth(2)
+        .expect("a third station")
+        .0;
+    let cut = &DEMO_TOML[..third];
+    assert!(Stations::parse(cut, "cut").is_ok(), "still a valid cell");
+    let world = World::new(&Stations::embedded_demo()).to_text();
+    std::fs::write(dir.path().join("stations.toml"), cut).unwrap();
+    std::fs::write(dir.path().join("world.toml"), &world).unwrap();
+    let (port, sim) = (crate::up::free_port(), crate::up::free_port());
+    let out = wrc(&[
+        "up",
+        "--no-rt",
+        "--no-ui",
+        "--port",
+        &format!("127.0.0.1:{port}"),
+        "--sim-addr",
+        &format!("127.0.0.1:{sim}"),
+        "--state-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("stations.toml") && stderr.contains("restore it"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("stations.toml")).unwrap(),
+        cut
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("world.toml")).unwrap(),
+        world
+    );
+    let mut written: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        ["stations.toml", "world.toml"],
+        "nothing else written"
+    );
+}

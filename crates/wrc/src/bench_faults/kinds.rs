@@ -86,6 +86,23 @@ impl Kind {
         }
     }
 
+    /// The code of the `EVT ERROR` the controller raises for it, if it raises one.
+    fn code(self) -> Option<&'static str> {
+        match self {
+            Kind::Estop => Some("202"),
+            Kind::VacuumLoss => Some("213"),
+            Kind::FollowingError => Some("203"),
+            Kind::ClientDrop | Kind::GuiKill | Kind::SerialUnplug => Some("208"),
+            Kind::BoardKill => Some("300"),
+            Kind::SerialGarbage
+            | Kind::ControllerKill
+            | Kind::DiskFull
+            | Kind::ReadOnly
+            | Kind::CorruptWafers
+            | Kind::CorruptStations => None,
+        }
+    }
+
     /// Whether it runs on the campaign's shared controller session.
     fn shared(self) -> bool {
         matches!(
@@ -164,13 +181,13 @@ pub(super) fn run(
         }
         let round = match kind {
             Kind::Estop | Kind::VacuumLoss | Kind::FollowingError => {
-                with_shared(shared, ctx, |s, ctx| board_fault_round(kind, s, ctx))
+                with_shared(kind, shared, ctx, |s, ctx| board_fault_round(kind, s, ctx))
             }
-            Kind::ClientDrop => with_shared(shared, ctx, super::lines::client_drop),
-            Kind::SerialGarbage => with_shared(shared, ctx, super::lines::serial_garbage),
-            Kind::SerialUnplug => with_shared(shared, ctx, super::lines::serial_unplug),
-            Kind::BoardKill => with_shared(shared, ctx, super::processes::board_kill),
-            Kind::GuiKill => with_shared(shared, ctx, super::processes::gui_kill),
+            Kind::ClientDrop => with_shared(kind, shared, ctx, super::lines::client_drop),
+            Kind::SerialGarbage => with_shared(kind, shared, ctx, super::lines::serial_garbage),
+            Kind::SerialUnplug => with_shared(kind, shared, ctx, super::lines::serial_unplug),
+            Kind::BoardKill => with_shared(kind, shared, ctx, super::processes::board_kill),
+            Kind::GuiKill => with_shared(kind, shared, ctx, super::processes::gui_kill),
             Kind::ControllerKill => super::processes::controller_kill(ctx, &mut own),
             Kind::DiskFull => super::disk::disk_round(ctx, &mut own, false),
             Kind::ReadOnly => super::disk::disk_round(ctx, &mut own, true),
@@ -204,6 +221,7 @@ fn start_shared(ctx: &mut Ctx) -> anyhow::Result<Session> {
 /// Run a round on the shared session. A round that fails mid-way leaves the session as it
 /// can: faults cleared, RESET; a session that does not answer any more is started again.
 fn with_shared(
+    kind: Kind,
     shared: &mut Option<Session>,
     ctx: &mut Ctx,
     round: impl FnOnce(&mut Session, &mut Ctx) -> anyhow::Result<Round>,
@@ -213,6 +231,12 @@ fn with_shared(
     let (host_mark, log_mark) = (host.mark(), log.mark());
     let r = round(s, ctx).map(|mut r| {
         r.transcript = host.since(host_mark);
+        r.disturbed = r
+            .transcript
+            .iter()
+            .filter(|l| l.starts_with("EVT ERROR ") && l.split_whitespace().nth(2) != kind.code())
+            .cloned()
+            .collect();
         r.transcript
             .extend(log.since(log_mark).into_iter().map(|l| format!("log: {l}")));
         r

@@ -111,6 +111,9 @@ pub(crate) struct Round {
     pub(crate) error: Option<String>,
     /// What the host connection heard during the round (for the JSON report).
     pub(crate) transcript: Vec<String>,
+    /// Another fault the controller raised during the round (an `EVT ERROR` with another
+    /// code than the injected fault's): the round was disturbed, not necessarily wrong.
+    pub(crate) disturbed: Vec<String>,
 }
 
 impl Round {
@@ -124,6 +127,7 @@ impl Round {
             recovered: Verdict::NotReached,
             error: None,
             transcript: Vec::new(),
+            disturbed: Vec::new(),
         }
     }
 
@@ -413,10 +417,13 @@ fn print_table(reports: &[KindReport], args: &FaultsArgs, rt: bool, elapsed: Dur
             problems.push(format!("{}: {why}", r.kind.name()));
         }
         for (i, round) in r.rounds.iter().enumerate() {
-            if round.clean() {
+            if round.clean() && round.disturbed.is_empty() {
                 continue;
             }
             let mut what = Vec::new();
+            if !round.disturbed.is_empty() {
+                what.push(format!("disturbed by {}", round.disturbed.join(", ")));
+            }
             if let Some(e) = &round.error {
                 what.push(format!("error: {e}"));
             }
@@ -446,7 +453,7 @@ fn print_table(reports: &[KindReport], args: &FaultsArgs, rt: bool, elapsed: Dur
     if problems.is_empty() {
         println!("\nEvery round: detected, stopped safely, map consistent, recovered.");
     } else {
-        println!("\nRounds with a finding:");
+        println!("\nRounds with a finding (or disturbed by another fault):");
         for p in problems {
             println!("- {p}");
         }
@@ -478,6 +485,7 @@ fn write_json(
                         "error": x.error,
                         "clean": x.clean(),
                         "transcript": x.transcript,
+                        "disturbed": x.disturbed,
                     })
                 })
                 .collect();

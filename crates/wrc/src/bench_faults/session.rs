@@ -89,11 +89,12 @@ impl Session {
             (!w.contains("pending=")).then_some(w)
         });
         let wafers = settled.context("the wafer map did not settle after start-up")?;
-        if self.host.state()? != "IDLE" {
-            self.host
-                .reset(Duration::from_secs(10))
-                .map_err(|e| anyhow::anyhow!("RESET after start-up refused: {e}"))?;
-        }
+        // As an operator after a restart: RESET, whether or not the controller has seen yet
+        // what the board latched meanwhile (a tripped watchdog is reported by Error Check's
+        // first period, up to 100 ms after `wrc up` says it is ready).
+        self.host
+            .reset(Duration::from_secs(10))
+            .map_err(|e| anyhow::anyhow!("RESET after start-up refused: {e}"))?;
         self.host.run_ok("HOME")?;
         if reply_field(&wafers, STATION).is_some_and(|l| l.contains('?')) {
             self.host.run_ok(&format!("MAP {STATION}"))?;

@@ -421,14 +421,6 @@ impl CellService {
                 "a transfer or mapping is in progress".to_string(),
             ));
         }
-        if !self.shared.io_ready.load(Ordering::Acquire) {
-            // Right after start-up (or while a board does not answer) the inputs are not
-            // read yet: an interlock or a vacuum sensor judged on them would be judged on 0.
-            return Err((
-                Code::TransferBusy,
-                "the controller has not read its inputs yet; repeat in a moment".to_string(),
-            ));
-        }
         if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
             return Err((
                 Code::TransferBusy,
@@ -510,6 +502,16 @@ impl CellService {
             JobKind::Get => (TransferKind::Get, blade, None),
             _ => (TransferKind::Put, blade, None),
         };
+        if !self.shared.io_ready.load(Ordering::Acquire) {
+            // Right after start-up (or while a board does not answer) the inputs are not
+            // read yet: the interlock and the vacuum sensor, judged below from them, would
+            // be judged on 0. (A MAP's interlock is checked by the Command Interpreter on the
+            // board's own inputs.)
+            return Err((
+                Code::TransferBusy,
+                "the controller has not read its inputs yet; repeat in a moment".to_string(),
+            ));
+        }
         let transfer = self
             .wafers
             .prepare_blade(tkind, station.name.as_str(), slot, blade)

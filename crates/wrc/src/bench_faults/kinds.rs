@@ -81,7 +81,7 @@ impl Kind {
             Kind::ControllerKill => "kill -9 of `wrc up` during a GET or PUT (the board runs on its own); signal: the board's host watchdog trips (DPRAM), judged against its `watchdog_periods`; stopped: at rest within the brake bound; `wrc up --board` again, RESET, the next transfer",
             Kind::DiskFull => "the state directory's tmpfs (own user+mount namespace) filled during a GET or PUT; signal `cannot save the wafer map` on the log or NAK 301; stopped: no transfer starts (NAK 301) and TEACH is refused; wafers.toml and stations.toml byte-identical; space freed, the next transfer",
             Kind::ReadOnly => "the state directory remounted read-only during a GET or PUT; as disk-full",
-            Kind::CorruptWafers => "wafers.toml corrupted (seeded: truncated, bytes overwritten, a garbage line, zeroed) before `wrc up` starts; signal: it refuses to start (exit ≠ 0) naming the file; the file byte-identical, no process left; the file restored, `wrc up` starts with the same map",
+            Kind::CorruptWafers => "wafers.toml corrupted (seeded: cut at a byte or at a line's end, bytes overwritten, a garbage line, zeroed) before `wrc up` starts; signal: it refuses to start (exit ≠ 0) naming the file; the file byte-identical, no process left; the file restored, `wrc up` starts with the same map",
             Kind::CorruptStations => "stations.toml corrupted likewise before `wrc up` starts; as corrupt-wafers",
         }
     }

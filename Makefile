@@ -8,6 +8,9 @@
 #               directory, corrupt state files), FAULT_ROUNDS injections of each kind at
 #               seeded random moments, on loopback and temporary directories only, at most
 #               FAULT_MINUTES (default 5 rounds, 10 minutes); its table is in the README
+#       make soak     30 minutes (SOAK_SECONDS) of random valid and invalid requests from 4
+#               clients while the robot moves (wrc bench soak); make fuzz: every fuzz target
+#               for FUZZ_SECONDS (300)
 # Toolchains present on the machine (cargo) are assumed; anything else is installed when
 # missing (as root) or named with the command to install it.
 

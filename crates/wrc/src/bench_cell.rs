@@ -19,7 +19,6 @@
 //!   vacuum change. A blended transfer may come under 1. A `SWAP`'s reference is its GET's
 //!   and its PUT's, each with its blade's height offset.
 
-use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
@@ -38,7 +37,7 @@ use wrc_motion::DoubleS;
 use wrc_robot::{Joints, Posture, MAX_AXES};
 use wrc_trace::{Direction, TraceFile};
 
-use crate::up_process::UpProcess;
+use crate::up_process::{Up, UpOptions};
 
 /// Arguments of `wrc bench cell`.
 #[derive(Debug, Args)]
@@ -219,13 +218,27 @@ fn ends(line: &str, id: u32) -> bool {
 struct RealTime {
     reader: BufReader<TcpStream>,
     writer: TcpStream,
-    _up: UpProcess,
+    _up: Up,
 }
 
 impl RealTime {
     fn start(dir: &Path, config: &Path) -> anyhow::Result<RealTime> {
-        let up = UpProcess::start(dir, &[OsStr::new("--config"), config.as_os_str()])?;
-        let writer = up.connect(Duration::from_secs_f64(PATIENCE_S))?;
+        let options = UpOptions {
+            state: dir.to_path_buf(),
+            config: Some(config.to_path_buf()),
+            ..UpOptions::default()
+        };
+        let up = match Up::start(&options)? {
+            Ok(up) => up,
+            Err(refused) => bail!(
+                "wrc up refused to start ({}): {}",
+                refused.status,
+                refused.stderr
+            ),
+        };
+        let writer = TcpStream::connect(("127.0.0.1", up.port))?;
+        writer.set_read_timeout(Some(Duration::from_secs_f64(PATIENCE_S)))?;
+        writer.set_nodelay(true)?;
         Ok(RealTime {
             reader: BufReader::new(writer.try_clone()?),
             writer,

@@ -26,22 +26,21 @@
 //! climbing.
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, Write};
-use std::net::TcpStream;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use clap::Args;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde_json::json;
 use wrc_config::Config;
 use wrc_robot::{Joints, MAX_AXES};
 
-use crate::up_process::UpProcess;
+use crate::up_process::{reply_of, Conn, Up, UpOptions};
 
 /// How long a request may wait for its reply, and a motion for its end [s].
 const REPLY_S: u64 = 10;
@@ -74,125 +73,69 @@ pub struct SoakArgs {
     json: Option<PathBuf>,
 }
 
-/// One connection; its lines arrive through a reader thread, so waits have a deadline.
-struct Conn {
-    writer: TcpStream,
-    lines: Receiver<String>,
+/// Send `line` with the connection's next id and wait [`REPLY_S`] for its `ACK`/`NAK`; with
+/// the `NAK`s of other lines and the other lines that came first.
+fn ask(c: &mut Conn, line: &str) -> anyhow::Result<Asked> {
+    let mark = c.lines.mark();
+    let id = c.send(line)?;
+    Ok(asked_since(c, mark, id))
 }
 
-impl Conn {
-    fn open(up: &UpProcess) -> anyhow::Result<Conn> {
-        let writer = up.connect(Duration::from_secs(3600))?;
-        let mut reader = BufReader::new(writer.try_clone()?);
-        let (tx, lines) = std::sync::mpsc::channel();
-        std::thread::spawn(move || loop {
-            let mut line = String::new();
-            match reader.read_line(&mut line) {
-                Ok(n) if n > 0 => {
-                    if tx.send(line.trim_end().to_string()).is_err() {
-                        return;
-                    }
-                }
-                _ => return,
-            }
+/// The reply to request `id`, and what came before it from `mark` on.
+fn asked_since(c: &Conn, mark: usize, id: u32) -> Asked {
+    let found = c.lines.find(mark, Duration::from_secs(REPLY_S), |l| {
+        reply_of(l, id, &["ACK", "NAK"])
+    });
+    let before = found
+        .as_ref()
+        .map_or_else(|| c.lines.mark(), |(i, _, _)| *i);
+    let mut asked = Asked {
+        id,
+        ..Asked::default()
+    };
+    for l in c
+        .lines
+        .since(mark)
+        .into_iter()
+        .take(before.saturating_sub(mark))
+    {
+        if l.starts_with("NAK") {
+            asked.other_naks += 1;
+        } else {
+            asked.lines.push(l);
+        }
+    }
+    asked.reply = found.map(|(_, _, l)| l);
+    asked
+}
+
+/// The `INF`/`ABS` of request `id` (sent after line `mark`), resuming it when another client
+/// held it; `None` when it did not end within [`MOTION_S`].
+fn motion_end(c: &mut Conn, mark: usize, id: u32) -> anyhow::Result<Option<String>> {
+    let deadline = Instant::now() + Duration::from_secs(MOTION_S);
+    while Instant::now() < deadline {
+        let end = c.lines.find(mark, Duration::from_secs(1), |l| {
+            reply_of(l, id, &["INF", "ABS"])
         });
-        Ok(Conn { writer, lines })
-    }
-
-    fn send(&mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        self.writer.write_all(bytes)?;
-        self.writer.write_all(b"\n")?;
-        Ok(())
-    }
-
-    /// The next line before `deadline`; `None` when none came.
-    fn line(&mut self, deadline: Instant) -> anyhow::Result<Option<String>> {
-        let left = deadline.saturating_duration_since(Instant::now());
-        match self.lines.recv_timeout(left) {
-            Ok(l) => Ok(Some(l)),
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => bail!("the controller closed the connection"),
+        if let Some((_, _, l)) = end {
+            return Ok(Some(l));
+        }
+        // Quiet for a second: held by another client's HOLD?
+        if ask(c, "STATUS")?
+            .reply
+            .is_some_and(|r| r.contains("state=HELD"))
+        {
+            ask(c, "RESUME")?;
         }
     }
-
-    /// Send `line` with `id`; its `ACK`/`NAK`, the `NAK`s without that id that came before
-    /// it (answers to invalid lines), and the lines without an id of the reply (`EVT TASK`).
-    fn ask(&mut self, id: u32, line: &str) -> anyhow::Result<Asked> {
-        self.send(format!("{id} {line}").as_bytes())?;
-        self.reply(id)
-    }
-
-    fn reply(&mut self, id: u32) -> anyhow::Result<Asked> {
-        let deadline = Instant::now() + Duration::from_secs(REPLY_S);
-        let mut asked = Asked::default();
-        let id_text = id.to_string();
-        while let Some(l) = self.line(deadline)? {
-            let mut words = l.split(' ');
-            let kind = words.next().unwrap_or("");
-            let its = words.next() == Some(id_text.as_str());
-            match kind {
-                "ACK" | "NAK" if its => {
-                    asked.reply = Some(l);
-                    return Ok(asked);
-                }
-                "NAK" => asked.other_naks += 1,
-                _ => asked.lines.push(l),
-            }
-        }
-        Ok(asked)
-    }
-
-    /// The `INF`/`ABS` of motion `id`, resuming it when another client held it; `None` when
-    /// it did not end within [`MOTION_S`].
-    fn motion_end(&mut self, id: u32, ids: &mut u32) -> anyhow::Result<Option<String>> {
-        let deadline = Instant::now() + Duration::from_secs(MOTION_S);
-        let id_text = id.to_string();
-        while Instant::now() < deadline {
-            let probe = Instant::now() + Duration::from_secs(1);
-            match self.line(probe.min(deadline))? {
-                Some(l) => {
-                    let mut words = l.split(' ');
-                    if matches!(words.next(), Some("INF" | "ABS"))
-                        && words.next() == Some(id_text.as_str())
-                    {
-                        return Ok(Some(l));
-                    }
-                }
-                None => {
-                    // Quiet for a second: held by another client's HOLD?
-                    *ids += 1;
-                    let status = self.ask(*ids, "STATUS")?;
-                    if let Some(reply) = &status.reply {
-                        if reply.contains("state=HELD") {
-                            *ids += 1;
-                            self.ask(*ids, "RESUME")?;
-                        }
-                    }
-                    for l in status.lines {
-                        let mut words = l.split(' ');
-                        if matches!(words.next(), Some("INF" | "ABS"))
-                            && words.next() == Some(id_text.as_str())
-                        {
-                            return Ok(Some(l));
-                        }
-                    }
-                }
-            }
-        }
-        Ok(None)
-    }
+    Ok(None)
 }
 
-impl Drop for Conn {
-    fn drop(&mut self) {
-        // The reader thread holds the other handle: end the connection for both.
-        let _ = self.writer.shutdown(std::net::Shutdown::Both);
-    }
-}
-
-/// What [`Conn::ask`] saw.
+/// What [`ask`] saw.
 #[derive(Default)]
 struct Asked {
+    /// The request's id.
+    id: u32,
     /// The request's `ACK`/`NAK`; `None` when it did not come in time.
     reply: Option<String>,
     /// `NAK`s for other lines that came first.
@@ -266,21 +209,22 @@ fn code_of(line: &str) -> String {
 }
 
 /// The client that holds control and keeps the robot moving.
-fn mover(up: &UpProcess, config: &Config, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
-    let mut rng = fastrand::Rng::with_seed(seed);
+fn mover(up: &Up, config: &Config, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut t = Tally::default();
-    let mut c = Conn::open(up)?;
-    let mut ids = 0u32;
-    ask_counted(&mut c, &mut t, &mut ids, "CONTROL")?;
+    let mut c = up.conn()?;
+    ask_counted(&mut c, &mut t, "CONTROL")?;
     let robot = &config.robot;
+    let joint = |rng: &mut ChaCha8Rng, a: &wrc_robot::Axis| {
+        (a.min + a.max) / 2.0 + (rng.random::<f64>() - 0.5) * 0.9 * (a.max - a.min)
+    };
     while !quit.load(Ordering::Acquire) {
-        let line = match rng.usize(0..20) {
-            0 => format!("SPEED {}", rng.usize(20..=100)),
+        let line = match rng.random_range(0..20) {
+            0 => format!("SPEED {}", rng.random_range(20..=100)),
             1..=4 => {
                 let mut j: Joints = [0.0; MAX_AXES];
                 for (i, a) in robot.axes().iter().enumerate() {
-                    let mid = (a.min + a.max) / 2.0;
-                    j[i] = mid + (rng.f64() - 0.5) * 0.9 * (a.max - a.min);
+                    j[i] = joint(&mut rng, a);
                 }
                 let p = robot.forward(&j);
                 format!("MOVL {:.3} {:.3} {:.3} {:.3}", p.x, p.y, p.z, p.yaw)
@@ -289,15 +233,13 @@ fn mover(up: &UpProcess, config: &Config, seed: u64, quit: &AtomicBool) -> anyho
                 let joints: Vec<String> = robot
                     .axes()
                     .iter()
-                    .map(|a| {
-                        let mid = (a.min + a.max) / 2.0;
-                        format!("{:.3}", mid + (rng.f64() - 0.5) * 0.9 * (a.max - a.min))
-                    })
+                    .map(|a| format!("{:.3}", joint(&mut rng, a)))
                     .collect();
                 format!("MOVJ {}", joints.join(" "))
             }
         };
-        let asked = ask_counted(&mut c, &mut t, &mut ids, &line)?;
+        let mark = c.lines.mark();
+        let asked = ask_counted(&mut c, &mut t, &line)?;
         let Some(reply) = asked.reply else { continue };
         if line.starts_with("SPEED") {
             continue;
@@ -306,28 +248,21 @@ fn mover(up: &UpProcess, config: &Config, seed: u64, quit: &AtomicBool) -> anyho
             let code = code_of(&reply);
             *t.refused.entry(code.clone()).or_default() += 1;
             match code.as_str() {
-                "110" | "122" | "123" => recover(&mut c, &mut t, &mut ids, quit)?,
+                "110" | "122" | "123" => recover(&mut c, &mut t, quit)?,
                 // Still braking from another client's STOP: wait for standstill.
-                "121" => {
-                    let wait = ask_counted(&mut c, &mut t, &mut ids, "WAIT")?;
-                    let id = ids;
-                    if wait.reply.is_some_and(|r| r.starts_with("ACK")) {
-                        c.motion_end(id, &mut ids)?;
-                    }
-                }
+                "121" => run_to_end(&mut c, &mut t, "WAIT")?,
                 _ => {}
             }
             continue;
         }
         t.motions += 1;
-        let id = ids;
-        match c.motion_end(id, &mut ids)? {
+        match motion_end(&mut c, mark, asked.id)? {
             Some(end) if end.starts_with("INF") => t.inf += 1,
             Some(end) => {
                 let code = code_of(&end);
                 *t.abs.entry(code.clone()).or_default() += 1;
                 if code != "200" {
-                    recover(&mut c, &mut t, &mut ids, quit)?;
+                    recover(&mut c, &mut t, quit)?;
                 }
             }
             None => t.problem(format!("{line:?} did not end within {MOTION_S} s")),
@@ -336,93 +271,89 @@ fn mover(up: &UpProcess, config: &Config, seed: u64, quit: &AtomicBool) -> anyho
     Ok(t)
 }
 
-/// Send `line` with the next id and count its reply.
-fn ask_counted(c: &mut Conn, t: &mut Tally, ids: &mut u32, line: &str) -> anyhow::Result<Asked> {
-    *ids += 1;
-    let asked = c.ask(*ids, line)?;
+/// Send `line` and count its reply.
+fn ask_counted(c: &mut Conn, t: &mut Tally, line: &str) -> anyhow::Result<Asked> {
+    let asked = ask(c, line)?;
     t.answered(line, &asked);
     Ok(asked)
 }
 
-/// After an E-stop or a fault: wait for standstill, `RESET` (once the E-stop request is
-/// gone), `HOME` when needed.
-fn recover(c: &mut Conn, t: &mut Tally, ids: &mut u32, quit: &AtomicBool) -> anyhow::Result<()> {
-    let deadline = Instant::now() + Duration::from_secs(MOTION_S);
-    while Instant::now() < deadline && !quit.load(Ordering::Acquire) {
-        *ids += 1;
-        let asked = c.ask(*ids, "RESET")?;
-        if !t.answered("RESET", &asked) {
-            return Ok(());
-        }
-        if asked.reply.as_deref().is_some_and(|r| r.starts_with("ACK")) {
-            *ids += 1;
-            let status = c.ask(*ids, "STATUS")?;
-            t.answered("STATUS", &status);
-            if status.reply.is_some_and(|r| r.contains("homed=0")) {
-                *ids += 1;
-                let home = c.ask(*ids, "HOME")?;
-                t.answered("HOME", &home);
-                let id = *ids;
-                if home.reply.is_some_and(|r| r.starts_with("ACK")) {
-                    c.motion_end(id, ids)?;
-                }
-            }
-            return Ok(());
-        }
-        // Still moving, or the E-stop is being handled: wait for standstill.
-        *ids += 1;
-        let wait = c.ask(*ids, "WAIT")?;
-        t.answered("WAIT", &wait);
-        let id = *ids;
-        if wait.reply.is_some_and(|r| r.starts_with("ACK")) {
-            c.motion_end(id, ids)?;
-        }
+/// Send a request that completes later (`WAIT`, `HOME`) and, once accepted, wait for its end.
+fn run_to_end(c: &mut Conn, t: &mut Tally, line: &str) -> anyhow::Result<()> {
+    let mark = c.lines.mark();
+    let asked = ask_counted(c, t, line)?;
+    if asked.reply.is_some_and(|r| r.starts_with("ACK")) {
+        motion_end(c, mark, asked.id)?;
     }
     Ok(())
 }
 
-/// An invalid line with id `id`: exactly one `NAK` answers it.
-fn invalid_line(rng: &mut fastrand::Rng, id: u32) -> Vec<u8> {
-    match rng.usize(0..8) {
-        0 => format!("{id} FROB{}", rng.u32(..)).into_bytes(),
+/// After an E-stop or a fault: wait for standstill, `RESET` (once the E-stop request is
+/// gone), `HOME` when needed.
+fn recover(c: &mut Conn, t: &mut Tally, quit: &AtomicBool) -> anyhow::Result<()> {
+    let deadline = Instant::now() + Duration::from_secs(MOTION_S);
+    while Instant::now() < deadline && !quit.load(Ordering::Acquire) {
+        let reset = ask_counted(c, t, "RESET")?;
+        let Some(reply) = reset.reply else {
+            return Ok(());
+        };
+        if reply.starts_with("ACK") {
+            let status = ask_counted(c, t, "STATUS")?;
+            if status.reply.is_some_and(|r| r.contains("homed=0")) {
+                run_to_end(c, t, "HOME")?;
+            }
+            return Ok(());
+        }
+        // Still moving, or the E-stop is being handled: wait for standstill.
+        run_to_end(c, t, "WAIT")?;
+    }
+    Ok(())
+}
+
+/// An invalid line: exactly one `NAK` answers it.
+fn invalid_line(rng: &mut ChaCha8Rng) -> Vec<u8> {
+    let id = rng.random_range(1..100_000u32);
+    let mut line = match rng.random_range(0..8) {
+        0 => format!("{id} FROB{}", rng.random::<u32>()).into_bytes(),
         1 => format!("{id} MOVJ 1 x 3 4").into_bytes(),
         2 => format!("{id} MOVJ 1 2").into_bytes(),
         3 => {
             let mut l = format!("{id} STATUS ").into_bytes();
-            l.extend([0xFF, 0xFE, rng.u8(0x80..=0xFF)]);
+            l.extend([0xFF, 0xFE, rng.random_range(0x80..=0xFFu8)]);
             l
         }
         4 => {
             let mut l = format!("{id} STATUS ").into_bytes();
-            l.extend(std::iter::repeat_n(b'A', 300 + rng.usize(0..2000)));
+            l.extend(std::iter::repeat_n(b'A', 300 + rng.random_range(0..2000)));
             l
         }
-        5 => format!("{id} OUT {} 7", rng.u8(0..32)).into_bytes(),
-        6 => format!("{id} SPEED {}", 101 + rng.u32(0..1000)).into_bytes(),
-        _ => format!("{id} STATUS*{:02X}", rng.u8(..)).into_bytes(),
-    }
+        5 => format!("{id} OUT {} 7", rng.random_range(0..32)).into_bytes(),
+        6 => format!("{id} SPEED {}", rng.random_range(101..1101)).into_bytes(),
+        _ => format!("{id} STATUS*{:02X}", rng.random::<u8>()).into_bytes(),
+    };
+    line.push(b'\n');
+    line
 }
 
 /// A client that sends random requests, valid and not.
-fn chatter(up: &UpProcess, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
+fn chatter(up: &Up, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
     const QUERIES: [&str; 9] = [
         "STATUS", "WHERE", "IO", "TASKS", "WAFERS", "STN", "HELP", "ROBOT", "PROGRAMS",
     ];
-    let mut rng = fastrand::Rng::with_seed(seed);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut t = Tally::default();
-    let mut c = Conn::open(up)?;
-    let mut ids = 0u32;
+    let mut c = up.conn()?;
     while !quit.load(Ordering::Acquire) {
         // A host's pace: a request every 5 to 45 ms.
-        std::thread::sleep(Duration::from_millis(rng.u64(5..45)));
-        ids += 1;
-        let roll = rng.usize(0..10_000);
+        std::thread::sleep(Duration::from_millis(rng.random_range(5..45)));
+        let roll = rng.random_range(0..10_000);
         if roll < 2_500 {
             // An invalid line, then a query: one NAK must come before the query's reply.
             t.invalid_lines += 1;
-            c.send(&invalid_line(&mut rng, ids))?;
-            ids += 1;
-            let asked = c.ask(ids, "STATUS")?;
+            let mark = c.lines.mark();
+            c.send_raw(&invalid_line(&mut rng))?;
+            let id = c.send("STATUS")?;
+            let asked = asked_since(&c, mark, id);
             if t.answered("STATUS", &asked) && asked.other_naks != 1 {
                 t.problem(format!("{} NAKs for one invalid line", asked.other_naks));
             }
@@ -430,11 +361,11 @@ fn chatter(up: &UpProcess, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally
         }
         if roll < 3_000 {
             t.reconnects += 1;
-            c = Conn::open(up)?;
+            c = up.conn()?;
             continue;
         }
         let line = match roll {
-            3_000..=9_549 => QUERIES[rng.usize(0..QUERIES.len())],
+            3_000..=9_549 => QUERIES[rng.random_range(0..QUERIES.len())],
             9_550..=9_957 => "CONTROL",
             9_958..=9_977 => "HOLD",
             9_978..=9_997 => "STOP",
@@ -443,8 +374,7 @@ fn chatter(up: &UpProcess, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally
                 "ESTOP"
             }
         };
-        let asked = c.ask(ids, line)?;
-        t.answered(line, &asked);
+        ask_counted(&mut c, &mut t, line)?;
     }
     Ok(t)
 }
@@ -462,8 +392,8 @@ fn usage(pid: u32) -> anyhow::Result<(u64, u64)> {
 }
 
 /// The Pulse Generator's latency histogram now (`TASKS`): (upper bound [µs], count).
-fn pg_histogram(c: &mut Conn, id: u32) -> anyhow::Result<Vec<(u64, u64)>> {
-    let asked = c.ask(id, "TASKS")?;
+fn pg_histogram(c: &mut Conn) -> anyhow::Result<Vec<(u64, u64)>> {
+    let asked = ask(c, "TASKS")?;
     let line = asked
         .lines
         .iter()
@@ -504,26 +434,23 @@ fn window_p99(a: &[(u64, u64)], b: &[(u64, u64)]) -> Option<u64> {
 pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     let config = Config::embedded_default();
     let dir = crate::sim::state_dir(None)?;
-    let extra: &[&str] = if args.no_rt { &["--no-rt"] } else { &[] };
-    let up = UpProcess::start(&dir.path, extra)?;
-    let pid = up.child.id();
-    let mut probe = Conn::open(&up)?;
-    let mut ids = 1u32;
-    // The robot must be homed before it moves.
-    let home = probe.ask(ids, "HOME")?;
-    if !home.reply.is_some_and(|r| r.starts_with("ACK")) {
-        bail!("HOME was refused");
-    }
-    if probe
-        .motion_end(ids, &mut ids)?
-        .is_none_or(|l| !l.starts_with("INF"))
-    {
-        bail!("HOME did not end with INF");
-    }
-    let mut next = || {
-        ids += 1;
-        ids
+    let options = UpOptions {
+        state: dir.path.clone(),
+        no_rt: args.no_rt,
+        ..UpOptions::default()
     };
+    let up = match Up::start(&options)? {
+        Ok(up) => up,
+        Err(refused) => bail!(
+            "wrc up refused to start ({}): {}",
+            refused.status,
+            refused.stderr
+        ),
+    };
+    let pid = up.pid();
+    let mut probe = up.conn()?;
+    // The robot must be homed before it moves.
+    probe.run_ok("HOME")?;
     let (_, fds_before) = usage(pid)?;
     eprintln!(
         "soak: {} clients for {} s (seed {}), controller pid {pid} …",
@@ -550,23 +477,23 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     // filling up levels off.
     let mut rss_series: Vec<(u64, u64)> = Vec::new();
     let watched = (|| -> anyhow::Result<_> {
-        let mut watch = |probe: &mut Conn, next: &mut dyn FnMut() -> u32, t: Instant| {
-            keep_alive_until(probe, next, t, &mut |at| {
+        let mut watch = |probe: &mut Conn, t: Instant| {
+            keep_alive_until(probe, t, &mut |at| {
                 if let Ok((rss, _)) = usage(pid) {
                     rss_series.push((at.duration_since(began).as_secs(), rss));
                 }
             })
         };
-        let h0 = pg_histogram(&mut probe, next())?;
-        watch(&mut probe, &mut next, at(0.1))?;
-        let h1 = pg_histogram(&mut probe, next())?;
+        let h0 = pg_histogram(&mut probe)?;
+        watch(&mut probe, at(0.1))?;
+        let h1 = pg_histogram(&mut probe)?;
         let (rss_warm, _) = usage(pid)?;
-        watch(&mut probe, &mut next, at(0.5))?;
+        watch(&mut probe, at(0.5))?;
         let (rss_half, _) = usage(pid)?;
-        watch(&mut probe, &mut next, at(0.9))?;
-        let h2 = pg_histogram(&mut probe, next())?;
-        watch(&mut probe, &mut next, at(1.0))?;
-        let h3 = pg_histogram(&mut probe, next())?;
+        watch(&mut probe, at(0.9))?;
+        let h2 = pg_histogram(&mut probe)?;
+        watch(&mut probe, at(1.0))?;
+        let h3 = pg_histogram(&mut probe)?;
         Ok((h0, h1, h2, h3, rss_warm, rss_half))
     })();
     // Whatever happened, the clients stop (and with the last of them the controller).
@@ -589,8 +516,7 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         std::thread::sleep(Duration::from_millis(50));
         (rss_end, fds_end) = usage(pid)?;
     }
-    let id = next();
-    let alive = up.alive() && probe.ask(id, "STATUS")?.reply.is_some();
+    let alive = up.alive() && ask(&mut probe, "STATUS")?.reply.is_some();
     let (p99_first, p99_last) = (window_p99(&h0, &h1), window_p99(&h2, &h3));
     let rss_allowed = rss_half + (rss_half * RSS_SLACK_PCT / 100).max(RSS_SLACK_KIB);
     let pass = alive
@@ -699,7 +625,6 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
 /// no control, so the controller would close it after its idle timeout.
 fn keep_alive_until(
     probe: &mut Conn,
-    next: &mut dyn FnMut() -> u32,
     t: Instant,
     each: &mut dyn FnMut(Instant),
 ) -> anyhow::Result<()> {
@@ -709,7 +634,7 @@ fn keep_alive_until(
             return Ok(());
         }
         std::thread::sleep(left.min(Duration::from_secs(KEEP_ALIVE_S)));
-        if probe.ask(next(), "STATUS")?.reply.is_none() {
+        if ask(probe, "STATUS")?.reply.is_none() {
             bail!("the controller did not answer STATUS within {REPLY_S} s");
         }
         each(Instant::now());

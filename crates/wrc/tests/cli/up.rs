@@ -30,6 +30,31 @@ pub(crate) fn free_port() -> u16 {
         .port()
 }
 
+/// Run `wrc up --no-rt --no-ui` on free ports of `host` (`127.0.0.1`, or `0.0.0.0` for a
+/// port the network reaches) in `dir` with `extra` arguments, to its end: for starts that
+/// must be refused.
+pub(crate) fn up_once(dir: &Path, host: &str, extra: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["up", "--no-rt", "--no-ui"])
+        .args(["--port", &format!("{host}:{}", free_port())])
+        .args(["--sim-addr", &format!("127.0.0.1:{}", free_udp_port())])
+        .arg("--state-dir")
+        .arg(dir)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The names of the files in `dir`, sorted.
+pub(crate) fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
 fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")
         .unwrap()
@@ -852,14 +877,7 @@ fn a_flood_of_idle_connections_cannot_lock_out_a_new_clients_status_and_estop() 
 #[test]
 fn a_host_port_off_loopback_needs_an_allow_list_or_a_token() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args(["up", "--no-rt", "--no-ui"])
-        .args(["--port", &format!("0.0.0.0:{}", free_port())])
-        .args(["--sim-addr", &format!("127.0.0.1:{}", free_udp_port())])
-        .arg("--state-dir")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = up_once(dir.path(), "0.0.0.0", &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{stderr}");
     assert!(
@@ -880,16 +898,11 @@ fn a_control_token_file_must_be_private_and_wrc_send_presents_it() {
     std::fs::write(&token, "s3cret-token-0123456789\n").unwrap();
     std::fs::set_permissions(&token, std::fs::Permissions::from_mode(0o644)).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args(["up", "--no-rt", "--no-ui"])
-        .args(["--port", &format!("127.0.0.1:{}", free_port())])
-        .args(["--sim-addr", &format!("127.0.0.1:{}", free_udp_port())])
-        .arg("--token-file")
-        .arg(&token)
-        .arg("--state-dir")
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = up_once(
+        dir.path(),
+        "127.0.0.1",
+        &["--token-file", token.to_str().unwrap()],
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success() && stderr.contains("chmod 600"),

@@ -4,7 +4,7 @@
 //! every refusal, the map against the cell, programs, ABORT) runs on virtual time in
 //! `wrc-controller`'s `sessions` tests.
 
-use crate::up::{Client, Controller};
+use crate::up::{files_in, up_once, Client, Controller};
 use crate::{text, wait_until, wrc};
 
 fn expect_nak(host: &mut Client, id: u32, line: &str, code: u32) -> String {
@@ -106,18 +106,7 @@ fn a_corrupt_wafer_map_is_refused_before_anything_starts_and_nothing_is_written(
     let dir = tempfile::tempdir().unwrap();
     let corrupt = b"version = 1\nnext_id = 26\nhand = \"W\x00\"\n".to_vec();
     std::fs::write(dir.path().join("wafers.toml"), &corrupt).unwrap();
-    let (port, sim) = (crate::up::free_port(), crate::up::free_port());
-    let out = wrc(&[
-        "up",
-        "--no-rt",
-        "--no-ui",
-        "--port",
-        &format!("127.0.0.1:{port}"),
-        "--sim-addr",
-        &format!("127.0.0.1:{sim}"),
-        "--state-dir",
-        dir.path().to_str().unwrap(),
-    ]);
+    let out = up_once(dir.path(), "127.0.0.1", &[]);
     let (_, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("wafers.toml"), "{stderr}");
@@ -125,11 +114,7 @@ fn a_corrupt_wafer_map_is_refused_before_anything_starts_and_nothing_is_written(
         std::fs::read(dir.path().join("wafers.toml")).unwrap(),
         corrupt
     );
-    let mut written: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    written.sort();
+    let written = files_in(dir.path());
     assert_eq!(written, ["wafers.toml"], "nothing else written");
 }
 
@@ -152,18 +137,7 @@ fn a_stations_file_cut_short_is_refused_by_name_before_the_board_starts() {
     let world = World::new(&Stations::embedded_demo()).to_text();
     std::fs::write(dir.path().join("stations.toml"), cut).unwrap();
     std::fs::write(dir.path().join("world.toml"), &world).unwrap();
-    let (port, sim) = (crate::up::free_port(), crate::up::free_port());
-    let out = wrc(&[
-        "up",
-        "--no-rt",
-        "--no-ui",
-        "--port",
-        &format!("127.0.0.1:{port}"),
-        "--sim-addr",
-        &format!("127.0.0.1:{sim}"),
-        "--state-dir",
-        dir.path().to_str().unwrap(),
-    ]);
+    let out = up_once(dir.path(), "127.0.0.1", &[]);
     let (_, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(
@@ -178,11 +152,7 @@ fn a_stations_file_cut_short_is_refused_by_name_before_the_board_starts() {
         std::fs::read_to_string(dir.path().join("world.toml")).unwrap(),
         world
     );
-    let mut written: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    written.sort();
+    let written = files_in(dir.path());
     assert_eq!(
         written,
         ["stations.toml", "world.toml"],

@@ -224,7 +224,7 @@ impl ClientSet {
         }
     }
 
-    /// Admit TCP hosts by `access` (its `max_connections` should be this set's capacity).
+    /// Admit TCP hosts by `access`; the set's capacity is the most connections it serves.
     pub fn with_access(mut self, access: HostAccess) -> ClientSet {
         self.access = Some(access);
         self

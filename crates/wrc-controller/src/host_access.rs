@@ -43,8 +43,6 @@ pub enum Rights {
 /// The host port's admission rules.
 #[derive(Debug, Clone)]
 pub struct HostAccess {
-    /// TCP connections served at once.
-    pub max_connections: usize,
     /// TCP connections one address may hold.
     pub max_per_address: usize,
     /// Silence after which a connection without control or subscription is closed [ns];
@@ -60,7 +58,6 @@ impl HostAccess {
     pub fn new(config: &HostConfig, token: Option<AuthToken>) -> HostAccess {
         let idle_ns = (config.idle_timeout_s * 1e9).round();
         HostAccess {
-            max_connections: config.max_connections,
             max_per_address: config.max_per_address,
             idle_timeout_ns: (idle_ns >= 1.0).then_some(idle_ns as u64),
             allow: config.allow.clone(),

@@ -28,10 +28,12 @@ pub struct BoardConfig {
     pub axes: Vec<usize>,
     /// Command FIFO depth [periods].
     pub fifo_depth: u32,
-    /// The board stops all axes when the host watchdog is stale this long [periods].
+    /// The board stops all axes when the host watchdog is stale this long: `watchdog_ms`
+    /// over the motion period, rounded up [periods].
     pub watchdog_periods: u32,
     /// The controller declares the board dead (fatal error 300) when its heartbeat has not
-    /// advanced for this long [board periods].
+    /// advanced for this long: `heartbeat_ms` over the motion period, rounded up [board
+    /// periods].
     pub heartbeat_periods: u32,
     /// Whether the controller starts `wrc board-sim` for it (false: real hardware).
     pub simulate: bool,
@@ -103,10 +105,16 @@ pub(crate) struct RawBoard {
     axes: Vec<String>,
     #[serde(default = "default_fifo_depth")]
     fifo_depth: u32,
-    #[serde(default = "default_watchdog_periods")]
-    watchdog_periods: u32,
-    #[serde(default = "default_heartbeat_periods")]
-    heartbeat_periods: u32,
+    #[serde(default)]
+    watchdog_ms: Option<f64>,
+    #[serde(default)]
+    heartbeat_ms: Option<f64>,
+    /// Replaced by `watchdog_ms` and `heartbeat_ms` (a count of periods meant 10 ms at
+    /// 1 kHz): still read, so that older files keep working, and refused next to them.
+    #[serde(default)]
+    watchdog_periods: Option<u32>,
+    #[serde(default)]
+    heartbeat_periods: Option<u32>,
     #[serde(default = "default_true")]
     simulate: bool,
     #[serde(default)]
@@ -114,13 +122,24 @@ pub(crate) struct RawBoard {
 }
 
 fn default_fifo_depth() -> u32 {
-    8
+    64
 }
-fn default_watchdog_periods() -> u32 {
-    10
-}
-fn default_heartbeat_periods() -> u32 {
-    3
+
+/// Default host watchdog timeout [ms]: longer than the stalls a stock kernel gives a
+/// SCHED_FIFO task under load (tens of ms were measured), so that only a host that has
+/// really stopped trips it. docs/realtime.md gives a tighter value for PREEMPT_RT.
+pub const DEFAULT_WATCHDOG_MS: f64 = 50.0;
+/// Default time a board's heartbeat may stand before the controller declares it dead [ms].
+pub const DEFAULT_HEARTBEAT_MS: f64 = 30.0;
+
+/// `ms` in periods of `period_s`, rounded up, at least 1.
+fn periods_of(ms: f64, period_s: f64) -> u32 {
+    let periods = (ms / 1000.0 / period_s - 1e-9).ceil();
+    if periods.is_finite() {
+        periods.clamp(1.0, f64::from(u32::MAX)) as u32
+    } else {
+        1
+    }
 }
 fn default_true() -> bool {
     true
@@ -189,6 +208,7 @@ pub fn default_dpram(id: u32) -> PathBuf {
 pub(crate) fn boards(
     raw: Vec<RawBoard>,
     robot: &Robot,
+    period_s: f64,
     file: &str,
 ) -> Result<Vec<BoardConfig>, ConfigError> {
     let invalid = |key: String, reason: String| ConfigError::Invalid {
@@ -206,8 +226,8 @@ pub(crate) fn boards(
                 dpram: default_dpram(id as u32),
                 axes: axes.to_vec(),
                 fifo_depth: default_fifo_depth(),
-                watchdog_periods: default_watchdog_periods(),
-                heartbeat_periods: default_heartbeat_periods(),
+                watchdog_periods: periods_of(DEFAULT_WATCHDOG_MS, period_s),
+                heartbeat_periods: periods_of(DEFAULT_HEARTBEAT_MS, period_s),
                 simulate: true,
                 sim: BoardSimConfig::default(),
             })
@@ -264,18 +284,44 @@ pub(crate) fn boards(
                 format!("{}; expected 1 to 64 periods", b.fifo_depth),
             ));
         }
-        if b.watchdog_periods == 0 {
-            return Err(invalid(
-                key("watchdog_periods"),
-                "must be at least 1 period".into(),
-            ));
-        }
-        if b.heartbeat_periods == 0 {
-            return Err(invalid(
-                key("heartbeat_periods"),
-                "must be at least 1 period".into(),
-            ));
-        }
+        let in_periods = |ms_key: &str,
+                          ms: Option<f64>,
+                          periods_key: &str,
+                          periods: Option<u32>,
+                          default_ms: f64| {
+            match (ms, periods) {
+                (Some(_), Some(_)) => Err(invalid(
+                    key(periods_key),
+                    format!("give {ms_key} only ({periods_key} is its older form, in periods)"),
+                )),
+                (None, Some(0)) => Err(invalid(
+                    key(periods_key),
+                    format!("must be at least 1 period (or give {ms_key} in milliseconds)"),
+                )),
+                (None, Some(p)) => Ok(p),
+                (Some(ms), None) if !(ms.is_finite() && ms > 0.0 && ms <= 60_000.0) => {
+                    Err(invalid(
+                        key(ms_key),
+                        format!("{ms}; expected more than 0 and at most 60000 ms"),
+                    ))
+                }
+                (ms, None) => Ok(periods_of(ms.unwrap_or(default_ms), period_s)),
+            }
+        };
+        let watchdog_periods = in_periods(
+            "watchdog_ms",
+            b.watchdog_ms,
+            "watchdog_periods",
+            b.watchdog_periods,
+            DEFAULT_WATCHDOG_MS,
+        )?;
+        let heartbeat_periods = in_periods(
+            "heartbeat_ms",
+            b.heartbeat_ms,
+            "heartbeat_periods",
+            b.heartbeat_periods,
+            DEFAULT_HEARTBEAT_MS,
+        )?;
         let s = b.sim;
         if !(s.overspeed_margin.is_finite() && s.overspeed_margin >= 1.0) {
             return Err(invalid(
@@ -361,8 +407,8 @@ pub(crate) fn boards(
             dpram: b.dpram.unwrap_or_else(|| default_dpram(b.id)),
             axes,
             fifo_depth: b.fifo_depth,
-            watchdog_periods: b.watchdog_periods,
-            heartbeat_periods: b.heartbeat_periods,
+            watchdog_periods,
+            heartbeat_periods,
             simulate: b.simulate,
             sim: BoardSimConfig {
                 overspeed_margin: s.overspeed_margin,

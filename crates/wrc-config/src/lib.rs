@@ -21,7 +21,10 @@ use std::path::Path;
 use wrc_motion::MotionSettings;
 use wrc_robot::Robot;
 
-pub use board::{default_dpram, BoardConfig, BoardSimConfig, VacuumConfig};
+pub use board::{
+    default_dpram, BoardConfig, BoardSimConfig, VacuumConfig, DEFAULT_HEARTBEAT_MS,
+    DEFAULT_WATCHDOG_MS,
+};
 pub use hand::{BladeB, HandConfig};
 pub use host::{canonical, listed, parse_net, HostConfig, MAX_CONNECTIONS};
 pub use ipnet::IpNet;
@@ -82,6 +85,10 @@ pub struct Config {
     /// in (`[motion] blend`, default true; docs/motion.md "Blended approach"). Only under the
     /// default profile: the paper profile's moves start and end at rest.
     pub blend: bool,
+    /// Periods the Pulse Generator keeps queued in the board FIFO ahead of the board
+    /// (`[motion] lookahead_ms` over the period, rounded up, at least 1): a host stall
+    /// shorter than this costs no underrun. Always less than every board's `fifo_depth`.
+    pub lookahead_periods: usize,
     /// Motion boards (`[[board]]`), in board order; at least one.
     pub boards: Vec<BoardConfig>,
     /// Real-time tasks (`[[task]]`): priority and period of each; the paper's Table 1 when the
@@ -94,6 +101,10 @@ pub struct Config {
     /// The host port's admission (`[host]`; defaults when absent).
     pub host: HostConfig,
 }
+
+/// Default `[motion] lookahead_ms`: the Pulse Generator's look-ahead in the board FIFO [ms]
+/// (2 periods at the default 10 ms, 20 at 1 ms).
+pub const DEFAULT_LOOKAHEAD_MS: f64 = 20.0;
 
 /// Most samples the trace recorder may keep, `[trace] seconds` over the motion period: an
 /// hour at 1 ms, about 1 GB of memory (288 bytes a sample, docs/trace.md). A configuration
@@ -343,16 +354,56 @@ mod tests {
     }
 
     #[test]
-    fn a_board_heartbeat_of_zero_periods_is_refused_by_name() {
-        let e = err(&with("heartbeat_periods = 3", "heartbeat_periods = 0"));
+    fn watchdog_heartbeat_and_look_ahead_are_in_milliseconds() {
+        let d = Config::embedded_default();
+        assert_eq!(d.boards[0].watchdog_periods, 5); // 50 ms at 10 ms
+        assert_eq!(d.boards[0].heartbeat_periods, 3); // 30 ms
+        assert_eq!(d.lookahead_periods, 2); // 20 ms
+                                            // At 1 kHz the same milliseconds are ten times the periods.
+        let fast = Config::parse(&with("period_ms = 10.0", "period_ms = 1.0"), "c").unwrap();
+        assert_eq!(fast.boards[0].watchdog_periods, 50);
+        assert_eq!(fast.boards[0].heartbeat_periods, 30);
+        assert_eq!(fast.lookahead_periods, 20);
+        // A part of a period is a whole one.
+        let c = Config::parse(&with("watchdog_ms = 50.0", "watchdog_ms = 41.0"), "c").unwrap();
+        assert_eq!(c.boards[0].watchdog_periods, 5);
+        // The older keys in periods still read, but not next to the new ones.
+        let old = with("watchdog_ms = 50.0", "watchdog_periods = 7");
+        let old = old.replacen("heartbeat_ms = 30.0", "heartbeat_periods = 4", 1);
+        let c = Config::parse(&old, "c").unwrap();
+        assert_eq!(
+            (c.boards[0].watchdog_periods, c.boards[0].heartbeat_periods),
+            (7, 4)
+        );
+        let e = err(&with(
+            "watchdog_ms = 50.0",
+            "watchdog_ms = 50.0\nwatchdog_periods = 7",
+        ));
         assert!(
-            e.contains("cell.toml") && e.contains("heartbeat_periods") && e.contains("at least 1"),
+            e.contains("watchdog_periods") && e.contains("watchdog_ms only"),
             "{e}"
         );
-        let c =
-            Config::parse(&with("heartbeat_periods = 3", "heartbeat_periods = 7"), "c").unwrap();
-        assert_eq!(c.boards[0].heartbeat_periods, 7);
-        assert_eq!(Config::embedded_default().boards[0].heartbeat_periods, 3);
+        let e = err(&with("heartbeat_ms = 30.0", "heartbeat_periods = 0"));
+        assert!(
+            e.contains("heartbeat_periods") && e.contains("at least 1"),
+            "{e}"
+        );
+        for bad in ["0.0", "-5.0", "nan", "inf"] {
+            let e = err(&with("watchdog_ms = 50.0", &format!("watchdog_ms = {bad}")));
+            assert!(e.contains("cell.toml") && e.contains("watchdog_ms"), "{e}");
+            let e = err(&with(
+                "lookahead_ms = 20.0",
+                &format!("lookahead_ms = {bad}"),
+            ));
+            assert!(e.contains("motion.lookahead_ms"), "{e}");
+        }
+        // The FIFO must hold the look-ahead and one period more.
+        let e = err(&with("fifo_depth = 64", "fifo_depth = 2"));
+        assert!(
+            e.contains("lookahead_ms") && e.contains("2 periods") && e.contains("fifo_depth"),
+            "{e}"
+        );
+        assert!(Config::parse(&with("fifo_depth = 64", "fifo_depth = 3"), "c").is_ok());
     }
 
     /// Regression: `[trace] seconds = 3600` with `period_ms = 0.1` was accepted, and the
@@ -361,6 +412,7 @@ mod tests {
     #[test]
     fn a_trace_ring_too_large_for_memory_is_refused_by_name() {
         let big = with("seconds = 30.0 ", "seconds = 3600.0");
+        let big = big.replacen("lookahead_ms = 20.0", "lookahead_ms = 1.0", 1);
         let e = err(&big.replacen("period_ms = 10.0", "period_ms = 0.1", 1));
         assert!(
             e.contains("cell.toml")

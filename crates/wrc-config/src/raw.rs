@@ -78,6 +78,7 @@ struct RawMotion {
     line_max_accel_mm_s2: f64,
     line_max_jerk_mm_s3: f64,
     blend: bool,
+    lookahead_ms: f64,
 }
 
 impl Default for RawMotion {
@@ -93,6 +94,7 @@ impl Default for RawMotion {
             line_max_accel_mm_s2: d.line.max_accel_mm_s2,
             line_max_jerk_mm_s3: d.line.max_jerk_mm_s3,
             blend: true,
+            lookahead_ms: crate::DEFAULT_LOOKAHEAD_MS,
         }
     }
 }
@@ -207,7 +209,35 @@ impl RawConfig {
             },
         };
         motion.validate().map_err(|e| invalid(e.key, e.reason))?;
-        let boards = crate::board::boards(self.board, &robot, file)?;
+        let boards = crate::board::boards(self.board, &robot, motion.period_s, file)?;
+        let lookahead_ms = m.lookahead_ms;
+        if !(lookahead_ms.is_finite() && lookahead_ms > 0.0 && lookahead_ms <= 10_000.0) {
+            return Err(invalid(
+                "motion.lookahead_ms".into(),
+                format!("{lookahead_ms}; expected more than 0 and at most 10000 ms"),
+            ));
+        }
+        // At least one period; a part of a period is a whole one.
+        let lookahead_periods = ((lookahead_ms / 1000.0 / motion.period_s) - 1e-9)
+            .ceil()
+            .max(1.0) as usize;
+        if let Some((i, b)) = boards
+            .iter()
+            .enumerate()
+            .find(|(_, b)| b.fifo_depth as usize <= lookahead_periods)
+        {
+            return Err(invalid(
+                "motion.lookahead_ms".into(),
+                format!(
+                    "{lookahead_ms} ms is {lookahead_periods} periods of {} ms, and board[{}] \
+                     holds {} (fifo_depth): a look-ahead needs a FIFO at least one period \
+                     deeper; shorten the look-ahead or deepen the FIFO (at most 64)",
+                    motion.period_s * 1000.0,
+                    i + 1,
+                    b.fifo_depth
+                ),
+            ));
+        }
         let t = self.trace;
         if !(t.seconds.is_finite() && (1.0..=3600.0).contains(&t.seconds)) {
             return Err(invalid(
@@ -254,6 +284,7 @@ impl RawConfig {
             trace,
             robot,
             blend: blend && motion.profile == Profile::Fir,
+            lookahead_periods,
             motion,
             boards,
             tasks: crate::tasks::tasks(self.task, file)?,

@@ -407,7 +407,8 @@ pub(crate) fn assemble<H: Host>(
         done.clone(),
         resume_tx,
         generator.clone(),
-    );
+    )
+    .with_lookahead(config.lookahead_periods);
     if let Some(tap) = sample_tap {
         pulse_generator = pulse_generator.with_trace(tap);
     }

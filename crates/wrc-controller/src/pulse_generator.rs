@@ -45,9 +45,10 @@ use crate::recorder::SampleTap;
 use crate::shared::{Shared, StopKind};
 use wrc_trace::Sample;
 
-/// Periods kept queued in the board FIFO ahead of the board: a late wake-up of up to this
-/// many periods does not starve an axis, and a stop reaches the motors at most this many
-/// periods after the Pulse Generator starts it.
+/// Periods kept queued in the board FIFO ahead of the board unless the configuration says
+/// otherwise ([`PulseGenerator::with_lookahead`], `[motion] lookahead_ms`): a late wake-up of
+/// up to this many periods does not starve an axis. A stop does not wait for them: the
+/// board skips them (docs/dpram.md, "FIFO flush").
 pub const FIFO_LEAD: usize = 2;
 
 /// Periods a finished move may wait, once the board has executed its last period, for every
@@ -57,8 +58,8 @@ pub const IN_POSITION_PERIODS: usize = 10;
 
 /// Periods pushed to the board that the Pulse Generator remembers (the state after each and
 /// its pulses), to brake from the one the board has reached: more than the FIFO ever holds
-/// while moving (its lead, the periods a flush pushes, one before them).
-const HISTORY: usize = 16;
+/// (its whole capacity, and the one before them).
+const HISTORY: usize = wrc_board::layout::FIFO_CAPACITY + 2;
 
 /// Tries at a flush before a stop brakes behind the queued periods: a try fails only when a
 /// board period begins while the brake's first periods are computed.
@@ -77,7 +78,8 @@ struct Pushed {
 
 /// The last [`HISTORY`] periods pushed, oldest first.
 struct History {
-    ring: [Pushed; HISTORY],
+    /// On the heap: a period's state is large, and the ring holds a whole FIFO of them.
+    ring: Box<[Pushed]>,
     /// Periods pushed since the start (the newest is at `(count - 1) % HISTORY`).
     count: usize,
 }
@@ -85,12 +87,25 @@ struct History {
 impl History {
     fn new(at: MotionState) -> History {
         History {
-            ring: [Pushed {
-                pulses: [0; MAX_AXES],
-                after: at,
-            }; HISTORY],
+            ring: vec![
+                Pushed {
+                    pulses: [0; MAX_AXES],
+                    after: at,
+                };
+                HISTORY
+            ]
+            .into_boxed_slice(),
             count: 0,
         }
+    }
+
+    /// Forget every period: a new history from the state `at` (in place, no allocation).
+    fn restart(&mut self, at: MotionState) {
+        for p in self.ring.iter_mut() {
+            p.pulses = [0; MAX_AXES];
+            p.after = at;
+        }
+        self.count = 0;
     }
 
     fn push(&mut self, pulses: &[i64; MAX_AXES], after: &MotionState) {
@@ -225,6 +240,14 @@ pub struct PulseGenerator<B: MotionBoard> {
     decel_pending: bool,
     pending: Option<Batch>,
     fifo_depth: usize,
+    /// Periods kept queued ahead of the board (the look-ahead).
+    lead: usize,
+    /// The brake's first periods, computed before a flush is asked (capacity
+    /// [`HISTORY`], reserved at start-up: the cycle does not allocate).
+    first: Vec<Pushed>,
+    /// The FIFO had been filled to its lead since the last stop or start: the levels seen
+    /// count for the deepest drain.
+    streaming: bool,
     /// A move (completed, or stopped or held by a brake) reported once the board has
     /// executed its last period and its motors have settled: (ticket, outcome, periods to
     /// wait).
@@ -274,6 +297,9 @@ impl<B: MotionBoard> PulseGenerator<B> {
             decel_pending: false,
             pending: None,
             fifo_depth,
+            lead: FIFO_LEAD.min(fifo_depth.saturating_sub(1)).max(1),
+            first: Vec::with_capacity(HISTORY),
+            streaming: false,
             completing: None,
             epoch_pending: false,
             feedback: Feedback::default(),
@@ -283,6 +309,17 @@ impl<B: MotionBoard> PulseGenerator<B> {
             liveness: None,
             detached: false,
         }
+    }
+
+    /// Keep `periods` queued in the board FIFO ahead of the board (at least 1, and less than
+    /// the FIFO's depth): `[motion] lookahead_ms` over the period.
+    pub fn with_lookahead(mut self, periods: usize) -> Self {
+        self.lead = periods.min(self.fifo_depth.saturating_sub(1)).max(1);
+        self.shared
+            .fifo
+            .lookahead
+            .store(self.lead as u32, Ordering::Relaxed);
+        self
     }
 
     /// Watch every board's heartbeat each period ([`Liveness`]).
@@ -318,6 +355,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// The moves in flight end with the fault (the Command Interpreter aborts them).
     fn detach(&mut self) {
         self.detached = true;
+        self.streaming = false;
         self.pending = None;
         while self.ring.try_recv().is_some() {}
         self.stopping = false;
@@ -415,7 +453,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 break;
             };
             let queued = at.write.wrapping_sub(at.read) as usize;
-            let room = self.board.fifo_free().min(FIFO_LEAD);
+            let room = self.board.fifo_free().min(self.lead);
             let Some(before) = self.history.before(queued).copied() else {
                 break;
             };
@@ -425,20 +463,15 @@ impl<B: MotionBoard> PulseGenerator<B> {
             self.stopper.restore(&before);
             self.stopper.stop(limits);
             // The brake's first periods, as many as the lead keeps queued.
-            let mut first = [Pushed {
-                pulses: [0; MAX_AXES],
-                after: before,
-            }; FIFO_LEAD];
-            let mut n = 0usize;
+            self.first.clear();
             let mut end = None;
             let mut period = Period::default();
-            while n < room && end.is_none() {
+            while self.first.len() < room && end.is_none() {
                 let status = self.stopper.next_period(&mut period);
-                first[n] = Pushed {
+                self.first.push(Pushed {
                     pulses: period.pulses,
                     after: self.stopper.state(),
-                };
-                n += 1;
+                });
                 if !matches!(status, Status::Working) {
                     end = Some(status);
                 }
@@ -454,11 +487,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 }
             }
             self.history.drop_newest(queued);
-            for p in &first[..n] {
+            for i in 0..self.first.len() {
                 // Room was checked, and only this task pushes.
+                let p = self.first[i];
                 let _ = self.emit(&p.pulses, &p.after);
             }
-            self.last = first[n - 1].after;
+            self.last = self.first[self.first.len() - 1].after;
             self.brake_end = end;
             return true;
         }
@@ -496,11 +530,13 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.board.refresh_watchdog();
         if release == Release::Period {
             self.watch_boards();
+            self.watch_fifo();
         }
         let mut braking_now = false;
         let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
         if epoch != self.epoch_seen {
             self.epoch_seen = epoch;
+            self.streaming = false;
             let kind = self.shared.take_stop_kind();
             self.pending = None;
             while self.ring.try_recv().is_some() {}
@@ -512,7 +548,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     && self.shared.resync_from_board.load(Ordering::Acquire);
                 if reattach {
                     self.detached = false;
-                    self.history = History::new(self.last);
+                    self.history.restart(self.last);
                 }
             }
             if self.detached {
@@ -575,9 +611,9 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
         }
         let lead = if braking_now && release == Release::Event {
-            FIFO_LEAD + 1
+            self.lead + 1
         } else {
-            FIFO_LEAD
+            self.lead
         };
         if release == Release::Event && !braking_now {
             return; // nothing to do between periods but a new stop
@@ -640,6 +676,9 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 self.ticket = 0;
             }
         }
+        if release == Release::Period && !self.stopping {
+            self.streaming |= self.queued() >= self.lead;
+        }
         if let Some((ticket, outcome, left)) = self.completing {
             // Executed by the board; then in position (every encoder on its commanded
             // count) unless another move follows at once, or the settling time is over.
@@ -658,6 +697,32 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.publish_in_flight();
     }
 
+    /// This period's look at the FIFO before it is refilled (the deepest drain while
+    /// streaming) and at the boards' counters, for `TASKS`.
+    fn watch_fifo(&mut self) {
+        let stats = &self.shared.fifo;
+        if self.streaming && !self.detached {
+            stats
+                .min_level
+                .fetch_min(self.queued() as u32, Ordering::Relaxed);
+        }
+        if self.board.read_feedback(&mut self.feedback).is_ok() {
+            let boards = &self.feedback.boards[..self.feedback.board_count];
+            stats
+                .underruns
+                .store(self.feedback.underruns(), Ordering::Relaxed);
+            let sum = |f: fn(&wrc_board::BoardFeedback) -> u32| {
+                boards.iter().map(|b| u64::from(f(b))).sum::<u64>()
+            };
+            stats
+                .watchdog_trips
+                .store(sum(|b| b.watchdog_trips), Ordering::Relaxed);
+            stats
+                .board_late
+                .store(sum(|b| b.late_periods), Ordering::Relaxed);
+        }
+    }
+
     /// The first braking period of the stop under way was pushed (the benchmark's "first
     /// decelerating pulse").
     fn decel_pushed(&mut self) {
@@ -670,14 +735,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
     }
 
     /// The last period of move `ticket` was pushed: it ends with `outcome` once the board
-    /// has executed it ([`FIFO_LEAD`] periods from now) and its motors have settled
+    /// has executed it (the look-ahead from now) and its motors have settled
     /// ([`IN_POSITION_PERIODS`] at most). A move still completing ends now (the board
     /// executes in order).
     fn complete(&mut self, ticket: u32, outcome: MoveOutcome) {
         if let Some((ticket, outcome, _)) = self.completing.take() {
             self.report(ticket, outcome);
         }
-        self.completing = Some((ticket, outcome, FIFO_LEAD + 1 + IN_POSITION_PERIODS));
+        self.completing = Some((ticket, outcome, self.lead + 1 + IN_POSITION_PERIODS));
     }
 
     /// The brake's last period was pushed: the move ends held, stopped or (a brake that

@@ -10,7 +10,7 @@ use wrc_robot::Robot;
 use wrc_rt::histogram::bucket_range;
 use wrc_rt::{StatsCell, Summary, TaskSpec, TaskStats};
 
-use crate::shared::{Shared, StopTally};
+use crate::shared::{FifoTally, Shared, StopTally};
 
 /// Every task as configured with its figures, set once the runtime has started.
 pub type TaskCells = Arc<OnceLock<Vec<(TaskSpec, TaskCell)>>>;
@@ -35,6 +35,7 @@ impl TaskCell {
         TaskFigures {
             timing: self.timing.snapshot(),
             stops: self.stops.as_ref().map(|s| s.stops.read()),
+            fifo: self.stops.as_ref().map(|s| s.fifo.read()),
         }
     }
 }
@@ -46,6 +47,8 @@ pub struct TaskFigures {
     pub timing: TaskStats,
     /// How its stops braked (the Pulse Generator only).
     pub stops: Option<StopTally>,
+    /// The board FIFO and the boards' counters (the Pulse Generator only).
+    pub fifo: Option<FifoTally>,
 }
 
 /// Digital inputs and outputs of the controller (the input and output words).
@@ -128,6 +131,18 @@ pub fn task_line(spec: &TaskSpec, figures: &TaskFigures) -> String {
             line,
             "stops_flushed={} stops_behind_queue={} ",
             stops.flushed, stops.behind_queue
+        );
+    }
+    if let Some(f) = figures.fifo {
+        let _ = write!(
+            line,
+            "board_stops={} lookahead={} fifo_min={} underruns={} watchdog_trips={} board_late={} ",
+            f.board_stops,
+            f.lookahead,
+            f.min_level.map_or("-".to_string(), |m| m.to_string()),
+            f.underruns,
+            f.watchdog_trips,
+            f.board_late
         );
     }
     line.push_str("lat_hist=");
@@ -233,14 +248,22 @@ mod tests {
         let spec = TaskSpec::new("pulse_generator", 20, 10_000);
         let line = task_line(&spec, &cell.snapshot());
         assert!(
-            line.ends_with(" stops_flushed=0 stops_behind_queue=0 lat_hist="),
+            line.ends_with(
+                " stops_flushed=0 stops_behind_queue=0 board_stops=0 lookahead=2 fifo_min=- \
+                 underruns=0 watchdog_trips=0 board_late=0 lat_hist="
+            ),
             "{line}"
         );
         shared.stops.flushed.fetch_add(3, Ordering::Relaxed);
         shared.stops.behind_queue.fetch_add(1, Ordering::Relaxed);
+        shared.fifo.min_level.fetch_min(7, Ordering::Relaxed);
+        shared.fifo.underruns.store(4, Ordering::Relaxed);
         let line = task_line(&spec, &cell.snapshot());
         assert!(
-            line.contains(" ev_exec_max_us=0 stops_flushed=3 stops_behind_queue=1 lat_hist="),
+            line.contains(
+                " ev_exec_max_us=0 stops_flushed=3 stops_behind_queue=1 board_stops=0 \
+                 lookahead=2 fifo_min=7 underruns=4 "
+            ),
             "{line}"
         );
     }

@@ -48,6 +48,9 @@ pub struct Shared {
     pub decel_ns: AtomicU64,
     /// How the Pulse Generator's stops braked: with a FIFO flush or behind the queue.
     pub stops: StopCounts,
+    /// The board FIFO as the Pulse Generator sees it: its look-ahead, the deepest drain, the
+    /// boards' underrun, watchdog and late-period counters.
+    pub fifo: FifoStats,
     /// The I/O Monitor has read the inputs at least once (`inputs` are real). Cleared by the
     /// Pulse Generator when a board stops answering (its inputs are stale), set again by the
     /// I/O Monitor's first read once every board answers.
@@ -94,6 +97,7 @@ impl Default for Shared {
             urgent_read_ns: AtomicU64::new(0),
             decel_ns: AtomicU64::new(0),
             stops: StopCounts::default(),
+            fifo: FifoStats::default(),
             io_ready: AtomicBool::new(false),
             io_samples: AtomicU64::new(0),
             board_dead: AtomicBool::new(false),
@@ -185,7 +189,7 @@ pub struct StopCounts {
     pub flushed: AtomicU64,
     /// Stops braked behind the queued periods, the flush not usable (a robot on several
     /// boards, a flush still pending, a board period beginning at every try, no room in the
-    /// FIFO): the board executed up to [`crate::pulse_generator::FIFO_LEAD`] queued periods
+    /// FIFO): the board executed the queued periods (the look-ahead)
     /// first [stops].
     pub behind_queue: AtomicU64,
 }
@@ -198,6 +202,71 @@ impl StopCounts {
             behind_queue: self.behind_queue.load(Ordering::Relaxed),
         }
     }
+}
+
+/// The board FIFO and the boards' counters, as the Pulse Generator last read them (`TASKS`
+/// reports them on its line; `wrc bench soak` judges a run by them).
+#[derive(Debug)]
+pub struct FifoStats {
+    /// Periods the Pulse Generator keeps queued ahead of the board.
+    pub lookahead: AtomicU32,
+    /// The lowest FIFO level the Pulse Generator found at the start of a period while it
+    /// streamed (the FIFO filled to its look-ahead since the last stop), `u32::MAX` before
+    /// any: the look-ahead less this is the deepest drain a late wake-up caused [periods].
+    pub min_level: AtomicU32,
+    /// Underruns, summed over every axis of every board, since the boards started.
+    pub underruns: AtomicU64,
+    /// Host-watchdog trips, summed over the boards.
+    pub watchdog_trips: AtomicU64,
+    /// Board periods started late and caught up (simulated boards), summed over the boards.
+    pub board_late: AtomicU64,
+    /// Stops the boards braked on their own (the host's brake had not come in time).
+    pub board_stops: AtomicU64,
+}
+
+impl Default for FifoStats {
+    fn default() -> Self {
+        FifoStats {
+            lookahead: AtomicU32::new(crate::pulse_generator::FIFO_LEAD as u32),
+            min_level: AtomicU32::new(u32::MAX),
+            underruns: AtomicU64::new(0),
+            watchdog_trips: AtomicU64::new(0),
+            board_late: AtomicU64::new(0),
+            board_stops: AtomicU64::new(0),
+        }
+    }
+}
+
+impl FifoStats {
+    /// The figures now.
+    pub fn read(&self) -> FifoTally {
+        let min = self.min_level.load(Ordering::Relaxed);
+        FifoTally {
+            lookahead: self.lookahead.load(Ordering::Relaxed),
+            min_level: (min != u32::MAX).then_some(min),
+            underruns: self.underruns.load(Ordering::Relaxed),
+            watchdog_trips: self.watchdog_trips.load(Ordering::Relaxed),
+            board_late: self.board_late.load(Ordering::Relaxed),
+            board_stops: self.board_stops.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// A reading of [`FifoStats`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FifoTally {
+    /// Periods kept queued ahead of the board.
+    pub lookahead: u32,
+    /// The lowest level found while streaming; `None` before any [periods].
+    pub min_level: Option<u32>,
+    /// Underruns, all axes of all boards.
+    pub underruns: u64,
+    /// Host-watchdog trips, all boards.
+    pub watchdog_trips: u64,
+    /// Board periods started late and caught up, all boards.
+    pub board_late: u64,
+    /// Stops the boards braked on their own.
+    pub board_stops: u64,
 }
 
 /// A reading of [`StopCounts`] [stops].

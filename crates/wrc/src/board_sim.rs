@@ -94,9 +94,10 @@ struct RunArgs {
     /// be on this board).
     #[arg(long, value_name = "FILE")]
     stations: Option<PathBuf>,
-    /// Step the board at SCHED_FIFO priority 1 where allowed (the lowest real-time priority,
-    /// below every controller task): like the DSP card it stands for, it must not be
-    /// delayed by host load, or a controller watching its heartbeat declares it dead. Where
+    /// Step the board at SCHED_FIFO priority 90 with locked memory where allowed (above
+    /// every controller task): like the DSP card it stands for, it must not be delayed by
+    /// host load, or the controller it checks, which watches its heartbeat, would starve it
+    /// first. Where
     /// SCHED_FIFO is not allowed it says so once and runs on normal scheduling.
     #[arg(long)]
     realtime: bool,
@@ -178,16 +179,25 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
     run_cell_board(sim, cell, &board, args.world, args.periods, args.realtime)
 }
 
-/// SCHED_FIFO priority of a simulated board's stepping thread under `--realtime`: the
-/// lowest, below every task of the controller.
-const BOARD_FIFO_PRIORITY: i32 = 1;
+/// SCHED_FIFO priority of a simulated board's stepping thread under `--realtime`: one above
+/// the controller's most urgent task (its priorities map to 1..89, docs/realtime.md), so
+/// the "hardware" is never starved by the software it checks, as a board's DSP is not; still
+/// below the kernel's own watchdog and migration threads (99).
+pub const BOARD_FIFO_PRIORITY: i32 = 90;
 
-/// With `realtime`, put the calling (stepping) thread on SCHED_FIFO; threads started
-/// before it (the world saver) stay on normal scheduling.
+/// With `realtime`, put the calling (stepping) thread on SCHED_FIFO at
+/// [`BOARD_FIFO_PRIORITY`] with its memory locked (threads started before it, the world
+/// saver, stay on normal scheduling); said once when the machine does not allow it.
 fn step_in_real_time(realtime: bool) {
     if !realtime {
         return;
     }
+    if let Err(e) = wrc_rt::sched_policy::lock_memory(1 << 20) {
+        tracing::warn!(
+            "wrc board-sim: --realtime: memory cannot be locked here ({e}); page faults may delay a board period"
+        );
+    }
+    wrc_rt::sched_policy::prefault_stack();
     if let Err(e) = wrc_rt::sched_policy::set_current_thread_fifo(BOARD_FIFO_PRIORITY) {
         tracing::warn!(
             "wrc board-sim: --realtime: SCHED_FIFO is not allowed here ({e}); the board steps on normal scheduling"

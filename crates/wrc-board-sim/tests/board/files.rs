@@ -130,7 +130,7 @@ fn layout_round_trips_through_a_file_and_restarts_bump_the_epoch() {
             parsed.fifo_depth,
             parsed.epoch
         ),
-        (4, 10_000, 8, 1)
+        (4, 10_000, 64, 1)
     );
     drop(first);
     let second = sim_on(&path);

@@ -358,15 +358,13 @@ pub fn run(args: FaultsArgs) -> anyhow::Result<ExitCode> {
 /// The embedded configuration with the host watchdog and the heartbeat at 1 s, as `wrc up`
 /// sets them for its own boards when it runs without SCHED_FIFO.
 fn lenient_config_text() -> String {
-    let config = wrc_config::Config::embedded_default();
-    let periods = (1.0 / config.motion.period_s).ceil() as u32;
     wrc_config::DEFAULT_TOML
         .lines()
         .map(|l| {
-            if l.starts_with("watchdog_periods") {
-                format!("watchdog_periods = {periods}")
-            } else if l.starts_with("heartbeat_periods") {
-                format!("heartbeat_periods = {periods}")
+            if l.starts_with("watchdog_ms") {
+                "watchdog_ms = 1000.0".to_string()
+            } else if l.starts_with("heartbeat_ms") {
+                "heartbeat_ms = 1000.0".to_string()
             } else {
                 l.to_string()
             }
@@ -512,4 +510,19 @@ fn write_json(
     });
     std::fs::write(path, serde_json::to_string_pretty(&json)? + "\n")
         .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    /// The lenient configuration keeps the embedded one but gives the host watchdog and the
+    /// heartbeat 1 s (a rewritten key that no longer exists would leave them at 50 and 30 ms).
+    #[test]
+    fn the_lenient_configuration_gives_the_watchdog_and_the_heartbeat_a_second() {
+        let c = wrc_config::Config::parse(&super::lenient_config_text(), "lenient").unwrap();
+        let d = wrc_config::Config::embedded_default();
+        let periods = (1.0 / d.motion.period_s).round() as u32;
+        assert_eq!(c.boards[0].watchdog_periods, periods);
+        assert_eq!(c.boards[0].heartbeat_periods, periods);
+        assert_eq!(c.robot, d.robot);
+    }
 }

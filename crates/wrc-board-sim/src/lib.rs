@@ -115,6 +115,7 @@ impl SimSettings {
                 ServoSettings {
                     max_velocity_pps,
                     stop_deceleration_pps2: a.limits.max_acceleration * ppu,
+                    stop_jerk_pps3: a.limits.max_jerk * ppu,
                     lag_s,
                     // Twice the steady lag at the motor limit, plus a period of travel.
                     following_error_limit: sim.following_error_limit.unwrap_or(
@@ -174,6 +175,20 @@ pub enum SimError {
     Settings(String),
 }
 
+/// Where a stop the host asked for through the stop word stands on the board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum OwnStop {
+    /// No stop pending.
+    Idle,
+    /// A stop word seen in an earlier period, not yet answered by the host's brake: the
+    /// board brakes on its own at the next period that finds it still unanswered.
+    Seen,
+    /// Braking on its own after this stop word, FIFO entries discarded.
+    Braking(u32),
+    /// At rest after its own brake, FIFO entries discarded until the host releases it.
+    Stopped(u32),
+}
+
 /// The simulated board's DSP.
 #[derive(Debug)]
 pub struct SimBoard {
@@ -184,6 +199,10 @@ pub struct SimBoard {
     io: SimIo,
     watchdog: HostWatchdog,
     estop_latched: bool,
+    own_stop: OwnStop,
+    /// The `BOARD_STOPS` count of the latest brake the board took on its own: the host
+    /// releases it by that number.
+    own_token: u32,
     period_s: f64,
     substeps: u32,
     periods: u64,
@@ -300,6 +319,8 @@ impl SimBoard {
             underrun: [false; AXES_PER_BOARD],
             io: SimIo::new(&settings.io),
             estop_latched: false,
+            own_stop: OwnStop::Idle,
+            own_token: 0,
             period_s: f64::from(settings.period_us) / 1e6,
             substeps: settings.substeps.max(1),
             periods: 0,
@@ -424,8 +445,17 @@ impl SimBoard {
 
     /// Run one board period.
     pub fn step(&mut self) {
-        if let Some((from, to)) = self.dpram.period_begin() {
+        if let Some((from, to, answers)) = self.dpram.period_begin() {
             self.flush(from, to);
+            // The host's brake answers the stop it was computed for: the board does not
+            // brake on its own for it.
+            if let Some(word) = self.dpram.stop_pending() {
+                let waiting = matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen);
+                if layout::stop::seq(word) == answers && waiting {
+                    self.dpram.store(control::STOP_ACK, word);
+                    self.own_stop = OwnStop::Idle;
+                }
+            }
         }
         self.period();
         self.dpram.period_end();
@@ -498,14 +528,29 @@ impl SimBoard {
         if self.io.estop(inputs) {
             self.estop_latched = true;
         }
-        let stop = self.watchdog.is_tripped() || self.estop_latched;
+        self.underrun = [false; AXES_PER_BOARD];
+        self.take_stop_word();
+        if !self.watchdog.is_tripped() && !self.estop_latched {
+            self.brake_on_underrun();
+        }
+        let own = matches!(self.own_stop, OwnStop::Braking(_) | OwnStop::Stopped(_));
+        let stop = self.watchdog.is_tripped() || self.estop_latched || own;
+        // A watchdog trip or the E-stop input brakes with the full limits; a stop the board
+        // takes on its own with the level the host asked for.
+        let level = match self.own_stop {
+            OwnStop::Braking(w) | OwnStop::Stopped(w)
+                if !self.watchdog.is_tripped() && !self.estop_latched =>
+            {
+                f64::from(layout::stop::level(w)) / 100.0
+            }
+            _ => 1.0,
+        };
 
         for channel in 0..AXES_PER_BOARD {
             let Some(a) = self.axes[channel].as_mut() else {
                 continue;
             };
             let base = layout::axis_base(channel);
-            self.underrun[channel] = false;
             let drive = if a.alarm() != 0 || stop || a.is_stopping() {
                 let dropped = self.dpram.fifo_drain(channel);
                 if dropped > 0 {
@@ -515,7 +560,22 @@ impl SimBoard {
                         .wrapping_add(dropped);
                     self.dpram.store(base + axis::DISCARDED, d);
                 }
-                Drive::Stop
+                let (accel, jerk) = self.dpram.brake_limits(channel);
+                let s = a.settings();
+                let accel = if accel > 0 {
+                    accel as f64
+                } else {
+                    s.stop_deceleration_pps2
+                };
+                let jerk = if jerk > 0 {
+                    jerk as f64
+                } else {
+                    s.stop_jerk_pps3
+                };
+                Drive::Stop {
+                    accel_pps2: accel * level * level,
+                    jerk_pps3: jerk * level * level * level,
+                }
             } else {
                 match self.dpram.fifo_pop(channel) {
                     Pop::Entry(increment) => {
@@ -544,6 +604,11 @@ impl SimBoard {
                 a.end_stop();
             }
         }
+        if let OwnStop::Braking(word) = self.own_stop {
+            if self.axes.iter().flatten().all(|a| !a.is_braking()) {
+                self.own_stop = OwnStop::Stopped(word);
+            }
+        }
         if let Some((cell, hands)) = self.cell.as_mut() {
             let mut encoders = [0i64; AXES_PER_BOARD];
             for (e, a) in encoders.iter_mut().zip(&self.axes) {
@@ -563,6 +628,104 @@ impl SimBoard {
             }
         }
         self.publish();
+    }
+
+    /// The host's stop word: a stop not answered by the host's brake (a flush) within one
+    /// board period is braked by the board on its own; a stronger one during its brake
+    /// brakes again from where the axes are; a released stop ends it (the entries pushed
+    /// before the release are skipped).
+    fn take_stop_word(&mut self) {
+        if let Some(word) = self.dpram.stop_pending() {
+            match self.own_stop {
+                OwnStop::Idle => self.own_stop = OwnStop::Seen,
+                OwnStop::Seen => {
+                    self.dpram.store(control::STOP_ACK, word);
+                    self.brake_on_own(word);
+                }
+                OwnStop::Braking(before) | OwnStop::Stopped(before) => {
+                    self.dpram.store(control::STOP_ACK, word);
+                    if layout::stop::level(word) > layout::stop::level(before) {
+                        let level = f64::from(layout::stop::level(word)) / 100.0;
+                        for (channel, a) in self.axes.iter_mut().enumerate() {
+                            let Some(a) = a.as_mut().filter(|a| a.is_braking()) else {
+                                continue;
+                            };
+                            let (accel, jerk) = self.dpram.brake_limits(channel);
+                            let s = *a.settings();
+                            let accel = if accel > 0 {
+                                accel as f64
+                            } else {
+                                s.stop_deceleration_pps2
+                            };
+                            let jerk = if jerk > 0 {
+                                jerk as f64
+                            } else {
+                                s.stop_jerk_pps3
+                            };
+                            a.begin_stop(
+                                accel * level * level,
+                                jerk * level.powi(3),
+                                self.period_s,
+                            );
+                        }
+                    }
+                    self.own_stop = match self.own_stop {
+                        OwnStop::Stopped(_) => OwnStop::Stopped(word),
+                        _ => OwnStop::Braking(word),
+                    };
+                }
+            }
+        }
+        if let OwnStop::Stopped(_) = self.own_stop {
+            if let Some(at) = self.dpram.released(self.own_token) {
+                for channel in 0..AXES_PER_BOARD {
+                    if let Some(a) = self.axes[channel].as_mut() {
+                        self.dpram.fifo_skip_to(channel, at);
+                        self.streaming[channel] = false;
+                        if !self.watchdog.is_tripped() && !self.estop_latched {
+                            a.end_stop();
+                        }
+                    }
+                }
+                self.own_stop = OwnStop::Idle;
+            }
+        }
+    }
+
+    /// Start a brake of the board's own at the level of `word` (counted; the count is the
+    /// token the host releases it by).
+    fn brake_on_own(&mut self, word: u32) {
+        self.dpram.bump(control::BOARD_STOPS);
+        self.own_token = self.dpram.load(control::BOARD_STOPS);
+        self.own_stop = OwnStop::Braking(word);
+    }
+
+    /// A streaming axis that is moving finds its FIFO empty (the host has fallen behind by
+    /// more than its look-ahead): holding the position would stop the axis in one period,
+    /// so the board brakes every axis on its own with the full limits instead, as for a
+    /// stop the host did not answer, and the host takes it from there.
+    fn brake_on_underrun(&mut self) {
+        if !matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen) {
+            return;
+        }
+        let starved = (0..AXES_PER_BOARD).any(|c| {
+            self.axes[c].as_ref().is_some_and(|a| {
+                self.streaming[c]
+                    && a.alarm() == 0
+                    && !a.is_stopping()
+                    && a.increment() != 0
+                    && self.dpram.fifo_level(c) == 0
+            })
+        });
+        if starved {
+            for c in 0..AXES_PER_BOARD {
+                if self.axes[c].is_some() && self.streaming[c] && self.dpram.fifo_level(c) == 0 {
+                    self.underrun[c] = true;
+                    self.dpram.bump(layout::axis_base(c) + axis::UNDERRUNS);
+                }
+            }
+            self.brake_on_own(layout::stop::word(0, 100));
+        }
     }
 
     fn raise(&mut self, channel: usize, cause: u32) {
@@ -586,6 +749,25 @@ impl SimBoard {
             command::RESET => {
                 self.watchdog.reset();
                 self.estop_latched = false;
+                // A stop braked on its own ends too (a host that restarted does not know
+                // of it): what was queued before is dropped.
+                if !matches!(self.own_stop, OwnStop::Idle) {
+                    if let Some(word) = self.dpram.stop_pending() {
+                        self.dpram.store(control::STOP_ACK, word);
+                    }
+                    for channel in 0..AXES_PER_BOARD {
+                        if self.axes[channel].is_some() {
+                            let dropped = self.dpram.fifo_drain(channel);
+                            let base = layout::axis_base(channel);
+                            let d = self
+                                .dpram
+                                .load(base + axis::DISCARDED)
+                                .wrapping_add(dropped);
+                            self.dpram.store(base + axis::DISCARDED, d);
+                        }
+                    }
+                    self.own_stop = OwnStop::Idle;
+                }
                 for (channel, a) in self.axes.iter_mut().enumerate() {
                     if let Some(a) = a.as_mut() {
                         a.clear_alarm();
@@ -609,6 +791,9 @@ impl SimBoard {
         if self.estop_latched {
             status |= board_status::ESTOP;
         }
+        if matches!(self.own_stop, OwnStop::Braking(_) | OwnStop::Stopped(_)) {
+            status |= board_status::BOARD_BRAKE;
+        }
         for (channel, a) in self.axes.iter().enumerate() {
             let Some(a) = a else { continue };
             let mut s = a.status();
@@ -621,7 +806,7 @@ impl SimBoard {
             if a.alarm() != 0 {
                 status |= board_status::ALARM;
             }
-            if a.is_stopping() {
+            if a.is_braking() {
                 status |= board_status::STOPPING;
             }
             self.dpram.write_feedback(
@@ -659,6 +844,7 @@ pub(crate) mod tests {
         let axis = ServoSettings {
             max_velocity_pps: 100_000.0,
             stop_deceleration_pps2: 500_000.0,
+            stop_jerk_pps3: 5_000_000.0,
             lag_s: 0.004,
             following_error_limit: 3_000,
             limit_pos: 1_000_000,
@@ -731,13 +917,19 @@ pub(crate) mod tests {
         }
         assert_eq!(feedback(&host).underruns(), 0);
         host.push(&inc(5, 5)).unwrap();
+        host.push(&inc(0, 0)).unwrap();
+        sim.step();
         sim.step();
         sim.step(); // starved
         sim.step(); // starved
         let f = feedback(&host);
         assert_eq!((f.axes[0].underruns, f.axes[1].underruns), (2, 2));
         assert!(f.axes[0].status & axis_status::UNDERRUN != 0);
-        assert_eq!(f.axes[0].commanded, 5, "a starved axis holds its position");
+        assert_eq!(
+            f.axes[0].commanded, 5,
+            "a starved axis at rest holds its position"
+        );
+        assert!(f.boards[0].status & board_status::BOARD_BRAKE == 0);
         host.push(&inc(5, 5)).unwrap();
         sim.step();
         assert!(feedback(&host).axes[0].status & axis_status::UNDERRUN == 0);
@@ -763,6 +955,7 @@ pub(crate) mod tests {
         assert_eq!(feedback(&host).axes[0].discarded, 1);
         host.clear_alarms(0b01).unwrap();
         assert_eq!(host.clear_alarms(0b01), Err(wrc_board::Busy));
+        host.push(&inc(0, 0)).unwrap(); // the host streams at rest
         sim.step();
         let f = feedback(&host);
         assert_eq!(f.axes[0].alarm, 0);
@@ -886,5 +1079,154 @@ pub(crate) mod tests {
         assert_eq!(s.axes[0].initial, -75_000);
         assert_eq!(s.period_us, 10_000);
         assert_eq!(s.io.vacuum[0].delay_periods, 5);
+    }
+    /// One axis at 1 kHz driven by a host that keeps `LEAD` periods queued, accelerating at
+    /// constant jerk: the increments of the pulse stream p(t) = J·t³/6.
+    const LEAD: u32 = 20;
+
+    fn khz() -> SimSettings {
+        SimSettings {
+            period_us: 1_000,
+            fifo_depth: 64,
+            watchdog_periods: 1_000,
+            ..settings()
+        }
+    }
+
+    /// Push the jerk-limited ramp's periods `from..to` (J = 2e6 pulse/s³, 1 ms).
+    fn push_ramp(host: &mut DpramBoard, from: u32, to: u32) {
+        let p = |k: u32| {
+            let t = f64::from(k) * 1e-3;
+            (2e6 * t * t * t / 6.0).round() as i64
+        };
+        for k in from..to {
+            let i = p(k + 1) - p(k);
+            host.push(&inc(i, -i)).unwrap();
+        }
+    }
+
+    /// Run `n` periods; the increments of axis 0.
+    fn run(sim: &mut SimBoard, host: &DpramBoard, n: usize) -> Vec<i64> {
+        (0..n)
+            .map(|_| {
+                sim.step();
+                feedback(host).axes[0].increment
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_stop_the_host_does_not_answer_is_braked_by_the_board_a_period_after_it_saw_it() {
+        let (mut sim, mut host) = pair_with(&khz());
+        // Accelerate for 120 ms with the look-ahead queued, the host refreshing as it goes.
+        push_ramp(&mut host, 0, LEAD);
+        for k in 0..120 {
+            host.refresh_watchdog();
+            sim.step();
+            push_ramp(&mut host, LEAD + k, LEAD + k + 1);
+        }
+        let before = feedback(&host).axes[0];
+        // The state the board is in when it sees the stop word (at its next period):
+        // position, velocity and acceleration of the ramp at 120 ms [pulse, /s, /s²].
+        let t = 0.120;
+        let (v0, a0) = (2e6 * t * t / 2.0, 2e6 * t);
+        // The host stalls: a stop is asked (ESTOP: 100 %) and nobody answers it.
+        let line = host.stop_line().unwrap();
+        line.post(100);
+        let incs = run(&mut sim, &host, 400);
+        let f = feedback(&host);
+        let moving = incs.iter().rposition(|&i| i != 0).unwrap() + 1;
+        let distance = (f.axes[0].commanded - before.commanded) as f64;
+        assert_eq!(f.axes[1].commanded, -f.axes[0].commanded);
+        // Against the time-optimal brake from the state the board saw (the settings' own
+        // limits: the host wrote none): at most 1.05 times it plus one period.
+        let reference = wrc_motion::Brake1d::new(0.0, v0, a0, 500_000.0, 5_000_000.0);
+        let (t_ref, d_ref) = (reference.duration(), reference.stop_position());
+        assert!(
+            moving as f64 * 1e-3 <= 1.05 * t_ref + 1e-3 + 1e-9,
+            "{moving} ms against {t_ref} s"
+        );
+        // Distance: the period it waits for the host's brake is travelled, and the brake
+        // starts from the state a period later (on a ramp a longer brake than from the
+        // state it saw): within 1.05 times that brake, plus the period.
+        let t1 = t + 1e-3;
+        let later =
+            wrc_motion::Brake1d::new(0.0, 2e6 * t1 * t1 / 2.0, 2e6 * t1, 500_000.0, 5_000_000.0);
+        let d_later = later.stop_position();
+        assert!(
+            distance <= 1.05 * d_later + v0 * 1e-3,
+            "{distance} pulses against {d_later} (+{v0} pulse/s for a period)"
+        );
+        assert!(
+            distance >= 0.95 * d_ref,
+            "{distance} pulses against {d_ref}"
+        );
+        // Never beyond the acceleration limit, read over 10 periods (an increment is
+        // rounded to a pulse, so a one-period difference reads 10⁶ pulse/s² at 1 kHz).
+        for w in incs[..moving + 1].windows(11) {
+            let a = (w[10] - w[0]) as f64 / (10.0 * 1e-6);
+            assert!(a.abs() <= 500_000.0 * 1.05 + 1e5, "{a}: {incs:?}");
+        }
+        assert_eq!(f.boards[0].period_count, 120 + 400);
+        assert_eq!(sim.dpram().load(control::BOARD_STOPS), 1);
+        // Entries pushed before the release never run; those after it do.
+        let at = f.axes[0].commanded;
+        host.push(&inc(7, -7)).unwrap();
+        sim.step();
+        assert_eq!(feedback(&host).axes[0].commanded, at, "ran while braked");
+        host.push(&inc(7, -7)).unwrap();
+        host.release_stop();
+        host.push(&inc(3, -3)).unwrap();
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(f.axes[0].commanded, at + 3);
+        assert!(f.boards[0].status & board_status::BOARD_BRAKE == 0);
+        assert!(!host.board_stop().braking_own);
+    }
+
+    #[test]
+    fn a_flush_that_answers_the_stop_brings_the_hosts_brake_and_the_board_takes_it() {
+        let (mut sim, mut host) = pair_with(&khz());
+        push_ramp(&mut host, 0, LEAD);
+        for k in 0..50 {
+            sim.step();
+            push_ramp(&mut host, LEAD + k, LEAD + k + 1);
+        }
+        host.stop_line().unwrap().post(100);
+        // The host answers at once: skip the queued periods, push its own (here: rest).
+        let at = host.fifo_position().unwrap();
+        assert!(host.flush_queued(&at, at.write));
+        host.push(&inc(0, 0)).unwrap();
+        let incs = run(&mut sim, &host, 5);
+        assert_eq!(incs, vec![0; 5]);
+        let f = feedback(&host);
+        assert_eq!(f.boards[0].status & board_status::BOARD_BRAKE, 0);
+        assert_eq!(sim.dpram().load(control::BOARD_STOPS), 0);
+        assert_eq!(
+            layout::stop::seq(sim.dpram().load(control::STOP_ACK)),
+            layout::stop::seq(sim.dpram().load(control::STOP))
+        );
+    }
+
+    #[test]
+    fn a_moving_axis_that_runs_out_of_periods_is_braked_not_held() {
+        let (mut sim, mut host) = pair_with(&khz());
+        push_ramp(&mut host, 0, 60);
+        let mut incs = run(&mut sim, &host, 40);
+        push_ramp(&mut host, 60, 100);
+        incs.extend(run(&mut sim, &host, 260));
+        let f = feedback(&host);
+        assert!(f.axes[0].underruns >= 1);
+        assert!(f.boards[0].status & board_status::BOARD_BRAKE != 0);
+        // No step to zero: the increments after the last queued one fall off gradually.
+        let last = incs[99];
+        assert!(last >= 8, "{last}");
+        assert!(
+            incs[100] > last / 2,
+            "held instead of braked: {:?}",
+            &incs[95..110]
+        );
+        assert_eq!(*incs.last().unwrap(), 0);
+        assert_eq!(sim.dpram().load(control::BOARD_STOPS), 1);
     }
 }

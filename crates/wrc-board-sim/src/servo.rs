@@ -4,6 +4,12 @@
 //! control to a stop. Plain arithmetic, no allocation.
 
 use wrc_board::layout::{alarm, axis_status};
+use wrc_motion::Brake1d;
+
+/// Increments an axis remembers to brake from.
+const RECENT: usize = 9;
+/// The time over which a stop reads the acceleration from the increments [s].
+const ACCEL_WINDOW_S: f64 = 0.008;
 
 /// Per-axis model parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -11,8 +17,11 @@ pub struct ServoSettings {
     /// Motor velocity limit; a period's increment above it raises [`alarm::OVERSPEED`]
     /// [pulse/s].
     pub max_velocity_pps: f64,
-    /// Deceleration of a controlled stop (watchdog, E-stop) [pulse/s²].
+    /// Acceleration limit of a controlled stop (watchdog, E-stop, a stop the board brakes
+    /// on its own) when the host has written none [pulse/s²].
     pub stop_deceleration_pps2: f64,
+    /// Jerk limit of a controlled stop when the host has written none [pulse/s³].
+    pub stop_jerk_pps3: f64,
     /// Servo lag time constant: the motor follows the command as a first-order lag [s].
     pub lag_s: f64,
     /// Following error above which the axis alarms [pulse].
@@ -26,14 +35,20 @@ pub struct ServoSettings {
 }
 
 /// What the axis is asked to do in one period.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Drive {
     /// Execute this increment from the FIFO [pulse/period].
     Increment(i64),
     /// The FIFO was empty: hold the commanded position.
     Hold,
-    /// Controlled stop: decelerate from the current velocity to standstill.
-    Stop,
+    /// Controlled stop: the time-optimal jerk-limited brake from the current velocity and
+    /// acceleration to standstill within these limits, then hold.
+    Stop {
+        /// Acceleration limit [pulse/s²].
+        accel_pps2: f64,
+        /// Jerk limit [pulse/s³].
+        jerk_pps3: f64,
+    },
 }
 
 /// The state of one simulated axis.
@@ -47,9 +62,17 @@ pub struct ServoAxis {
     alarm: u32,
     /// Increment executed in the last period [pulse/period].
     increment: i64,
-    /// Velocity during a controlled stop [pulse/period] and the fractional position.
-    stop_velocity: f64,
-    stop_position: f64,
+    /// The last [`RECENT`] increments executed, newest at `(recent_n - 1) % RECENT`
+    /// [pulse/period]: the velocity and acceleration a stop brakes from.
+    recent: [i64; RECENT],
+    recent_n: usize,
+    /// A controlled stop: the brake from where it began (position 0), its time so far [s],
+    /// the pulses it has emitted, and whether it is still decelerating.
+    brake: Brake1d,
+    brake_t: f64,
+    brake_emitted: i64,
+    braking: bool,
+    /// In a controlled stop (decelerating, then holding until it ends).
     stopping: bool,
     /// Encoder frozen (injected fault).
     pub encoder_stuck: bool,
@@ -65,8 +88,12 @@ impl ServoAxis {
             encoder: settings.initial,
             alarm: 0,
             increment: 0,
-            stop_velocity: 0.0,
-            stop_position: 0.0,
+            recent: [0; RECENT],
+            recent_n: 0,
+            brake: Brake1d::default(),
+            brake_t: 0.0,
+            brake_emitted: 0,
+            braking: false,
             stopping: false,
             encoder_stuck: false,
         }
@@ -97,9 +124,14 @@ impl ServoAxis {
         self.increment
     }
 
-    /// Whether a controlled stop is in progress.
+    /// Whether a controlled stop is in progress (decelerating, or holding after it).
     pub fn is_stopping(&self) -> bool {
         self.stopping
+    }
+
+    /// Whether a controlled stop is still decelerating.
+    pub fn is_braking(&self) -> bool {
+        self.stopping && self.braking
     }
 
     /// Raise alarm `cause`: the servo turns off and the motor stops where it is (the
@@ -108,7 +140,9 @@ impl ServoAxis {
         let new = self.alarm == 0;
         self.alarm |= cause;
         self.increment = 0;
+        self.recent = [0; RECENT];
         self.stopping = false;
+        self.braking = false;
         new
     }
 
@@ -121,18 +155,53 @@ impl ServoAxis {
         }
     }
 
-    /// Start a controlled stop from the current velocity (no effect when alarmed).
-    pub fn begin_stop(&mut self) {
-        if self.alarm == 0 && !self.stopping {
-            self.stopping = true;
-            self.stop_velocity = self.increment as f64;
-            self.stop_position = 0.0;
+    /// Start a controlled stop: the time-optimal brake within `accel_pps2` and `jerk_pps3`
+    /// from the velocity and acceleration the last two periods' increments show (from the
+    /// brake's own state when a stop is already decelerating: a stronger stop brakes again
+    /// from where the first one is). No effect when alarmed.
+    pub fn begin_stop(&mut self, accel_pps2: f64, jerk_pps3: f64, period_s: f64) {
+        if self.alarm != 0 {
+            return;
         }
+        let (v, a) = if self.is_braking() {
+            let (_, v, a) = self.brake.at(self.brake_t);
+            (v, a)
+        } else {
+            self.velocity_and_acceleration(period_s, accel_pps2)
+        };
+        self.brake = Brake1d::new(0.0, v, a, accel_pps2, jerk_pps3);
+        self.brake_t = 0.0;
+        self.brake_emitted = 0;
+        self.braking = true;
+        self.stopping = true;
+    }
+
+    /// The velocity at the end of the last period and the acceleration, from the recent
+    /// increments [pulse/s, pulse/s²]. An increment is the velocity averaged over its
+    /// period, rounded to a pulse (at 1 ms one pulse is 3 % of a slow axis's velocity, and a
+    /// one-period difference of one pulse reads 10⁶ pulse/s²): so both come from the sums of
+    /// the newest `h` increments and the `h` before them, over about [`ACCEL_WINDOW_S`]
+    /// (the sums are exact positions, rounded once), and the acceleration is kept within
+    /// the brake's own limit `accel_pps2`.
+    fn velocity_and_acceleration(&self, period_s: f64, accel_pps2: f64) -> (f64, f64) {
+        let back = |k: usize| {
+            if k < self.recent_n.min(RECENT) {
+                self.recent[(self.recent_n - 1 - k) % RECENT] as f64
+            } else {
+                0.0
+            }
+        };
+        let h = ((ACCEL_WINDOW_S / period_s / 2.0).round() as usize).clamp(1, RECENT / 2);
+        let span = h as f64 * period_s;
+        let newer: f64 = (0..h).map(back).sum::<f64>() / span;
+        let older: f64 = (h..2 * h).map(back).sum::<f64>() / span;
+        let a = ((newer - older) / span).clamp(-accel_pps2.abs(), accel_pps2.abs());
+        (newer + a * span / 2.0, a)
     }
 
     /// End a finished controlled stop so the axis accepts the FIFO again.
     pub fn end_stop(&mut self) {
-        if self.stopping && self.stop_velocity == 0.0 {
+        if self.stopping && !self.braking {
             self.stopping = false;
         }
     }
@@ -146,8 +215,11 @@ impl ServoAxis {
         }
         let increment = match drive {
             _ if self.stopping => self.stop_increment(period_s),
-            Drive::Stop => {
-                self.begin_stop();
+            Drive::Stop {
+                accel_pps2,
+                jerk_pps3,
+            } => {
+                self.begin_stop(accel_pps2, jerk_pps3, period_s);
                 self.stop_increment(period_s)
             }
             Drive::Hold => 0,
@@ -176,6 +248,8 @@ impl ServoAxis {
                 self.encoder = self.motor.round() as i64;
             }
         }
+        self.recent[self.recent_n % RECENT] = increment;
+        self.recent_n += 1;
         self.increment = increment;
         if increment > 0 && self.encoder >= self.settings.limit_pos {
             return self.raise(alarm::LIMIT_POS);
@@ -189,14 +263,21 @@ impl ServoAxis {
         false
     }
 
+    /// The next period of the brake: the pulses to where it is at the period's end.
     fn stop_increment(&mut self, period_s: f64) -> i64 {
-        let decel = self.settings.stop_deceleration_pps2 * period_s * period_s;
-        let v = self.stop_velocity;
-        let next = (v.abs() - decel).max(0.0) * v.signum();
-        self.stop_velocity = next;
-        let before = self.stop_position.round();
-        self.stop_position += next;
-        (self.stop_position.round() - before) as i64
+        if !self.braking {
+            return 0;
+        }
+        self.brake_t += period_s;
+        let target = if self.brake_t >= self.brake.duration() {
+            self.braking = false;
+            self.brake.stop_position()
+        } else {
+            self.brake.at(self.brake_t).0
+        };
+        let increment = target.round() as i64 - self.brake_emitted;
+        self.brake_emitted += increment;
+        increment
     }
 
     /// Status bits, [`axis_status`] (without the FIFO bits, which the board adds).
@@ -231,6 +312,7 @@ mod tests {
         ServoSettings {
             max_velocity_pps: 100_000.0,
             stop_deceleration_pps2: 500_000.0,
+            stop_jerk_pps3: 5_000_000.0,
             lag_s: 0.004,
             following_error_limit: 2_000,
             limit_pos: 50_000,

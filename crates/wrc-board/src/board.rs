@@ -184,6 +184,46 @@ impl MappingScan {
     }
 }
 
+/// A handle on the stop words of the board(s) that any thread may use
+/// ([`MotionBoard::stop_line`]): a stop request reaches the board at once, not when the
+/// Pulse Generator next runs, so the board brakes on its own if the host's brake does not
+/// come within a board period (docs/dpram.md, "Stops"). Posting is a compare-and-swap per
+/// board: no lock, no allocation, no system call.
+pub struct StopLine {
+    pub(crate) boards: Vec<crate::dpram::Dpram>,
+}
+
+impl StopLine {
+    /// A line to every board of `boards`.
+    pub fn new(boards: Vec<crate::dpram::Dpram>) -> StopLine {
+        StopLine { boards }
+    }
+
+    /// Post a stop whose brake, if a board brakes on its own, uses `level` % of the axes'
+    /// brake limits (100 for ESTOP; the speed override for STOP and HOLD).
+    pub fn post(&self, level: u8) {
+        for b in &self.boards {
+            b.post_stop(level);
+        }
+    }
+}
+
+impl std::fmt::Debug for StopLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "StopLine({} boards)", self.boards.len())
+    }
+}
+
+/// Where the boards' own brakes stand ([`MotionBoard::board_stop`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BoardStop {
+    /// Some board braked on its own (the host's brake did not come in time): it discards
+    /// the FIFO until [`MotionBoard::release_stop`].
+    pub braking_own: bool,
+    /// Every board that braked on its own is at rest.
+    pub settled: bool,
+}
+
 /// A motion board (or several) as the controller's real-time tasks use it.
 ///
 /// Axes are numbered 0.. in the controller's (robot's) order; I/O words one per board.
@@ -263,6 +303,29 @@ pub trait MotionBoard: Send {
         let _ = (at, to);
         false
     }
+
+    /// A handle that posts stops to every board from any thread; `None` for a board
+    /// without a stop word (a test double): stops then wait for the Pulse Generator.
+    fn stop_line(&self) -> Option<StopLine> {
+        None
+    }
+
+    /// Give axis `axis` the brake limits the board uses when it brakes on its own (a stop
+    /// the host did not answer in time, a host-watchdog trip, the E-stop input) [pulse/s²,
+    /// pulse/s³]; written once at start-up.
+    fn set_brake_limits(&mut self, axis: usize, accel_pps2: f64, jerk_pps3: f64) {
+        let _ = (axis, accel_pps2, jerk_pps3);
+    }
+
+    /// Whether a board braked on its own, and whether every such board is at rest.
+    fn board_stop(&self) -> BoardStop {
+        BoardStop::default()
+    }
+
+    /// Let every board that braked on its own take the FIFO again, from the next entry
+    /// pushed (the ones pushed before are skipped). Call once they are settled and the host
+    /// has taken their positions.
+    fn release_stop(&mut self) {}
 }
 
 impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
@@ -319,5 +382,17 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     }
     fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
         (**self).flush_queued(at, to)
+    }
+    fn stop_line(&self) -> Option<StopLine> {
+        (**self).stop_line()
+    }
+    fn set_brake_limits(&mut self, axis: usize, accel_pps2: f64, jerk_pps3: f64) {
+        (**self).set_brake_limits(axis, accel_pps2, jerk_pps3)
+    }
+    fn board_stop(&self) -> BoardStop {
+        (**self).board_stop()
+    }
+    fn release_stop(&mut self) {
+        (**self).release_stop()
     }
 }

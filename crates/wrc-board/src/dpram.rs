@@ -307,7 +307,12 @@ impl Dpram {
     /// Host: ask the board to skip the entries from `at.read` up to (not including) `to`
     /// at the start of its next period. False, and nothing asked, if a period began since
     /// `at` was read.
+    /// The flush answers the stop pending then (its brake is the host's answer to it).
     pub fn flush_arm(&self, at: &FifoPosition, to: u32) -> bool {
+        let pending = crate::layout::stop::seq(self.load(control::STOP));
+        self.map
+            .u32(control::FLUSH_STOP)
+            .store(pending, Ordering::Relaxed);
         self.map
             .u32(control::FLUSH_FROM)
             .store(at.read, Ordering::Relaxed);
@@ -319,9 +324,9 @@ impl Dpram {
             .is_ok()
     }
 
-    /// Board: open a period; returns the pending flush (from, to), if any (act on it, then
-    /// [`Dpram::flush_done`]).
-    pub fn period_begin(&self) -> Option<(u32, u32)> {
+    /// Board: open a period; returns the pending flush (from, to, the stop sequence it
+    /// answers), if any (act on it, then [`Dpram::flush_done`]).
+    pub fn period_begin(&self) -> Option<(u32, u32, u32)> {
         let word = self
             .map
             .u64(control::FLUSH)
@@ -333,7 +338,84 @@ impl Dpram {
         Some((
             self.map.u32(control::FLUSH_FROM).load(Ordering::Relaxed),
             self.map.u32(control::FLUSH_TO).load(Ordering::Relaxed),
+            self.map.u32(control::FLUSH_STOP).load(Ordering::Relaxed),
         ))
+    }
+
+    // ---- stop word ----
+
+    /// Host (any thread): ask for a stop whose brake, if the board brakes on its own, uses
+    /// `level` % of the brake limits; a stronger level still pending is kept (an ESTOP is
+    /// never weakened by a STOP that follows it). Returns the new stop sequence. Lock-free:
+    /// a compare-and-swap of the stop word.
+    pub fn post_stop(&self, level: u8) -> u32 {
+        use crate::layout::stop;
+        let word = self.map.u32(control::STOP);
+        let mut old = word.load(Ordering::Acquire);
+        loop {
+            let acked = stop::seq(self.load(control::STOP_ACK));
+            let pending = stop::seq(old) != acked;
+            let level = if pending {
+                level.max(stop::level(old))
+            } else {
+                level
+            };
+            let seq = stop::next(stop::seq(old));
+            match word.compare_exchange_weak(
+                old,
+                stop::word(seq, level.clamp(1, 100)),
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => return seq,
+                Err(now) => old = now,
+            }
+        }
+    }
+
+    /// Board: the stop word, if its sequence is not the one last acknowledged.
+    pub fn stop_pending(&self) -> Option<u32> {
+        let word = self.load(control::STOP);
+        (crate::layout::stop::seq(word) != crate::layout::stop::seq(self.load(control::STOP_ACK)))
+            .then_some(word)
+    }
+
+    /// Host: release a board that braked on its own, by the token it counts its own
+    /// brakes with (`BOARD_STOPS`): it skips every entry pushed so far (up to the FIFO's
+    /// write index now) and takes the FIFO again.
+    pub fn release_stop(&self, seq: u32) {
+        let write = self.load(layout::axis_base(0) + axis::FIFO_WRITE);
+        self.store(control::RELEASE_AT, write);
+        self.store(control::RELEASE, seq);
+    }
+
+    /// Board: the FIFO index to resume at, if the host released the brake of token `seq`.
+    pub fn released(&self, seq: u32) -> Option<u32> {
+        (self.load(control::RELEASE) == seq).then(|| self.load(control::RELEASE_AT))
+    }
+
+    /// Host: axis `channel`'s brake limits [pulse/s², pulse/s³] (rounded up, at least 1).
+    pub fn set_brake_limits(&self, channel: usize, accel: f64, jerk: f64) {
+        let base = layout::axis_base(channel);
+        let at_least_one = |x: f64| {
+            if x.is_finite() && x >= 1.0 {
+                x.ceil().min(u64::MAX as f64) as u64
+            } else {
+                1
+            }
+        };
+        self.store64(base + axis::BRAKE_ACCEL, at_least_one(accel));
+        self.store64(base + axis::BRAKE_JERK, at_least_one(jerk));
+    }
+
+    /// Board: axis `channel`'s brake limits the host wrote [pulse/s², pulse/s³], 0 when
+    /// it wrote none.
+    pub fn brake_limits(&self, channel: usize) -> (u64, u64) {
+        let base = layout::axis_base(channel);
+        (
+            self.load64(base + axis::BRAKE_ACCEL),
+            self.load64(base + axis::BRAKE_JERK),
+        )
     }
 
     /// Board: the pending flush is done (or refused).
@@ -357,6 +439,21 @@ impl Dpram {
         let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
         let skip = to.wrapping_sub(from);
         read == from && skip <= write.wrapping_sub(read) && skip <= FIFO_CAPACITY as u32
+    }
+
+    /// Board: skip axis `channel`'s entries up to FIFO index `to` (counted in
+    /// `discarded`); entries not yet published are not waited for (at most what is).
+    pub fn fifo_skip_to(&self, channel: usize, to: u32) {
+        let base = layout::axis_base(channel);
+        let write = self.load(base + axis::FIFO_WRITE);
+        let read = self.map.u32(base + axis::FIFO_READ).load(Ordering::Relaxed);
+        let skip = to
+            .wrapping_sub(read)
+            .min(write.wrapping_sub(read))
+            .min(FIFO_CAPACITY as u32);
+        self.store(base + axis::FIFO_READ, read.wrapping_add(skip));
+        let d = self.load(base + axis::DISCARDED).wrapping_add(skip);
+        self.store(base + axis::DISCARDED, d);
     }
 
     /// Board: skip axis `channel`'s entries `from..to` (counted in `discarded`), if

@@ -1,4 +1,4 @@
-//! The DPRAM layout, version 2: fixed byte offsets, little-endian 32- and 64-bit words, and
+//! The DPRAM layout, version 3: fixed byte offsets, little-endian 32- and 64-bit words, and
 //! the header check every user of a mapping runs first. See `docs/dpram.md` for the table.
 //!
 //! Every word is naturally aligned, so each can be read and written as one atomic access;
@@ -7,7 +7,7 @@
 /// Magic number at offset 0: the bytes `WRCB` read as a little-endian `u32`.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"WRCB");
 /// The layout version this crate reads and writes.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Axes on one board (the paper's PCI board drives 4).
 pub const AXES_PER_BOARD: usize = 4;
 /// Boards one controller drives at most (4 boards × 4 axes = 16 axes).
@@ -72,6 +72,59 @@ pub mod control {
     pub const FLUSH_FROM: usize = 0x078;
     /// `u32` FIFO index the board resumes at after skipping `FLUSH_FROM..FLUSH_TO`.
     pub const FLUSH_TO: usize = 0x07C;
+    /// `u32` stop word (host, any thread, by compare-and-swap): [`super::stop::word`] of a
+    /// sequence (raised by every stop request) and the brake's level, the percentage of the
+    /// axes' brake limits (`axis::BRAKE_ACCEL`, `axis::BRAKE_JERK`) the board brakes with when
+    /// it brakes on its own.
+    pub const STOP: usize = 0x08C;
+    /// `u32` the stop word the board last acted on (board): answered by the host's flush,
+    /// or braked on its own.
+    pub const STOP_ACK: usize = 0x090;
+    /// `u32` the stop sequence a flush answers (host, written before the flush is armed): a
+    /// flush answering the pending stop brings the host's brake, so the board does not brake
+    /// on its own.
+    pub const FLUSH_STOP: usize = 0x094;
+    /// `u32` the board's own brake the host releases, by its `BOARD_STOPS` count (host): the
+    /// board then skips to `RELEASE_AT` and takes the FIFO again.
+    pub const RELEASE: usize = 0x098;
+    /// `u32` FIFO index the board resumes at on a release (host, written before `RELEASE`).
+    pub const RELEASE_AT: usize = 0x09C;
+    /// `u32` brakes the board took on its own since it started (board): stops the host did
+    /// not answer in time, and underruns of a moving axis.
+    pub const BOARD_STOPS: usize = 0x0B4;
+}
+
+/// The stop word ([`control::STOP`]): a 24-bit sequence above an 8-bit brake level.
+pub mod stop {
+    /// The word of sequence `seq` (24 bits kept) and brake level `level` [% of the brake
+    /// limits, 1..=100].
+    pub const fn word(seq: u32, level: u8) -> u32 {
+        (seq << 8) | level as u32
+    }
+    /// The sequence of `word`.
+    pub const fn seq(word: u32) -> u32 {
+        word >> 8
+    }
+    /// The brake level of `word` [%], at least 1 and at most 100.
+    pub const fn level(word: u32) -> u8 {
+        let l = (word & 0xFF) as u8;
+        if l == 0 {
+            1
+        } else if l > 100 {
+            100
+        } else {
+            l
+        }
+    }
+    /// The sequence after `seq` (24 bits, never 0: 0 is "no stop yet").
+    pub const fn next(seq: u32) -> u32 {
+        let n = seq.wrapping_add(1) & 0x00FF_FFFF;
+        if n == 0 {
+            1
+        } else {
+            n
+        }
+    }
 }
 
 /// Digital I/O offsets: 32 inputs and 32 outputs.
@@ -160,6 +213,12 @@ pub mod axis {
     pub const FIFO_READ: usize = 0x4C;
     /// `u32` entries consumed but not executed (axis alarmed or stopping).
     pub const DISCARDED: usize = 0x50;
+    /// `u64` the axis's brake acceleration limit, written by the host at start-up [pulse/s²]
+    /// (0: the board's own setting).
+    pub const BRAKE_ACCEL: usize = 0x58;
+    /// `u64` the axis's brake jerk limit, written by the host at start-up [pulse/s³] (0:
+    /// the board's own setting).
+    pub const BRAKE_JERK: usize = 0x60;
     /// First FIFO entry; slot `i` is at `FIFO + (i % FIFO_CAPACITY) * FIFO_ENTRY_SIZE`.
     pub const FIFO: usize = 0x80;
     /// Offsets inside one FIFO entry.
@@ -204,6 +263,9 @@ pub mod board_status {
     pub const STOPPING: u32 = 1 << 4;
     /// At least one axis is alarmed.
     pub const ALARM: u32 = 1 << 5;
+    /// The board braked on its own on a stop the host did not answer in time: it discards
+    /// every FIFO entry until the host releases it (`control::RELEASE`).
+    pub const BOARD_BRAKE: u32 = 1 << 6;
 }
 
 /// Axis status bits (`axis::STATUS`).
@@ -218,7 +280,8 @@ pub mod axis_status {
     pub const LIMIT_NEG: u32 = 1 << 3;
     /// The axis moved in the last period.
     pub const MOVING: u32 = 1 << 4;
-    /// The axis is in a controlled deceleration (watchdog or E-stop).
+    /// The axis is in a controlled stop (watchdog, E-stop, a stop the board brakes on its
+    /// own): decelerating, then holding until the stop ends.
     pub const STOPPING: u32 = 1 << 5;
     /// The axis found its FIFO empty in the last period.
     pub const UNDERRUN: u32 = 1 << 6;

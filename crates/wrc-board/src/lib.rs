@@ -27,7 +27,8 @@ pub mod multi;
 pub use wrc_cell;
 
 pub use board::{
-    AxisFeedback, BoardFeedback, Busy, Feedback, Full, Heartbeat, MappingScan, MotionBoard, Torn,
+    AxisFeedback, BoardFeedback, BoardStop, Busy, Feedback, Full, Heartbeat, MappingScan,
+    MotionBoard, StopLine, Torn,
 };
 pub use dpram::FifoPosition;
 pub use driver::{DpramBoard, Expect, Mapping, OpenError};

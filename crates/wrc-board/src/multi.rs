@@ -5,7 +5,7 @@
 use crate::dpram::FifoPosition;
 use wrc_robot::MAX_AXES;
 
-use crate::board::{Busy, Feedback, Full, MappingScan, MotionBoard, Torn};
+use crate::board::{BoardStop, Busy, Feedback, Full, MappingScan, MotionBoard, StopLine, Torn};
 use crate::layout::{AXES_PER_BOARD, MAX_BOARDS};
 
 /// Boards and an axis map that do not fit together.
@@ -237,6 +237,48 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         match &mut self.boards[..] {
             [one] => one.flush_queued(at, to),
             _ => false,
+        }
+    }
+
+    /// One line to every board, if every board has one.
+    fn stop_line(&self) -> Option<StopLine> {
+        let mut boards = Vec::with_capacity(self.boards.len());
+        for b in &self.boards {
+            boards.extend(b.stop_line()?.boards);
+        }
+        Some(StopLine::new(boards))
+    }
+
+    fn set_brake_limits(&mut self, axis: usize, accel_pps2: f64, jerk_pps3: f64) {
+        if axis < self.axis_count {
+            let (board, channel) = self.map[axis];
+            self.boards[usize::from(board)].set_brake_limits(
+                usize::from(channel),
+                accel_pps2,
+                jerk_pps3,
+            );
+        }
+    }
+
+    fn board_stop(&self) -> BoardStop {
+        let mut all = BoardStop {
+            braking_own: false,
+            settled: true,
+        };
+        for b in &self.boards {
+            let s = b.board_stop();
+            if s.braking_own {
+                all.braking_own = true;
+                all.settled &= s.settled;
+            }
+        }
+        all.settled &= all.braking_own;
+        all
+    }
+
+    fn release_stop(&mut self) {
+        for b in &mut self.boards {
+            b.release_stop();
         }
     }
 }

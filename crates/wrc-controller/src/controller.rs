@@ -400,6 +400,19 @@ pub(crate) fn assemble<H: Host>(
             watched.clone(),
         ),
     )?;
+    // The board brakes on its own, with every axis's full limits (scaled for a STOP by the
+    // stop word's level), when a stop is not answered by the Pulse Generator's brake in
+    // time; every stop request reaches it directly (docs/dpram.md, "Stops").
+    let mut pg_board = pg_board;
+    for (i, a) in robot.axes().iter().enumerate() {
+        let ppu = a.pulses_per_unit.abs();
+        pg_board.set_brake_limits(i, a.limits.max_acceleration * ppu, a.limits.max_jerk * ppu);
+    }
+    let stop_line = pg_board.stop_line();
+    let board_stops = stop_line.is_some();
+    if let Some(line) = stop_line {
+        shared.set_stop_line(line);
+    }
     let mut pulse_generator = PulseGenerator::new(
         pg_board,
         ring_rx,
@@ -409,6 +422,9 @@ pub(crate) fn assemble<H: Host>(
         generator.clone(),
     )
     .with_lookahead(config.lookahead_periods);
+    if board_stops {
+        pulse_generator = pulse_generator.with_board_stops();
+    }
     if let Some(tap) = sample_tap {
         pulse_generator = pulse_generator.with_trace(tap);
     }

@@ -125,9 +125,31 @@ impl HostWake for VirtualWake {
     }
 }
 
-/// Virtual time: every task on one thread, released by a deterministic scheduler.
+/// Virtual time: every task on one thread, released by a deterministic scheduler. The
+/// Pulse Generator runs behind a stall gate: until the virtual time in the second field
+/// [ns] its cycles do nothing, as a host that does not schedule it
+/// ([`crate::simulation::Simulation::stall_pulse_generator`]).
 #[cfg(feature = "sim")]
-pub(crate) struct VirtualHost(pub VirtualRuntime);
+pub(crate) struct VirtualHost(
+    pub VirtualRuntime,
+    pub std::sync::Arc<std::sync::atomic::AtomicU64>,
+);
+
+/// A task whose cycles do nothing until a virtual time: a stalled thread.
+#[cfg(feature = "sim")]
+struct Stallable<T> {
+    task: T,
+    until_ns: std::sync::Arc<std::sync::atomic::AtomicU64>,
+}
+
+#[cfg(feature = "sim")]
+impl<T: Task> Task for Stallable<T> {
+    fn cycle(&mut self, ctx: &wrc_rt::CycleContext) {
+        if ctx.woke_ns >= self.until_ns.load(std::sync::atomic::Ordering::Relaxed) {
+            self.task.cycle(ctx);
+        }
+    }
+}
 
 #[cfg(feature = "sim")]
 impl Host for VirtualHost {
@@ -147,6 +169,13 @@ impl Host for VirtualHost {
         task: impl Task,
         wake: VirtualWake,
     ) -> Result<(), StartError> {
+        if spec.name == "pulse_generator" {
+            let task = Stallable {
+                task,
+                until_ns: self.1.clone(),
+            };
+            return Ok(self.0.add_released(spec, task, &wake)?);
+        }
         Ok(self.0.add_released(spec, task, &wake)?)
     }
 }

@@ -182,6 +182,15 @@ impl Liveness {
         }
     }
 
+    /// Raise fault `code` on the urgent path now (false if the queue is full).
+    fn raise(&self, code: Code) -> bool {
+        let sent = self.urgent.try_send(Urgent::Fault(code.number())).is_ok();
+        if sent {
+            self.wake.post();
+        }
+        sent
+    }
+
     /// Put the dead board's fault on the urgent queue if it is not there yet.
     fn report(&mut self) {
         if self.unreported
@@ -266,6 +275,13 @@ pub struct PulseGenerator<B: MotionBoard> {
     liveness: Option<Liveness>,
     /// A board stopped answering: nothing is pushed until a RESET re-attaches.
     detached: bool,
+    /// The board(s) take a stop word directly from whoever asks for a stop
+    /// ([`Shared::set_stop_line`]): a stop this task cannot answer with its brake in time
+    /// is braked by the board.
+    board_stops: bool,
+    /// The board braked on its own: nothing is pushed until it is at rest, its position
+    /// taken and it is released.
+    board_braked: bool,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -308,6 +324,8 @@ impl<B: MotionBoard> PulseGenerator<B> {
             trace: None,
             liveness: None,
             detached: false,
+            board_stops: false,
+            board_braked: false,
         }
     }
 
@@ -319,6 +337,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
             .fifo
             .lookahead
             .store(self.lead as u32, Ordering::Relaxed);
+        self
+    }
+
+    /// The board(s) take stops directly (their stop line is set on the shared state): when
+    /// this task cannot flush its brake to the board, the board brakes on its own and this
+    /// task waits for it instead of braking behind the queued periods.
+    pub fn with_board_stops(mut self) -> Self {
+        self.board_stops = true;
         self
     }
 
@@ -355,6 +381,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// The moves in flight end with the fault (the Command Interpreter aborts them).
     fn detach(&mut self) {
         self.detached = true;
+        self.board_braked = false;
         self.streaming = false;
         self.pending = None;
         while self.ring.try_recv().is_some() {}
@@ -452,6 +479,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
             let Some(at) = self.fifo_position() else {
                 break;
             };
+            // Read after the flush word: a board that has not braked on its own by now
+            // cannot before it takes the flush (the swap below fails if a period began).
+            if self.board.board_stop().braking_own {
+                break;
+            }
             let queued = at.write.wrapping_sub(at.read) as usize;
             let room = self.board.fifo_free().min(self.lead);
             let Some(before) = self.history.before(queued).copied() else {
@@ -572,6 +604,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     if let Some(status) = self.brake_end.take() {
                         self.brake_finished(status);
                     }
+                } else if self.board_stops {
+                    // The board brakes on its own, a board period after it saw the stop
+                    // word: wait for it instead of braking behind the queued periods.
+                    self.enter_board_braked();
                 } else {
                     // Behind the queued periods, from the last one pushed.
                     self.shared
@@ -582,6 +618,9 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     self.stopper.stop(limits);
                 }
             } else {
+                if self.board_stops {
+                    self.answer_stop_at_rest();
+                }
                 // At rest: take the board's own position (after a RESET the board may have
                 // stopped by itself, e.g. on a watchdog trip or E-stop).
                 let resync = self.shared.resync_from_board.swap(false, Ordering::AcqRel);
@@ -609,6 +648,24 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     self.shared.stopped_epoch.store(epoch, Ordering::Release);
                 }
             }
+        }
+        if self.board_stops
+            && !self.detached
+            && !self.board_braked
+            && self.board.board_stop().braking_own
+        {
+            // Not a stop this task was asked for: the board ran out of periods while
+            // moving (a stall longer than the look-ahead) and braked. A motion fault.
+            if self.last.is_moving() || self.completing.is_some() {
+                if let Some(l) = self.liveness.as_ref() {
+                    l.raise(Code::MotionFault);
+                }
+            }
+            self.enter_board_braked();
+        }
+        if self.board_braked {
+            self.await_board_brake();
+            return;
         }
         let lead = if braking_now && release == Release::Event {
             self.lead + 1
@@ -697,6 +754,70 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.publish_in_flight();
     }
 
+    /// Answer a stop that found the robot at rest (no brake to push) so the board does not
+    /// brake on its own: a flush that skips nothing. If it cannot be asked now (a flush
+    /// pending), the board brakes on its own at rest and [`PulseGenerator::await_board_brake`]
+    /// takes it from there.
+    fn answer_stop_at_rest(&mut self) {
+        if let Some(at) = self.fifo_position() {
+            if !self.board.board_stop().braking_own {
+                let _ = self.board.flush_queued(&at, at.read);
+            }
+        }
+    }
+
+    /// The board brakes on its own: push nothing until it is at rest.
+    fn enter_board_braked(&mut self) {
+        self.board_braked = true;
+        self.stopping = false;
+        self.decel_pending = false;
+        self.brake_end = None;
+        self.streaming = false;
+        self.pending = None;
+        while self.ring.try_recv().is_some() {}
+        self.shared.fifo.board_stops.fetch_add(1, Ordering::Relaxed);
+        self.publish_in_flight();
+    }
+
+    /// While the board brakes on its own: once every such board is at rest, take its
+    /// position (what it executed is the truth; the periods it skipped never ran), release
+    /// it, and end the move stopped (a HOLD too: off its planned path, it cannot resume) and
+    /// the stop epoch at rest.
+    fn await_board_brake(&mut self) {
+        self.pending = None;
+        while self.ring.try_recv().is_some() {}
+        if !self.board.board_stop().settled || self.board.read_feedback(&mut self.feedback).is_err()
+        {
+            self.publish_in_flight();
+            return;
+        }
+        let mut position = self.shared.commanded_pulses();
+        let n = self.feedback.axis_count.min(MAX_AXES);
+        for (p, a) in position.iter_mut().zip(&self.feedback.axes[..n]) {
+            *p = a.commanded;
+        }
+        self.stopper.restore(&self.last);
+        self.stopper.abandon_at(&position);
+        self.last = self.stopper.state();
+        for (c, p) in self.shared.commanded.iter().zip(position) {
+            c.store(p, Ordering::Release);
+        }
+        self.history.restart(self.last);
+        self.board.release_stop();
+        self.board_braked = false;
+        if let Some((ticket, _, _)) = self.completing.take() {
+            self.report(ticket, MoveOutcome::Stopped);
+        }
+        let ticket = std::mem::take(&mut self.ticket);
+        self.report(ticket, MoveOutcome::Stopped);
+        self.resume.write(self.last);
+        self.epoch_pending = false;
+        self.shared
+            .stopped_epoch
+            .store(self.epoch_seen, Ordering::Release);
+        self.publish_in_flight();
+    }
+
     /// This period's look at the FIFO before it is refilled (the deepest drain while
     /// streaming) and at the boards' counters, for `TASKS`.
     fn watch_fifo(&mut self) {
@@ -777,6 +898,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// not finished executing), for the other tasks.
     fn publish_in_flight(&self) {
         let moving = self.stopping
+            || self.board_braked
             || self.last.is_moving()
             || !self.ring.is_empty()
             || self.completing.is_some();

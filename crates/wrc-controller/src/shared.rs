@@ -73,6 +73,10 @@ pub struct Shared {
     pub entry_committed: AtomicU32,
     /// Released by every stop request: the Pulse Generator's wake (set once at start-up).
     stop_notify: OnceLock<Arc<dyn Notify>>,
+    /// Every stop request is posted here too, straight to the board(s)' stop word (set once
+    /// at start-up): a board whose stop the Pulse Generator does not answer within a board
+    /// period brakes on its own.
+    stop_line: OnceLock<wrc_board::StopLine>,
     /// Released by every change of `outputs`: the I/O Monitor's wake (set once at start-up).
     output_notify: OnceLock<Arc<dyn Notify>>,
 }
@@ -104,6 +108,7 @@ impl Default for Shared {
             hand_wafers: AtomicU8::new(0),
             entry_committed: AtomicU32::new(0),
             stop_notify: OnceLock::new(),
+            stop_line: OnceLock::new(),
             output_notify: OnceLock::new(),
         }
     }
@@ -129,10 +134,27 @@ impl Shared {
             .stop_epoch
             .fetch_add(1, Ordering::AcqRel)
             .wrapping_add(1);
+        if let Some(line) = self.stop_line.get() {
+            // A board that brakes on its own uses the limits this stop would: full for an
+            // ESTOP, the speed override's for a STOP or a HOLD.
+            let level = match kind {
+                StopKind::Estop => 100,
+                StopKind::Hold | StopKind::Stop => {
+                    self.speed_pct.load(Ordering::Relaxed).clamp(1, 100) as u8
+                }
+            };
+            line.post(level);
+        }
         if let Some(notify) = self.stop_notify.get() {
             notify.notify();
         }
         epoch
+    }
+
+    /// Post every stop request to `line` as well (the board(s)' stop word). Set once; later
+    /// calls change nothing.
+    pub fn set_stop_line(&self, line: wrc_board::StopLine) {
+        let _ = self.stop_line.set(line);
     }
 
     /// Wake `notify` (the Pulse Generator) on every stop request, so the brake starts at

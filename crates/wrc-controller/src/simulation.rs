@@ -74,6 +74,8 @@ pub struct Simulation {
     pulse_log: PulseLog,
     service: Arc<Mutex<crate::service::Service>>,
     wall_start: Instant,
+    /// The Pulse Generator does nothing before this virtual time [ns].
+    stall: Arc<std::sync::atomic::AtomicU64>,
     /// The TCP address actually bound (with the real port when 0 was asked).
     pub tcp: Option<SocketAddr>,
     /// The local GUI socket.
@@ -189,7 +191,8 @@ impl Simulation {
             }
             Ok(MultiBoard::new(opened, &map)?)
         };
-        let mut host = VirtualHost(VirtualRuntime::new(START_NS));
+        let stall = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let mut host = VirtualHost(VirtualRuntime::new(START_NS), stall.clone());
         let pulse_log = PulseLog::default();
         for ((board, sim), life) in config.boards.iter().zip(&boards).zip(&board_lives) {
             let period_us = u64::from(lock(sim).period_us());
@@ -256,6 +259,7 @@ impl Simulation {
             pulse_log,
             service,
             wall_start: Instant::now(),
+            stall,
             tcp: parts.tcp,
             socket: options.socket.clone(),
         })
@@ -405,6 +409,14 @@ impl Simulation {
         *old = fresh;
         life.alive.store(true, Ordering::Release);
         Ok(())
+    }
+
+    /// A host stall: the Pulse Generator does nothing for `ns` [ns] of virtual time from now
+    /// (neither pushes nor refreshes the board's watchdog nor answers a stop), as a
+    /// real-time thread the kernel does not run; every other task, and the boards, go on.
+    pub fn stall_pulse_generator(&self, ns: u64) {
+        self.stall
+            .store(self.now_ns().saturating_add(ns), Ordering::Relaxed);
     }
 
     /// Record (or stop recording) what board 0 executes: every board period's virtual

@@ -73,10 +73,12 @@ fn driver_and_board_process_share_the_dpram() {
     // 20 periods of +500 pulses on j2.
     let mut increments = [0i64; 16];
     increments[1] = 500;
-    for _ in 0..20 {
+    for k in 0..21 {
+        // Then a period at rest, as a host streams (a moving axis that runs dry is braked).
+        let period = if k < 20 { increments } else { [0; 16] };
         wait_until("room in the board's FIFO", || {
             host.refresh_watchdog();
-            host.push(&increments).map_err(|e| e.to_string())
+            host.push(&period).map_err(|e| e.to_string())
         });
     }
     let f = until(&mut host, true, |f| {
@@ -217,6 +219,11 @@ fn drive_to(host: &mut DpramBoard, robot: &wrc_robot::Robot, pose: Pose) {
             host.push(&inc).map_err(|e| e.to_string())
         });
     }
+    // A period at rest behind the move, as a host streams: an axis that is still moving
+    // when its FIFO runs dry is braked by the board.
+    wait_until("room in the board's FIFO", || {
+        host.push(&[0; 16]).map_err(|e| e.to_string())
+    });
     f = until(host, false, |f| {
         f.axes[..4]
             .iter()

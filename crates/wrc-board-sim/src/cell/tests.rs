@@ -90,11 +90,11 @@ impl Rig {
         }
     }
 
-    /// One board period, with the next planned increment pushed first.
+    /// One board period, with the next planned increment pushed first (a zero period at
+    /// rest, as a host streams: a moving axis that finds its FIFO empty is braked).
     fn step(&mut self) {
-        if let Some(inc) = self.plan.pop_front() {
-            self.host.push(&inc).unwrap();
-        }
+        let inc = self.plan.pop_front().unwrap_or([0; MAX_AXES]);
+        self.host.push(&inc).unwrap();
         self.sim.step();
     }
 

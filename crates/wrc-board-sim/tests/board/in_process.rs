@@ -40,8 +40,16 @@ fn host_and_board_threads_share_a_file() {
                 pushed += 1;
                 continue;
             }
+            // Then a host streams zero periods at rest (a moving axis that finds its FIFO
+            // empty is braked by the board).
+            if pushed == 50 {
+                let _ = host.push(&[0; 16]);
+            }
             host.read_feedback(&mut feedback).unwrap();
-            if pushed == 50 && feedback.axes[0].fifo_level == 0 && feedback.axes[0].increment == 0 {
+            if pushed == 50
+                && feedback.axes[0].commanded == -75_000 + 50 * 200
+                && feedback.axes[0].increment == 0
+            {
                 break;
             }
             std::thread::sleep(Duration::from_millis(2));

@@ -9,6 +9,7 @@ fn settings(board_id: u32, axes: usize, fifo_depth: u32) -> SimSettings {
     let axis = ServoSettings {
         max_velocity_pps: 1e6,
         stop_deceleration_pps2: 1e7,
+        stop_jerk_pps3: 1e9,
         lag_s: 0.0,
         following_error_limit: 10_000,
         limit_pos: i64::MAX / 2,

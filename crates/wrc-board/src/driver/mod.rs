@@ -11,10 +11,11 @@ use wrc_robot::MAX_AXES;
 pub use crate::mapping::{Mapping, OpenError};
 
 use crate::board::{
-    AxisFeedback, BoardFeedback, Busy, Feedback, Full, Heartbeat, MappingScan, MotionBoard, Torn,
+    AxisFeedback, BoardFeedback, BoardStop, Busy, Feedback, Full, Heartbeat, MappingScan,
+    MotionBoard, StopLine, Torn,
 };
 use crate::dpram::{AxisRecord, Dpram, MappingRecord};
-use crate::layout::{self, axis, command, control, io, mapping, Header};
+use crate::layout::{self, axis, board_status, command, control, io, mapping, Header};
 
 /// What the configuration expects of a board; `None` accepts anything.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -159,6 +160,34 @@ impl MotionBoard for DpramBoard {
 
     fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
         self.dpram.flush_arm(at, to)
+    }
+
+    fn stop_line(&self) -> Option<StopLine> {
+        let map = self.dpram.mapping().share();
+        Dpram::attach(map).ok().map(|d| StopLine::new(vec![d]))
+    }
+
+    fn set_brake_limits(&mut self, axis: usize, accel_pps2: f64, jerk_pps3: f64) {
+        if axis < self.axis_count() {
+            self.dpram.set_brake_limits(axis, accel_pps2, jerk_pps3);
+        }
+    }
+
+    fn board_stop(&self) -> BoardStop {
+        let status = self.dpram.load(control::BOARD_STATUS);
+        let braking_own = status & board_status::BOARD_BRAKE != 0;
+        BoardStop {
+            braking_own,
+            settled: braking_own && status & board_status::STOPPING == 0,
+        }
+    }
+
+    fn release_stop(&mut self) {
+        let status = self.dpram.load(control::BOARD_STATUS);
+        if status & board_status::BOARD_BRAKE != 0 {
+            let token = self.dpram.load(control::BOARD_STOPS);
+            self.dpram.release_stop(token);
+        }
     }
 
     fn axis_count(&self) -> usize {

@@ -274,7 +274,17 @@ pub(crate) fn assemble<H: Host>(
         .store(config.motion.speed_pct.round() as u32, Ordering::Release);
 
     // Queues (the paper's Table 5 kinds) between the tasks.
-    let (ring_tx, ring_rx) = spsc::channel(16);
+    // The ring holds what the Velocity Generator plans between two of its cycles and the
+    // Pulse Generator's look-ahead, twice over: at 1 kHz a 16-period ring ran dry between
+    // two 50 ms cycles and the motion stuttered (zero periods streamed mid-move).
+    let vg_period_us = config
+        .tasks
+        .get("velocity_generator")
+        .map_or(50_000, |t| t.period_us);
+    let motion_us = (config.motion.period_s * 1e6).max(1.0);
+    let ring =
+        (2.0 * (vg_period_us as f64 / motion_us).ceil()) as usize + 2 * config.lookahead_periods;
+    let (ring_tx, ring_rx) = spsc::channel(ring.clamp(16, 4096));
     let (resume_tx, resume_rx) = mailbox(generator.state());
     // The Command Interpreter, the Velocity Generator and the service thread are released
     // by their messages as well as by their periods (the queues notify their consumer); the

@@ -11,6 +11,7 @@ mod host_access;
 mod motion;
 mod pipeline;
 mod sessions;
+mod stall;
 mod stop_end;
 mod vhost;
 mod virtual_time;

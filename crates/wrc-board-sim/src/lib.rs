@@ -560,21 +560,10 @@ impl SimBoard {
                         .wrapping_add(dropped);
                     self.dpram.store(base + axis::DISCARDED, d);
                 }
-                let (accel, jerk) = self.dpram.brake_limits(channel);
-                let s = a.settings();
-                let accel = if accel > 0 {
-                    accel as f64
-                } else {
-                    s.stop_deceleration_pps2
-                };
-                let jerk = if jerk > 0 {
-                    jerk as f64
-                } else {
-                    s.stop_jerk_pps3
-                };
+                let (accel_pps2, jerk_pps3) = brake_limits(&self.dpram, channel, a, level);
                 Drive::Stop {
-                    accel_pps2: accel * level * level,
-                    jerk_pps3: jerk * level * level * level,
+                    accel_pps2,
+                    jerk_pps3,
                 }
             } else {
                 match self.dpram.fifo_pop(channel) {
@@ -650,23 +639,8 @@ impl SimBoard {
                             let Some(a) = a.as_mut().filter(|a| a.is_braking()) else {
                                 continue;
                             };
-                            let (accel, jerk) = self.dpram.brake_limits(channel);
-                            let s = *a.settings();
-                            let accel = if accel > 0 {
-                                accel as f64
-                            } else {
-                                s.stop_deceleration_pps2
-                            };
-                            let jerk = if jerk > 0 {
-                                jerk as f64
-                            } else {
-                                s.stop_jerk_pps3
-                            };
-                            a.begin_stop(
-                                accel * level * level,
-                                jerk * level.powi(3),
-                                self.period_s,
-                            );
+                            let (accel, jerk) = brake_limits(&self.dpram, channel, a, level);
+                            a.begin_stop(accel, jerk, self.period_s);
                         }
                     }
                     self.own_stop = match self.own_stop {
@@ -823,6 +797,25 @@ impl SimBoard {
         }
         self.dpram.store(control::BOARD_STATUS, status);
     }
+}
+
+/// The brake limits of axis `channel` at `level` (a fraction of them, 0..=1): those the host
+/// wrote, or the axis's own when it wrote none; acceleration scaled by level², jerk by level³
+/// (a brake played at the level's speed) [pulse/s², pulse/s³].
+fn brake_limits(dpram: &Dpram, channel: usize, axis: &ServoAxis, level: f64) -> (f64, f64) {
+    let (accel, jerk) = dpram.brake_limits(channel);
+    let s = axis.settings();
+    let accel = if accel > 0 {
+        accel as f64
+    } else {
+        s.stop_deceleration_pps2
+    };
+    let jerk = if jerk > 0 {
+        jerk as f64
+    } else {
+        s.stop_jerk_pps3
+    };
+    (accel * level * level, jerk * level.powi(3))
 }
 
 fn all_zero_header(map: &Mapping) -> bool {

@@ -397,15 +397,21 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 *p = a.encoder;
             }
         }
-        self.stopper.restore(&self.last);
-        self.stopper.abandon_at(&position);
-        self.last = self.stopper.state();
-        for (c, p) in self.shared.commanded.iter().zip(position) {
-            c.store(p, Ordering::Release);
-        }
+        self.rest_at(&position);
         self.resume.write(self.last);
         self.settle_pending_epoch();
         self.publish_in_flight();
+    }
+
+    /// Abandon the plan and rest at `position` [pulse], the board's (what it executed is
+    /// the truth): the generator's state and the commanded position the tasks share.
+    fn rest_at(&mut self, position: &[i64; MAX_AXES]) {
+        self.stopper.restore(&self.last);
+        self.stopper.abandon_at(position);
+        self.last = self.stopper.state();
+        for (c, p) in self.shared.commanded.iter().zip(position) {
+            c.store(*p, Ordering::Release);
+        }
     }
 
     /// The stop epoch waiting for the move `completing` to end is at rest now.
@@ -796,12 +802,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
         for (p, a) in position.iter_mut().zip(&self.feedback.axes[..n]) {
             *p = a.commanded;
         }
-        self.stopper.restore(&self.last);
-        self.stopper.abandon_at(&position);
-        self.last = self.stopper.state();
-        for (c, p) in self.shared.commanded.iter().zip(position) {
-            c.store(p, Ordering::Release);
-        }
+        self.rest_at(&position);
         self.history.restart(self.last);
         self.board.release_stop();
         self.board_braked = false;

@@ -130,10 +130,8 @@ impl Shared {
     /// stronger one requested meanwhile: an ESTOP is never weakened by a later STOP or HOLD).
     pub fn request_stop(&self, kind: StopKind) -> u32 {
         self.stop_kind.fetch_max(kind as u8, Ordering::AcqRel);
-        let epoch = self
-            .stop_epoch
-            .fetch_add(1, Ordering::AcqRel)
-            .wrapping_add(1);
+        // The board's stop word before the epoch: a Pulse Generator that sees the epoch then
+        // answers this stop (its flush carries the word's sequence), never an older one.
         if let Some(line) = self.stop_line.get() {
             // A board that brakes on its own uses the limits this stop would: full for an
             // ESTOP, the speed override's for a STOP or a HOLD.
@@ -145,6 +143,10 @@ impl Shared {
             };
             line.post(level);
         }
+        let epoch = self
+            .stop_epoch
+            .fetch_add(1, Ordering::AcqRel)
+            .wrapping_add(1);
         if let Some(notify) = self.stop_notify.get() {
             notify.notify();
         }

@@ -446,9 +446,9 @@ impl SimBoard {
     /// Run one board period.
     pub fn step(&mut self) {
         if let Some((from, to, answers)) = self.dpram.period_begin() {
-            self.flush(from, to);
             // The host's brake answers the stop it was computed for: the board does not
-            // brake on its own for it.
+            // brake on its own for it. Acknowledged before the flush is done, so a host
+            // that sees the flush done sees the stop answered (docs/dpram.md, "Stops").
             if let Some(word) = self.dpram.stop_pending() {
                 let waiting = matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen);
                 if layout::stop::seq(word) == answers && waiting {
@@ -456,6 +456,7 @@ impl SimBoard {
                     self.own_stop = OwnStop::Idle;
                 }
             }
+            self.flush(from, to);
         }
         self.period();
         self.dpram.period_end();
@@ -628,8 +629,8 @@ impl SimBoard {
             match self.own_stop {
                 OwnStop::Idle => self.own_stop = OwnStop::Seen,
                 OwnStop::Seen => {
-                    self.dpram.store(control::STOP_ACK, word);
                     self.brake_on_own(word);
+                    self.dpram.store(control::STOP_ACK, word);
                 }
                 OwnStop::Braking(before) | OwnStop::Stopped(before) => {
                     self.dpram.store(control::STOP_ACK, word);
@@ -667,11 +668,17 @@ impl SimBoard {
     }
 
     /// Start a brake of the board's own at the level of `word` (counted; the count is the
-    /// token the host releases it by).
+    /// token the host releases it by). The status shows it (braking) at once, before the
+    /// stop word is acknowledged: a host that sees the stop taken sees how.
     fn brake_on_own(&mut self, word: u32) {
         self.dpram.bump(control::BOARD_STOPS);
         self.own_token = self.dpram.load(control::BOARD_STOPS);
         self.own_stop = OwnStop::Braking(word);
+        let status = self.dpram.load(control::BOARD_STATUS);
+        self.dpram.store(
+            control::BOARD_STATUS,
+            status | board_status::BOARD_BRAKE | board_status::STOPPING,
+        );
     }
 
     /// A streaming axis that is moving finds its FIFO empty (the host has fallen behind by
@@ -1168,7 +1175,13 @@ pub(crate) mod tests {
         sim.step();
         assert_eq!(feedback(&host).axes[0].commanded, at, "ran while braked");
         host.push(&inc(7, -7)).unwrap();
+        assert!(host.board_stop().settled);
         host.release_stop();
+        // Until its next period the board still shows the brake; a host that looks again
+        // meanwhile (a late Pulse Generator catching up) must not take it for a new one.
+        assert!(f.boards[0].status & board_status::BOARD_BRAKE != 0);
+        let stop = host.board_stop();
+        assert!(!stop.braking_own && !stop.settled && !stop.braking, "{stop:?}");
         host.push(&inc(3, -3)).unwrap();
         sim.step();
         let f = feedback(&host);

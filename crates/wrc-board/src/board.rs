@@ -222,6 +222,14 @@ pub struct BoardStop {
     pub braking_own: bool,
     /// Every board that braked on its own is at rest.
     pub settled: bool,
+    /// Some axis still decelerates in a brake of its board's own: a stop it took on its own,
+    /// its E-stop input, a host-watchdog trip. The arm is moving though the host pushes
+    /// nothing.
+    pub braking: bool,
+    /// No board braked on its own, and none will for the stop last posted: every board has
+    /// taken it otherwise (a flush of the host's brake answered it, or a RESET) and no flush
+    /// is pending. A host that waits for a board's own brake then waits in vain.
+    pub answered: bool,
 }
 
 /// A motion board (or several) as the controller's real-time tasks use it.

@@ -264,6 +264,8 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         let mut all = BoardStop {
             braking_own: false,
             settled: true,
+            braking: false,
+            answered: true,
         };
         for b in &self.boards {
             let s = b.board_stop();
@@ -271,8 +273,11 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
                 all.braking_own = true;
                 all.settled &= s.settled;
             }
+            all.answered &= s.answered;
+            all.braking |= s.braking;
         }
         all.settled &= all.braking_own;
+        all.answered &= !all.braking_own;
         all
     }
 

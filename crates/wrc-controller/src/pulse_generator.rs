@@ -592,6 +592,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
             if self.detached {
                 self.resume.write(self.last);
                 self.shared.stopped_epoch.store(epoch, Ordering::Release);
+            } else if self.board_braked {
+                // The board brakes on its own (or is about to, for an earlier stop it found
+                // unanswered): it takes this stop word too, a stronger one by braking again.
+                // No flush now: one would answer this word and leave the board's brake to
+                // be waited for in vain.
+                if kind as u8 > self.stop_kind as u8 {
+                    self.stop_kind = kind;
+                }
             } else if self.last.is_moving() {
                 // From the state of the period the board has reached (mid-brake too, when a
                 // stronger stop overtakes a HOLD or a STOP): ESTOP brakes with the full
@@ -615,13 +623,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     // word: wait for it instead of braking behind the queued periods.
                     self.enter_board_braked();
                 } else {
-                    // Behind the queued periods, from the last one pushed.
-                    self.shared
-                        .stops
-                        .behind_queue
-                        .fetch_add(1, Ordering::Relaxed);
-                    self.stopper.restore(&self.last);
-                    self.stopper.stop(limits);
+                    self.brake_behind_queue();
                 }
             } else {
                 if self.board_stops {
@@ -669,8 +671,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
             self.enter_board_braked();
         }
-        if self.board_braked {
-            self.await_board_brake();
+        if self.board_braked && self.await_board_brake() {
             return;
         }
         let lead = if braking_now && release == Release::Event {
@@ -785,17 +786,41 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.publish_in_flight();
     }
 
+    /// The brake of the stop under way (`stop_kind`), behind the queued periods, from the
+    /// last one pushed.
+    fn brake_behind_queue(&mut self) {
+        self.shared
+            .stops
+            .behind_queue
+            .fetch_add(1, Ordering::Relaxed);
+        let limits = match self.stop_kind {
+            StopKind::Estop => BrakeLimits::Full,
+            StopKind::Hold | StopKind::Stop => BrakeLimits::Override,
+        };
+        self.stopper.restore(&self.last);
+        self.stopper.stop(limits);
+        self.stopping = true;
+    }
+
     /// While the board brakes on its own: once every such board is at rest, take its
     /// position (what it executed is the truth; the periods it skipped never ran), release
     /// it, and end the move stopped (a HOLD too: off its planned path, it cannot resume) and
-    /// the stop epoch at rest.
-    fn await_board_brake(&mut self) {
+    /// the stop epoch at rest. True while this period has nothing more to do; false when
+    /// no board will brake on its own after all (the stop was answered otherwise: a flush
+    /// armed for an earlier stop carried it, or the board took it at a RESET): then the
+    /// brake is this task's again, behind the queued periods.
+    fn await_board_brake(&mut self) -> bool {
         self.pending = None;
         while self.ring.try_recv().is_some() {}
-        if !self.board.board_stop().settled || self.board.read_feedback(&mut self.feedback).is_err()
-        {
+        let stop = self.board.board_stop();
+        if stop.answered {
+            self.board_braked = false;
+            self.brake_behind_queue();
+            return false;
+        }
+        if !stop.settled || self.board.read_feedback(&mut self.feedback).is_err() {
             self.publish_in_flight();
-            return;
+            return true;
         }
         let mut position = self.shared.commanded_pulses();
         let n = self.feedback.axis_count.min(MAX_AXES);
@@ -817,6 +842,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             .stopped_epoch
             .store(self.epoch_seen, Ordering::Release);
         self.publish_in_flight();
+        true
     }
 
     /// This period's look at the FIFO before it is refilled (the deepest drain while
@@ -896,13 +922,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
     }
 
     /// Whether pulses are still in flight (a brake, a move, the ring, a move the board has
-    /// not finished executing), for the other tasks.
+    /// not finished executing, a brake of the board's own), for the other tasks.
     fn publish_in_flight(&self) {
         let moving = self.stopping
             || self.board_braked
             || self.last.is_moving()
             || !self.ring.is_empty()
-            || self.completing.is_some();
+            || self.completing.is_some()
+            || (!self.detached && self.board.board_stop().braking);
         self.shared
             .in_flight
             .store(u32::from(moving), Ordering::Release);

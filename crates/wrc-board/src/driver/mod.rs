@@ -15,7 +15,7 @@ use crate::board::{
     MotionBoard, StopLine, Torn,
 };
 use crate::dpram::{AxisRecord, Dpram, MappingRecord};
-use crate::layout::{self, axis, board_status, command, control, io, mapping, Header};
+use crate::layout::{self, axis, board_status, command, control, io, mapping, stop, Header};
 
 /// What the configuration expects of a board; `None` accepts anything.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -173,12 +173,27 @@ impl MotionBoard for DpramBoard {
         }
     }
 
+    /// A brake the host has released already is not one to wait for, though the board
+    /// shows it until its next period takes the release: the host that looked again before
+    /// then would otherwise wait for a brake that ends without settling, for ever.
+    ///
+    /// The words are read in the reverse of the order the board writes them (docs/dpram.md,
+    /// "Stops"), so each one read is at least as new as the one read before it: the flush's
+    /// acknowledgement, then the stop's, then the status, then the count of own brakes.
     fn board_stop(&self) -> BoardStop {
-        let status = self.dpram.load(control::BOARD_STATUS);
-        let braking_own = status & board_status::BOARD_BRAKE != 0;
+        let d = &self.dpram;
+        let flush_pending = d.load64(control::FLUSH) as u32 != d.load(control::FLUSH_ACK);
+        let stop = stop::seq(d.load(control::STOP));
+        let acked = stop::seq(d.load(control::STOP_ACK)) == stop;
+        let status = d.load(control::BOARD_STATUS);
+        let token = d.load(control::BOARD_STOPS);
+        let released = d.load(control::RELEASE) == token;
+        let braking_own = status & board_status::BOARD_BRAKE != 0 && !released;
         BoardStop {
             braking_own,
             settled: braking_own && status & board_status::STOPPING == 0,
+            braking: status & board_status::STOPPING != 0,
+            answered: !braking_own && acked && !flush_pending,
         }
     }
 

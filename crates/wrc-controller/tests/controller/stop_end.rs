@@ -8,7 +8,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use crate::motion::{sim_board, Motion};
-use wrc_board::{DpramBoard, Expect, Feedback, MotionBoard};
+use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
 use wrc_board_sim::SimBoard;
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
@@ -271,4 +271,74 @@ fn a_stopped_or_held_motion_ends_when_the_board_stands_still() {
             );
         }
     }
+}
+
+/// Pins the bug where a fault campaign under load left the robot "still moving" for ever
+/// after the E-stop input opened during a transfer, every RESET refused (121). A flush the
+/// Pulse Generator had armed for an earlier stop was still pending when it took the E-stop,
+/// so it could not flush for it and waited for the board to brake on its own, as a board does
+/// with a stop word nobody answers. But a flush answers the stop word posted when it is
+/// armed: the pending one answered the E-stop's, so the board never braked on its own (its
+/// E-stop input had already stopped the axes, so no run-dry brake came either), and the wait
+/// never ended. The Pulse Generator now sees the stop answered and brakes behind the queue.
+/// It runs twice in every board period here, as a late one catching up does: a brake the
+/// board still shows after the host released it is not waited for again.
+#[test]
+fn a_stop_answered_by_a_flush_armed_earlier_is_not_waited_for_on_the_board() {
+    let mut r = Rig::new();
+    r.pg = r.pg.with_board_stops();
+    r.shared.set_stop_line(r.host.stop_line().unwrap());
+    assert_eq!(r.send(1, movj(170.0)), ["ACK 1", "EVT STATE MOVING"]);
+    for _ in 0..60 {
+        r.period();
+    }
+    // The E-stop input opens: the board stops the axes itself at its next period.
+    r.sim.apply_fault(Fault::Estop { on: true });
+    // The E-stop request posts its stop word; a flush armed after that (here by hand, as
+    // the Pulse Generator armed one for an earlier stop) carries it and is still pending
+    // when the Pulse Generator takes the stop.
+    r.incoming
+        .try_send(Incoming::Request(
+            HOST,
+            Request {
+                id: Some(2),
+                command: Command::Estop,
+                checksum: false,
+            },
+        ))
+        .unwrap();
+    r.ci.step_released(r.now_ns(), false);
+    let at = r.host.fifo_position().unwrap();
+    assert!(r.host.flush_queued(&at, at.write));
+    r.pg.step_released(Release::Event);
+    let mut periods = 0;
+    while !(r.shared.in_flight.load(Ordering::Acquire) == 0
+        && r.shared.stopped_epoch.load(Ordering::Acquire)
+            == r.shared.stop_epoch.load(Ordering::Acquire))
+    {
+        r.pg.step();
+        r.period();
+        periods += 1;
+        assert!(
+            periods < 300,
+            "still moving {periods} periods after the E-stop: board {:?}",
+            r.host.board_stop()
+        );
+    }
+    let fb = r.feedback();
+    assert!(fb.axes[..4].iter().all(|a| a.increment == 0), "{fb:?}");
+    assert!(!r.host.board_stop().braking_own);
+    // The input closes; RESET is taken and the robot moves again from where it stopped.
+    r.sim.apply_fault(Fault::Estop { on: false });
+    r.send(3, Command::Reset);
+    for _ in 0..10 {
+        r.period();
+    }
+    assert!(r.lines.iter().any(|l| l == "ACK 3"), "{:?}", r.lines);
+    let at = r.board_commanded();
+    assert_eq!(r.send(4, movj(100.0)), ["ACK 4", "EVT STATE MOVING"]);
+    for _ in 0..20 {
+        r.period();
+    }
+    assert_ne!(r.board_commanded(), at, "no motion after RESET");
 }

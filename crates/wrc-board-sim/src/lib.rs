@@ -1181,7 +1181,10 @@ pub(crate) mod tests {
         // meanwhile (a late Pulse Generator catching up) must not take it for a new one.
         assert!(f.boards[0].status & board_status::BOARD_BRAKE != 0);
         let stop = host.board_stop();
-        assert!(!stop.braking_own && !stop.settled && !stop.braking, "{stop:?}");
+        assert!(
+            !stop.braking_own && !stop.settled && !stop.braking,
+            "{stop:?}"
+        );
         host.push(&inc(3, -3)).unwrap();
         sim.step();
         let f = feedback(&host);

@@ -662,13 +662,18 @@ impl<B: MotionBoard> PulseGenerator<B> {
             && !self.board_braked
             && self.board.board_stop().braking_own
         {
-            // Not a stop this task was asked for: the board ran out of periods while
-            // moving (a stall longer than the look-ahead) and braked. A motion fault.
-            if self.last.is_moving() || self.completing.is_some() {
+            // A stop on its way (its word posted, its epoch not yet moved or taken: the
+            // thread that asked may be preempted between the two for longer than a board
+            // period) is a stop that was asked for. Otherwise the board ran out of periods
+            // while moving (a stall longer than the look-ahead) and braked: a motion fault.
+            let asked = self.shared.stop_requests.load(Ordering::Acquire) != self.epoch_seen;
+            if !asked && (self.last.is_moving() || self.completing.is_some()) {
                 if let Some(l) = self.liveness.as_ref() {
                     l.raise(Code::MotionFault);
                 }
             }
+            // Its kind is the epoch's, taken when the epoch comes.
+            self.stop_kind = StopKind::Hold;
             self.enter_board_braked();
         }
         if self.board_braked && self.await_board_brake() {

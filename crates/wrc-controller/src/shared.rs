@@ -25,6 +25,10 @@ pub struct Shared {
     pub stop_epoch: AtomicU32,
     /// The last stop epoch the Pulse Generator has brought to rest.
     pub stopped_epoch: AtomicU32,
+    /// Stop requests begun: counted first, before the stop word is posted and the epoch
+    /// moves, so while it differs from the epoch the Pulse Generator has taken a stop is on
+    /// its way (a board may already brake for its word).
+    pub stop_requests: AtomicU32,
     /// The strongest [`StopKind`] requested since the Pulse Generator last took it (0: none,
     /// a plain stop).
     pub stop_kind: AtomicU8,
@@ -92,6 +96,7 @@ impl Default for Shared {
             stop_epoch: AtomicU32::new(0),
             stopped_epoch: AtomicU32::new(0),
             stop_kind: AtomicU8::new(0),
+            stop_requests: AtomicU32::new(0),
             commanded: std::array::from_fn(|_| AtomicI64::new(0)),
             outputs: std::array::from_fn(|_| AtomicU32::new(0)),
             inputs: std::array::from_fn(|_| AtomicU32::new(0)),
@@ -129,6 +134,7 @@ impl Shared {
     /// epoch moves, so the Pulse Generator that sees the epoch also sees the kind (or a
     /// stronger one requested meanwhile: an ESTOP is never weakened by a later STOP or HOLD).
     pub fn request_stop(&self, kind: StopKind) -> u32 {
+        self.stop_requests.fetch_add(1, Ordering::AcqRel);
         self.stop_kind.fetch_max(kind as u8, Ordering::AcqRel);
         // The board's stop word before the epoch: a Pulse Generator that sees the epoch then
         // answers this stop (its flush carries the word's sequence), never an older one.

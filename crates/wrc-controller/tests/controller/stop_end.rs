@@ -12,12 +12,12 @@ use wrc_board::{DpramBoard, Expect, Fault, Feedback, MotionBoard};
 use wrc_board_sim::SimBoard;
 use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
-use wrc_controller::messages::{Incoming, MoveDone, OutLine, SourceId};
-use wrc_controller::pulse_generator::PulseGenerator;
-use wrc_controller::shared::Shared;
+use wrc_controller::messages::{Incoming, MoveDone, OutLine, SourceId, Urgent};
+use wrc_controller::pulse_generator::{Liveness, PulseGenerator};
+use wrc_controller::shared::{Shared, StopKind};
 use wrc_controller::velocity_generator::VelocityGenerator;
-use wrc_protocol::{Command, Request};
-use wrc_rt::ipc::MessageQueue;
+use wrc_protocol::{Code, Command, Request};
+use wrc_rt::ipc::{MessageQueue, Semaphore};
 use wrc_rt::Release;
 
 const PERIOD_NS: u64 = 10_000_000;
@@ -341,4 +341,74 @@ fn a_stop_answered_by_a_flush_armed_earlier_is_not_waited_for_on_the_board() {
         r.period();
     }
     assert_ne!(r.board_commanded(), at, "no motion after RESET");
+}
+
+/// Pins the bug where an E-stop from the GUI on a loaded host (no real-time scheduling)
+/// ended the motion with `ABS 209 motion fault` instead of 201: the request posts the
+/// board's stop word before it moves the stop epoch, and the thread asking was preempted
+/// between the two for more than a board period. The board, finding the word unanswered,
+/// braked on its own; the Pulse Generator's next period, seeing no new epoch, took the brake
+/// for a FIFO run dry. A stop on its way (counted, its epoch not yet taken) is no fault.
+#[test]
+fn a_board_brake_for_a_stop_whose_epoch_has_not_moved_yet_is_no_motion_fault() {
+    let mut r = Rig::new();
+    let urgent = Arc::new(MessageQueue::new(8));
+    r.pg = r.pg.with_board_stops().with_liveness(Liveness::new(
+        3,
+        10_000,
+        10_000,
+        urgent.clone(),
+        Arc::new(Semaphore::new(0)),
+    ));
+    r.shared.set_stop_line(r.host.stop_line().unwrap());
+    assert_eq!(r.send(1, movj(170.0)), ["ACK 1", "EVT STATE MOVING"]);
+    for _ in 0..60 {
+        r.period();
+    }
+    // The first half of `Shared::request_stop` (ESTOP): counted, its word posted; the
+    // asking thread is preempted there.
+    r.shared.stop_requests.fetch_add(1, Ordering::AcqRel);
+    r.shared
+        .stop_kind
+        .fetch_max(StopKind::Estop as u8, Ordering::AcqRel);
+    r.host.stop_line().unwrap().post(100);
+    // Two board periods and the Pulse Generator's own: the board brakes on its own.
+    for _ in 0..3 {
+        r.period();
+    }
+    assert!(r.host.board_stop().braking_own, "{:?}", r.host.board_stop());
+    // The second half: the epoch moves.
+    r.shared.stop_epoch.fetch_add(1, Ordering::AcqRel);
+    r.pg.step_released(Release::Event);
+    let mut periods = 0;
+    while !(r.shared.in_flight.load(Ordering::Acquire) == 0
+        && r.shared.stopped_epoch.load(Ordering::Acquire)
+            == r.shared.stop_epoch.load(Ordering::Acquire))
+    {
+        r.period();
+        periods += 1;
+        assert!(periods < 300, "no rest {periods} periods after the stop");
+    }
+    let raised: Vec<Urgent> = std::iter::from_fn(|| urgent.try_recv().ok()).collect();
+    assert!(
+        raised.is_empty(),
+        "a stop that was asked for raised {raised:?}"
+    );
+    // And a FIFO that runs dry while moving still is a motion fault (209).
+    assert_eq!(r.send(3, movj(100.0))[0], "ACK 3");
+    for _ in 0..30 {
+        r.period();
+    }
+    for _ in 0..5 {
+        r.sim.step();
+        r.k += 1;
+    }
+    r.period();
+    let raised: Vec<Urgent> = std::iter::from_fn(|| urgent.try_recv().ok()).collect();
+    assert!(
+        raised
+            .iter()
+            .any(|u| matches!(u, Urgent::Fault(c) if *c == Code::MotionFault.number())),
+        "{raised:?}"
+    );
 }

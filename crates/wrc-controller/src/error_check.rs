@@ -15,7 +15,7 @@ use wrc_board::{Feedback, MotionBoard};
 use wrc_protocol::Code;
 use wrc_robot::{Robot, MAX_AXES};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
-use wrc_rt::{CycleContext, StatsCell, Task, TaskStats};
+use wrc_rt::{CycleContext, StatsCell, Task};
 
 use crate::messages::Urgent;
 use crate::shared::{RobotState, Shared};
@@ -27,19 +27,35 @@ pub struct Limits {
     pub following_error: [i64; MAX_AXES],
     /// Soft limits per axis [pulse] (min, max).
     pub soft: [(i64, i64); MAX_AXES],
-    /// Overruns of one watched task within one Error Check period that count as a fault while
-    /// the robot moves.
-    pub overruns_per_check: u64,
+}
+
+/// A task whose stalls stop a motion (the motion path: Error Check, Pulse Generator,
+/// Velocity Generator), and how long a stall of it the motion rides out.
+#[derive(Debug, Clone)]
+pub struct Watched {
+    /// Its statistics.
+    pub cell: Arc<StatsCell>,
+    /// Its period [ns].
+    pub period_ns: u64,
+    /// The longest stall (periods skipped in one late cycle, in time) that costs nothing
+    /// [ns]: what the buffer after the task covers (docs/realtime.md).
+    pub tolerance_ns: u64,
+}
+
+impl Watched {
+    /// Whether a stall of `skipped` periods is longer than the tolerance.
+    pub fn too_long(&self, skipped: u64) -> bool {
+        skipped.saturating_mul(self.period_ns) > self.tolerance_ns
+    }
 }
 
 impl Limits {
     /// Limits for `robot`: following error up to 50 ms of full speed, soft limits from the
-    /// axis configuration, 3 overruns per check.
+    /// axis configuration.
     pub fn for_robot(robot: &Robot) -> Limits {
         let mut l = Limits {
             following_error: [i64::MAX; MAX_AXES],
             soft: [(i64::MIN, i64::MAX); MAX_AXES],
-            overruns_per_check: 3,
         };
         for (i, a) in robot.axes().iter().enumerate() {
             l.following_error[i] =
@@ -60,13 +76,11 @@ pub struct ErrorCheck<B: MotionBoard> {
     axis_count: usize,
     /// Set by the Ethernet/RS232C task when the controlling client disconnects mid-motion.
     pub owner_lost: Arc<AtomicBool>,
-    /// The statistics of the tasks whose overruns stop a motion (the motion path: Error
-    /// Check, Pulse Generator, Velocity Generator). Set once the runtime runs on real-time
-    /// scheduling; left unset without it, where overruns are counted and reported but are
-    /// no fault (an ordinary process on a busy machine overruns, and says so once).
-    stats: Arc<OnceLock<Vec<Arc<StatsCell>>>>,
-    overruns_seen: [u64; 16],
-    scratch: TaskStats,
+    /// The tasks whose stalls stop a motion (the motion path: Error Check, Pulse Generator,
+    /// Velocity Generator). Set once the runtime runs on real-time scheduling; left unset
+    /// without it, where overruns are counted and reported but are no fault (an ordinary
+    /// process on a busy machine overruns, and says so once).
+    stats: Arc<OnceLock<Vec<Watched>>>,
     feedback: Feedback,
     reported: bool,
 }
@@ -82,7 +96,7 @@ impl<B: MotionBoard> ErrorCheck<B> {
         wake: Arc<Semaphore>,
         limits: Limits,
         owner_lost: Arc<AtomicBool>,
-        stats: Arc<OnceLock<Vec<Arc<StatsCell>>>>,
+        stats: Arc<OnceLock<Vec<Watched>>>,
     ) -> Self {
         ErrorCheck {
             board,
@@ -93,8 +107,6 @@ impl<B: MotionBoard> ErrorCheck<B> {
             axis_count,
             owner_lost,
             stats,
-            overruns_seen: [0; 16],
-            scratch: TaskStats::default(),
             feedback: Feedback::default(),
             reported: false,
         }
@@ -134,21 +146,20 @@ impl<B: MotionBoard> ErrorCheck<B> {
         if self.owner_lost.swap(false, Ordering::AcqRel) {
             return Some(Code::ClientLost);
         }
-        if let Some(cells) = self.stats.get() {
-            // Overruns matter while pulses flow: a gap in them is a jerk of the motors. At
-            // rest they are counted (TASKS, the log) but stop nothing.
+        if let Some(watched) = self.stats.get() {
+            // A stall matters while pulses flow, and only when it outlasts the buffer after
+            // the task (the FIFO's look-ahead after the Pulse Generator, the ring after the
+            // Velocity Generator): then the motors starve. Shorter ones, at any rate, cost
+            // nothing. At rest they are counted (TASKS, the log) but stop nothing.
             let moving = matches!(
                 self.shared.state(),
                 RobotState::Moving | RobotState::Stopping
             );
             let mut fault = None;
-            for (seen, cell) in self.overruns_seen.iter_mut().zip(cells) {
-                cell.snapshot_into(&mut self.scratch);
-                let now = self.scratch.overruns;
-                if moving && now.saturating_sub(*seen) >= self.limits.overruns_per_check {
+            for w in watched {
+                if w.too_long(w.cell.take_worst_missed()) && moving {
                     fault = Some(Code::TaskOverrun);
                 }
-                *seen = now;
             }
             if fault.is_some() {
                 return fault;

@@ -32,6 +32,8 @@ pub struct StatsCell {
     cycles: AtomicU64,
     overruns: AtomicU64,
     missed_periods: AtomicU64,
+    /// The most periods one late cycle skipped since [`StatsCell::take_worst_missed`].
+    worst_missed: AtomicU64,
     period: AtomicHistogram,
     exec: AtomicHistogram,
     latency: AtomicHistogram,
@@ -55,6 +57,10 @@ impl StatsCell {
         bump(&self.cycles, 1);
         bump(&self.overruns, sample.overrun as u64);
         bump(&self.missed_periods, sample.missed_periods);
+        if sample.missed_periods > 0 {
+            self.worst_missed
+                .fetch_max(sample.missed_periods, Ordering::Relaxed);
+        }
         if let Some(period_ns) = sample.period_ns {
             self.period.record(period_ns);
         }
@@ -74,6 +80,13 @@ impl StatsCell {
         self.event_cycles.store(n + 1, Ordering::Relaxed);
         self.event_exec.record(exec_ns);
         self.seq.store(seq.wrapping_add(2), Ordering::Release);
+    }
+
+    /// The most periods one late cycle skipped since the last call (0: none), and start
+    /// over: how long the task's longest stall in that time was, in its periods. For one
+    /// reader (Error Check); wait-free.
+    pub fn take_worst_missed(&self) -> u64 {
+        self.worst_missed.swap(0, Ordering::AcqRel)
     }
 
     /// A consistent copy of everything recorded so far (allocates; for non-real-time code).

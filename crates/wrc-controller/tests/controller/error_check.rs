@@ -1,6 +1,7 @@
-//! Error Check's overrun policy: overruns of the watched (motion-path) tasks stop a motion,
-//! overruns at rest stop nothing, and without watched tasks (not real-time) nothing does.
-//! A fault the urgent queue has no room for is reported when it has.
+//! Error Check's overrun policy: a stall of a watched (motion-path) task longer than the
+//! buffer after it covers stops a motion, shorter ones (at any rate) do not, stalls at rest
+//! stop nothing, and without watched tasks (not real-time) nothing does. A fault the urgent
+//! queue has no room for is reported when it has.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -8,7 +9,7 @@ use std::sync::{Arc, OnceLock};
 use wrc_board::{DpramBoard, Expect, Fault, Mapping};
 use wrc_board_sim::{SimBoard, SimSettings};
 use wrc_config::Config;
-use wrc_controller::error_check::{ErrorCheck, Limits};
+use wrc_controller::error_check::{ErrorCheck, Limits, Watched};
 use wrc_controller::messages::{SourceId, Urgent};
 use wrc_controller::shared::{RobotState, Shared};
 use wrc_protocol::Code;
@@ -37,7 +38,12 @@ fn rig(watched: bool) -> Rig {
     let cell = Arc::new(StatsCell::new());
     let stats = Arc::new(OnceLock::new());
     if watched {
-        let _ = stats.set(vec![cell.clone()]);
+        // A 10 ms task whose buffer covers 20 ms (the Pulse Generator's look-ahead).
+        let _ = stats.set(vec![Watched {
+            cell: cell.clone(),
+            period_ns: 10_000_000,
+            tolerance_ns: 20_000_000,
+        }]);
     }
     let owner_lost = Arc::new(AtomicBool::new(false));
     let ec = ErrorCheck::new(
@@ -61,11 +67,12 @@ fn rig(watched: bool) -> Rig {
 }
 
 impl Rig {
-    fn overrun(&self, times: usize) {
+    /// `times` late cycles, each skipping `missed` periods.
+    fn overrun(&self, times: usize, missed: u64) {
         for _ in 0..times {
             self.cell.record(&CycleSample {
                 overrun: true,
-                missed_periods: 1,
+                missed_periods: missed,
                 ..Default::default()
             });
         }
@@ -93,36 +100,36 @@ impl Rig {
 }
 
 #[test]
-fn overruns_of_a_watched_task_during_a_motion_are_fault_207() {
+fn a_stall_of_a_watched_task_longer_than_its_buffer_during_a_motion_is_fault_207() {
     let mut r = rig(true);
     r.shared.set_state(RobotState::Moving);
     r.ec.step();
     assert_eq!(r.fault(), None, "no overrun yet");
-    r.overrun(2);
+    // Many short stalls within one check (at 1 kHz a VM's jitter gives several): each is
+    // covered by the look-ahead, so none starves the motors.
+    r.overrun(8, 1);
+    r.overrun(1, 2);
     r.ec.step();
-    assert_eq!(
-        r.fault(),
-        None,
-        "2 overruns in one check are below the limit of 3"
-    );
-    r.overrun(3);
+    assert_eq!(r.fault(), None, "2 periods skipped are 20 ms: covered");
+    // One stall of 3 periods (30 ms) outlasts the 20 ms the buffer covers.
+    r.overrun(1, 3);
     r.ec.step();
     assert_eq!(r.fault(), Some(Code::TaskOverrun.number()));
 }
 
 #[test]
-fn overruns_at_rest_stop_nothing_and_do_not_count_later() {
+fn stalls_at_rest_stop_nothing_and_do_not_count_later() {
     let mut r = rig(true);
     r.shared.set_state(RobotState::Idle);
-    r.overrun(10);
+    r.overrun(1, 10);
     r.ec.step();
     assert_eq!(r.fault(), None, "the robot stands: nothing to stop");
-    // The overruns at rest are not carried into the next motion.
+    // The stall at rest is not carried into the next motion.
     r.shared.set_state(RobotState::Moving);
     r.ec.step();
     assert_eq!(r.fault(), None);
     r.shared.set_state(RobotState::Stopping);
-    r.overrun(3);
+    r.overrun(1, 3);
     r.ec.step();
     assert_eq!(
         r.fault(),
@@ -135,7 +142,7 @@ fn overruns_at_rest_stop_nothing_and_do_not_count_later() {
 fn without_real_time_overruns_are_no_fault() {
     let mut r = rig(false);
     r.shared.set_state(RobotState::Moving);
-    r.overrun(50);
+    r.overrun(50, 10);
     r.ec.step();
     assert_eq!(r.fault(), None);
 }

@@ -23,7 +23,7 @@ pub use crate::start_error::StartError;
 use crate::host::{Host, HostWake, RealHost};
 
 use crate::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
-use crate::error_check::{ErrorCheck, Limits};
+use crate::error_check::{ErrorCheck, Limits, Watched};
 use crate::ethernet::Ethernet;
 use crate::io_monitor::IoMonitor;
 use crate::messages::{Outputs, SourceId, StoreLinks};
@@ -39,7 +39,63 @@ use crate::velocity_generator::VelocityGenerator;
 pub const MAX_GUIS: usize = 16;
 
 /// The tasks whose overruns during a motion are a fault (code 207) under real-time scheduling.
-const MOTION_PATH: [&str; 3] = ["error_check", "pulse_generator", "velocity_generator"];
+/// Batches in the pulse ring: what the Velocity Generator plans between two of its cycles
+/// and the Pulse Generator's look-ahead, twice over (at 1 kHz a 16-period ring ran dry
+/// between two 50 ms cycles and the motion stuttered: zero periods streamed mid-move).
+fn ring_capacity(config: &Config) -> usize {
+    let vg_period_us = config
+        .tasks
+        .get("velocity_generator")
+        .map_or(50_000, |t| t.period_us);
+    let motion_us = (config.motion.period_s * 1e6).max(1.0);
+    let ring =
+        (2.0 * (vg_period_us as f64 / motion_us).ceil()) as usize + 2 * config.lookahead_periods;
+    ring.clamp(16, 4096)
+}
+
+/// The look-ahead without real-time scheduling [periods]: an ordinary process's stalls on a
+/// busy machine run to tens of ms (40-55 ms seen in the browser tests, a debug build beside
+/// Chromium), longer than the 20 ms default that suits SCHED_FIFO; so 100 ms, as far as the
+/// FIFO allows (4 entries kept free), and never less than configured. A stop does not wait
+/// for it (the board flushes the queue: docs/dpram.md); a move starts that much later.
+fn not_real_time_lookahead(config: &Config) -> usize {
+    const NOT_REAL_TIME_LOOKAHEAD_S: f64 = 0.100;
+    let depth = config
+        .boards
+        .iter()
+        .map(|b| b.fifo_depth as usize)
+        .min()
+        .unwrap_or(0);
+    let wanted = (NOT_REAL_TIME_LOOKAHEAD_S / config.motion.period_s).ceil() as usize;
+    wanted
+        .min(depth.saturating_sub(4))
+        .max(config.lookahead_periods)
+}
+
+/// How long a stall of task `name` of the motion path a motion rides out [ns] (`None`: not
+/// of the motion path; its stalls are no fault): what the buffer after it covers. The
+/// Pulse Generator's: the look-ahead queued in the board's FIFO. The Velocity Generator's:
+/// the full ring and the look-ahead, less the period it waits anyway. Error Check's: one of
+/// its periods (a check late by more than that is a fault found that much later).
+fn stall_tolerance_ns(config: &Config, name: &str) -> Option<u64> {
+    let motion_ns = config.motion.period_s * 1e9;
+    let period_ns = |task: &str| {
+        config
+            .tasks
+            .get(task)
+            .map_or(0.0, |t| t.period_us as f64 * 1e3)
+    };
+    let lookahead = config.lookahead_periods as f64 * motion_ns;
+    let ns = match name {
+        "pulse_generator" => lookahead,
+        "velocity_generator" => {
+            ring_capacity(config) as f64 * motion_ns + lookahead - period_ns(name)
+        }
+        "error_check" => period_ns(name),
+        _ => return None,
+    };
+    Some(ns.max(0.0) as u64)
+}
 
 /// Where the controller listens and sends.
 #[derive(Debug, Clone)]
@@ -178,7 +234,7 @@ pub(crate) struct Assembled<W> {
     pub shared: Arc<Shared>,
     pub tcp: Option<SocketAddr>,
     /// Overrun statistics Error Check watches (set once the runtime says it is real-time).
-    pub watched: Arc<OnceLock<Vec<Arc<wrc_rt::StatsCell>>>>,
+    pub watched: Arc<OnceLock<Vec<Watched>>>,
     /// The `TASKS` query's cells (set once the runtime has its tasks).
     pub task_cells: crate::queries::TaskCells,
     /// The urgent path's blocking half.
@@ -274,17 +330,7 @@ pub(crate) fn assemble<H: Host>(
         .store(config.motion.speed_pct.round() as u32, Ordering::Release);
 
     // Queues (the paper's Table 5 kinds) between the tasks.
-    // The ring holds what the Velocity Generator plans between two of its cycles and the
-    // Pulse Generator's look-ahead, twice over: at 1 kHz a 16-period ring ran dry between
-    // two 50 ms cycles and the motion stuttered (zero periods streamed mid-move).
-    let vg_period_us = config
-        .tasks
-        .get("velocity_generator")
-        .map_or(50_000, |t| t.period_us);
-    let motion_us = (config.motion.period_s * 1e6).max(1.0);
-    let ring =
-        (2.0 * (vg_period_us as f64 / motion_us).ceil()) as usize + 2 * config.lookahead_periods;
-    let (ring_tx, ring_rx) = spsc::channel(ring.clamp(16, 4096));
+    let (ring_tx, ring_rx) = spsc::channel(ring_capacity(config));
     let (resume_tx, resume_rx) = mailbox(generator.state());
     // The Command Interpreter, the Velocity Generator and the service thread are released
     // by their messages as well as by their periods (the queues notify their consumer); the
@@ -630,14 +676,32 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         let watched = running
             .task_cells()
             .into_iter()
-            .filter(|(spec, _)| MOTION_PATH.contains(&spec.name.as_str()))
-            .map(|(_, cell)| cell)
+            .filter_map(|(spec, cell)| {
+                Some(Watched {
+                    cell,
+                    period_ns: spec.period_us * 1_000,
+                    tolerance_ns: stall_tolerance_ns(config, &spec.name)?,
+                })
+            })
             .collect();
         let _ = parts.watched.set(watched);
     } else {
         tracing::warn!(
             "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
         );
+        let raised = not_real_time_lookahead(config);
+        if raised > config.lookahead_periods {
+            parts
+                .shared
+                .fifo
+                .lookahead
+                .store(raised as u32, Ordering::Relaxed);
+            tracing::warn!(
+                "wrc: not real-time, so the Pulse Generator keeps {:.0} ms queued on the board instead of {:.0} ms ([motion] lookahead_ms): an ordinary process stalls for tens of ms on a busy machine, and a FIFO run dry while moving stops the robot (209); moves start that much later, stops do not wait for it",
+                raised as f64 * config.motion.period_s * 1e3,
+                config.lookahead_periods as f64 * config.motion.period_s * 1e3
+            );
+        }
     }
     let _ = parts
         .task_cells
@@ -698,4 +762,46 @@ fn bind_unix(path: &Path) -> Result<UnixListener, StartError> {
     let l = UnixListener::bind(path).map_err(err)?;
     l.set_nonblocking(true).map_err(err)?;
     Ok(l)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stalls the motion rides out follow the buffers, at 10 ms and at 1 kHz: the
+    /// look-ahead (20 ms either way) after the Pulse Generator; the ring (16 batches at
+    /// 10 ms, 140 at 1 ms) and the look-ahead, less its 50 ms period, after the Velocity
+    /// Generator; one 100 ms period for Error Check; no other task's stalls are a fault.
+    #[test]
+    fn stall_tolerances_are_what_the_buffers_cover() {
+        let ms =
+            |name: &str, config: &Config| stall_tolerance_ns(config, name).map(|ns| ns / 1_000_000);
+        let ten = Config::embedded_default();
+        assert_eq!(ring_capacity(&ten), 16);
+        assert_eq!(ms("pulse_generator", &ten), Some(20));
+        assert_eq!(ms("velocity_generator", &ten), Some(160 + 20 - 50));
+        assert_eq!(ms("error_check", &ten), Some(100));
+        assert_eq!(ms("ethernet", &ten), None);
+        let text = wrc_config::DEFAULT_TOML.replacen("period_ms = 10.0 ", "period_ms = 1.0 ", 1);
+        let khz = Config::parse(&text, "khz").unwrap();
+        assert_eq!(khz.lookahead_periods, 20);
+        assert_eq!(ring_capacity(&khz), 2 * 50 + 2 * 20);
+        assert_eq!(ms("pulse_generator", &khz), Some(20));
+        assert_eq!(ms("velocity_generator", &khz), Some(140 + 20 - 50));
+    }
+
+    /// Without real-time scheduling the look-ahead is 100 ms where the FIFO allows it: 10
+    /// periods at 10 ms; at 1 kHz the 64-entry FIFO keeps 60; never below the configured.
+    #[test]
+    fn the_look_ahead_without_real_time_rides_out_an_ordinary_processs_stalls() {
+        let ten = Config::embedded_default();
+        assert_eq!(not_real_time_lookahead(&ten), 10);
+        let text = wrc_config::DEFAULT_TOML.replacen("period_ms = 10.0 ", "period_ms = 1.0 ", 1);
+        let khz = Config::parse(&text, "khz").unwrap();
+        assert_eq!(not_real_time_lookahead(&khz), 60);
+        let long =
+            wrc_config::DEFAULT_TOML.replacen("lookahead_ms = 20.0", "lookahead_ms = 300.0", 1);
+        let long = Config::parse(&long, "long").unwrap();
+        assert_eq!(not_real_time_lookahead(&long), long.lookahead_periods);
+    }
 }

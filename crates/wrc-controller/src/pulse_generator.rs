@@ -567,6 +567,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
     pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
         if release == Release::Period {
+            // The look-ahead may be raised after start-up (not real-time: see
+            // `controller::not_real_time_lookahead`).
+            let lookahead = self.shared.fifo.lookahead.load(Ordering::Relaxed) as usize;
+            self.lead = lookahead.min(self.fifo_depth.saturating_sub(1)).max(1);
             self.watch_boards();
             self.watch_fifo();
         }

@@ -77,31 +77,69 @@ fn io_error(action: &'static str, source: io::Error) -> TraceError {
 // ---------------------------------------------------------------------------------------
 // Writing
 
-/// Write `trace` in the file format. Nothing is written when the trace cannot be.
-pub(crate) fn write(trace: &TraceFile, w: &mut impl Write) -> Result<(), TraceError> {
+/// The buffers a trace is encoded in, kept from one save to the next: a recorder that
+/// made them as large as its ring at start-up saves without growing (at 1 kHz a 30 s
+/// window is tens of MB, which a first save on an alarm would otherwise add then).
+#[derive(Debug, Default)]
+pub struct EncodeBuffers {
+    meta: Vec<u8>,
+    samples: Vec<u8>,
+    messages: Vec<u8>,
+    out: Vec<u8>,
+}
+
+impl EncodeBuffers {
+    /// The encoded file of the last [`TraceFile::encode_into`].
+    pub fn bytes(&self) -> &[u8] {
+        &self.out
+    }
+
+    /// Memory they hold [byte].
+    pub fn capacity(&self) -> usize {
+        self.meta.capacity()
+            + self.samples.capacity()
+            + self.messages.capacity()
+            + self.out.capacity()
+    }
+}
+
+/// Encode `trace` in the file format into `b.out`. Nothing is encoded when the trace
+/// cannot be.
+pub(crate) fn encode(trace: &TraceFile, b: &mut EncodeBuffers) -> Result<(), TraceError> {
     let axes = trace.meta.axis_names.len();
     if axes > MAX_AXES {
         return Err(invalid(format!(
             "it has {axes} axis names; a trace has at most {MAX_AXES} axes"
         )));
     }
-    // The meta is the only part that can break a rule: encode it before writing anything.
-    let mut meta = Vec::new();
-    encode_meta(&trace.meta, &mut meta)?;
-    let mut samples = Vec::new();
-    encode_samples(&trace.samples, axes, &mut samples);
-    let mut messages = Vec::new();
-    encode_messages(&trace.messages, &mut messages);
-    (|| {
-        w.write_all(&MAGIC)?;
-        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
-        put_section(w, META, &meta)?;
-        put_section(w, SAMPLES, &samples)?;
-        put_section(w, MESSAGES, &messages)?;
-        put_section(w, END, &[])?;
-        w.flush()
-    })()
-    .map_err(|e| io_error("write", e))
+    // The meta is the only part that can break a rule: encode it before anything else.
+    b.meta.clear();
+    encode_meta(&trace.meta, &mut b.meta)?;
+    b.samples.clear();
+    encode_samples(&trace.samples, axes, &mut b.samples);
+    b.messages.clear();
+    encode_messages(&trace.messages, &mut b.messages);
+    b.out.clear();
+    let w = &mut b.out;
+    w.extend_from_slice(&MAGIC);
+    w.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    for (section, body) in [
+        (META, &b.meta),
+        (SAMPLES, &b.samples),
+        (MESSAGES, &b.messages),
+    ] {
+        put_section(w, section, body).map_err(|e| io_error("write", e))?;
+    }
+    put_section(w, END, &[]).map_err(|e| io_error("write", e))
+}
+
+/// Write `trace` in the file format. Nothing is written when the trace cannot be.
+pub(crate) fn write(trace: &TraceFile, w: &mut impl Write) -> Result<(), TraceError> {
+    let mut b = EncodeBuffers::default();
+    encode(trace, &mut b)?;
+    w.write_all(&b.out)
+        .and_then(|()| w.flush())
+        .map_err(|e| io_error("write", e))
 }
 
 fn put_section(w: &mut impl Write, section: Section, body: &[u8]) -> io::Result<()> {

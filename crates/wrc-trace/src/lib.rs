@@ -44,7 +44,7 @@ mod sample;
 mod trace_file;
 
 pub use error::TraceError;
-pub use format::{FORMAT_VERSION, MAGIC};
+pub use format::{EncodeBuffers, FORMAT_VERSION, MAGIC};
 pub use message::{
     source_name, Direction, Message, MAX_MESSAGE, SOURCE_EVENT, SOURCE_GUI, SOURCE_HOST,
     SOURCE_PENDANT, SOURCE_PROGRAM,

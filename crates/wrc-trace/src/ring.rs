@@ -111,24 +111,29 @@ impl Ring {
     ///
     /// `meta.from_start` is kept only if no message was overwritten and `since_ns` leaves
     /// out none of the messages kept: otherwise the trace does not hold the whole session.
-    pub fn snapshot(&self, mut meta: Meta, since_ns: Option<u64>) -> TraceFile {
+    pub fn snapshot(&self, meta: Meta, since_ns: Option<u64>) -> TraceFile {
+        let mut trace = TraceFile {
+            meta: meta.clone(),
+            samples: Vec::new(),
+            messages: Vec::new(),
+        };
+        self.snapshot_into(meta, since_ns, &mut trace);
+        trace
+    }
+
+    /// [`Ring::snapshot`] into `into`, reusing its vectors (no allocation when they hold
+    /// [`Ring::capacity`]).
+    pub fn snapshot_into(&self, mut meta: Meta, since_ns: Option<u64>, into: &mut TraceFile) {
         let since = since_ns.unwrap_or(0);
-        let samples: Vec<Sample> = self
-            .samples()
-            .filter(|s| s.t_ns >= since)
-            .copied()
-            .collect();
-        let messages: Vec<Message> = self
-            .messages()
-            .filter(|m| m.t_ns >= since)
-            .copied()
-            .collect();
-        meta.from_start &= self.messages.overwritten == 0 && messages.len() == self.messages.len;
-        TraceFile {
-            meta,
-            samples,
-            messages,
-        }
+        into.samples.clear();
+        into.samples
+            .extend(self.samples().filter(|s| s.t_ns >= since).copied());
+        into.messages.clear();
+        into.messages
+            .extend(self.messages().filter(|m| m.t_ns >= since).copied());
+        meta.from_start &=
+            self.messages.overwritten == 0 && into.messages.len() == self.messages.len;
+        into.meta = meta;
     }
 }
 

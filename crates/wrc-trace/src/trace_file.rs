@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::io::{Read, Write};
 use std::path::Path;
 
-use crate::format;
+use crate::format::{self, EncodeBuffers};
 use crate::{Direction, Message, Meta, Sample, TraceError};
 
 /// A trace: what the ring held when it was saved, and its meta.
@@ -31,9 +31,19 @@ impl TraceFile {
     /// file is written next to `path` under a temporary name, synced and renamed over
     /// `path`, so a reader sees the old file or the new one, never half of one.
     pub fn save(&self, path: &Path) -> Result<(), TraceError> {
+        self.save_with(path, &mut EncodeBuffers::default())
+    }
+
+    /// Encode the trace into `buffers` ([`EncodeBuffers::bytes`]), reusing their memory.
+    pub fn encode_into(&self, buffers: &mut EncodeBuffers) -> Result<(), TraceError> {
+        crate::format::encode(self, buffers)
+    }
+
+    /// [`TraceFile::save`], encoding into `buffers` (kept for the next save).
+    pub fn save_with(&self, path: &Path, buffers: &mut EncodeBuffers) -> Result<(), TraceError> {
         let name = path.display().to_string();
-        let mut bytes = Vec::new();
-        self.write_to(&mut bytes).map_err(|e| e.in_file(&name))?;
+        self.encode_into(buffers).map_err(|e| e.in_file(&name))?;
+        let bytes = buffers.bytes();
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|source| TraceError::Io {
                 file: name.clone(),
@@ -41,7 +51,7 @@ impl TraceFile {
                 source,
             })?;
         }
-        wrc_cell::write_atomic(path, &bytes).map_err(|source| TraceError::Io {
+        wrc_cell::write_atomic(path, bytes).map_err(|source| TraceError::Io {
             file: name,
             action: "write",
             source,

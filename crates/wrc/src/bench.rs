@@ -318,7 +318,7 @@ fn to_json(r: &BenchReport) -> Value {
         .collect();
     let cyclictest = match &r.cyclictest {
         Ok(ct) => json!({
-            "min_us": ct.min_us, "avg_us": ct.avg_us, "p99_us": ct.p99_us, "max_us": ct.max_us,
+            "min_us": ct.min_us, "avg_us": ct.avg_us, "p50_us": ct.p50_us, "p99_us": ct.p99_us, "max_us": ct.max_us,
             "samples": ct.samples, "command": ct.command,
         }),
         Err(_) => Value::Null,

@@ -33,27 +33,42 @@ impl Load {
         let cpus = std::thread::available_parallelism()
             .map(|n| n.get())
             .unwrap_or(1);
+        Load::stress_ng(cpus, "128M", seconds + 5).unwrap_or_else(|_| Load::built_in(cpus))
+    }
+
+    /// Start `stress-ng --cpu <cpus> --vm 1 --vm-bytes <vm_bytes> --timeout <seconds>s`; an
+    /// error when it cannot be started (not installed).
+    pub fn stress_ng(cpus: usize, vm_bytes: &str, seconds: u64) -> std::io::Result<Load> {
         let args = [
             "--cpu".to_string(),
             cpus.to_string(),
             "--vm".into(),
             "1".into(),
             "--vm-bytes".into(),
-            "128M".into(),
+            vm_bytes.into(),
             "--timeout".into(),
-            format!("{}s", seconds + 5),
+            format!("{seconds}s"),
             "--quiet".into(),
         ];
         let command = format!("stress-ng {}", args.join(" "));
-        match Command::new("stress-ng")
+        let child = Command::new("stress-ng")
             .args(&args)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null())
-            .spawn()
-        {
-            Ok(child) => Load::StressNg { child, command },
-            Err(_) => Load::built_in(cpus),
+            .spawn()?;
+        Ok(Load::StressNg { child, command })
+    }
+
+    /// `Ok` while the load runs; how it ended when stress-ng has exited.
+    pub fn check_running(&mut self) -> Result<(), String> {
+        match self {
+            Load::StressNg { child, command } => match child.try_wait() {
+                Ok(None) => Ok(()),
+                Ok(Some(status)) => Err(format!("`{command}` ended ({status})")),
+                Err(e) => Err(format!("`{command}`: {e}")),
+            },
+            Load::BuiltIn { .. } => Ok(()),
         }
     }
 

@@ -502,6 +502,22 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         .get(PULSE_GENERATOR)
         .cloned()
         .context("the configuration has no pulse_generator task")?;
+    // A soak that says it ran loaded must have: stress-ng or no run. It starts first, so a
+    // missing stress-ng is said at once, and loads the controller's start-up and homing too.
+    let mut load_process = if args.load {
+        Some(
+            Load::stress_ng(LOAD_CPUS, LOAD_VM_BYTES, args.seconds + LOAD_SPARE_S).map_err(
+                |e| {
+                    anyhow::anyhow!(
+                        "--load needs stress-ng, which cannot be run ({e}): install it (Debian \
+                         package stress-ng; make soak does) or leave --load out"
+                    )
+                },
+            )?,
+        )
+    } else {
+        None
+    };
     let options = UpOptions {
         state: dir.path.clone(),
         config: config_file,
@@ -522,21 +538,6 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     // The robot must be homed before it moves.
     probe.run_ok("HOME")?;
     let (_, fds_before) = usage(pid)?;
-    // A soak that says it ran loaded must have: stress-ng or no run.
-    let mut load_process = if args.load {
-        Some(
-            Load::stress_ng(LOAD_CPUS, LOAD_VM_BYTES, args.seconds + LOAD_SPARE_S).map_err(
-                |e| {
-                    anyhow::anyhow!(
-                        "--load needs stress-ng, which cannot be run ({e}): install it (Debian \
-                         package stress-ng; make soak does) or leave --load out"
-                    )
-                },
-            )?,
-        )
-    } else {
-        None
-    };
     eprintln!(
         "soak: {} clients for {} s (seed {}), servo period {period_ms} ms, {}, controller pid {pid} …",
         args.clients,
@@ -602,15 +603,7 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         .map(|l| l.check_running().map(|()| l.describe()));
     // The clients are gone: the controller closes their connections within its period.
     let mut up = Arc::try_unwrap(up).map_err(|_| anyhow::anyhow!("a client still runs"))?;
-    let (h1, h2, h3, rss_warm, rss_half) = match watched {
-        Ok(w) => w,
-        Err(e) => {
-            if let Some(l) = load_process.take() {
-                l.stop();
-            }
-            return Err(e);
-        }
-    };
+    let (h1, h2, h3, rss_warm, rss_half) = watched?;
     let settle = Instant::now() + Duration::from_secs(5);
     let (mut rss_end, mut fds_end) = usage(pid)?;
     while fds_end > fds_before && Instant::now() < settle {
@@ -631,9 +624,8 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         cyclictest: cyclic.and_then(Cyclictest::finish),
         pulses,
     };
-    if let Some(l) = load_process.take() {
-        l.stop();
-    }
+    // The load ends here (and on any early return above, when it is dropped).
+    drop(load_process);
     let (p99_first, p99_last) = (window_p99(&h0, &h1), window_p99(&h2, &h3));
     let rss_allowed = rss_half + (rss_half * RSS_SLACK_PCT / 100).max(RSS_SLACK_KIB);
     let mut fails: Vec<String> = Vec::new();

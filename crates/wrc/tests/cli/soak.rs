@@ -104,3 +104,25 @@ fn a_short_soak_at_one_millisecond_reports_the_servo_loop_and_loses_no_pulse() {
     assert_eq!(servo["lost_pulses"], 0, "{servo:#}");
     assert_eq!(report["alive"], true, "{stdout}");
 }
+
+/// `--load` where stress-ng cannot run: a clear refusal before anything runs, never a soak
+/// reported as loaded that ran idle.
+#[test]
+fn a_loaded_soak_without_stress_ng_refuses_to_run() {
+    let empty = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
+        .args(["bench", "soak", "--load", "--seconds", "5", "--no-rt"])
+        .env("PATH", empty.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(!out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains("--load needs stress-ng") && stderr.contains("leave --load out"),
+        "{stderr}"
+    );
+    assert!(!stdout.contains("verdict"), "{stdout}");
+}

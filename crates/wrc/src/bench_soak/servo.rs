@@ -244,7 +244,9 @@ impl Servo {
                 ),
                 None => format!("- (never streamed) of {}", fifo.lookahead),
             },
-            "< look-ahead",
+            // A FIFO found empty at the start of a period has not underrun yet: the goal is on
+            // the underruns.
+            "",
         ));
         rows.push(row(
             "board periods late / board stops",

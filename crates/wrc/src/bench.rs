@@ -43,7 +43,10 @@ enum BenchWhat {
     Cell(crate::bench_cell::CellArgs),
     /// A sustained run of `wrc up` under random valid and invalid requests from several
     /// clients while the robot moves: no crash, every request answered, no descriptor or
-    /// memory left behind, the Pulse Generator's jitter at the end as at the start.
+    /// memory left behind, the Pulse Generator's jitter at the end as at the start; and the
+    /// servo loop at its period (`--period-ms 1`: 1 kHz), idle or under `--load`: underruns,
+    /// watchdog and following-error trips, lost pulses, overruns, the deepest FIFO drain and
+    /// the Pulse Generator's wake-up latency beside cyclictest's.
     Soak(crate::bench_soak::SoakArgs),
     /// Measure the Pulse Generator's jitter with no GUI, with `wrc ui` serving browsers, and
     /// after `kill -9` of `wrc ui`: the GUI must not disturb control.
@@ -318,7 +321,7 @@ fn to_json(r: &BenchReport) -> Value {
         .collect();
     let cyclictest = match &r.cyclictest {
         Ok(ct) => json!({
-            "min_us": ct.min_us, "avg_us": ct.avg_us, "p99_us": ct.p99_us, "max_us": ct.max_us,
+            "min_us": ct.min_us, "avg_us": ct.avg_us, "p50_us": ct.p50_us, "p99_us": ct.p99_us, "max_us": ct.max_us,
             "samples": ct.samples, "command": ct.command,
         }),
         Err(_) => Value::Null,

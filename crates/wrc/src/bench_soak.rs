@@ -24,6 +24,18 @@
 //! half may take a step that stays (buffers the allocator keeps once used; the runs measured
 //! took one step of about 10 MB in their first two minutes, then stayed flat); a leak keeps
 //! climbing.
+//!
+//! The servo loop, at the configuration's period or at `--period-ms` (1 for 1 kHz), idle or
+//! under `--load` (stress-ng): underruns, host-watchdog trips and following-error trips
+//! (none allowed), every task's overruns, the Pulse Generator's wake-up latency beside
+//! cyclictest's at the same SCHED_FIFO priority and interval in the same run, the deepest
+//! board FIFO drain against the look-ahead, and, at rest at the end, the pulse count of every
+//! axis on the board against the controller's (equal, or pulses were lost). See [`servo`].
+
+mod period;
+mod pulses;
+mod servo;
+mod tasks;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -40,7 +52,13 @@ use serde_json::json;
 use wrc_config::Config;
 use wrc_robot::{Joints, MAX_AXES};
 
+use crate::bench_rt::cyclictest::{self, Cyclictest};
+use crate::bench_rt::load::Load;
 use crate::up_process::{reply_of, Conn, Up, UpOptions};
+use servo::Servo;
+use tasks::{Bins, TaskLine, PULSE_GENERATOR};
+use wrc_rt::fifo_priority;
+use wrc_rt::sched_policy::isolated_cpus;
 
 /// How long a request may wait for its reply, and a motion for its end [s].
 const REPLY_S: u64 = 10;
@@ -48,6 +66,12 @@ const REPLY_S: u64 = 10;
 const MOTION_S: u64 = 120;
 /// The probe connection's pace of `STATUS` while it waits [s] (under the idle timeout).
 const KEEP_ALIVE_S: u64 = 30;
+/// `--load`: stress-ng's CPU stressors and its memory stressor's size (`stress-ng --cpu 2
+/// --vm 1 --vm-bytes 256M`).
+const LOAD_CPUS: usize = 2;
+const LOAD_VM_BYTES: &str = "256M";
+/// stress-ng's own timeout beyond the clients' time [s]; the bench stops it sooner.
+const LOAD_SPARE_S: u64 = 300;
 /// Resident-memory growth allowed from half time to the end [KiB] …
 const RSS_SLACK_KIB: u64 = 4096;
 /// … or [%] of the half-time figure, whichever is larger.
@@ -68,6 +92,17 @@ pub struct SoakArgs {
     /// Run the controller without SCHED_FIFO.
     #[arg(long)]
     no_rt: bool,
+    /// Servo period [ms]: the Pulse Generator's, the Simulator Manager's and the board's
+    /// (1 for 1 kHz); default: the configuration's own (10).
+    #[arg(long, value_name = "P")]
+    period_ms: Option<f64>,
+    /// Run `stress-ng --cpu 2 --vm 1 --vm-bytes 256M` for the whole run (the run fails when
+    /// stress-ng cannot run).
+    #[arg(long)]
+    load: bool,
+    /// Do not run cyclictest beside the Pulse Generator.
+    #[arg(long)]
+    no_cyclictest: bool,
     /// Write every figure as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
@@ -391,51 +426,101 @@ fn usage(pid: u32) -> anyhow::Result<(u64, u64)> {
     Ok((rss, fds))
 }
 
-/// The Pulse Generator's latency histogram now (`TASKS`): (upper bound [µs], count).
-fn pg_histogram(c: &mut Conn) -> anyhow::Result<Vec<(u64, u64)>> {
+/// Every task's `EVT TASK` line now (`TASKS`).
+fn tasks_now(c: &mut Conn) -> anyhow::Result<Vec<TaskLine>> {
     let asked = ask(c, "TASKS")?;
-    let line = asked
-        .lines
+    if asked.reply.is_none() {
+        bail!("the controller did not answer TASKS within {REPLY_S} s");
+    }
+    let tasks = tasks::task_lines(&asked.lines);
+    if !tasks.iter().any(|t| t.name == PULSE_GENERATOR) {
+        bail!("TASKS did not list the Pulse Generator");
+    }
+    Ok(tasks)
+}
+
+/// The Pulse Generator's latency histogram now (`TASKS`).
+fn pg_histogram(c: &mut Conn) -> anyhow::Result<Bins> {
+    let tasks = tasks_now(c)?;
+    Ok(tasks
         .iter()
-        .find(|l| l.starts_with("EVT TASK pulse_generator "))
-        .context("TASKS did not list the Pulse Generator")?;
-    let hist = line
-        .split(' ')
-        .find_map(|w| w.strip_prefix("lat_hist="))
-        .unwrap_or("");
-    Ok(hist
-        .split(',')
-        .filter_map(|bin| {
-            let (u, n) = bin.split_once(':')?;
-            Some((u.parse().ok()?, n.parse().ok()?))
-        })
-        .collect())
+        .find(|t| t.name == PULSE_GENERATOR)
+        .map(TaskLine::histogram)
+        .unwrap_or_default())
 }
 
 /// The p99 [µs] (a bin's upper bound) of the samples added from `a` to `b`.
 fn window_p99(a: &[(u64, u64)], b: &[(u64, u64)]) -> Option<u64> {
-    let before = |u: u64| a.iter().find(|(x, _)| *x == u).map_or(0, |(_, n)| *n);
-    let delta: Vec<(u64, u64)> = b
-        .iter()
-        .map(|&(u, n)| (u, n.saturating_sub(before(u))))
-        .collect();
-    let total: u64 = delta.iter().map(|(_, n)| n).sum();
-    if total == 0 {
-        return None;
+    tasks::percentile(&tasks::difference(a, b), 99)
+}
+
+/// What the controller said of its scheduling at start-up (`wrc-rt: real-time scheduling: …`
+/// or `wrc-rt: NOT real-time: …`).
+fn scheduling_of(up: &Up) -> String {
+    up.log
+        .find(0, Duration::from_secs(2), |l| {
+            l.starts_with("wrc-rt: real-time scheduling") || l.starts_with("wrc-rt: NOT real-time")
+        })
+        .map_or_else(
+            || "not reported by the controller".to_string(),
+            |(_, _, l)| l.trim_start_matches("wrc-rt: ").to_string(),
+        )
+}
+
+/// cyclictest at the Pulse Generator's SCHED_FIFO priority, interval and CPU for `seconds`,
+/// or why it does not run.
+fn start_cyclictest(
+    pg: &wrc_rt::TaskSpec,
+    seconds: u64,
+    wanted: bool,
+) -> Result<Cyclictest, String> {
+    if !wanted {
+        return Err("not requested (--no-cyclictest)".into());
     }
-    let mut seen = 0;
-    delta.iter().find_map(|&(u, n)| {
-        seen += n;
-        (seen * 100 >= total * 99).then_some(u)
-    })
+    let bin = cyclictest::find().ok_or("not installed (Debian package rt-tests)")?;
+    let cpu = pg.cpu.or(isolated_cpus().first().copied());
+    Cyclictest::start(&bin, fifo_priority(pg.priority), pg.period_us, seconds, cpu)
+        .map_err(|e| format!("cannot start cyclictest: {e}"))
 }
 
 /// Run `wrc bench soak`.
 pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
-    let config = Config::embedded_default();
     let dir = crate::sim::state_dir(None)?;
+    let (config, config_file) = match args.period_ms {
+        None => (Config::embedded_default(), None),
+        Some(p) => {
+            let (text, config) = period::config_for_period(p)?;
+            let path = dir.path.join("soak-config.toml");
+            std::fs::write(&path, text)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            (config, Some(path))
+        }
+    };
+    let period_ms = config.motion.period_s * 1000.0;
+    let pg_task = config
+        .tasks
+        .get(PULSE_GENERATOR)
+        .cloned()
+        .context("the configuration has no pulse_generator task")?;
+    // A soak that says it ran loaded must have: stress-ng or no run. It starts first, so a
+    // missing stress-ng is said at once, and loads the controller's start-up and homing too.
+    let mut load_process = if args.load {
+        Some(
+            Load::stress_ng(LOAD_CPUS, LOAD_VM_BYTES, args.seconds + LOAD_SPARE_S).map_err(
+                |e| {
+                    anyhow::anyhow!(
+                        "--load needs stress-ng, which cannot be run ({e}): install it (Debian \
+                         package stress-ng; make soak does) or leave --load out"
+                    )
+                },
+            )?,
+        )
+    } else {
+        None
+    };
     let options = UpOptions {
         state: dir.path.clone(),
+        config: config_file,
         no_rt: args.no_rt,
         ..UpOptions::default()
     };
@@ -448,16 +533,22 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         ),
     };
     let pid = up.pid();
+    let scheduling = scheduling_of(&up);
     let mut probe = up.conn()?;
     // The robot must be homed before it moves.
     probe.run_ok("HOME")?;
     let (_, fds_before) = usage(pid)?;
     eprintln!(
-        "soak: {} clients for {} s (seed {}), controller pid {pid} …",
-        args.clients, args.seconds, args.seed
+        "soak: {} clients for {} s (seed {}), servo period {period_ms} ms, {}, controller pid {pid} …",
+        args.clients,
+        args.seconds,
+        args.seed,
+        load_process.as_ref().map_or("idle".to_string(), Load::describe)
     );
     let quit = Arc::new(AtomicBool::new(false));
     let up = Arc::new(up);
+    let h0 = pg_histogram(&mut probe)?;
+    let cyclic = start_cyclictest(&pg_task, args.seconds, !args.no_cyclictest);
     let workers: Vec<_> = (0..args.clients)
         .map(|i| {
             let (up, quit, config) = (up.clone(), quit.clone(), config.clone());
@@ -484,7 +575,6 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
                 }
             })
         };
-        let h0 = pg_histogram(&mut probe)?;
         watch(&mut probe, at(0.1))?;
         let h1 = pg_histogram(&mut probe)?;
         let (rss_warm, _) = usage(pid)?;
@@ -494,7 +584,7 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         let h2 = pg_histogram(&mut probe)?;
         watch(&mut probe, at(1.0))?;
         let h3 = pg_histogram(&mut probe)?;
-        Ok((h0, h1, h2, h3, rss_warm, rss_half))
+        Ok((h1, h2, h3, rss_warm, rss_half))
     })();
     // Whatever happened, the clients stop (and with the last of them the controller).
     quit.store(true, Ordering::Release);
@@ -507,9 +597,13 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
             Err(_) => failures.push(format!("client {i} panicked")),
         }
     }
+    let secs = began.elapsed().as_secs_f64();
+    let load = load_process
+        .as_mut()
+        .map(|l| l.check_running().map(|()| l.describe()));
     // The clients are gone: the controller closes their connections within its period.
     let mut up = Arc::try_unwrap(up).map_err(|_| anyhow::anyhow!("a client still runs"))?;
-    let (h0, h1, h2, h3, rss_warm, rss_half) = watched?;
+    let (h1, h2, h3, rss_warm, rss_half) = watched?;
     let settle = Instant::now() + Duration::from_secs(5);
     let (mut rss_end, mut fds_end) = usage(pid)?;
     while fds_end > fds_before && Instant::now() < settle {
@@ -517,15 +611,47 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         (rss_end, fds_end) = usage(pid)?;
     }
     let alive = up.alive() && ask(&mut probe, "STATUS")?.reply.is_some();
+    // The servo figures: pulses at rest, the tasks' counters, cyclictest's run, the alarms.
+    let pulses = pulses::at_rest(&mut probe, &config, &up.state).map_err(|e| format!("{e:#}"));
+    let tasks_end = tasks_now(&mut probe).unwrap_or_default();
+    let servo = Servo {
+        period_ms,
+        scheduling,
+        load,
+        pg_run: tasks::difference(&h0, &h3),
+        tasks: tasks_end,
+        alarms: servo::alarms_of(&probe.lines.since(0)),
+        cyclictest: cyclic.and_then(Cyclictest::finish),
+        pulses,
+    };
+    // The load ends here (and on any early return above, when it is dropped).
+    drop(load_process);
     let (p99_first, p99_last) = (window_p99(&h0, &h1), window_p99(&h2, &h3));
     let rss_allowed = rss_half + (rss_half * RSS_SLACK_PCT / 100).max(RSS_SLACK_KIB);
-    let pass = alive
-        && failures.is_empty()
-        && tally.unanswered == 0
-        && fds_end <= fds_before
-        && rss_end <= rss_allowed;
+    let mut fails: Vec<String> = Vec::new();
+    if !alive {
+        fails.push("the controller died".into());
+    }
+    fails.extend(failures.iter().map(|f| format!("client failed: {f}")));
+    if tally.unanswered > 0 {
+        fails.push(format!(
+            "{} request(s) not answered as the protocol says",
+            tally.unanswered
+        ));
+    }
+    if fds_end > fds_before {
+        fails.push(format!(
+            "descriptors left behind ({fds_before} before, {fds_end} after)"
+        ));
+    }
+    if rss_end > rss_allowed {
+        fails.push(format!(
+            "resident memory grew in the second half ({rss_half} → {rss_end} KiB, allowed {rss_allowed})"
+        ));
+    }
+    fails.extend(servo.failures());
+    let pass = fails.is_empty();
 
-    let secs = began.elapsed().as_secs_f64();
     println!(
         "wrc bench soak: {} clients, {:.0} s, seed {}",
         args.clients, secs, args.seed
@@ -571,12 +697,24 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         .collect();
     println!("  memory over time   {} KiB", series.join(", "));
     println!(
-        "  PG latency p99     {} µs in the first tenth, {} µs in the last",
+        "  PG latency p99     {} µs in the first tenth, {} µs in the last (bin bounds)",
         p99_first.map_or("-".into(), |v| v.to_string()),
         p99_last.map_or("-".into(), |v| v.to_string())
     );
-    for f in &failures {
-        println!("  client failed      {f}");
+    let condition = format!(
+        "{} ms, {}, {secs:.0} s",
+        servo_num(period_ms),
+        if args.load { "stress-ng" } else { "idle" }
+    );
+    print_table(&condition, &servo.rows());
+    println!(
+        "  (PG p50 is the upper bound of its power-of-two bin over the run; PG p99 and max are"
+    );
+    println!(
+        "  the controller's own since it started; cyclictest ran the same seconds beside it.)"
+    );
+    for f in &fails {
+        println!("  fails              {f}");
     }
     println!(
         "  verdict            {}",
@@ -609,6 +747,9 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
             "rss_allowed_kib": rss_allowed,
             "pg_latency_p99_us_first": p99_first,
             "pg_latency_p99_us_last": p99_last,
+            "condition": condition,
+            "servo": servo.to_json(),
+            "failures": fails,
             "pass": pass,
         });
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
@@ -619,6 +760,34 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// The servo table: one row per figure, the run's column and the goal's.
+fn print_table(condition: &str, rows: &[servo::Row]) {
+    let width = rows
+        .iter()
+        .map(|r| r.what.chars().count())
+        .max()
+        .unwrap_or(0);
+    let value_width = rows
+        .iter()
+        .map(|r| r.value.chars().count())
+        .chain([condition.chars().count()])
+        .max()
+        .unwrap_or(0);
+    println!("  servo loop:");
+    println!("  | {:width$} | {condition:value_width$} | goal", "figure");
+    for r in rows {
+        println!(
+            "  | {:width$} | {:value_width$} | {}",
+            r.what, r.value, r.goal
+        );
+    }
+}
+
+/// A period for the condition's name: `1`, `10`, `0.5`.
+fn servo_num(ms: f64) -> String {
+    format!("{}", (ms * 1000.0).round() / 1000.0)
 }
 
 /// Wait until `t`, with a `STATUS` on the probe connection every [`KEEP_ALIVE_S`]: it holds

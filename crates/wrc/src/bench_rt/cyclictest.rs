@@ -19,6 +19,8 @@ pub struct CyclictestResult {
     pub min_us: f64,
     /// Mean [µs].
     pub avg_us: f64,
+    /// Median [µs].
+    pub p50_us: f64,
     /// 99th percentile [µs].
     pub p99_us: f64,
     /// Maximum [µs].
@@ -163,20 +165,24 @@ pub fn parse(text: &str) -> Option<CyclictestResult> {
     if samples == 0 {
         return None;
     }
-    let rank = ((0.99 * samples as f64).ceil() as u64).max(1);
-    let mut seen = 0;
-    let mut p99_us = max_us;
-    for (us, n) in &buckets {
-        seen += n;
-        if seen >= rank {
-            p99_us = *us as f64;
-            break;
+    // The bucket the `q` quantile falls in; beyond the last bucket, the maximum.
+    let quantile = |q: f64| {
+        let rank = ((q * samples as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (us, n) in &buckets {
+            seen += n;
+            if seen >= rank {
+                return *us as f64;
+            }
         }
-    }
+        max_us
+    };
+    let (p50_us, p99_us) = (quantile(0.5), quantile(0.99));
     Some(CyclictestResult {
         samples,
         min_us: min_us.unwrap_or(0.0),
         avg_us: avg_us.unwrap_or(0.0),
+        p50_us,
         p99_us,
         max_us,
         command: String::new(),
@@ -209,7 +215,7 @@ mod tests {
             (r.samples, r.min_us, r.avg_us, r.max_us),
             (100, 10.0, 11.0, 372.0)
         );
-        assert_eq!(r.p99_us, 40.0);
+        assert_eq!((r.p50_us, r.p99_us), (10.0, 40.0));
         assert!(parse("nothing here").is_none());
     }
 }

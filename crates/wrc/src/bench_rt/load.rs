@@ -1,6 +1,7 @@
-//! The load for `wrc bench rt --load`: stress-ng when it is installed, otherwise a built-in
-//! stressor (one arithmetic spinner per CPU and one thread that keeps allocating, touching
-//! and freeing 64 MiB). Both run on normal scheduling, as other work on the controller would.
+//! The load for `wrc bench rt --load` and `wrc bench soak --load`: stress-ng, or for `wrc
+//! bench rt` when stress-ng is not installed a built-in stressor (one arithmetic spinner per
+//! CPU and one thread that keeps allocating, touching and freeing 64 MiB). Both run on normal
+//! scheduling, as other work on the controller would.
 
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -33,27 +34,42 @@ impl Load {
         let cpus = std::thread::available_parallelism()
             .map(|n| n.get())
             .unwrap_or(1);
+        Load::stress_ng(cpus, "128M", seconds + 5).unwrap_or_else(|_| Load::built_in(cpus))
+    }
+
+    /// Start `stress-ng --cpu <cpus> --vm 1 --vm-bytes <vm_bytes> --timeout <seconds>s`; an
+    /// error when it cannot be started (not installed).
+    pub fn stress_ng(cpus: usize, vm_bytes: &str, seconds: u64) -> std::io::Result<Load> {
         let args = [
             "--cpu".to_string(),
             cpus.to_string(),
             "--vm".into(),
             "1".into(),
             "--vm-bytes".into(),
-            "128M".into(),
+            vm_bytes.into(),
             "--timeout".into(),
-            format!("{}s", seconds + 5),
+            format!("{seconds}s"),
             "--quiet".into(),
         ];
         let command = format!("stress-ng {}", args.join(" "));
-        match Command::new("stress-ng")
+        let child = Command::new("stress-ng")
             .args(&args)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null())
-            .spawn()
-        {
-            Ok(child) => Load::StressNg { child, command },
-            Err(_) => Load::built_in(cpus),
+            .spawn()?;
+        Ok(Load::StressNg { child, command })
+    }
+
+    /// `Ok` while the load runs; how it ended when stress-ng has exited.
+    pub fn check_running(&mut self) -> Result<(), String> {
+        match self {
+            Load::StressNg { child, command } => match child.try_wait() {
+                Ok(None) => Ok(()),
+                Ok(Some(status)) => Err(format!("`{command}` ended ({status})")),
+                Err(e) => Err(format!("`{command}`: {e}")),
+            },
+            Load::BuiltIn { .. } => Ok(()),
         }
     }
 
@@ -91,26 +107,41 @@ impl Load {
         match self {
             Load::StressNg { command, .. } => command.clone(),
             Load::BuiltIn { threads, .. } => {
-                format!("built-in stressor ({} CPU spinners, 1 thread allocating 64 MiB; stress-ng not installed)", threads.len() - 1)
+                format!("built-in stressor ({} CPU spinners, 1 thread allocating 64 MiB; stress-ng not installed)", threads.len().saturating_sub(1))
             }
         }
     }
 
     /// End the load.
-    pub fn stop(self) {
+    pub fn stop(mut self) {
+        self.end();
+    }
+
+    /// End the load and wait for it; nothing left to do the second time.
+    fn end(&mut self) {
         match self {
-            Load::StressNg { mut child, .. } => {
-                // SIGTERM lets stress-ng end its own workers.
-                // SAFETY: kill() with a pid we spawned and still own (not yet reaped).
-                unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+            Load::StressNg { child, .. } => {
+                if matches!(child.try_wait(), Ok(None)) {
+                    // SIGTERM lets stress-ng end its own workers.
+                    // SAFETY: kill() with the pid of a child we spawned and have not reaped
+                    // (try_wait just found it running), so the pid is still ours.
+                    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) };
+                }
                 let _ = child.wait();
             }
             Load::BuiltIn { stop, threads } => {
                 stop.store(true, Ordering::Relaxed);
-                threads.into_iter().for_each(|t| {
+                threads.drain(..).for_each(|t| {
                     let _ = t.join();
                 });
             }
         }
+    }
+}
+
+impl Drop for Load {
+    /// A load dropped (a benchmark that ended early) ends too.
+    fn drop(&mut self) {
+        self.end();
     }
 }

@@ -1,4 +1,4 @@
-//! The DPRAM layout, version 3: fixed byte offsets, little-endian 32- and 64-bit words, and
+//! The DPRAM layout, version 4: fixed byte offsets, little-endian 32- and 64-bit words, and
 //! the header check every user of a mapping runs first. See `docs/dpram.md` for the table.
 //!
 //! Every word is naturally aligned, so each can be read and written as one atomic access;
@@ -7,13 +7,13 @@
 /// Magic number at offset 0: the bytes `WRCB` read as a little-endian `u32`.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"WRCB");
 /// The layout version this crate reads and writes.
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 /// Axes on one board (the paper's PCI board drives 4).
 pub const AXES_PER_BOARD: usize = 4;
 /// Boards one controller drives at most (4 boards × 4 axes = 16 axes).
 pub const MAX_BOARDS: usize = 4;
 /// Command FIFO slots per axis; the usable depth (`fifo_depth`) is at most this [periods].
-pub const FIFO_CAPACITY: usize = 64;
+pub const FIFO_CAPACITY: usize = 256;
 /// Bytes of one FIFO entry: `seq: u32`, `flags: u32`, `increment: i64`.
 pub const FIFO_ENTRY_SIZE: usize = 16;
 
@@ -451,7 +451,7 @@ impl Header {
             "fifo_depth",
             fifo_depth,
             (1..=FIFO_CAPACITY as u32).contains(&fifo_depth),
-            "expected 1 to 64",
+            "expected 1 to 256",
         )?;
         Ok(Header {
             board_id,
@@ -503,10 +503,10 @@ mod tests {
     #[test]
     fn layout_is_fixed() {
         // Pinned numbers: changing any of them is a new layout version.
-        assert_eq!(AXIS_STRIDE, 0x480);
-        assert_eq!(LAYOUT_SIZE, 0x1300);
-        assert_eq!(axis_base(3), 0xE80);
-        assert_eq!(fifo_slot(0, 65), 0x100 + 0x80 + 16);
+        assert_eq!(AXIS_STRIDE, 0x1080);
+        assert_eq!(LAYOUT_SIZE, 0x4300);
+        assert_eq!(axis_base(3), 0x3280);
+        assert_eq!(fifo_slot(0, 257), 0x100 + 0x80 + 16);
         assert_eq!(MAGIC.to_le_bytes(), *b"WRCB");
         // The mapping latch lives in the control block's free space, after the fault
         // mailbox and before the first axis block; nothing else moved.

@@ -122,13 +122,18 @@ pub(crate) struct RawBoard {
 }
 
 fn default_fifo_depth() -> u32 {
-    64
+    MAX_FIFO_DEPTH
 }
 
+/// The deepest command FIFO a board has [periods]: its DPRAM's slots per axis
+/// (`wrc_board::layout::FIFO_CAPACITY`), 256 ms at 1 kHz.
+pub const MAX_FIFO_DEPTH: u32 = 256;
+
 /// Default host watchdog timeout [ms]: longer than the stalls a stock kernel gives a
-/// SCHED_FIFO task under load (tens of ms were measured), so that only a host that has
-/// really stopped trips it. docs/realtime.md gives a tighter value for PREEMPT_RT.
-pub const DEFAULT_WATCHDOG_MS: f64 = 50.0;
+/// SCHED_FIFO task under load (up to 74 ms measured on a shared VM, by cyclictest too), and
+/// longer than the default look-ahead, so that only a host that has really stopped trips it.
+/// docs/realtime.md gives a tighter value for PREEMPT_RT.
+pub const DEFAULT_WATCHDOG_MS: f64 = 150.0;
 /// Default time a board's heartbeat may stand before the controller declares it dead [ms].
 pub const DEFAULT_HEARTBEAT_MS: f64 = 30.0;
 
@@ -278,10 +283,10 @@ pub(crate) fn boards(
             placed[index] = Some(i);
             axes.push(index);
         }
-        if !(1..=64).contains(&b.fifo_depth) {
+        if !(1..=MAX_FIFO_DEPTH).contains(&b.fifo_depth) {
             return Err(invalid(
                 key("fifo_depth"),
-                format!("{}; expected 1 to 64 periods", b.fifo_depth),
+                format!("{}; expected 1 to {MAX_FIFO_DEPTH} periods", b.fifo_depth),
             ));
         }
         let in_periods = |ms_key: &str,

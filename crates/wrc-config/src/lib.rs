@@ -23,7 +23,7 @@ use wrc_robot::Robot;
 
 pub use board::{
     default_dpram, BoardConfig, BoardSimConfig, VacuumConfig, DEFAULT_HEARTBEAT_MS,
-    DEFAULT_WATCHDOG_MS,
+    DEFAULT_WATCHDOG_MS, MAX_FIFO_DEPTH,
 };
 pub use hand::{BladeB, HandConfig};
 pub use host::{canonical, listed, parse_net, HostConfig, MAX_CONNECTIONS};
@@ -103,8 +103,11 @@ pub struct Config {
 }
 
 /// Default `[motion] lookahead_ms`: the Pulse Generator's look-ahead in the board FIFO [ms]
-/// (2 periods at the default 10 ms, 20 at 1 ms).
-pub const DEFAULT_LOOKAHEAD_MS: f64 = 20.0;
+/// (10 periods at the default 10 ms, 100 at 1 ms): longer than the stalls a stock kernel
+/// gives a SCHED_FIFO task on a loaded, shared machine (up to 74 ms measured on a 2-core VM,
+/// by cyclictest too). Moves do not start later for it (docs/realtime.md) and stops do not
+/// wait for it (docs/dpram.md); docs/realtime.md gives a tighter value for PREEMPT_RT.
+pub const DEFAULT_LOOKAHEAD_MS: f64 = 100.0;
 
 /// Most samples the trace recorder may keep, `[trace] seconds` over the motion period: an
 /// hour at 1 ms, about 1 GB of memory (288 bytes a sample, docs/trace.md). A configuration
@@ -356,28 +359,29 @@ mod tests {
     #[test]
     fn watchdog_heartbeat_and_look_ahead_are_in_milliseconds() {
         let d = Config::embedded_default();
-        assert_eq!(d.boards[0].watchdog_periods, 5); // 50 ms at 10 ms
+        assert_eq!(d.boards[0].watchdog_periods, 15); // 150 ms at 10 ms
         assert_eq!(d.boards[0].heartbeat_periods, 3); // 30 ms
-        assert_eq!(d.lookahead_periods, 2); // 20 ms
-                                            // At 1 kHz the same milliseconds are ten times the periods.
+        assert_eq!(d.lookahead_periods, 10); // 100 ms
+        assert_eq!(d.boards[0].fifo_depth, MAX_FIFO_DEPTH);
+        // At 1 kHz the same milliseconds are ten times the periods, and the FIFO holds them.
         let fast = Config::parse(&with("period_ms = 10.0", "period_ms = 1.0"), "c").unwrap();
-        assert_eq!(fast.boards[0].watchdog_periods, 50);
+        assert_eq!(fast.boards[0].watchdog_periods, 150);
         assert_eq!(fast.boards[0].heartbeat_periods, 30);
-        assert_eq!(fast.lookahead_periods, 20);
+        assert_eq!(fast.lookahead_periods, 100);
         // A part of a period is a whole one.
-        let c = Config::parse(&with("watchdog_ms = 50.0", "watchdog_ms = 41.0"), "c").unwrap();
-        assert_eq!(c.boards[0].watchdog_periods, 5);
+        let c = Config::parse(&with("watchdog_ms = 150.0", "watchdog_ms = 141.0"), "c").unwrap();
+        assert_eq!(c.boards[0].watchdog_periods, 15);
         // The older keys in periods still read, but not next to the new ones.
-        let old = with("watchdog_ms = 50.0", "watchdog_periods = 7");
+        let old = with("watchdog_ms = 150.0", "watchdog_periods = 17");
         let old = old.replacen("heartbeat_ms = 30.0", "heartbeat_periods = 4", 1);
         let c = Config::parse(&old, "c").unwrap();
         assert_eq!(
             (c.boards[0].watchdog_periods, c.boards[0].heartbeat_periods),
-            (7, 4)
+            (17, 4)
         );
         let e = err(&with(
-            "watchdog_ms = 50.0",
-            "watchdog_ms = 50.0\nwatchdog_periods = 7",
+            "watchdog_ms = 150.0",
+            "watchdog_ms = 150.0\nwatchdog_periods = 17",
         ));
         assert!(
             e.contains("watchdog_periods") && e.contains("watchdog_ms only"),
@@ -389,21 +393,40 @@ mod tests {
             "{e}"
         );
         for bad in ["0.0", "-5.0", "nan", "inf"] {
-            let e = err(&with("watchdog_ms = 50.0", &format!("watchdog_ms = {bad}")));
+            let e = err(&with(
+                "watchdog_ms = 150.0",
+                &format!("watchdog_ms = {bad}"),
+            ));
             assert!(e.contains("cell.toml") && e.contains("watchdog_ms"), "{e}");
             let e = err(&with(
-                "lookahead_ms = 20.0",
+                "lookahead_ms = 100.0",
                 &format!("lookahead_ms = {bad}"),
             ));
             assert!(e.contains("motion.lookahead_ms"), "{e}");
         }
         // The FIFO must hold the look-ahead and one period more.
-        let e = err(&with("fifo_depth = 64", "fifo_depth = 2"));
+        let e = err(&with("fifo_depth = 256", "fifo_depth = 10"));
         assert!(
-            e.contains("lookahead_ms") && e.contains("2 periods") && e.contains("fifo_depth"),
+            e.contains("lookahead_ms") && e.contains("10 periods") && e.contains("fifo_depth"),
             "{e}"
         );
-        assert!(Config::parse(&with("fifo_depth = 64", "fifo_depth = 3"), "c").is_ok());
+        assert!(Config::parse(&with("fifo_depth = 256", "fifo_depth = 11"), "c").is_ok());
+        let e = err(&with("fifo_depth = 256", "fifo_depth = 257"));
+        assert!(e.contains("fifo_depth") && e.contains("1 to 256"), "{e}");
+        // The watchdog must outlast the look-ahead: a stall the FIFO rides out must not
+        // trip it (in the older key, in periods, too).
+        let e = err(&with("watchdog_ms = 150.0", "watchdog_ms = 100.0"));
+        assert!(
+            e.contains("board[1].watchdog_ms")
+                && e.contains("100 ms is not longer than [motion] lookahead_ms (100 ms)"),
+            "{e}"
+        );
+        let e = err(&with("watchdog_ms = 150.0", "watchdog_periods = 10"));
+        assert!(e.contains("board[1].watchdog_ms"), "{e}");
+        assert!(Config::parse(&with("watchdog_ms = 150.0", "watchdog_ms = 101.0"), "c").is_ok());
+        let tight = with("watchdog_ms = 150.0", "watchdog_ms = 30.0");
+        let tight = tight.replacen("lookahead_ms = 100.0", "lookahead_ms = 20.0", 1);
+        assert!(Config::parse(&tight, "c").is_ok(), "the PREEMPT_RT values");
     }
 
     /// Regression: `[trace] seconds = 3600` with `period_ms = 0.1` was accepted, and the
@@ -412,7 +435,7 @@ mod tests {
     #[test]
     fn a_trace_ring_too_large_for_memory_is_refused_by_name() {
         let big = with("seconds = 30.0 ", "seconds = 3600.0");
-        let big = big.replacen("lookahead_ms = 20.0", "lookahead_ms = 1.0", 1);
+        let big = big.replacen("lookahead_ms = 100.0", "lookahead_ms = 1.0", 1);
         let e = err(&big.replacen("period_ms = 10.0", "period_ms = 0.1", 1));
         assert!(
             e.contains("cell.toml")

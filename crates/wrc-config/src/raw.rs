@@ -231,10 +231,26 @@ impl RawConfig {
                 format!(
                     "{lookahead_ms} ms is {lookahead_periods} periods of {} ms, and board[{}] \
                      holds {} (fifo_depth): a look-ahead needs a FIFO at least one period \
-                     deeper; shorten the look-ahead or deepen the FIFO (at most 64)",
+                     deeper; shorten the look-ahead or deepen the FIFO (at most {})",
                     motion.period_s * 1000.0,
                     i + 1,
-                    b.fifo_depth
+                    b.fifo_depth,
+                    crate::MAX_FIFO_DEPTH
+                ),
+            ));
+        }
+        if let Some((i, b)) = boards
+            .iter()
+            .enumerate()
+            .find(|(_, b)| b.watchdog_periods as usize <= lookahead_periods)
+        {
+            return Err(invalid(
+                format!("board[{}].watchdog_ms", i + 1),
+                format!(
+                    "{} ms is not longer than [motion] lookahead_ms ({lookahead_ms} ms): a host \
+                     stall the look-ahead rides out would trip the watchdog and stop the \
+                     robot; give a longer watchdog or a shorter look-ahead",
+                    (f64::from(b.watchdog_periods) * motion.period_s * 1000.0).round()
                 ),
             ));
         }

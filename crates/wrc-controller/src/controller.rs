@@ -53,25 +53,6 @@ fn ring_capacity(config: &Config) -> usize {
     ring.clamp(16, 4096)
 }
 
-/// The look-ahead without real-time scheduling [periods]: an ordinary process's stalls on a
-/// busy machine run to tens of ms (40-55 ms seen in the browser tests, a debug build beside
-/// Chromium), longer than the 20 ms default that suits SCHED_FIFO; so 100 ms, as far as the
-/// FIFO allows (4 entries kept free), and never less than configured. A stop does not wait
-/// for it (the board flushes the queue: docs/dpram.md); a move starts that much later.
-fn not_real_time_lookahead(config: &Config) -> usize {
-    const NOT_REAL_TIME_LOOKAHEAD_S: f64 = 0.100;
-    let depth = config
-        .boards
-        .iter()
-        .map(|b| b.fifo_depth as usize)
-        .min()
-        .unwrap_or(0);
-    let wanted = (NOT_REAL_TIME_LOOKAHEAD_S / config.motion.period_s).ceil() as usize;
-    wanted
-        .min(depth.saturating_sub(4))
-        .max(config.lookahead_periods)
-}
-
 /// How long a stall of task `name` of the motion path a motion rides out [ns] (`None`: not
 /// of the motion path; its stalls are no fault): what the buffer after it covers. The
 /// Pulse Generator's: the look-ahead queued in the board's FIFO. The Velocity Generator's:
@@ -689,19 +670,6 @@ pub fn start(config: &Config, options: &Options) -> Result<Running, StartError> 
         tracing::warn!(
             "wrc: not real-time, so task overruns are counted (TASKS, the log) but do not stop the robot"
         );
-        let raised = not_real_time_lookahead(config);
-        if raised > config.lookahead_periods {
-            parts
-                .shared
-                .fifo
-                .lookahead
-                .store(raised as u32, Ordering::Relaxed);
-            tracing::warn!(
-                "wrc: not real-time, so the Pulse Generator keeps {:.0} ms queued on the board instead of {:.0} ms ([motion] lookahead_ms): an ordinary process stalls for tens of ms on a busy machine, and a FIFO run dry while moving stops the robot (209); moves start that much later, stops do not wait for it",
-                raised as f64 * config.motion.period_s * 1e3,
-                config.lookahead_periods as f64 * config.motion.period_s * 1e3
-            );
-        }
     }
     let _ = parts
         .task_cells
@@ -769,39 +737,25 @@ mod tests {
     use super::*;
 
     /// The stalls the motion rides out follow the buffers, at 10 ms and at 1 kHz: the
-    /// look-ahead (20 ms either way) after the Pulse Generator; the ring (16 batches at
-    /// 10 ms, 140 at 1 ms) and the look-ahead, less its 50 ms period, after the Velocity
+    /// look-ahead (100 ms either way) after the Pulse Generator; the ring (30 batches at
+    /// 10 ms, 300 at 1 ms) and the look-ahead, less its 50 ms period, after the Velocity
     /// Generator; one 100 ms period for Error Check; no other task's stalls are a fault.
     #[test]
     fn stall_tolerances_are_what_the_buffers_cover() {
         let ms =
             |name: &str, config: &Config| stall_tolerance_ns(config, name).map(|ns| ns / 1_000_000);
         let ten = Config::embedded_default();
-        assert_eq!(ring_capacity(&ten), 16);
-        assert_eq!(ms("pulse_generator", &ten), Some(20));
-        assert_eq!(ms("velocity_generator", &ten), Some(160 + 20 - 50));
+        assert_eq!(ten.lookahead_periods, 10);
+        assert_eq!(ring_capacity(&ten), 2 * 5 + 2 * 10);
+        assert_eq!(ms("pulse_generator", &ten), Some(100));
+        assert_eq!(ms("velocity_generator", &ten), Some(300 + 100 - 50));
         assert_eq!(ms("error_check", &ten), Some(100));
         assert_eq!(ms("ethernet", &ten), None);
         let text = wrc_config::DEFAULT_TOML.replacen("period_ms = 10.0 ", "period_ms = 1.0 ", 1);
         let khz = Config::parse(&text, "khz").unwrap();
-        assert_eq!(khz.lookahead_periods, 20);
-        assert_eq!(ring_capacity(&khz), 2 * 50 + 2 * 20);
-        assert_eq!(ms("pulse_generator", &khz), Some(20));
-        assert_eq!(ms("velocity_generator", &khz), Some(140 + 20 - 50));
-    }
-
-    /// Without real-time scheduling the look-ahead is 100 ms where the FIFO allows it: 10
-    /// periods at 10 ms; at 1 kHz the 64-entry FIFO keeps 60; never below the configured.
-    #[test]
-    fn the_look_ahead_without_real_time_rides_out_an_ordinary_processs_stalls() {
-        let ten = Config::embedded_default();
-        assert_eq!(not_real_time_lookahead(&ten), 10);
-        let text = wrc_config::DEFAULT_TOML.replacen("period_ms = 10.0 ", "period_ms = 1.0 ", 1);
-        let khz = Config::parse(&text, "khz").unwrap();
-        assert_eq!(not_real_time_lookahead(&khz), 60);
-        let long =
-            wrc_config::DEFAULT_TOML.replacen("lookahead_ms = 20.0", "lookahead_ms = 300.0", 1);
-        let long = Config::parse(&long, "long").unwrap();
-        assert_eq!(not_real_time_lookahead(&long), long.lookahead_periods);
+        assert_eq!(khz.lookahead_periods, 100);
+        assert_eq!(ring_capacity(&khz), 2 * 50 + 2 * 100);
+        assert_eq!(ms("pulse_generator", &khz), Some(100));
+        assert_eq!(ms("velocity_generator", &khz), Some(300 + 100 - 50));
     }
 }

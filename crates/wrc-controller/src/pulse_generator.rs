@@ -51,6 +51,12 @@ use wrc_trace::Sample;
 /// board skips them (docs/dpram.md, "FIFO flush").
 pub const FIFO_LEAD: usize = 2;
 
+/// Periods kept queued at rest (zero periods), fewer than the look-ahead: a move starts
+/// behind them, not behind the look-ahead, and fills the FIFO to the look-ahead from its
+/// first period on (the Velocity Generator plans a ring's worth ahead). A stall at rest
+/// that outlasts them costs nothing: the board holds, and the next move starts later.
+pub const IDLE_LEAD: usize = 2;
+
 /// Periods a finished move may wait, once the board has executed its last period, for every
 /// encoder to reach its commanded count before its end is reported anyway (the servo's lag;
 /// Error Check watches the following error).
@@ -249,7 +255,8 @@ pub struct PulseGenerator<B: MotionBoard> {
     decel_pending: bool,
     pending: Option<Batch>,
     fifo_depth: usize,
-    /// Periods kept queued ahead of the board (the look-ahead).
+    /// Periods kept queued ahead of the board while moving (the look-ahead); at rest
+    /// [`IDLE_LEAD`] at most.
     lead: usize,
     /// The brake's first periods, computed before a flush is asked (capacity
     /// [`HISTORY`], reserved at start-up: the cycle does not allocate).
@@ -567,10 +574,6 @@ impl<B: MotionBoard> PulseGenerator<B> {
     pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
         if release == Release::Period {
-            // The look-ahead may be raised after start-up (not real-time: see
-            // `controller::not_real_time_lookahead`).
-            let lookahead = self.shared.fifo.lookahead.load(Ordering::Relaxed) as usize;
-            self.lead = lookahead.min(self.fifo_depth.saturating_sub(1)).max(1);
             self.watch_boards();
             self.watch_fifo();
         }
@@ -719,8 +722,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
             let batch = match self.pending.take().or_else(|| self.ring.try_recv()) {
                 Some(b) if b.epoch == self.epoch_seen => b,
                 Some(_) => continue,
+                None if !self.last.is_moving() && self.queued() >= IDLE_LEAD.min(lead) => {
+                    // At rest: a short queue, so that the next move starts soon; and no
+                    // longer a look-ahead whose levels count for the deepest drain.
+                    self.streaming = false;
+                    break;
+                }
                 None => {
-                    // At rest (or the plan is late): stream a zero period.
+                    // At rest below the idle lead, or the plan is late: a zero period.
                     let after = self.last;
                     if !self.emit(&[0; MAX_AXES], &after) {
                         break;
@@ -892,14 +901,15 @@ impl<B: MotionBoard> PulseGenerator<B> {
     }
 
     /// The last period of move `ticket` was pushed: it ends with `outcome` once the board
-    /// has executed it (the look-ahead from now) and its motors have settled
-    /// ([`IN_POSITION_PERIODS`] at most). A move still completing ends now (the board
-    /// executes in order).
+    /// has executed it (the periods queued now, itself included) and its motors have
+    /// settled ([`IN_POSITION_PERIODS`] at most). A move still completing ends now (the
+    /// board executes in order).
     fn complete(&mut self, ticket: u32, outcome: MoveOutcome) {
         if let Some((ticket, outcome, _)) = self.completing.take() {
             self.report(ticket, outcome);
         }
-        self.completing = Some((ticket, outcome, self.lead + 1 + IN_POSITION_PERIODS));
+        let queued = self.queued().max(1);
+        self.completing = Some((ticket, outcome, queued + 1 + IN_POSITION_PERIODS));
     }
 
     /// The brake's last period was pushed: the move ends held, stopped or (a brake that

@@ -139,8 +139,11 @@ fn target(t: &TargetArgs) -> anyhow::Result<(Config, BoardConfig)> {
 fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
     let (config, mut board) = target(&args.target)?;
     if let Some(depth) = args.fifo_depth {
-        if !(1..=64).contains(&depth) {
-            bail!("--fifo-depth {depth}: expected 1 to 64 periods");
+        if !(1..=wrc_config::MAX_FIFO_DEPTH).contains(&depth) {
+            bail!(
+                "--fifo-depth {depth}: expected 1 to {} periods",
+                wrc_config::MAX_FIFO_DEPTH
+            );
         }
         board.fifo_depth = depth;
     }

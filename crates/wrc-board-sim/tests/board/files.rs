@@ -66,10 +66,10 @@ fn other_versions_and_bad_fields_are_named() {
     assert!(e.contains("version 1"), "{e}");
 
     let mut depth = bytes.clone();
-    depth[header::FIFO_DEPTH] = 200;
+    depth[header::FIFO_DEPTH..header::FIFO_DEPTH + 4].copy_from_slice(&300u32.to_le_bytes());
     fs::write(&path, &depth).unwrap();
     let e = open_err(&path);
-    assert!(e.contains("fifo_depth") && e.contains("200"), "{e}");
+    assert!(e.contains("fifo_depth") && e.contains("300"), "{e}");
 
     fs::write(&path, &bytes).unwrap();
     let e = DpramBoard::open(
@@ -130,7 +130,7 @@ fn layout_round_trips_through_a_file_and_restarts_bump_the_epoch() {
             parsed.fifo_depth,
             parsed.epoch
         ),
-        (4, 10_000, 64, 1)
+        (4, 10_000, 256, 1)
     );
     drop(first);
     let second = sim_on(&path);

@@ -1,11 +1,12 @@
 //! A 1 kHz servo on a host that stalls, on virtual time: the Pulse Generator keeps
-//! `[motion] lookahead_ms` (20 periods) queued, so a stall of half of it costs no underrun;
+//! `[motion] lookahead_ms` (100 periods) queued, so a stall of half of it costs no underrun;
 //! a stall longer than the host watchdog stops the axes with the board's own jerk-limited
 //! brake; and a stop asked during a stall is braked by the board on time, from the moment
 //! it sees the stop word, not when the Pulse Generator runs again.
 
 use wrc_board::layout::{axis, axis_base, control};
 use wrc_config::Config;
+use wrc_controller::pulse_generator::{IDLE_LEAD, IN_POSITION_PERIODS};
 use wrc_controller::simulation::SimCellFrom;
 use wrc_motion::Brake1d;
 
@@ -15,8 +16,8 @@ use crate::vhost::VHost;
 const PERIOD_NS: u64 = 1_000_000;
 
 /// The embedded default at 1 kHz: the motion period and the Pulse Generator's (and the
-/// Simulator Manager's, which streams it) at 1 ms; the look-ahead (20 ms), the watchdog
-/// (50 ms) and the FIFO (64) as shipped.
+/// Simulator Manager's, which streams it) at 1 ms; the look-ahead (100 ms), the watchdog
+/// (150 ms) and the FIFO (256) as shipped.
 fn khz() -> Config {
     let text = wrc_config::DEFAULT_TOML.replacen("period_ms = 10.0 ", "period_ms = 1.0 ", 1);
     let mut out = String::new();
@@ -34,8 +35,8 @@ fn khz() -> Config {
     }
     let config = Config::parse(&out, "khz").unwrap();
     assert_eq!(config.motion.period_s, 0.001);
-    assert_eq!(config.lookahead_periods, 20);
-    assert_eq!(config.boards[0].watchdog_periods, 50);
+    assert_eq!(config.lookahead_periods, 100);
+    assert_eq!(config.boards[0].watchdog_periods, 150);
     config
 }
 
@@ -80,20 +81,20 @@ fn board_word(host: &VHost, offset: usize) -> u32 {
 #[test]
 fn a_stall_of_half_the_look_ahead_costs_no_underrun_and_a_longer_one_is_braked() {
     let mut host = cruising();
-    host.sim.stall_pulse_generator(10 * PERIOD_NS);
+    host.sim.stall_pulse_generator(50 * PERIOD_NS);
     assert_eq!(host.reply(), "INF 3");
     assert_eq!(underruns(&host), 0);
     // The stall drained the FIFO by about its length, and no further.
     let fifo = host.sim.shared().fifo.read();
     let deepest = fifo.lookahead - fifo.min_level.unwrap();
-    assert!((9..=11).contains(&deepest), "{fifo:?}");
+    assert!((49..=51).contains(&deepest), "{fifo:?}");
     assert_eq!(board_word(&host, control::BOARD_STOPS), 0);
 
     // A stall longer than the look-ahead (but shorter than the watchdog) runs the FIFO
     // dry: the board brakes on its own rather than hold, and the motion ends with 209.
     assert_eq!(host.ask("4 MOVJ -75 150 -75 0"), "ACK 4");
     host.wait_moving("J1 cruising back", |j, _, _| j[0] < 0.0);
-    host.sim.stall_pulse_generator(30 * PERIOD_NS);
+    host.sim.stall_pulse_generator(120 * PERIOD_NS);
     let end = host.reply();
     assert!(end.starts_with("ABS 4 209 "), "{end}");
     assert!(underruns(&host) >= 1);
@@ -105,7 +106,7 @@ fn a_stall_of_half_the_look_ahead_costs_no_underrun_and_a_longer_one_is_braked()
 fn a_stall_longer_than_the_watchdog_stops_the_axes_within_their_limits() {
     let mut host = cruising();
     host.sim.record_pulses(true);
-    host.sim.stall_pulse_generator(80 * PERIOD_NS);
+    host.sim.stall_pulse_generator(200 * PERIOD_NS);
     let end = host.reply();
     assert!(end.starts_with("ABS 3 2"), "{end}");
     host.until("EVT STATE ERROR");
@@ -137,9 +138,9 @@ fn an_estop_during_a_stall_is_braked_by_the_board_on_time() {
     let mut host = cruising();
     host.sim.record_pulses(true);
     host.sim.run_for_ns(20 * PERIOD_NS);
-    // The Pulse Generator stalls for 15 ms (less than the look-ahead); 1 ms into it the
+    // The Pulse Generator stalls for 75 ms (less than the look-ahead); 1 ms into it the
     // ESTOP comes (the Ethernet task, on the other CPU, still runs).
-    host.sim.stall_pulse_generator(15 * PERIOD_NS);
+    host.sim.stall_pulse_generator(75 * PERIOD_NS);
     host.sim.run_for_ns(PERIOD_NS);
     let asked_ns = host.sim.now_ns();
     host.send_raw("7 ESTOP\n");
@@ -174,4 +175,61 @@ fn an_estop_during_a_stall_is_braked_by_the_board_on_time() {
     // The robot goes on after the RESET: the board was released.
     assert_eq!(host.ask("8 RESET"), "ACK 8");
     assert_eq!(host.motion(9, "MOVJ 0 90 0 10"), "INF 9");
+}
+
+/// The look-ahead (100 ms) is kept while moving only: at rest the Pulse Generator keeps
+/// [`IDLE_LEAD`] periods queued, so a move starts on the board a few periods after it is
+/// asked and is reported a few periods after the board executed its last one, as with a
+/// short look-ahead; and a stall at rest, longer than the idle queue, costs no underrun.
+#[test]
+fn a_long_look_ahead_delays_neither_the_start_nor_the_end_of_a_move() {
+    let mut host = VHost::start_config(&khz(), SimCellFrom::default());
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    host.sim.run_for_ns(50 * PERIOD_NS);
+    let level = |host: &VHost| {
+        let board = host.sim.board(0).unwrap();
+        let d = board.dpram();
+        d.load(axis_base(0) + axis::FIFO_WRITE)
+            .wrapping_sub(d.load(axis_base(0) + axis::FIFO_READ)) as usize
+    };
+    assert!(level(&host) <= IDLE_LEAD, "{} queued at rest", level(&host));
+    // A stall at rest three times the idle queue: the board holds, nothing is lost.
+    host.sim.stall_pulse_generator(6 * PERIOD_NS);
+    host.sim.run_for_ns(20 * PERIOD_NS);
+    assert_eq!(underruns(&host), 0);
+    assert_eq!(board_word(&host, control::BOARD_STOPS), 0);
+
+    host.sim.record_pulses(true);
+    let asked_ns = host.sim.now_ns();
+    host.send_raw("3 MOVJ -60 150 -75 0\n");
+    assert_eq!(host.reply(), "ACK 3");
+    assert_eq!(host.reply(), "INF 3");
+    let reported_ns = host.sim.now_ns();
+    let rows = host.sim.take_pulses();
+    let rest = rows[0].1[0];
+    let first = rows.iter().find(|(_, p)| p[0] != rest).unwrap().0;
+    let end = rows[rows
+        .iter()
+        .rposition(|(_, p)| p[0] != rows[rows.len() - 1].1[0])
+        .unwrap()
+        + 1]
+    .0;
+    // Under the old rule (the look-ahead kept at rest too) a move started 100 ms late.
+    assert!(
+        first - asked_ns <= 10 * PERIOD_NS,
+        "the move started {} ms after it was asked",
+        (first - asked_ns) as f64 / 1e6
+    );
+    assert!(
+        reported_ns - end <= (IN_POSITION_PERIODS as u64 + 5) * PERIOD_NS,
+        "the move was reported {} ms after the board executed it",
+        (reported_ns - end) as f64 / 1e6
+    );
+    // While it moved the FIFO held the look-ahead; it drained back to the idle queue.
+    let fifo = host.sim.shared().fifo.read();
+    assert_eq!(fifo.lookahead, 100);
+    assert!(fifo.min_level.unwrap() >= 95, "{fifo:?}");
+    assert!(level(&host) <= IDLE_LEAD);
+    assert_eq!(underruns(&host), 0);
 }

@@ -88,9 +88,8 @@ fn a_short_soak_at_one_millisecond_reports_the_servo_loop_and_loses_no_pulse() {
     }
     let servo = &report["servo"];
     assert_eq!(servo["period_ms"], 1.0, "{servo:#}");
-    // Not real-time (--no-rt), the look-ahead is raised to 100 ms as far as the 64-entry
-    // FIFO allows: 60 periods at 1 ms (20 ms, 20 periods, under SCHED_FIFO).
-    assert_eq!(servo["fifo"]["lookahead_periods"], 60, "{servo:#}");
+    // The default look-ahead, 100 ms: 100 periods at 1 ms.
+    assert_eq!(servo["fifo"]["lookahead_periods"], 100, "{servo:#}");
     for count in ["underruns", "watchdog_trips", "following_error_trips"] {
         assert!(servo[count].is_u64(), "{count}: {servo:#}");
     }

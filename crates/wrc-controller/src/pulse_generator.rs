@@ -289,6 +289,10 @@ pub struct PulseGenerator<B: MotionBoard> {
     /// The board braked on its own: nothing is pushed until it is at rest, its position
     /// taken and it is released.
     board_braked: bool,
+    /// Some axis decelerates in a brake of its board's own
+    /// ([`wrc_board::BoardStop::braking`]), read once a cycle (and again where the cycle
+    /// reads the board's stop words anyway) for [`PulseGenerator::publish_in_flight`].
+    board_braking: bool,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -333,6 +337,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             detached: false,
             board_stops: false,
             board_braked: false,
+            board_braking: false,
         }
     }
 
@@ -573,6 +578,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// for the next period of this task.
     pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
+        self.board_braking = self.board.board_stop().braking;
         if release == Release::Period {
             self.watch_boards();
             self.watch_fifo();
@@ -831,6 +837,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.pending = None;
         while self.ring.try_recv().is_some() {}
         let stop = self.board.board_stop();
+        self.board_braking = stop.braking;
         if stop.answered {
             self.board_braked = false;
             self.brake_behind_queue();
@@ -948,7 +955,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             || self.last.is_moving()
             || !self.ring.is_empty()
             || self.completing.is_some()
-            || (!self.detached && self.board.board_stop().braking);
+            || (!self.detached && self.board_braking);
         self.shared
             .in_flight
             .store(u32::from(moving), Ordering::Release);

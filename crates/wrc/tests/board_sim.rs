@@ -125,7 +125,7 @@ fn driver_and_board_process_share_the_dpram() {
 fn bad_paths_and_faults_fail_with_a_message() {
     let dir = tempfile::tempdir().unwrap();
     let foreign = dir.path().join("photo.jpg");
-    std::fs::write(&foreign, vec![0xFFu8; 8192]).unwrap();
+    std::fs::write(&foreign, vec![0xFFu8; 32_768]).unwrap();
     for args in [
         vec!["board-sim", "status", "--dpram", foreign.to_str().unwrap()],
         vec![

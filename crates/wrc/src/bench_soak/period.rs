@@ -85,9 +85,9 @@ mod tests {
         // The other tasks keep their periods.
         assert_eq!(c.tasks.get("velocity_generator").unwrap().period_us, 50_000);
         assert_eq!(c.tasks.get("error_check").unwrap().period_us, 100_000);
-        // lookahead_ms = 20 is 20 periods at 1 ms (2 at the default's 10 ms).
-        assert_eq!(c.lookahead_periods, 20);
-        assert_eq!(c.boards[0].watchdog_periods, 50);
+        // lookahead_ms = 100 is 100 periods at 1 ms (10 at the default's 10 ms).
+        assert_eq!(c.lookahead_periods, 100);
+        assert_eq!(c.boards[0].watchdog_periods, 150);
         let line = text.lines().find(|l| l.starts_with("period_ms = 1.0 "));
         assert_eq!(
             line.map(|l| l.find('#')),
@@ -95,7 +95,7 @@ mod tests {
             "the comment is kept in its column: {text}"
         );
         let default = Config::embedded_default();
-        assert_eq!(default.lookahead_periods, 2);
+        assert_eq!(default.lookahead_periods, 10);
         assert_eq!(c.robot.axis_count(), default.robot.axis_count());
     }
 

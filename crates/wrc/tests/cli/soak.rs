@@ -3,30 +3,32 @@
 
 use std::process::Command;
 
-#[test]
-fn a_short_soak_answers_every_request_and_leaves_nothing_behind() {
+/// `wrc bench soak` with `args` and `--json`: whether it succeeded, its standard output, and
+/// its JSON report (a missing report fails with what the run printed).
+fn soak(args: &[&str]) -> (bool, String, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("soak.json");
     let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args([
-            "bench",
-            "soak",
-            "--seconds",
-            "8",
-            "--clients",
-            "3",
-            "--no-rt",
-            "--seed",
-            "7",
-        ])
+        .args(["bench", "soak"])
+        .args(args)
         .arg("--json")
         .arg(&json)
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert!(out.status.success(), "{stdout}\n{report:#}");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(&json).unwrap_or_else(|e| panic!("{e}: {stdout}\n{stderr}")),
+    )
+    .unwrap();
+    (out.status.success(), stdout, report)
+}
+
+#[test]
+fn a_short_soak_answers_every_request_and_leaves_nothing_behind() {
+    let (success, stdout, report) =
+        soak(&["--seconds", "8", "--clients", "3", "--no-rt", "--seed", "7"]);
+    assert!(success, "{stdout}\n{report:#}");
     assert_eq!(report["pass"], true, "{report:#}");
     assert_eq!(report["alive"], true);
     assert_eq!(report["unanswered"], 0, "{report:#}");
@@ -45,32 +47,17 @@ fn a_short_soak_answers_every_request_and_leaves_nothing_behind() {
 /// whatever the timing was on this machine, which the test does not judge.
 #[test]
 fn a_short_soak_at_one_millisecond_reports_the_servo_loop_and_loses_no_pulse() {
-    let dir = tempfile::tempdir().unwrap();
-    let json = dir.path().join("soak.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
-        .args([
-            "bench",
-            "soak",
-            "--period-ms",
-            "1",
-            "--seconds",
-            "6",
-            "--clients",
-            "3",
-            "--no-rt",
-            "--seed",
-            "11",
-        ])
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(&json).unwrap_or_else(|e| panic!("{e}: {stdout}\n{stderr}")),
-    )
-    .unwrap();
+    let (_, stdout, report) = soak(&[
+        "--period-ms",
+        "1",
+        "--seconds",
+        "6",
+        "--clients",
+        "3",
+        "--no-rt",
+        "--seed",
+        "11",
+    ]);
     for row in [
         "| servo period [ms]",
         "| underruns: controller (TASKS) / boards",

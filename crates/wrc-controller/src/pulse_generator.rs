@@ -51,11 +51,13 @@ use wrc_trace::Sample;
 /// board skips them (docs/dpram.md, "FIFO flush").
 pub const FIFO_LEAD: usize = 2;
 
-/// Periods kept queued at rest (zero periods), fewer than the look-ahead: a move starts
-/// behind them, not behind the look-ahead, and fills the FIFO to the look-ahead from its
-/// first period on (the Velocity Generator plans a ring's worth ahead). A stall at rest
-/// that outlasts them costs nothing: the board holds, and the next move starts later.
-pub const IDLE_LEAD: usize = 2;
+/// Zero periods pushed after the last moving period of a motion, in the same cycle, and
+/// then nothing while at rest: the board's last increment is zero before its FIFO can run
+/// dry, so an empty FIFO at rest is a hold, never an underrun of a moving axis; and a move
+/// starts in the board's next period, not behind a queue (it fills the FIFO to the
+/// look-ahead from its first period on: the Velocity Generator plans a ring's worth ahead).
+/// A stall at rest costs nothing: the board holds, and the next move starts later.
+pub const REST_ZEROS: usize = 1;
 
 /// Periods a finished move may wait, once the board has executed its last period, for every
 /// encoder to reach its commanded count before its end is reported anyway (the servo's lag;
@@ -255,9 +257,11 @@ pub struct PulseGenerator<B: MotionBoard> {
     decel_pending: bool,
     pending: Option<Batch>,
     fifo_depth: usize,
-    /// Periods kept queued ahead of the board while moving (the look-ahead); at rest
-    /// [`IDLE_LEAD`] at most.
+    /// Periods kept queued ahead of the board while moving (the look-ahead); at rest none
+    /// after [`REST_ZEROS`].
     lead: usize,
+    /// Zero periods pushed since the last period that moved an axis.
+    zeros_pushed: usize,
     /// The brake's first periods, computed before a flush is asked (capacity
     /// [`HISTORY`], reserved at start-up: the cycle does not allocate).
     first: Vec<Pushed>,
@@ -325,6 +329,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             pending: None,
             fifo_depth,
             lead: FIFO_LEAD.min(fifo_depth.saturating_sub(1)).max(1),
+            zeros_pushed: 0,
             first: Vec::with_capacity(HISTORY),
             streaming: false,
             completing: None,
@@ -452,12 +457,18 @@ impl<B: MotionBoard> PulseGenerator<B> {
         sample.t_ns = ctx.scheduled_ns;
         sample.latency_ns = clamp(ctx.woke_ns.saturating_sub(ctx.scheduled_ns));
         sample.exec_ns = clamp(ctx.previous_exec_ns);
-        for (c, s) in sample.commanded.iter_mut().zip(&self.shared.commanded) {
-            *c = s.load(Ordering::Relaxed);
-        }
+        // The commanded position is the board's (what it has executed), not the one pushed
+        // a look-ahead ahead of it: the trace shows the motor's command at that moment. A
+        // torn read keeps the previous period's positions.
         if self.board.read_feedback(&mut self.feedback).is_ok() {
             let n = self.feedback.axis_count.min(MAX_AXES);
-            for (a, f) in sample.actual.iter_mut().zip(&self.feedback.axes[..n]) {
+            for ((c, a), f) in sample
+                .commanded
+                .iter_mut()
+                .zip(sample.actual.iter_mut())
+                .zip(&self.feedback.axes[..n])
+            {
+                *c = f.commanded;
                 *a = f.encoder;
             }
             sample.fifo_level = self.feedback.axes[0].fifo_level.min(u32::from(u16::MAX)) as u16;
@@ -475,6 +486,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
         if self.board.push(pulses).is_err() {
             return false;
         }
+        self.zeros_pushed = if pulses.iter().all(|p| *p == 0) {
+            self.zeros_pushed.saturating_add(1)
+        } else {
+            0
+        };
         self.history.push(pulses, after);
         for (c, p) in self.shared.commanded.iter().zip(pulses) {
             if *p != 0 {
@@ -728,14 +744,16 @@ impl<B: MotionBoard> PulseGenerator<B> {
             let batch = match self.pending.take().or_else(|| self.ring.try_recv()) {
                 Some(b) if b.epoch == self.epoch_seen => b,
                 Some(_) => continue,
-                None if !self.last.is_moving() && self.queued() >= IDLE_LEAD.min(lead) => {
-                    // At rest: a short queue, so that the next move starts soon; and no
-                    // longer a look-ahead whose levels count for the deepest drain.
+                None if !self.last.is_moving() && self.zeros_pushed >= REST_ZEROS => {
+                    // At rest, the motion's end followed by a zero period: nothing more
+                    // is queued, so that the next move starts at once; and no longer a
+                    // look-ahead whose levels count for the deepest drain.
                     self.streaming = false;
                     break;
                 }
                 None => {
-                    // At rest below the idle lead, or the plan is late: a zero period.
+                    // The zero period that ends a motion, or the plan is late: a zero
+                    // period.
                     let after = self.last;
                     if !self.emit(&[0; MAX_AXES], &after) {
                         break;

@@ -744,7 +744,16 @@ impl<B: MotionBoard> PulseGenerator<B> {
             let batch = match self.pending.take().or_else(|| self.ring.try_recv()) {
                 Some(b) if b.epoch == self.epoch_seen => b,
                 Some(_) => continue,
-                None if !self.last.is_moving() && self.zeros_pushed >= REST_ZEROS => {
+                None if self.last.is_moving() => {
+                    // The plan is not in the ring yet: the Velocity Generator is still
+                    // filling it (a move's start: it may run beside this task) or is late.
+                    // What is queued runs on, and the FIFO is topped up when the plan
+                    // comes; a zero period inside a motion would stop the axes in one
+                    // period. (A plan later than the look-ahead runs the FIFO dry: the
+                    // board brakes, 209.)
+                    break;
+                }
+                None if self.zeros_pushed >= REST_ZEROS => {
                     // At rest, the motion's end followed by a zero period: nothing more
                     // is queued, so that the next move starts at once; and no longer a
                     // look-ahead whose levels count for the deepest drain.
@@ -752,8 +761,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     break;
                 }
                 None => {
-                    // The zero period that ends a motion, or the plan is late: a zero
-                    // period.
+                    // The zero period that ends a motion.
                     let after = self.last;
                     if !self.emit(&[0; MAX_AXES], &after) {
                         break;

@@ -46,6 +46,14 @@ impl Rig {
         Rig::on_boards(&config, &[first, second])
     }
 
+    /// The robot on the configuration's one board, the Pulse Generator keeping `periods`
+    /// queued while moving.
+    fn with_lookahead(periods: usize) -> Rig {
+        let mut rig = Rig::new();
+        rig.pg = rig.pg.with_lookahead(periods);
+        rig
+    }
+
     fn on_boards(config: &Config, boards: &[wrc_config::BoardConfig]) -> Rig {
         let mut sims = Vec::new();
         let (mut pg_boards, mut host_boards) = (Vec::new(), Vec::new());
@@ -152,6 +160,34 @@ impl Rig {
         }
         panic!("no move ended within {limit} periods");
     }
+}
+
+/// A look-ahead (20 periods) longer than what the pulse ring holds at a move's start (12
+/// batches, the Velocity Generator refilling it every 5th period): the Pulse Generator
+/// queues what the plan has and tops the FIFO up as it comes, and never pads a motion with
+/// zero periods (once it did: "the plan is late", 8 zero periods after the first 12, so the
+/// axes stopped dead for 80 ms and went on).
+#[test]
+fn a_move_whose_plan_comes_in_slower_than_the_look_ahead_is_never_padded_with_zeros() {
+    let mut rig = Rig::with_lookahead(20);
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 60.0;
+    rig.order(3, MoveKind::Joints(target));
+    let done = rig.run_until_done(1000);
+    assert_eq!(done.outcome, MoveOutcome::Completed);
+    let j1: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
+    let first = j1.iter().position(|v| *v != 0).unwrap();
+    let last = j1.iter().rposition(|v| *v != 0).unwrap();
+    assert!(
+        j1[first..=last].iter().all(|v| *v > 0),
+        "J1 stopped inside its motion: {:?}",
+        &j1[first..=last]
+    );
+    assert_eq!(rig.feedback().underruns(), 0);
+    // The FIFO filled to the look-ahead once the plan caught up.
+    let fifo = rig.shared.fifo.read();
+    assert_eq!(fifo.lookahead, 20);
+    assert!(fifo.min_level.is_some(), "{fifo:?}");
 }
 
 #[test]

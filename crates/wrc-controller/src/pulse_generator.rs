@@ -629,7 +629,15 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 if kind as u8 > self.stop_kind as u8 {
                     self.stop_kind = kind;
                 }
-            } else if self.last.is_moving() {
+            } else if self.last.is_moving() || self.tail_moving() {
+                if !self.last.is_moving() {
+                    // The move's last period is pushed but the board still executes its
+                    // motion (up to the look-ahead): the stop ends that move, from the
+                    // period the board has reached, like any other.
+                    if let Some((ticket, _, _)) = self.completing.take() {
+                        self.ticket = ticket;
+                    }
+                }
                 // From the state of the period the board has reached (mid-brake too, when a
                 // stronger stop overtakes a HOLD or a STOP): ESTOP brakes with the full
                 // limits.
@@ -809,6 +817,16 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
         }
         self.publish_in_flight();
+    }
+
+    /// The last period pushed is at rest, but the board still has periods of a motion to
+    /// execute (the end of a move, queued up to the look-ahead ahead of it).
+    fn tail_moving(&self) -> bool {
+        self.completing.is_some()
+            && self
+                .history
+                .before(self.queued())
+                .is_some_and(|s| s.is_moving())
     }
 
     /// Answer a stop that found the robot at rest (no brake to push) so the board does not

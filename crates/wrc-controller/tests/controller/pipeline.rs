@@ -137,6 +137,10 @@ impl Rig {
     }
 
     fn order(&self, ticket: u32, kind: MoveKind) {
+        self.order_at(ticket, kind, 100.0);
+    }
+
+    fn order_at(&self, ticket: u32, kind: MoveKind, speed_pct: f64) {
         let epoch = self
             .shared
             .stop_epoch
@@ -145,7 +149,7 @@ impl Rig {
             .try_send(MoveOrder {
                 ticket,
                 epoch,
-                speed_pct: 100.0,
+                speed_pct,
                 kind,
             })
             .unwrap();
@@ -188,6 +192,48 @@ fn a_move_whose_plan_comes_in_slower_than_the_look_ahead_is_never_padded_with_ze
     let fifo = rig.shared.fifo.read();
     assert_eq!(fifo.lookahead, 20);
     assert!(fifo.min_level.is_some(), "{fifo:?}");
+}
+
+/// A stop in a move's last look-ahead (its last period already pushed, the board still
+/// executing its deceleration) brakes from where the board is and ends the move stopped;
+/// once it let the planned end play out and reported the move completed.
+#[test]
+fn an_estop_while_the_board_executes_the_end_of_a_move_brakes_it_from_there() {
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 60.0;
+    // The whole move first: where its motion ends.
+    // At 30 % the move decelerates gently (time scaled: acceleration ×0.09); an ESTOP
+    // brakes with the axes' full limits.
+    let mut whole = Rig::with_lookahead(20);
+    whole.order_at(3, MoveKind::Joints(target), 30.0);
+    whole.run_until_done(1000);
+    let j1: Vec<i64> = whole.increments.iter().map(|i| i[0]).collect();
+    let end = j1.iter().rposition(|v| *v != 0).unwrap();
+
+    // The same move, and an ESTOP 15 periods before its motion ends (all of it pushed).
+    let mut rig = Rig::with_lookahead(20);
+    rig.order_at(3, MoveKind::Joints(target), 30.0);
+    for _ in 0..end - 15 {
+        rig.period();
+    }
+    let v0 = rig.increments.last().unwrap()[0];
+    assert!(v0 > 0, "J1 is still moving");
+    rig.shared.request_stop(StopKind::Estop);
+    let done = rig.run_until_done(500);
+    assert_eq!(done.ticket, 3);
+    assert_eq!(
+        done.outcome,
+        MoveOutcome::Stopped,
+        "the planned end played out"
+    );
+    assert_eq!(rig.shared.stops.read().flushed, 1);
+    // The brake took over in the board's next period: from there J1 never speeds up.
+    let at = rig.increments.len() - 1;
+    let j1: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
+    assert!(j1[at..].windows(2).all(|w| w[1] <= w[0]), "{:?}", &j1[at..]);
+    let stopped_at = rig.feedback().axes[0].commanded;
+    assert!(stopped_at < 60_000, "J1 reached its target: {stopped_at}");
+    assert_eq!(rig.feedback().underruns(), 0);
 }
 
 #[test]

@@ -908,6 +908,16 @@ pub(crate) mod tests {
         assert_eq!(host.fifo_free(), 4);
     }
 
+    /// The configuration accepts the FIFO depths the layout has slots for, no more.
+    #[test]
+    fn the_configurations_deepest_fifo_is_the_layouts_capacity() {
+        assert_eq!(
+            wrc_config::MAX_FIFO_DEPTH as usize,
+            layout::FIFO_CAPACITY,
+            "wrc-config's MAX_FIFO_DEPTH and the DPRAM layout disagree"
+        );
+    }
+
     #[test]
     fn an_empty_fifo_is_an_underrun_only_for_an_axis_that_moves() {
         let (mut sim, mut host) = pair();

@@ -153,6 +153,27 @@ fn bad_paths_and_faults_fail_with_a_message() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2));
     assert!(err.contains("unknown fault \"smoke\""), "{err}");
+    // A FIFO deeper than the DPRAM layout's 256 slots: refused before anything is mapped.
+    let dpram = dir.path().join("deep.dpram");
+    let out = Command::new(WRC)
+        .args([
+            "board-sim",
+            "--periods",
+            "1",
+            "--fifo-depth",
+            "257",
+            "--dpram",
+        ])
+        .arg(&dpram)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("--fifo-depth 257") && err.contains("expected 1 to 256 periods"),
+        "{err}"
+    );
+    assert!(!dpram.exists(), "a refused board made its DPRAM");
 }
 
 /// The demo stations file shipped with wrc.

@@ -14,7 +14,7 @@ use wrc_config::Config;
 use crate::up_process::{poll, Conn, PATIENCE};
 
 /// How long the board may take to execute what is queued once the host stands still: the
-/// the soak runs the default configuration, whose look-ahead is 100 ms (`[motion] lookahead_ms`).
+/// soak runs the default configuration, whose look-ahead is 100 ms.
 const DRAIN: Duration = Duration::from_secs(2);
 
 /// `WHERE`-style numbers have 3 decimals: a joint in units gives its pulse count exactly when

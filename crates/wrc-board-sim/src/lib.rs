@@ -54,7 +54,7 @@ use std::sync::atomic::Ordering;
 use wrc_cell::{Blade, MAX_BLADES};
 use wrc_config::{BladeB, BoardConfig, Config};
 
-use wrc_board::dpram::{AxisRecord, Dpram, Pop};
+use wrc_board::dpram::{AxisRecord, Dpram, Flush, Pop};
 use wrc_board::driver::{Mapping, OpenError};
 use wrc_board::fault::Fault;
 use wrc_board::layout::{
@@ -446,26 +446,29 @@ impl SimBoard {
 
     /// Run one board period.
     pub fn step(&mut self) {
-        if let Some((from, to, answers)) = self.dpram.period_begin() {
+        if let Some(flush) = self.dpram.period_begin() {
             // The host's brake answers the stop it was computed for: the board does not
             // brake on its own for it. Acknowledged before the flush is done, so a host
             // that sees the flush done sees the stop answered (docs/dpram.md, "Stops").
             if let Some(word) = self.dpram.stop_pending() {
                 let waiting = matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen);
-                if layout::stop::seq(word) == answers && waiting {
+                if layout::stop::seq(word) == flush.answers && waiting {
                     self.dpram.store(control::STOP_ACK, word);
                     self.own_stop = OwnStop::Idle;
                 }
             }
-            self.flush(from, to);
+            self.flush(flush);
         }
         self.period();
         self.dpram.period_end();
     }
 
-    /// A flush the host asked for: every axis in use skips `from..to`, or none does and
-    /// each axis that cannot is alarmed (the host and the board disagree on the FIFO).
-    fn flush(&mut self, from: u32, to: u32) {
+    /// A flush the host asked for: every axis in use publishes the entries the host staged
+    /// up to `end` (if the host has not yet: it may be preempted right after asking) and
+    /// skips `from..to`, or none does and each axis that cannot is alarmed (the host and the
+    /// board disagree on the FIFO).
+    fn flush(&mut self, flush: Flush) {
+        let Flush { from, to, end, .. } = flush;
         let used = |c: usize| self.axes[c].is_some();
         let ok = (0..AXES_PER_BOARD)
             .filter(|&c| used(c))
@@ -475,6 +478,7 @@ impl SimBoard {
                 continue;
             };
             if ok {
+                self.dpram.fifo_publish_to(channel, end);
                 self.dpram.fifo_skip(channel, from, to);
             } else if a.raise(alarm::FIFO_SEQUENCE) {
                 self.dpram.bump(layout::axis_base(channel) + axis::ALARMS);
@@ -532,8 +536,9 @@ impl SimBoard {
         }
         self.underrun = [false; AXES_PER_BOARD];
         self.take_stop_word();
+        let ready = self.record_ready();
         if !self.watchdog.is_tripped() && !self.estop_latched {
-            self.brake_on_underrun();
+            self.brake_on_underrun(ready);
         }
         let own = matches!(self.own_stop, OwnStop::Braking(_) | OwnStop::Stopped(_));
         let stop = self.watchdog.is_tripped() || self.estop_latched || own;
@@ -567,6 +572,10 @@ impl SimBoard {
                     accel_pps2,
                     jerk_pps3,
                 }
+            } else if !ready {
+                // The record is not whole: every axis waits for it (at rest, or braked
+                // by `brake_on_underrun` if one moves).
+                Drive::Hold
             } else {
                 match self.dpram.fifo_pop(channel) {
                     Pop::Entry(increment) => {
@@ -680,21 +689,30 @@ impl SimBoard {
         );
     }
 
-    /// A streaming axis that is moving finds its FIFO empty (the host has fallen behind by
-    /// more than its look-ahead): holding the position would stop the axis in one period,
-    /// so the board brakes every axis on its own with the full limits instead, as for a
-    /// stop the host did not answer, and the host takes it from there.
-    fn brake_on_underrun(&mut self) {
-        if !matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen) {
+    /// Whether the next record is whole: every axis that takes FIFO entries (not alarmed,
+    /// not stopping) has one. The board executes one record a period, an entry of each
+    /// axis; the host publishes the axes one after the other, and a record it is still
+    /// publishing is not there yet (an axis that took its entry alone would run a period
+    /// ahead of the others for the rest of the move).
+    fn record_ready(&self) -> bool {
+        (0..AXES_PER_BOARD).all(|c| {
+            self.axes[c]
+                .as_ref()
+                .is_none_or(|a| a.alarm() != 0 || a.is_stopping() || self.dpram.fifo_level(c) > 0)
+        })
+    }
+
+    /// A streaming axis that is moving finds no record (`ready` false: the host has fallen
+    /// behind by more than its look-ahead): holding the position would stop the axis in
+    /// one period, so the board brakes every axis on its own with the full limits instead,
+    /// as for a stop the host did not answer, and the host takes it from there.
+    fn brake_on_underrun(&mut self, ready: bool) {
+        if ready || !matches!(self.own_stop, OwnStop::Idle | OwnStop::Seen) {
             return;
         }
         let starved = (0..AXES_PER_BOARD).any(|c| {
             self.axes[c].as_ref().is_some_and(|a| {
-                self.streaming[c]
-                    && a.alarm() == 0
-                    && !a.is_stopping()
-                    && a.increment() != 0
-                    && self.dpram.fifo_level(c) == 0
+                self.streaming[c] && a.alarm() == 0 && !a.is_stopping() && a.increment() != 0
             })
         });
         if starved {
@@ -1218,8 +1236,7 @@ pub(crate) mod tests {
         host.stop_line().unwrap().post(100);
         // The host answers at once: skip the queued periods, push its own (here: rest).
         let at = host.fifo_position().unwrap();
-        assert!(host.flush_queued(&at, at.write));
-        host.push(&inc(0, 0)).unwrap();
+        assert!(host.flush_queued(&at, at.write, &[inc(0, 0)]));
         let incs = run(&mut sim, &host, 5);
         assert_eq!(incs, vec![0; 5]);
         let f = feedback(&host);

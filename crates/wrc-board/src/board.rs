@@ -304,11 +304,14 @@ pub trait MotionBoard: Send {
     }
 
     /// Ask the board to skip, at the start of its next period, the entries it has not
-    /// executed at `at` up to the FIFO index `to` (entries pushed since `at` was read): the
-    /// first entry it executes then is `to`. False, and nothing asked, if the board began a
-    /// period since `at` was read (read the position again and push again).
-    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
-        let _ = (at, to);
+    /// executed at `at` up to the FIFO index `to` (`at.write`, or `at.read` to skip
+    /// nothing), and to execute `next` from `to` on, `next` queued by the flush itself: the
+    /// board publishes them as it takes the flush, so its next period never finds them
+    /// missing, however late this thread runs after the request. False, and nothing asked
+    /// nor queued, if the board began a period since `at` was read (read the position again
+    /// and try again), or `next` does not fit in the free slots.
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32, next: &[[i64; MAX_AXES]]) -> bool {
+        let _ = (at, to, next);
         false
     }
 
@@ -388,8 +391,8 @@ impl<B: MotionBoard + ?Sized> MotionBoard for Box<B> {
     fn fifo_position(&self) -> Option<FifoPosition> {
         (**self).fifo_position()
     }
-    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
-        (**self).flush_queued(at, to)
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32, next: &[[i64; MAX_AXES]]) -> bool {
+        (**self).flush_queued(at, to, next)
     }
     fn stop_line(&self) -> Option<StopLine> {
         (**self).stop_line()

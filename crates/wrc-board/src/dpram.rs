@@ -58,6 +58,19 @@ pub struct FifoPosition {
     pub write: u32,
 }
 
+/// A flush the host asked for, as the board takes it ([`Dpram::period_begin`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Flush {
+    /// FIFO index of the first entry to skip (the one the board executes next).
+    pub from: u32,
+    /// FIFO index the board resumes at.
+    pub to: u32,
+    /// FIFO index after the entries the flush publishes (staged by the host).
+    pub end: u32,
+    /// The stop sequence the flush answers.
+    pub answers: u32,
+}
+
 /// A feedback record could not be read consistently: the board kept rewriting it (or a
 /// foreign writer left it odd). Try again next cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -274,6 +287,41 @@ impl Dpram {
         }
     }
 
+    /// Host: write `increment` into the slot `k` entries after axis `channel`'s write index,
+    /// without publishing it: a flush publishes it ([`Dpram::flush_arm`]'s `end`). The
+    /// caller has checked [`Dpram::fifo_free`] (the slot is not one the board may read).
+    #[inline]
+    pub fn fifo_stage(&self, channel: usize, k: u32, increment: i64) {
+        let base = layout::axis_base(channel);
+        let index = self
+            .map
+            .u32(base + axis::FIFO_WRITE)
+            .load(Ordering::Relaxed)
+            .wrapping_add(k);
+        let slot = layout::fifo_slot(channel, index);
+        self.map
+            .u32(slot + axis::entry::SEQ)
+            .store(index, Ordering::Relaxed);
+        self.map
+            .u32(slot + axis::entry::FLAGS)
+            .store(0, Ordering::Relaxed);
+        self.map
+            .u64(slot + axis::entry::INCREMENT)
+            .store(increment as u64, Ordering::Relaxed);
+    }
+
+    /// Host and board: publish axis `channel`'s entries up to FIFO index `end` (staged by
+    /// [`Dpram::fifo_stage`] and carried by a flush), unless they are already: a
+    /// compare-and-swap, so a write index the host has moved on since is kept.
+    pub fn fifo_publish_to(&self, channel: usize, end: u32) {
+        let write = self.map.u32(layout::axis_base(channel) + axis::FIFO_WRITE);
+        let now = write.load(Ordering::Acquire);
+        let ahead = end.wrapping_sub(now);
+        if ahead != 0 && ahead <= FIFO_CAPACITY as u32 {
+            let _ = write.compare_exchange(now, end, Ordering::AcqRel, Ordering::Relaxed);
+        }
+    }
+
     /// Board: drop every waiting entry of axis `channel`; returns how many.
     pub fn fifo_drain(&self, channel: usize) -> u32 {
         let base = layout::axis_base(channel);
@@ -308,8 +356,13 @@ impl Dpram {
     /// at the start of its next period. False, and nothing asked, if a period began since
     /// `at` was read.
     /// The flush answers the stop pending then (its brake is the host's answer to it).
-    pub fn flush_arm(&self, at: &FifoPosition, to: u32) -> bool {
+    /// `end`: the FIFO index after the entries staged with [`Dpram::fifo_stage`] (the FIFO's
+    /// write index if none), which the flush publishes.
+    pub fn flush_arm(&self, at: &FifoPosition, to: u32, end: u32) -> bool {
         let pending = crate::layout::stop::seq(self.load(control::STOP));
+        self.map
+            .u32(control::FLUSH_END)
+            .store(end, Ordering::Relaxed);
         self.map
             .u32(control::FLUSH_STOP)
             .store(pending, Ordering::Relaxed);
@@ -324,9 +377,9 @@ impl Dpram {
             .is_ok()
     }
 
-    /// Board: open a period; returns the pending flush (from, to, the stop sequence it
-    /// answers), if any (act on it, then [`Dpram::flush_done`]).
-    pub fn period_begin(&self) -> Option<(u32, u32, u32)> {
+    /// Board: open a period; returns the pending flush, if any (act on it, then
+    /// [`Dpram::flush_done`]).
+    pub fn period_begin(&self) -> Option<Flush> {
         let word = self
             .map
             .u64(control::FLUSH)
@@ -335,11 +388,12 @@ impl Dpram {
         if seq == self.map.u32(control::FLUSH_ACK).load(Ordering::Relaxed) {
             return None;
         }
-        Some((
-            self.map.u32(control::FLUSH_FROM).load(Ordering::Relaxed),
-            self.map.u32(control::FLUSH_TO).load(Ordering::Relaxed),
-            self.map.u32(control::FLUSH_STOP).load(Ordering::Relaxed),
-        ))
+        Some(Flush {
+            from: self.map.u32(control::FLUSH_FROM).load(Ordering::Relaxed),
+            to: self.map.u32(control::FLUSH_TO).load(Ordering::Relaxed),
+            end: self.map.u32(control::FLUSH_END).load(Ordering::Relaxed),
+            answers: self.map.u32(control::FLUSH_STOP).load(Ordering::Relaxed),
+        })
     }
 
     // ---- stop word ----

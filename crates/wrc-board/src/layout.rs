@@ -1,4 +1,4 @@
-//! The DPRAM layout, version 4: fixed byte offsets, little-endian 32- and 64-bit words, and
+//! The DPRAM layout, version 5: fixed byte offsets, little-endian 32- and 64-bit words, and
 //! the header check every user of a mapping runs first. See `docs/dpram.md` for the table.
 //!
 //! Every word is naturally aligned, so each can be read and written as one atomic access;
@@ -7,7 +7,7 @@
 /// Magic number at offset 0: the bytes `WRCB` read as a little-endian `u32`.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"WRCB");
 /// The layout version this crate reads and writes.
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// Axes on one board (the paper's PCI board drives 4).
 pub const AXES_PER_BOARD: usize = 4;
 /// Boards one controller drives at most (4 boards × 4 axes = 16 axes).
@@ -92,6 +92,13 @@ pub mod control {
     /// `u32` brakes the board took on its own since it started (board): stops the host did
     /// not answer in time, and underruns of a moving axis.
     pub const BOARD_STOPS: usize = 0x0B4;
+    /// `u32` FIFO index after the brake's first entries (host, written before the flush is
+    /// armed): the host writes them into the slots from the FIFO's write index on without
+    /// publishing them, and the flush publishes them (the board advances every axis's
+    /// `FIFO_WRITE` to it when it takes the flush, if the host has not yet), so the board
+    /// never finds the flushed stretch's successor missing. Equal to the write index: nothing
+    /// staged.
+    pub const FLUSH_END: usize = 0x0B8;
 }
 
 /// The stop word ([`control::STOP`]): a 24-bit sequence above an 8-bit brake level.

@@ -30,7 +30,7 @@ pub use board::{
     AxisFeedback, BoardFeedback, BoardStop, Busy, Feedback, Full, Heartbeat, MappingScan,
     MotionBoard, StopLine, Torn,
 };
-pub use dpram::FifoPosition;
+pub use dpram::{FifoPosition, Flush};
 pub use driver::{DpramBoard, Expect, Mapping, OpenError};
 pub use fault::Fault;
 pub use multi::{MultiBoard, MultiError};

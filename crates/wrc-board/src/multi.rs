@@ -59,6 +59,9 @@ pub struct MultiBoard<B> {
     /// `map[axis] = (board, channel)` for `axis < axis_count`.
     map: [(u8, u8); MAX_AXES],
     axis_count: usize,
+    /// A flush's entries in the board's channels (capacity a whole FIFO, reserved here:
+    /// a flush does not allocate).
+    remapped: Vec<[i64; MAX_AXES]>,
 }
 
 impl<B: MotionBoard> MultiBoard<B> {
@@ -103,6 +106,7 @@ impl<B: MotionBoard> MultiBoard<B> {
             boards,
             map,
             axis_count: axes.len(),
+            remapped: Vec::with_capacity(crate::layout::FIFO_CAPACITY),
         })
     }
 
@@ -233,9 +237,20 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
         }
     }
 
-    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32, next: &[[i64; MAX_AXES]]) -> bool {
+        if next.len() > self.remapped.capacity() {
+            return false;
+        }
+        self.remapped.clear();
+        for increments in next {
+            let mut own = [0i64; MAX_AXES];
+            for (axis, &(_, channel)) in self.map.iter().enumerate().take(self.axis_count) {
+                own[channel as usize] = increments[axis];
+            }
+            self.remapped.push(own);
+        }
         match &mut self.boards[..] {
-            [one] => one.flush_queued(at, to),
+            [one] => one.flush_queued(at, to, &self.remapped),
             _ => false,
         }
     }

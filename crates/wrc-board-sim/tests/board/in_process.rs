@@ -86,12 +86,14 @@ fn a_flush_skips_the_queued_entries_or_is_refused() {
     assert_eq!((at.read, at.write), (1, 4));
     // A board period begins before the host arms the flush: refused, nothing asked.
     sim.step(); // executes entry 1 (increment 2)
-    assert!(!host.flush_queued(&at, at.write));
+    assert!(!host.flush_queued(&at, at.write, &[[-5; 16]]));
     let at = host.fifo_position().unwrap();
     assert_eq!((at.read, at.write), (2, 4));
-    assert!(host.flush_queued(&at, at.write));
+    assert_eq!(host.fifo_free(), 254);
+    // The first entry after the flushed stretch comes with the flush.
+    assert!(host.flush_queued(&at, at.write, &[[-5; 16]]));
     assert!(host.fifo_position().is_none(), "a flush is pending");
-    host.push(&[-5; 16]).unwrap(); // the first entry after the flushed stretch
+    assert_eq!(host.fifo_free(), 253, "queued behind the skipped ones");
     let before = feedback(&host).axes[0].commanded;
     sim.step(); // skips entries 2 and 3, executes -5
     let fb = feedback(&host);
@@ -107,9 +109,96 @@ fn a_flush_skips_the_queued_entries_or_is_refused() {
         read: at.read.wrapping_sub(1),
         ..at
     };
-    assert!(host.flush_queued(&stale, at.write));
+    assert!(host.flush_queued(&stale, at.write, &[]));
     sim.step();
     assert_ne!(feedback(&host).axes[0].alarm, 0);
+}
+
+/// The brake's first entries travel with the flush: a host preempted right after it asked
+/// (the entries written, the flush armed, not yet published) still has its board execute
+/// them from its next period on, not run dry; the host's own publication afterwards changes
+/// nothing, and pushing goes on behind them.
+#[test]
+fn a_flush_publishes_the_entries_it_carries_even_if_the_host_stalls_after_asking() {
+    use wrc_board::layout::{axis, axis_base};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board0.dpram");
+    let mut sim = sim_on(&path);
+    let mut host = DpramBoard::open(&path, Expect::default()).unwrap();
+    for _ in 0..3 {
+        host.push(&[40; 16]).unwrap();
+    }
+    sim.step(); // moving: +40
+    let dpram = host.dpram();
+    let at = host.fifo_position().unwrap();
+    assert_eq!((at.read, at.write), (1, 3));
+    // What `flush_queued` does, stopped before its publication: two entries staged.
+    for channel in 0..4 {
+        dpram.fifo_stage(channel, 0, -7);
+        dpram.fifo_stage(channel, 1, -3);
+    }
+    assert!(dpram.flush_arm(&at, at.write, at.write + 2));
+    assert_eq!(
+        dpram.load(axis_base(0) + axis::FIFO_WRITE),
+        3,
+        "not published"
+    );
+    let start = feedback(&host);
+    let before = start.axes[0].commanded;
+    sim.step(); // skips 1 and 2, executes -7
+    let fb = feedback(&host);
+    assert_eq!(fb.axes[0].commanded - before, -7);
+    assert_eq!(fb.axes[0].underruns, 0);
+    assert_eq!(fb.boards[0].status & board_status::BOARD_BRAKE, 0);
+    assert_eq!(
+        dpram.load(axis_base(0) + axis::FIFO_WRITE),
+        5,
+        "published by the board"
+    );
+    // The host's publication, late: a no-op; pushing goes on behind.
+    dpram.fifo_publish_to(0, 5);
+    for channel in 0..4 {
+        dpram.fifo_push(channel, 0);
+    }
+    sim.step(); // -3
+    sim.step(); // 0
+    let fb = feedback(&host);
+    assert_eq!(fb.axes[0].commanded - before, -10);
+    assert_eq!(fb.axes[3].commanded - start.axes[3].commanded, -10);
+    assert_eq!((fb.axes[0].underruns, fb.axes[0].alarm), (0, 0));
+    assert_eq!(dpram.load(axis_base(0) + axis::DISCARDED), 2);
+}
+
+/// The board executes a record, an entry of every axis, or none: a record the host is
+/// still publishing (axis after axis) is not started on one axis alone, which would leave
+/// that axis a period ahead of the others for the rest of the move.
+#[test]
+fn a_record_half_published_waits_for_its_last_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("board0.dpram");
+    let mut sim = sim_on(&path);
+    let host = DpramBoard::open(&path, Expect::default()).unwrap();
+    let dpram = host.dpram();
+    let start = feedback(&host);
+    dpram.fifo_push(0, 25);
+    dpram.fifo_push(1, 25);
+    sim.step(); // axes 2 and 3 have no entry yet: nobody moves
+    let fb = feedback(&host);
+    for a in 0..4 {
+        assert_eq!(fb.axes[a].commanded, start.axes[a].commanded, "axis {a}");
+        assert_eq!(fb.axes[a].underruns, 0, "axis {a}");
+    }
+    dpram.fifo_push(2, 25);
+    dpram.fifo_push(3, 25);
+    sim.step(); // whole: every axis moves together
+    let fb = feedback(&host);
+    for a in 0..4 {
+        assert_eq!(
+            fb.axes[a].commanded - start.axes[a].commanded,
+            25,
+            "axis {a}"
+        );
+    }
 }
 
 fn feedback(host: &DpramBoard) -> Feedback {

@@ -158,8 +158,27 @@ impl MotionBoard for DpramBoard {
         self.dpram.flush_position()
     }
 
-    fn flush_queued(&mut self, at: &FifoPosition, to: u32) -> bool {
-        self.dpram.flush_arm(at, to)
+    /// `next` is written into the free slots unpublished, the flush armed with their end,
+    /// and then published by this thread too (whichever of it and the board comes first).
+    fn flush_queued(&mut self, at: &FifoPosition, to: u32, next: &[[i64; MAX_AXES]]) -> bool {
+        if next.len() > self.fifo_free() {
+            return false;
+        }
+        let axes = self.axis_count();
+        for (k, increments) in next.iter().enumerate() {
+            for (channel, increment) in increments.iter().enumerate().take(axes) {
+                self.dpram.fifo_stage(channel, k as u32, *increment);
+            }
+        }
+        // Only this thread pushes: the write index is still the one `at` saw.
+        let end = at.write.wrapping_add(next.len() as u32);
+        if !self.dpram.flush_arm(at, to, end) {
+            return false;
+        }
+        for channel in 0..axes {
+            self.dpram.fifo_publish_to(channel, end);
+        }
+        true
     }
 
     fn stop_line(&self) -> Option<StopLine> {

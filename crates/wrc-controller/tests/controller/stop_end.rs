@@ -309,7 +309,7 @@ fn a_stop_answered_by_a_flush_armed_earlier_is_not_waited_for_on_the_board() {
         .unwrap();
     r.ci.step_released(r.now_ns(), false);
     let at = r.host.fifo_position().unwrap();
-    assert!(r.host.flush_queued(&at, at.write));
+    assert!(r.host.flush_queued(&at, at.write, &[]));
     r.pg.step_released(Release::Event);
     let mut periods = 0;
     while !(r.shared.in_flight.load(Ordering::Acquire) == 0

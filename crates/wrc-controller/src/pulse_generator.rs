@@ -265,6 +265,8 @@ pub struct PulseGenerator<B: MotionBoard> {
     /// The brake's first periods, computed before a flush is asked (capacity
     /// [`HISTORY`], reserved at start-up: the cycle does not allocate).
     first: Vec<Pushed>,
+    /// Their pulses, as the flush queues them (same capacity).
+    first_pulses: Vec<[i64; MAX_AXES]>,
     /// The FIFO had been filled to its lead since the last stop or start: the levels seen
     /// count for the deepest drain.
     streaming: bool,
@@ -297,6 +299,14 @@ pub struct PulseGenerator<B: MotionBoard> {
     /// ([`wrc_board::BoardStop::braking`]), read once a cycle (and again where the cycle
     /// reads the board's stop words anyway) for [`PulseGenerator::publish_in_flight`].
     board_braking: bool,
+    /// Periodic cycles run (wrapping), for the run-dry diagnosis.
+    periods: u32,
+    /// `periods` when the current move's first period was pushed.
+    move_started: u32,
+    /// `periods` at the last flush.
+    flushed_at: Option<u32>,
+    /// This cycle's wake-up lateness [µs] (0 when stepped by hand).
+    late_us: u32,
 }
 
 impl<B: MotionBoard> PulseGenerator<B> {
@@ -329,8 +339,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
             pending: None,
             fifo_depth,
             lead: FIFO_LEAD.min(fifo_depth.saturating_sub(1)).max(1),
-            zeros_pushed: 0,
+            // At rest from the start: no motion to end with a zero period.
+            zeros_pushed: REST_ZEROS,
             first: Vec::with_capacity(HISTORY),
+            first_pulses: Vec::with_capacity(HISTORY),
             streaming: false,
             completing: None,
             epoch_pending: false,
@@ -343,6 +355,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
             board_stops: false,
             board_braked: false,
             board_braking: false,
+            periods: 0,
+            move_started: 0,
+            flushed_at: None,
+            late_us: 0,
         }
     }
 
@@ -426,6 +442,8 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.stopper.restore(&self.last);
         self.stopper.abandon_at(position);
         self.last = self.stopper.state();
+        // The board stands still there: no motion of this task's to end.
+        self.zeros_pushed = REST_ZEROS;
         for (c, p) in self.shared.commanded.iter().zip(position) {
             c.store(*p, Ordering::Release);
         }
@@ -486,6 +504,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
         if self.board.push(pulses).is_err() {
             return false;
         }
+        self.pushed(pulses, after);
+        true
+    }
+
+    /// A period is queued (pushed, or queued by a flush): its record and commanded pulses.
+    fn pushed(&mut self, pulses: &[i64; MAX_AXES], after: &MotionState) {
         self.zeros_pushed = if pulses.iter().all(|p| *p == 0) {
             self.zeros_pushed.saturating_add(1)
         } else {
@@ -497,14 +521,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 c.fetch_add(*p, Ordering::AcqRel);
             }
         }
-        true
     }
 
     /// Start the brake from the state after the last period the board executed, and ask
     /// the board to skip the periods queued after it: the brake's first periods are
-    /// computed first, the flush is armed (refused if a board period began meanwhile: then
-    /// try again from the period reached by then), and only then are they pushed, right
-    /// behind the skipped ones. True when the board will skip them (the brake is under way:
+    /// computed first, then queued by the flush itself, right behind the skipped ones (the
+    /// board publishes them as it takes the flush: however late this task runs on, the
+    /// board's next period finds them), or the flush is refused if a board period began
+    /// meanwhile (then try again from the period reached by then). True when the board will skip them (the brake is under way:
     /// `stopper`, `last`); false when it cannot flush (several boards, a flush pending, the
     /// state before the queued periods forgotten, no room): the caller brakes from the last
     /// pushed period, behind the queue.
@@ -530,6 +554,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             self.stopper.stop(limits);
             // The brake's first periods, as many as the lead keeps queued.
             self.first.clear();
+            self.first_pulses.clear();
             let mut end = None;
             let mut period = Period::default();
             while self.first.len() < room && end.is_none() {
@@ -538,11 +563,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     pulses: period.pulses,
                     after: self.stopper.state(),
                 });
+                self.first_pulses.push(period.pulses);
                 if !matches!(status, Status::Working) {
                     end = Some(status);
                 }
             }
-            if !self.board.flush_queued(&at, at.write) {
+            if !self.board.flush_queued(&at, at.write, &self.first_pulses) {
                 continue; // a board period began: it executed another queued period
             }
             // The board skips the `queued` periods from its next one on.
@@ -554,12 +580,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
             self.history.drop_newest(queued);
             for i in 0..self.first.len() {
-                // Room was checked, and only this task pushes.
                 let p = self.first[i];
-                let _ = self.emit(&p.pulses, &p.after);
+                self.pushed(&p.pulses, &p.after);
             }
             self.last = self.first[self.first.len() - 1].after;
             self.brake_end = end;
+            self.flushed_at = Some(self.periods);
             return true;
         }
         false
@@ -596,6 +622,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.board.refresh_watchdog();
         self.board_braking = self.board.board_stop().braking;
         if release == Release::Period {
+            self.periods = self.periods.wrapping_add(1);
             self.watch_boards();
             self.watch_fifo();
         }
@@ -705,6 +732,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
             // while moving (a stall longer than the look-ahead) and braked: a motion fault.
             let asked = self.shared.stop_requests.load(Ordering::Acquire) != self.epoch_seen;
             if !asked && (self.last.is_moving() || self.completing.is_some()) {
+                let fifo = &self.shared.fifo;
+                let since = |at: u32| self.periods.wrapping_sub(at);
+                fifo.dry_after_start
+                    .store(since(self.move_started), Ordering::Relaxed);
+                fifo.dry_after_flush
+                    .store(self.flushed_at.map_or(u32::MAX, since), Ordering::Relaxed);
                 if let Some(l) = self.liveness.as_ref() {
                     l.raise(Code::MotionFault);
                 }
@@ -749,6 +782,18 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 }
                 continue;
             }
+            if self.start_waits() {
+                // The motion before ends with its zero period first (its last increment
+                // may not be zero: a board that ran out of periods after it would count
+                // a moving axis run dry).
+                if self.zeros_pushed < REST_ZEROS {
+                    let after = self.last;
+                    if self.emit(&[0; MAX_AXES], &after) {
+                        continue;
+                    }
+                }
+                break;
+            }
             let batch = match self.pending.take().or_else(|| self.ring.try_recv()) {
                 Some(b) if b.epoch == self.epoch_seen => b,
                 Some(_) => continue,
@@ -788,6 +833,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     .store(batch.ticket, Ordering::Release);
             }
             if batch.ticket != self.ticket {
+                self.move_started = self.periods;
                 self.shared
                     .first_pulse_ns
                     .store(Shared::now_ns(), Ordering::Release);
@@ -819,6 +865,21 @@ impl<B: MotionBoard> PulseGenerator<B> {
         self.publish_in_flight();
     }
 
+    /// A move's start (nothing moving queued after the periods in the FIFO) while the
+    /// Velocity Generator is still producing it: with fewer periods than the look-ahead
+    /// at hand, queuing them now would let a stall of this task right after run the board
+    /// dry mid-start (the board brakes, 209); waiting one period for the rest costs nothing
+    /// at rest. A short move whose whole plan is in the ring starts at once.
+    fn start_waits(&self) -> bool {
+        if self.last.is_moving() || self.pending.is_some() {
+            return false;
+        }
+        // The ring first: a batch seen there shows the flag set before it (or cleared
+        // after the last one).
+        let at_hand = self.queued() + self.ring.len();
+        at_hand < self.lead && self.shared.vg_filling.load(Ordering::Acquire)
+    }
+
     /// The last period pushed is at rest, but the board still has periods of a motion to
     /// execute (the end of a move, queued up to the look-ahead ahead of it).
     fn tail_moving(&self) -> bool {
@@ -836,7 +897,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
     fn answer_stop_at_rest(&mut self) {
         if let Some(at) = self.fifo_position() {
             if !self.board.board_stop().braking_own {
-                let _ = self.board.flush_queued(&at, at.read);
+                let _ = self.board.flush_queued(&at, at.read, &[]);
             }
         }
     }
@@ -919,9 +980,21 @@ impl<B: MotionBoard> PulseGenerator<B> {
     fn watch_fifo(&mut self) {
         let stats = &self.shared.fifo;
         if self.streaming && !self.detached {
-            stats
-                .min_level
-                .fetch_min(self.queued() as u32, Ordering::Relaxed);
+            let level = self.queued() as u32;
+            if stats.min_level.fetch_min(level, Ordering::Relaxed) > level {
+                // The deepest drain's circumstances: this task late, or the plan.
+                stats.min_late_us.store(self.late_us, Ordering::Relaxed);
+                stats
+                    .min_ring
+                    .store(self.ring.len() as u32, Ordering::Relaxed);
+                stats.min_after_start.store(
+                    self.periods.wrapping_sub(self.move_started),
+                    Ordering::Relaxed,
+                );
+                stats
+                    .min_moving
+                    .store(u32::from(self.last.is_moving()), Ordering::Relaxed);
+            }
         }
         if self.board.read_feedback(&mut self.feedback).is_ok() {
             let boards = &self.feedback.boards[..self.feedback.board_count];
@@ -1008,6 +1081,8 @@ impl<B: MotionBoard> PulseGenerator<B> {
 
 impl<B: MotionBoard + 'static> Task for PulseGenerator<B> {
     fn cycle(&mut self, ctx: &CycleContext) {
+        let late_ns = ctx.woke_ns.saturating_sub(ctx.scheduled_ns);
+        self.late_us = u32::try_from(late_ns / 1_000).unwrap_or(u32::MAX);
         self.step_released(ctx.release);
         if ctx.release == Release::Period {
             self.record(ctx);

@@ -136,10 +136,18 @@ pub fn task_line(spec: &TaskSpec, figures: &TaskFigures) -> String {
     if let Some(f) = figures.fifo {
         let _ = write!(
             line,
-            "board_stops={} lookahead={} fifo_min={} underruns={} watchdog_trips={} board_late={} ",
+            "board_stops={} lookahead={} fifo_min={} fifo_min_late_us={} fifo_min_ring={} \
+             fifo_min_after_start={} fifo_min_moving={} dry_after_start={} dry_after_flush={} \
+             underruns={} watchdog_trips={} board_late={} ",
             f.board_stops,
             f.lookahead,
             f.min_level.map_or("-".to_string(), |m| m.to_string()),
+            f.min_late_us,
+            f.min_ring,
+            f.min_after_start,
+            u8::from(f.min_moving),
+            f.dry_after_start.map_or("-".to_string(), |m| m.to_string()),
+            f.dry_after_flush.map_or("-".to_string(), |m| m.to_string()),
             f.underruns,
             f.watchdog_trips,
             f.board_late
@@ -213,6 +221,58 @@ mod tests {
         );
     }
 
+    /// The longest `EVT TASK` line (the Pulse Generator's, after months at 1 kHz: every
+    /// counter large, every latency bin from 1 µs to 2 s filled) fits a reply line whole;
+    /// cut, it would lose its histogram.
+    #[test]
+    fn the_longest_task_line_fits_a_reply_line() {
+        let stats = StatsCell::new();
+        for bin in 0..22 {
+            for _ in 0..3 {
+                stats.record(&wrc_rt::stats::CycleSample {
+                    period_ns: Some(1_000_000 + (1u64 << bin) * 1_000),
+                    exec_ns: 123_456_789,
+                    latency_ns: (1u64 << bin) * 1_000 + 777,
+                    overrun: true,
+                    missed_periods: 1_000_000,
+                });
+            }
+            stats.record_event(987_654_321);
+        }
+        let shared = Arc::new(Shared::default());
+        shared.stops.flushed.store(u64::MAX / 2, Ordering::Relaxed);
+        shared
+            .stops
+            .behind_queue
+            .store(u64::MAX / 2, Ordering::Relaxed);
+        let f = &shared.fifo;
+        f.lookahead.store(255, Ordering::Relaxed);
+        f.min_level.store(0, Ordering::Relaxed);
+        f.min_late_us.store(u32::MAX - 1, Ordering::Relaxed);
+        f.min_ring.store(u32::MAX - 1, Ordering::Relaxed);
+        f.min_after_start.store(u32::MAX - 1, Ordering::Relaxed);
+        f.dry_after_start.store(u32::MAX - 1, Ordering::Relaxed);
+        f.dry_after_flush.store(u32::MAX - 1, Ordering::Relaxed);
+        for c in [
+            &f.underruns,
+            &f.watchdog_trips,
+            &f.board_late,
+            &f.board_stops,
+        ] {
+            c.store(u64::MAX / 2, Ordering::Relaxed);
+        }
+        let cell = TaskCell::new(Arc::new(stats), Some(shared));
+        let text = task_line(
+            &TaskSpec::new("pulse_generator", 80, 1_000),
+            &cell.snapshot(),
+        );
+        let mut buf = wrc_protocol::ReplyBuf::new();
+        let line = buf.event(true, &wrc_protocol::Event::Task(&text)).to_vec();
+        assert!(!buf.is_truncated(), "{} bytes: {text}", text.len());
+        let line = String::from_utf8(line).unwrap();
+        assert!(line.contains(",2097152:3"), "{line}");
+    }
+
     #[test]
     fn task_line_of_an_idle_task_is_all_zero() {
         let spec = TaskSpec::new("pulse_generator", 20, 10_000);
@@ -250,6 +310,8 @@ mod tests {
         assert!(
             line.ends_with(
                 " stops_flushed=0 stops_behind_queue=0 board_stops=0 lookahead=2 fifo_min=- \
+                 fifo_min_late_us=0 fifo_min_ring=0 fifo_min_after_start=0 fifo_min_moving=0 \
+                 dry_after_start=- dry_after_flush=- \
                  underruns=0 watchdog_trips=0 board_late=0 lat_hist="
             ),
             "{line}"
@@ -257,12 +319,15 @@ mod tests {
         shared.stops.flushed.fetch_add(3, Ordering::Relaxed);
         shared.stops.behind_queue.fetch_add(1, Ordering::Relaxed);
         shared.fifo.min_level.fetch_min(7, Ordering::Relaxed);
+        shared.fifo.min_late_us.store(1_250, Ordering::Relaxed);
+        shared.fifo.dry_after_start.store(3, Ordering::Relaxed);
         shared.fifo.underruns.store(4, Ordering::Relaxed);
         let line = task_line(&spec, &cell.snapshot());
         assert!(
             line.contains(
                 " ev_exec_max_us=0 stops_flushed=3 stops_behind_queue=1 board_stops=0 \
-                 lookahead=2 fifo_min=7 underruns=4 "
+                 lookahead=2 fifo_min=7 fifo_min_late_us=1250 fifo_min_ring=0 \
+                 fifo_min_after_start=0 fifo_min_moving=0 dry_after_start=3 dry_after_flush=- underruns=4 "
             ),
             "{line}"
         );

@@ -40,6 +40,10 @@ pub struct Shared {
     pub inputs: [AtomicU32; 4],
     /// Pulse batches in flight (ring + board FIFO) — 0 when the robot is at rest.
     pub in_flight: AtomicU32,
+    /// The Velocity Generator is filling the ring (set before its first batch of a cycle,
+    /// cleared after its last): a move's start that finds fewer periods than the look-ahead
+    /// waits for the rest instead of queuing a few that a stall would run dry.
+    pub vg_filling: AtomicBool,
     /// Set with a stop request after RESET: the Pulse Generator takes the board's own
     /// position (the board may have stopped by itself or dropped entries of an alarmed axis).
     pub resync_from_board: AtomicBool,
@@ -103,6 +107,7 @@ impl Default for Shared {
             in_flight: AtomicU32::new(0),
             resync_from_board: AtomicBool::new(false),
             first_pulse_ns: AtomicU64::new(0),
+            vg_filling: AtomicBool::new(false),
             urgent_read_ns: AtomicU64::new(0),
             decel_ns: AtomicU64::new(0),
             stops: StopCounts::default(),
@@ -244,6 +249,22 @@ pub struct FifoStats {
     /// streamed (the FIFO filled to its look-ahead since the last stop), `u32::MAX` before
     /// any: the look-ahead less this is the deepest drain a late wake-up caused [periods].
     pub min_level: AtomicU32,
+    /// The Pulse Generator's wake-up lateness in the period that found [`FifoStats::min_level`]
+    /// [µs]: a drain deeper than it was not this task's stall.
+    pub min_late_us: AtomicU32,
+    /// Periods the Velocity Generator's ring held then (none: the plan was late, or all of
+    /// it was queued).
+    pub min_ring: AtomicU32,
+    /// The Pulse Generator's periods since the move's first period was pushed, then.
+    pub min_after_start: AtomicU32,
+    /// Whether the last period pushed then was moving (1) or the move's last (0).
+    pub min_moving: AtomicU32,
+    /// When the last move ran its FIFO dry (the board braked on its own with no stop asked):
+    /// the Pulse Generator's periods since that move's first period was pushed, `u32::MAX`
+    /// before any.
+    pub dry_after_start: AtomicU32,
+    /// Then, its periods since its last flush (`u32::MAX`: none yet).
+    pub dry_after_flush: AtomicU32,
     /// Underruns, summed over every axis of every board, since the boards started.
     pub underruns: AtomicU64,
     /// Host-watchdog trips, summed over the boards.
@@ -259,6 +280,12 @@ impl Default for FifoStats {
         FifoStats {
             lookahead: AtomicU32::new(crate::pulse_generator::FIFO_LEAD as u32),
             min_level: AtomicU32::new(u32::MAX),
+            min_late_us: AtomicU32::new(0),
+            min_ring: AtomicU32::new(0),
+            min_after_start: AtomicU32::new(0),
+            min_moving: AtomicU32::new(0),
+            dry_after_start: AtomicU32::new(u32::MAX),
+            dry_after_flush: AtomicU32::new(u32::MAX),
             underruns: AtomicU64::new(0),
             watchdog_trips: AtomicU64::new(0),
             board_late: AtomicU64::new(0),
@@ -271,9 +298,19 @@ impl FifoStats {
     /// The figures now.
     pub fn read(&self) -> FifoTally {
         let min = self.min_level.load(Ordering::Relaxed);
+        let known = |v: &AtomicU32| {
+            let v = v.load(Ordering::Relaxed);
+            (v != u32::MAX).then_some(v)
+        };
         FifoTally {
             lookahead: self.lookahead.load(Ordering::Relaxed),
             min_level: (min != u32::MAX).then_some(min),
+            min_late_us: self.min_late_us.load(Ordering::Relaxed),
+            min_ring: self.min_ring.load(Ordering::Relaxed),
+            min_after_start: self.min_after_start.load(Ordering::Relaxed),
+            min_moving: self.min_moving.load(Ordering::Relaxed) != 0,
+            dry_after_start: known(&self.dry_after_start),
+            dry_after_flush: known(&self.dry_after_flush),
             underruns: self.underruns.load(Ordering::Relaxed),
             watchdog_trips: self.watchdog_trips.load(Ordering::Relaxed),
             board_late: self.board_late.load(Ordering::Relaxed),
@@ -289,6 +326,18 @@ pub struct FifoTally {
     pub lookahead: u32,
     /// The lowest level found while streaming; `None` before any [periods].
     pub min_level: Option<u32>,
+    /// The Pulse Generator's wake-up lateness then [µs].
+    pub min_late_us: u32,
+    /// Periods in the Velocity Generator's ring then.
+    pub min_ring: u32,
+    /// Periods since the move's first was pushed, then.
+    pub min_after_start: u32,
+    /// The last period pushed then was moving.
+    pub min_moving: bool,
+    /// At the last run-dry of a move: periods since its first one was pushed.
+    pub dry_after_start: Option<u32>,
+    /// At the last run-dry of a move: periods since the last flush.
+    pub dry_after_flush: Option<u32>,
     /// Underruns, all axes of all boards.
     pub underruns: u64,
     /// Host-watchdog trips, all boards.

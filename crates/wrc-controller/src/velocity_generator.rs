@@ -154,6 +154,8 @@ impl VelocityGenerator {
             self.resyncing = false;
         }
         let mut period = Period::default();
+        // Before the first batch: a Pulse Generator that sees one sees this too.
+        self.shared.vg_filling.store(true, Ordering::Relaxed);
         while self.ring.free_slots() > 0 {
             if !self.generator.is_moving() && !self.start_next() {
                 break;
@@ -169,6 +171,7 @@ impl VelocityGenerator {
             // free_slots() > 0 was checked, and this task is the ring's only producer.
             let _ = self.ring.try_send(batch);
         }
+        self.shared.vg_filling.store(false, Ordering::Release);
     }
 }
 

@@ -21,8 +21,10 @@ pub fn reply_field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
         .find_map(|w| w.strip_prefix(key)?.strip_prefix('='))
 }
 
-/// Size of a [`ReplyBuf`] [bytes], including the checksum suffix and the LF.
-pub const REPLY_CAPACITY: usize = 512;
+/// Size of a [`ReplyBuf`] [bytes], including the checksum suffix and the LF: room for the
+/// longest line the controller writes (the Pulse Generator's `EVT TASK` line after a long
+/// run, every latency bin filled: about 900 bytes).
+pub const REPLY_CAPACITY: usize = 1024;
 
 /// Room kept at the end of the buffer for `*HH` and LF.
 const SUFFIX_LEN: usize = 4;
@@ -601,7 +603,7 @@ mod tests {
     #[test]
     fn overlong_bodies_are_cut_but_the_line_is_whole() {
         let mut out = ReplyBuf::new();
-        let long = "x".repeat(1000);
+        let long = "x".repeat(2 * REPLY_CAPACITY);
         let to = ReplyTo {
             id: Some(99_999_999),
             checksum: true,

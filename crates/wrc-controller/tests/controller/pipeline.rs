@@ -194,6 +194,42 @@ fn a_move_whose_plan_comes_in_slower_than_the_look_ahead_is_never_padded_with_ze
     assert!(fifo.min_level.is_some(), "{fifo:?}");
 }
 
+/// A move's start that finds the Velocity Generator still producing it (fewer periods in
+/// the ring than the look-ahead) waits for the rest instead of queuing a few a stall of
+/// the Pulse Generator would run dry mid-start; once the generator is done it starts with
+/// all there is, and runs to its end without a pause.
+#[test]
+fn a_moves_start_waits_while_the_plan_is_still_being_produced() {
+    use std::sync::atomic::Ordering;
+    let mut rig = Rig::with_lookahead(20); // the ring holds 12: never a whole look-ahead
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 60.0;
+    rig.order(4, MoveKind::Joints(target));
+    rig.vg.step();
+    let depth = rig.host.fifo_free();
+    // The generator preempted in the middle of its cycle: its flag still up.
+    rig.shared.vg_filling.store(true, Ordering::Release);
+    rig.pg.step();
+    assert_eq!(
+        rig.host.fifo_free(),
+        depth,
+        "nothing queued while the plan comes in"
+    );
+    rig.pg.step();
+    assert_eq!(rig.host.fifo_free(), depth);
+    // Its cycle over: the move starts with what the ring holds.
+    rig.shared.vg_filling.store(false, Ordering::Release);
+    rig.pg.step();
+    assert_eq!(depth - rig.host.fifo_free(), 12);
+    let done = rig.run_until_done(1000);
+    assert_eq!(done.outcome, MoveOutcome::Completed);
+    let j1: Vec<i64> = rig.increments.iter().map(|i| i[0]).collect();
+    let first = j1.iter().position(|v| *v != 0).unwrap();
+    let last = j1.iter().rposition(|v| *v != 0).unwrap();
+    assert!(j1[first..=last].iter().all(|v| *v > 0), "{j1:?}");
+    assert_eq!(rig.feedback().underruns(), 0);
+}
+
 /// A stop in a move's last look-ahead (its last period already pushed, the board still
 /// executing its deceleration) brakes from where the board is and ends the move stopped;
 /// once it let the planned end play out and reported the move completed.

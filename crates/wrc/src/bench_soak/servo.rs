@@ -236,11 +236,20 @@ impl Servo {
             "deepest FIFO drain: periods (ms) of the look-ahead",
             match fifo.deepest_drain() {
                 Some(d) => format!(
-                    "{d} ({} ms) of {} ({} ms); lowest level {}",
+                    "{d} ({} ms) of {} ({} ms); lowest level {} (PG {} µs late, ring {}, {} \
+                     periods into a move, {})",
                     num(d as f64 * self.period_ms),
                     fifo.lookahead,
                     num(fifo.lookahead as f64 * self.period_ms),
-                    opt(fifo.fifo_min)
+                    opt(fifo.fifo_min),
+                    opt(fifo.min_late_us),
+                    opt(fifo.min_ring),
+                    opt(fifo.min_after_start),
+                    match fifo.min_moving {
+                        Some(true) => "moving",
+                        Some(false) => "its end queued",
+                        None => "-",
+                    },
                 ),
                 None => format!("- (never streamed) of {}", fifo.lookahead),
             },
@@ -253,6 +262,15 @@ impl Servo {
             format!("{} / {}", fifo.board_late, fifo.board_stops),
             "",
         ));
+        if let Some(start) = fifo.dry_after_start {
+            // Where a move ran dry: at its start (a plan still coming), right after a flush
+            // (its brake not yet pushed), or mid-move (a stall longer than the look-ahead).
+            rows.push(row(
+                "last run-dry: PG periods after its move's start / the last flush",
+                format!("{start} / {}", opt(fifo.dry_after_flush)),
+                "",
+            ));
+        }
         match &self.pulses {
             Ok(axes) => {
                 for a in axes {
@@ -327,6 +345,12 @@ impl Servo {
                 "fifo_min_periods": fifo.fifo_min,
                 "deepest_drain_periods": fifo.deepest_drain(),
                 "deepest_drain_ms": fifo.deepest_drain().map(|d| d as f64 * self.period_ms),
+                "deepest_drain_pg_late_us": fifo.min_late_us,
+                "deepest_drain_ring_periods": fifo.min_ring,
+                "deepest_drain_after_start_periods": fifo.min_after_start,
+                "deepest_drain_moving": fifo.min_moving,
+                "run_dry_after_start_periods": fifo.dry_after_start,
+                "run_dry_after_flush_periods": fifo.dry_after_flush,
                 "board_late": fifo.board_late,
                 "board_stops": fifo.board_stops,
             },
@@ -393,7 +417,8 @@ mod tests {
         assert_eq!(find("underruns").unwrap(), "0 / 0");
         assert_eq!(
             find("deepest FIFO drain").unwrap(),
-            "2 (2 ms) of 20 (20 ms); lowest level 18"
+            "2 (2 ms) of 20 (20 ms); lowest level 18 (PG - µs late, ring -, - periods into a \
+             move, -)"
         );
         assert_eq!(find("PG wake-up latency").unwrap(), "≤16 / 40 / 90");
         assert_eq!(

@@ -61,6 +61,13 @@ impl TaskLine {
             lookahead: self.count("lookahead")?,
             // `-` until the Pulse Generator has streamed a period.
             fifo_min: self.count("fifo_min"),
+            // Absent from an older controller's line: unknown.
+            min_late_us: self.count("fifo_min_late_us"),
+            min_ring: self.count("fifo_min_ring"),
+            min_after_start: self.count("fifo_min_after_start"),
+            min_moving: self.count("fifo_min_moving").map(|m| m != 0),
+            dry_after_start: self.count("dry_after_start"),
+            dry_after_flush: self.count("dry_after_flush"),
             underruns: self.count("underruns")?,
             watchdog_trips: self.count("watchdog_trips")?,
             board_late: self.count("board_late")?,
@@ -77,6 +84,18 @@ pub(crate) struct FifoFigures {
     /// The lowest FIFO level found at the start of a period while streaming [periods];
     /// `None` before the first streamed period.
     pub(crate) fifo_min: Option<u64>,
+    /// The Pulse Generator's wake-up lateness in the period of the lowest level [µs].
+    pub(crate) min_late_us: Option<u64>,
+    /// Periods the Velocity Generator's ring held then.
+    pub(crate) min_ring: Option<u64>,
+    /// Periods since the move's start then.
+    pub(crate) min_after_start: Option<u64>,
+    /// Whether the last period pushed then was moving (else the move's last was pushed).
+    pub(crate) min_moving: Option<bool>,
+    /// At the last move that ran its FIFO dry: periods since its start; `None`: none did.
+    pub(crate) dry_after_start: Option<u64>,
+    /// Then: periods since the last flush (`None`: none yet).
+    pub(crate) dry_after_flush: Option<u64>,
     /// Periods an axis found its FIFO empty, all axes of all boards.
     pub(crate) underruns: u64,
     /// Host-watchdog trips, all boards.
@@ -136,7 +155,9 @@ mod tests {
         per_avg_us=1000.455 per_min_us=298.302 per_max_us=3707.284 exec_avg_us=1.165 \
         exec_max_us=34.101 lat_avg_us=17.647 lat_p99_us=43.007 lat_max_us=2721.546 ev_cycles=0 \
         ev_exec_avg_us=0 ev_exec_max_us=0 stops_flushed=0 stops_behind_queue=0 board_stops=1 \
-        lookahead=20 fifo_min=17 underruns=0 watchdog_trips=3 board_late=5 \
+        lookahead=20 fifo_min=17 fifo_min_late_us=2721 fifo_min_ring=40 fifo_min_after_start=9 fifo_min_moving=1 \
+        dry_after_start=2 \
+        dry_after_flush=- underruns=0 watchdog_trips=3 board_late=5 \
         lat_hist=16:6412,32:2032,64:296,128:23,256:4,512:2,1024:2,4096:2";
 
     #[test]
@@ -153,6 +174,12 @@ mod tests {
             FifoFigures {
                 lookahead: 20,
                 fifo_min: Some(17),
+                min_late_us: Some(2721),
+                min_ring: Some(40),
+                min_after_start: Some(9),
+                min_moving: Some(true),
+                dry_after_start: Some(2),
+                dry_after_flush: None,
                 underruns: 0,
                 watchdog_trips: 3,
                 board_late: 5,

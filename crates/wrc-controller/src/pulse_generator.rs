@@ -791,6 +791,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     if self.emit(&[0; MAX_AXES], &after) {
                         continue;
                     }
+                } else {
+                    // That motion has ended: the FIFO drains its tail while the plan comes,
+                    // which is no drain of a look-ahead.
+                    self.streaming = false;
                 }
                 break;
             }

@@ -269,6 +269,9 @@ mod tests {
         let mut buf = wrc_protocol::ReplyBuf::new();
         let line = buf.event(true, &wrc_protocol::Event::Task(&text)).to_vec();
         assert!(!buf.is_truncated(), "{} bytes: {text}", text.len());
+        // And it travels to the client whole, its newline included.
+        let out = crate::messages::OutLine::new(crate::messages::SourceId::NONE, &line);
+        assert_eq!(out.bytes(), &line[..]);
         let line = String::from_utf8(line).unwrap();
         assert!(line.contains(",2097152:3"), "{line}");
     }

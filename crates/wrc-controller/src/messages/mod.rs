@@ -159,8 +159,9 @@ impl std::fmt::Display for SourceId {
     }
 }
 
-/// Longest reply line [bytes], newline included.
-pub const LINE_MAX: usize = 512;
+/// Longest reply line [bytes], newline included: a reply buffer's (a line cut here would
+/// lose its newline and run into the next one).
+pub const LINE_MAX: usize = wrc_protocol::REPLY_CAPACITY;
 
 /// One reply or event line on its way to a client, fixed-size (no allocation).
 #[derive(Clone, Copy)]

@@ -230,6 +230,43 @@ fn a_moves_start_waits_while_the_plan_is_still_being_produced() {
     assert_eq!(rig.feedback().underruns(), 0);
 }
 
+/// While the next move's plan comes in, the FIFO drains the end of the move before: that
+/// is no drain of the look-ahead (once it was counted as one: a 51-period "drain" in a
+/// soak with the Pulse Generator on time).
+#[test]
+fn the_end_of_a_move_draining_while_the_next_is_planned_is_no_look_ahead_drain() {
+    use std::sync::atomic::Ordering;
+    let mut target = Config::embedded_default().robot.home();
+    target[0] = 60.0;
+    let mut whole = Rig::with_lookahead(10);
+    whole.order(3, MoveKind::Joints(target));
+    whole.run_until_done(1000);
+    let j1: Vec<i64> = whole.increments.iter().map(|i| i[0]).collect();
+    let end = j1.iter().rposition(|v| *v != 0).unwrap();
+
+    let mut rig = Rig::with_lookahead(10);
+    rig.order(3, MoveKind::Joints(target));
+    // Its last period pushed, 8 of the motion still queued (the ring holds 12: the FIFO
+    // streams at 10).
+    for _ in 0..end - 8 {
+        rig.period();
+    }
+    // The generator busy planning the next move, the board draining the end.
+    rig.shared.vg_filling.store(true, Ordering::Release);
+    for _ in 0..25 {
+        rig.pg.step();
+        for sim in &mut rig.sims {
+            sim.step();
+        }
+    }
+    rig.shared.vg_filling.store(false, Ordering::Release);
+    let fifo = rig.shared.fifo.read();
+    // The lowest level seen is one of the motion (this rig's generator, every 5th period
+    // with a ring of 12, lets it sag a little), not the end's tail run down to 0.
+    assert!(fifo.min_moving && fifo.min_level.unwrap() > 0, "{fifo:?}");
+    assert_eq!(rig.feedback().underruns(), 0);
+}
+
 /// A stop in a move's last look-ahead (its last period already pushed, the board still
 /// executing its deceleration) brakes from where the board is and ends the move stopped;
 /// once it let the planned end play out and reported the move completed.

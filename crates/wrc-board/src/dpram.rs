@@ -243,17 +243,23 @@ impl Dpram {
             .map
             .u32(base + axis::FIFO_WRITE)
             .load(Ordering::Relaxed);
-        let slot = layout::fifo_slot(channel, write);
+        self.write_slot(channel, write, increment);
+        self.store(base + axis::FIFO_WRITE, write.wrapping_add(1));
+    }
+
+    /// Host: fill axis `channel`'s slot for FIFO index `index` (not published).
+    #[inline]
+    fn write_slot(&self, channel: usize, index: u32, increment: i64) {
+        let slot = layout::fifo_slot(channel, index);
         self.map
             .u32(slot + axis::entry::SEQ)
-            .store(write, Ordering::Relaxed);
+            .store(index, Ordering::Relaxed);
         self.map
             .u32(slot + axis::entry::FLAGS)
             .store(0, Ordering::Relaxed);
         self.map
             .u64(slot + axis::entry::INCREMENT)
             .store(increment as u64, Ordering::Relaxed);
-        self.store(base + axis::FIFO_WRITE, write.wrapping_add(1));
     }
 
     /// Board: take the entry at the head of axis `channel`'s FIFO.
@@ -298,16 +304,7 @@ impl Dpram {
             .u32(base + axis::FIFO_WRITE)
             .load(Ordering::Relaxed)
             .wrapping_add(k);
-        let slot = layout::fifo_slot(channel, index);
-        self.map
-            .u32(slot + axis::entry::SEQ)
-            .store(index, Ordering::Relaxed);
-        self.map
-            .u32(slot + axis::entry::FLAGS)
-            .store(0, Ordering::Relaxed);
-        self.map
-            .u64(slot + axis::entry::INCREMENT)
-            .store(increment as u64, Ordering::Relaxed);
+        self.write_slot(channel, index, increment);
     }
 
     /// Host and board: publish axis `channel`'s entries up to FIFO index `end` (staged by

@@ -528,10 +528,10 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// computed first, then queued by the flush itself, right behind the skipped ones (the
     /// board publishes them as it takes the flush: however late this task runs on, the
     /// board's next period finds them), or the flush is refused if a board period began
-    /// meanwhile (then try again from the period reached by then). True when the board will skip them (the brake is under way:
-    /// `stopper`, `last`); false when it cannot flush (several boards, a flush pending, the
-    /// state before the queued periods forgotten, no room): the caller brakes from the last
-    /// pushed period, behind the queue.
+    /// meanwhile (then try again from the period reached by then). True when the board will
+    /// skip them (the brake is under way: `stopper`, `last`); false when it cannot flush
+    /// (several boards, a flush pending, the state before the queued periods forgotten, no
+    /// room): the caller brakes from the last pushed period, behind the queue.
     fn flush_brake(&mut self, limits: BrakeLimits) -> bool {
         for _ in 0..FLUSH_TRIES {
             let Some(at) = self.fifo_position() else {

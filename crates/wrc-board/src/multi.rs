@@ -238,6 +238,9 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
     }
 
     fn flush_queued(&mut self, at: &FifoPosition, to: u32, next: &[[i64; MAX_AXES]]) -> bool {
+        let [one] = &mut self.boards[..] else {
+            return false;
+        };
         if next.len() > self.remapped.capacity() {
             return false;
         }
@@ -249,10 +252,7 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
             }
             self.remapped.push(own);
         }
-        match &mut self.boards[..] {
-            [one] => one.flush_queued(at, to, &self.remapped),
-            _ => false,
-        }
+        one.flush_queued(at, to, &self.remapped)
     }
 
     /// One line to every board, if every board has one.

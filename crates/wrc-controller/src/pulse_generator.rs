@@ -264,9 +264,9 @@ pub struct PulseGenerator<B: MotionBoard> {
     zeros_pushed: usize,
     /// The brake's first periods, computed before a flush is asked (capacity
     /// [`HISTORY`], reserved at start-up: the cycle does not allocate).
-    first: Vec<Pushed>,
-    /// Their pulses, as the flush queues them (same capacity).
     first_pulses: Vec<[i64; MAX_AXES]>,
+    /// The generator's state after each of them (same capacity).
+    first_after: Vec<MotionState>,
     /// The FIFO had been filled to its lead since the last stop or start: the levels seen
     /// count for the deepest drain.
     streaming: bool,
@@ -341,8 +341,8 @@ impl<B: MotionBoard> PulseGenerator<B> {
             lead: FIFO_LEAD.min(fifo_depth.saturating_sub(1)).max(1),
             // At rest from the start: no motion to end with a zero period.
             zeros_pushed: REST_ZEROS,
-            first: Vec::with_capacity(HISTORY),
             first_pulses: Vec::with_capacity(HISTORY),
+            first_after: Vec::with_capacity(HISTORY),
             streaming: false,
             completing: None,
             epoch_pending: false,
@@ -553,17 +553,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
             self.stopper.restore(&before);
             self.stopper.stop(limits);
             // The brake's first periods, as many as the lead keeps queued.
-            self.first.clear();
             self.first_pulses.clear();
+            self.first_after.clear();
             let mut end = None;
             let mut period = Period::default();
-            while self.first.len() < room && end.is_none() {
+            while self.first_pulses.len() < room && end.is_none() {
                 let status = self.stopper.next_period(&mut period);
-                self.first.push(Pushed {
-                    pulses: period.pulses,
-                    after: self.stopper.state(),
-                });
                 self.first_pulses.push(period.pulses);
+                self.first_after.push(self.stopper.state());
                 if !matches!(status, Status::Working) {
                     end = Some(status);
                 }
@@ -579,11 +576,11 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 }
             }
             self.history.drop_newest(queued);
-            for i in 0..self.first.len() {
-                let p = self.first[i];
-                self.pushed(&p.pulses, &p.after);
+            for i in 0..self.first_pulses.len() {
+                let (pulses, after) = (self.first_pulses[i], self.first_after[i]);
+                self.pushed(&pulses, &after);
             }
-            self.last = self.first[self.first.len() - 1].after;
+            self.last = self.first_after[self.first_after.len() - 1];
             self.brake_end = end;
             self.flushed_at = Some(self.periods);
             return true;
@@ -787,8 +784,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                 // may not be zero: a board that ran out of periods after it would count
                 // a moving axis run dry).
                 if self.zeros_pushed < REST_ZEROS {
-                    let after = self.last;
-                    if self.emit(&[0; MAX_AXES], &after) {
+                    if self.push_rest_zero() {
                         continue;
                     }
                 } else {
@@ -818,9 +814,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
                     break;
                 }
                 None => {
-                    // The zero period that ends a motion.
-                    let after = self.last;
-                    if !self.emit(&[0; MAX_AXES], &after) {
+                    if !self.push_rest_zero() {
                         break;
                     }
                     continue;
@@ -867,6 +861,12 @@ impl<B: MotionBoard> PulseGenerator<B> {
             }
         }
         self.publish_in_flight();
+    }
+
+    /// Push the zero period that ends a motion (false: the FIFO is full).
+    fn push_rest_zero(&mut self) -> bool {
+        let after = self.last;
+        self.emit(&[0; MAX_AXES], &after)
     }
 
     /// A move's start (nothing moving queued after the periods in the FIFO) while the

@@ -95,6 +95,9 @@ pub enum PlanError {
     /// A speed override outside 1-100 %.
     #[error("speed override must be from 1 to 100 %, got {0}")]
     SpeedOverride(f64),
+    /// An acceleration override outside 1-100 %.
+    #[error("acceleration override must be from 1 to 100 %, got {0}")]
+    AccelOverride(f64),
     /// A move so long that its pulse count or duration cannot be represented.
     #[error("the move is too long to plan ({0})")]
     TooLong(&'static str),

@@ -189,6 +189,7 @@ pub struct MotionState {
     k: u64,
     stopped: bool,
     speed_pct: f64,
+    accel_pct: f64,
 }
 
 impl MotionState {
@@ -249,6 +250,9 @@ pub struct VelocityGenerator {
     /// Periods done in the active move.
     k: u64,
     stopped: bool,
+    /// Acceleration override for the next moves [%] (1-100): scales every acceleration and
+    /// jerk limit a move is planned with, not the limits it stops with.
+    accel_pct: f64,
     /// The axes a straight line moves.
     line_axes: LineAxes,
     /// Derivatives of the last line planned (preallocated: planning does not allocate).
@@ -271,6 +275,7 @@ impl VelocityGenerator {
             active: Active::Idle,
             k: 0,
             stopped: false,
+            accel_pct: 100.0,
             line_axes,
             table: DerivTable::new(),
             planner: Box::new(Planner::new()),
@@ -310,6 +315,7 @@ impl VelocityGenerator {
             k: self.k,
             stopped: self.stopped,
             speed_pct: self.settings.speed_pct,
+            accel_pct: self.accel_pct,
         }
     }
 
@@ -321,6 +327,7 @@ impl VelocityGenerator {
         self.k = state.k;
         self.stopped = state.stopped;
         self.settings.speed_pct = state.speed_pct;
+        self.accel_pct = state.accel_pct;
     }
 
     /// Whether a move is under way.
@@ -371,6 +378,28 @@ impl VelocityGenerator {
         check_speed_pct(pct).map_err(|_| PlanError::SpeedOverride(pct))?;
         self.settings.speed_pct = pct;
         Ok(())
+    }
+
+    /// Acceleration override in force for the next move [%].
+    pub fn accel_pct(&self) -> f64 {
+        self.accel_pct
+    }
+
+    /// Set the acceleration override for the next moves, 1 to 100 %: every move planned
+    /// after it (PTP, jog, straight line, path, blends) is planned with each acceleration
+    /// limit and each jerk limit (every axis's and the TCP's) times `pct`/100, on top of the
+    /// speed override (velocity ×p, acceleration ×p²·α, jerk ×p³·α). A stop is never weaker
+    /// for it: STOP and HOLD brake with the speed override's limits, ESTOP with the full
+    /// ones, whatever the acceleration override.
+    pub fn set_accel_pct(&mut self, pct: f64) -> Result<(), PlanError> {
+        check_speed_pct(pct).map_err(|_| PlanError::AccelOverride(pct))?;
+        self.accel_pct = pct;
+        Ok(())
+    }
+
+    /// The acceleration override as a fraction (0, 1].
+    fn accel(&self) -> f64 {
+        self.accel_pct / 100.0
     }
 
     fn ensure_idle(&self) -> Result<(), PlanError> {
@@ -542,7 +571,8 @@ impl VelocityGenerator {
         let length = path.length_mm();
         let law = match self.settings.profile {
             Profile::Fir => {
-                let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length);
+                let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length)
+                    .with_accel(self.accel());
                 let table = &self.table;
                 LineLaw::Timed {
                     profile: LineProfile::start(&bounds, &|u: f64| table.at(u)),
@@ -552,7 +582,13 @@ impl VelocityGenerator {
                 }
             }
             Profile::Paper { mask_len } => {
-                let limits = check.constant_limits(&self.robot, length, &self.settings.line, scale);
+                let limits = check.constant_limits_with(
+                    &self.robot,
+                    length,
+                    &self.settings.line,
+                    scale,
+                    self.accel(),
+                );
                 if limits.v <= 0.0 {
                     self.nothing_to_do();
                     return Ok(false);
@@ -618,7 +654,8 @@ impl VelocityGenerator {
         let (path, check) = line_path(&self.robot, via, target, Some(&mut self.table))?;
         let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
         let length = path.length_mm();
-        let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length);
+        let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length)
+            .with_accel(self.accel());
         let (dx, dy) = (target.x - entry.x, target.y - entry.y);
         let norm = dx.hypot(dy);
         let dir = if norm > 1e-9 {
@@ -654,10 +691,14 @@ impl VelocityGenerator {
                 vel[i] = line_scale * d0.d1[k] * v0;
                 acc[i] = line_scale * line_scale * d0.d2[k] * v0 * v0;
             }
-            let Some(ptp) =
-                self.planner
-                    .rest_to_moving(&self.robot, &current, via, &vel, &acc, scale)
-            else {
+            let Some(ptp) = self.planner.rest_to_moving(
+                &self.robot,
+                &current,
+                via,
+                &vel,
+                &acc,
+                (scale, self.accel()),
+            ) else {
                 continue;
             };
             // Every point of the first part: each joint in range, the TCP never further in
@@ -753,15 +794,18 @@ impl VelocityGenerator {
             return self.nothing_to_do();
         }
         let s = self.scale();
+        let alpha = self.accel();
         let axes = self.robot.axes();
         let moving = || (0..n).filter(|&i| distance[i] != 0);
         let units = |i: usize| distance[i].unsigned_abs() as f64 / axes[i].pulses_per_unit;
+        // The speed override stretches the move in time; the acceleration override lowers
+        // the acceleration and jerk on top of it.
         let limits = |i: usize| {
             let l = &axes[i].limits;
             (
                 l.max_velocity * s,
-                l.max_acceleration * s * s,
-                l.max_jerk * s * s * s,
+                l.max_acceleration * s * s * alpha,
+                l.max_jerk * s * s * s * alpha,
             )
         };
         let (law, info) = match self.settings.profile {
@@ -1216,12 +1260,6 @@ impl VelocityGenerator {
     }
 }
 
-/// Stop a straight line's timing law played at `scale` at real time `now` [s], with `limits`:
-/// ESTOP below 100 % brakes in real time with the full limits (the law's scale becomes 1),
-/// if a brake from there is verified; otherwise, and for STOP, it brakes at once in plan time
-/// (played at the override), if verified; otherwise from the next knot with the brake
-/// verified there (or, on its final landing, lands on the target). A line already braking
-/// goes on, unless ESTOP finds a real-time brake from where it is.
 /// Every axis's own time-optimal brake from joints, velocities and accelerations `state`
 /// at time `now`: with its full limits (ESTOP), or scaled by the override `speed_pct`.
 fn axis_brakes(
@@ -1256,9 +1294,19 @@ fn axis_brakes(
     }
 }
 
+/// Stop a straight line's timing law played at `scale` at real time `now` [s], with `limits`:
+/// ESTOP below 100 % brakes in real time with the full limits (the law's scale becomes 1),
+/// if a brake from there is verified; otherwise, and for STOP, it brakes at once in plan time
+/// (played at the override), if verified; otherwise from the next knot with the brake
+/// verified there (or, on its final landing, lands on the target). A line already braking
+/// goes on, unless ESTOP finds a real-time brake from where it is.
+///
+/// The brake from the present state uses the bounds without the acceleration override (a
+/// stop is never weaker for it), and the law goes on with them; the fallback from the next
+/// knot follows the brake verified there, with the plan's bounds.
 fn stop_line(
     profile: &mut LineProfile,
-    bounds: &Bounds,
+    bounds: &mut Bounds,
     scale: &mut f64,
     limits: BrakeLimits,
     now: f64,
@@ -1267,15 +1315,17 @@ fn stop_line(
     let t_plan = now * *scale;
     let forward = profile.is_forward();
     let rescale = limits == BrakeLimits::Full && *scale < 1.0;
-    if rescale && profile.brake_now(bounds, derivs, t_plan, *scale, now) {
+    let full = bounds.full_accel();
+    if rescale && profile.brake_now(&full, derivs, t_plan, *scale, now) {
         *scale = 1.0;
-    } else if !(forward && profile.brake_now(bounds, derivs, t_plan, 1.0, t_plan)) {
+        *bounds = full;
+    } else if forward && profile.brake_now(&full, derivs, t_plan, 1.0, t_plan) {
+        *bounds = full;
+    } else {
         profile.stop();
     }
 }
 
-/// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
-/// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
 /// Whether `p` lies on the straight segment from `a` to `b` (within 1 µm, with the segment's
 /// z and yaw where it is, to 0.001°).
 fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
@@ -1298,6 +1348,8 @@ fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
         && wrc_robot::wrap180(p.yaw - yaw).abs() < 1e-3
 }
 
+/// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
+/// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
 fn paper_rate(v: f64, a: f64, j: f64, half: u64, ts: f64) -> f64 {
     let m_ts = half as f64 * ts;
     v.min(a * m_ts).min(j * m_ts * m_ts)
@@ -1399,5 +1451,158 @@ mod tests {
         assert!((pose.yaw - (from.yaw + 20.0)).abs() < 1e-6, "{pose:?}");
         assert_eq!(run_to_end(&mut vg), MoveEnd::Completed);
         assert_eq!(*vg.position_pulses(), pulses);
+    }
+
+    /// Every period of a move to its end: (pulses after it, exact joints after it).
+    fn trace(vg: &mut VelocityGenerator) -> Vec<([i64; MAX_AXES], Joints)> {
+        let mut out = vec![(*vg.position_pulses(), vg.joints())];
+        let mut p = Period::default();
+        while vg.is_moving() {
+            vg.next_period(&mut p);
+            out.push((*vg.position_pulses(), p.exact));
+        }
+        out
+    }
+
+    /// Largest |second difference| per s² of `x` sampled every `ts` [s].
+    fn peak_accel(x: &[f64], ts: f64) -> f64 {
+        x.windows(3)
+            .map(|w| ((w[2] - 2.0 * w[1] + w[0]) / (ts * ts)).abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_acceleration_override_lowers_a_ptp_move_but_not_its_stop() {
+        let ts = 0.01;
+        let mut runs = Vec::new();
+        for pct in [100.0, 25.0] {
+            let mut vg = generator();
+            let mut from = vg.joints();
+            from[0] = -150.0;
+            vg.set_position_pulses(&vg.robot().joints_to_pulses(&from))
+                .unwrap();
+            vg.set_accel_pct(pct).unwrap();
+            assert_eq!(vg.accel_pct(), pct);
+            let mut to = from;
+            to[0] = 150.0;
+            let info = vg.plan_ptp(&to).unwrap();
+            // Every state taken of the move keeps the override (the Velocity Generator
+            // restores the Pulse Generator's after a stop).
+            let mut other = generator();
+            other.restore(&vg.state());
+            assert_eq!(other.accel_pct(), pct);
+            let whole = trace(&mut vg.clone());
+            // From the output pulses, allowing 2 pulses of rounding per second difference.
+            let j1: Vec<f64> = whole.iter().map(|(p, _)| p[0] as f64 / 1000.0).collect();
+            let a = (peak_accel(&j1, ts) - 2.0 / 1000.0 / (ts * ts)).max(0.0);
+            let limit = vg.robot().axes()[0].limits.max_acceleration;
+            assert!(
+                a <= pct / 100.0 * limit * (1.0 + 1e-3),
+                "ACCEL {pct}: {a} deg/s² against {limit}"
+            );
+            // STOP at the middle, in cruise at full speed (the move is long enough at 25 %).
+            let half = info.periods as usize / 2;
+            let mut p = Period::default();
+            for _ in 0..half {
+                vg.next_period(&mut p);
+            }
+            let at = vg.joints()[0];
+            vg.stop(BrakeLimits::Override);
+            let brake = trace(&mut vg);
+            runs.push((info.duration_s, a, brake.len(), vg.joints()[0] - at));
+        }
+        let (full, slow) = (runs[0], runs[1]);
+        assert!(
+            slow.0 > full.0 * 1.2,
+            "ACCEL 25 %: {} s, 100 %: {} s",
+            slow.0,
+            full.0
+        );
+        assert!(slow.1 < 0.26 * full.1, "{} vs {}", slow.1, full.1);
+        // The same brake from the same cruise: as many periods and the same distance.
+        assert_eq!(slow.2, full.2, "brake periods");
+        assert!(
+            (slow.3 - full.3).abs() < 1e-6,
+            "brake {} vs {} deg",
+            slow.3,
+            full.3
+        );
+        assert!(generator().set_accel_pct(0.5).is_err());
+        assert_eq!(
+            generator().set_accel_pct(f64::NAN).unwrap_err().to_string(),
+            "acceleration override must be from 1 to 100 %, got NaN"
+        );
+    }
+
+    #[test]
+    fn the_acceleration_override_lowers_a_line_but_not_its_stop() {
+        let ts = 0.01;
+        let a = Pose {
+            x: 250.0,
+            y: -100.0,
+            z: 0.0,
+            yaw: 0.0,
+        };
+        let b = Pose { y: 100.0, ..a };
+        let line = MotionSettings::default().line;
+        let mut durations = Vec::new();
+        for pct in [100.0, 25.0] {
+            let mut vg = generator();
+            let q = vg.robot().inverse(&a, Posture::Right, None).unwrap();
+            vg.set_position_pulses(&vg.robot().joints_to_pulses(&q))
+                .unwrap();
+            vg.set_accel_pct(pct).unwrap();
+            let info = vg.plan_line(&b).unwrap();
+            durations.push(info.duration_s);
+            let whole = trace(&mut vg.clone());
+            // Every joint from the output pulses, the TCP along the line from the exact
+            // positions (its pulses' rounding is too coarse for a second difference).
+            for ax in 0..4 {
+                let x: Vec<f64> = whole.iter().map(|(p, _)| p[ax] as f64 / 1000.0).collect();
+                let acc = (peak_accel(&x, ts) - 2.0 / 1000.0 / (ts * ts)).max(0.0);
+                let limit = vg.robot().axes()[ax].limits.max_acceleration;
+                assert!(
+                    acc <= pct / 100.0 * limit * (1.0 + 1e-3),
+                    "axis {ax}: {acc}"
+                );
+            }
+            let y: Vec<f64> = whole.iter().map(|(_, q)| vg.robot().forward(q).y).collect();
+            let tcp = peak_accel(&y, ts);
+            assert!(
+                tcp <= pct / 100.0 * line.max_accel_mm_s2 * (1.0 + 1e-3),
+                "ACCEL {pct}: the TCP at {tcp} mm/s²"
+            );
+            assert!(tcp > 0.8 * pct / 100.0 * line.max_accel_mm_s2, "{tcp}");
+            // STOP at 40 % of the way, still accelerating: it brakes with the full limits,
+            // as fast as the time-optimal brake of the TCP with them (within 5 %, plus a
+            // period), never with the reduced ones.
+            let mut p = Period::default();
+            for _ in 0..(info.periods * 2 / 5) {
+                vg.next_period(&mut p);
+            }
+            let (u, v, acc) = vg.path_state().unwrap();
+            vg.stop(BrakeLimits::Override);
+            let _ = trace(&mut vg);
+            let travelled = (vg.pose().y - a.y) / 200.0 - u;
+            let brake = |f: f64| {
+                Brake1d::new(
+                    0.0,
+                    v,
+                    acc,
+                    f * line.max_accel_mm_s2 / 200.0,
+                    f * line.max_jerk_mm_s3 / 200.0,
+                )
+                .stop_position()
+            };
+            assert!(
+                travelled <= brake(1.0) * 1.05 + v * ts,
+                "ACCEL {pct}: braked over {travelled} of the line, the full brake {}",
+                brake(1.0)
+            );
+            if pct < 100.0 {
+                assert!(travelled < 0.5 * brake(pct / 100.0), "{travelled}");
+            }
+        }
+        assert!(durations[1] > durations[0] * 1.2, "{durations:?}");
     }
 }

@@ -117,8 +117,9 @@ impl Planner {
 
     /// The time-optimal synchronised move from rest at `start` to `end` reached with joint
     /// velocities `v_end` and accelerations `a_end`, each axis within its limits scaled by
-    /// `scale` (velocity ×s, acceleration ×s², jerk ×s³); `None` if Ruckig finds none or the
-    /// robot has more than [`RUCKIG_DOF`] axes.
+    /// `(s, α)`, the speed and acceleration overrides as fractions (velocity ×s,
+    /// acceleration ×s²·α, jerk ×s³·α); `None` if Ruckig finds none or the robot has more
+    /// than [`RUCKIG_DOF`] axes.
     pub fn rest_to_moving(
         &mut self,
         robot: &Robot,
@@ -126,7 +127,7 @@ impl Planner {
         end: &Joints,
         v_end: &Joints,
         a_end: &Joints,
-        scale: f64,
+        (scale, accel): (f64, f64),
     ) -> Option<JerkAxes> {
         let n = robot.axis_count();
         if n > RUCKIG_DOF {
@@ -147,8 +148,8 @@ impl Planner {
                     a_end[k],
                     (
                         l.max_velocity * scale,
-                        l.max_acceleration * scale * scale,
-                        l.max_jerk * scale * scale * scale,
+                        l.max_acceleration * scale * scale * accel,
+                        l.max_jerk * scale * scale * scale * accel,
                     ),
                 )
             } else {

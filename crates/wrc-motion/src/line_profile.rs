@@ -183,6 +183,8 @@ pub(crate) struct Bounds {
     cv: f64,
     ca: f64,
     cj: f64,
+    /// The acceleration override the acceleration and jerk bounds are scaled by (0, 1].
+    accel: f64,
 }
 
 impl Bounds {
@@ -195,6 +197,7 @@ impl Bounds {
             cv: f64::INFINITY,
             ca: f64::INFINITY,
             cj: f64::INFINITY,
+            accel: 1.0,
         };
         for k in 0..axes.n {
             let l = &robot.axes()[axes.idx[k]].limits;
@@ -210,6 +213,29 @@ impl Bounds {
         b
     }
 
+    /// These bounds with every acceleration and jerk bound (each axis's and the TCP's)
+    /// times `accel` in (0, 1]: the acceleration override a move is planned with.
+    pub(crate) fn with_accel(&self, accel: f64) -> Bounds {
+        let f = accel / self.accel;
+        Bounds {
+            a: self.a.map(|x| x * f),
+            j: self.j.map(|x| x * f),
+            ca: self.ca * f,
+            cj: self.cj * f,
+            accel,
+            ..*self
+        }
+    }
+
+    /// These bounds without the acceleration override: what a stop brakes with.
+    pub(crate) fn full_accel(&self) -> Bounds {
+        if self.accel == 1.0 {
+            *self
+        } else {
+            self.with_accel(1.0)
+        }
+    }
+
     /// These bounds loosened by the factor 1 + `by`.
     fn relaxed(&self, by: f64) -> Bounds {
         let f = 1.0 + by;
@@ -221,6 +247,7 @@ impl Bounds {
             cv: self.cv * f,
             ca: self.ca * f,
             cj: self.cj * f,
+            accel: self.accel,
         }
     }
 

@@ -591,7 +591,20 @@ impl PathCheck {
         line: &LineLimits,
         scale: f64,
     ) -> PathLimits {
-        let (s2, s3) = (scale * scale, scale * scale * scale);
+        self.constant_limits_with(robot, length_mm, line, scale, 1.0)
+    }
+
+    /// [`PathCheck::constant_limits`] with every acceleration and jerk limit also times
+    /// `accel` (the acceleration override as a fraction).
+    pub(crate) fn constant_limits_with(
+        &self,
+        robot: &Robot,
+        length_mm: f64,
+        line: &LineLimits,
+        scale: f64,
+        accel: f64,
+    ) -> PathLimits {
+        let (s2, s3) = (scale * scale * accel, scale * scale * scale * accel);
         let n = robot.axis_count();
         let axes = robot.axes();
         let m = |ax: usize, k: usize| self.max_derivatives[ax][k] * DERIVATIVE_MARGIN;

@@ -13,18 +13,31 @@ use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
 use crate::brake::Brake1d;
 pub use crate::brake::BrakeLimits;
+use crate::curve::Curve;
 use crate::double_s::DoubleS;
 use crate::error::{PlanError, SettingsError};
 use crate::fir_axes::FirAxes;
+use crate::geometry::{path_window, place_on};
+use crate::geometry::{Geometry, Window};
 use crate::jerk_axes::{JerkAxes, Planner, RUCKIG_DOF};
 use crate::line_profile::{Bounds, LineProfile};
 use crate::paper::PaperChannel;
-use crate::path::{line_path, DerivTable, Derivs, LineAxes, LinePath};
+use crate::path::{line_path, scan, scan_recording, DerivTable, Derivs, LineAxes, PathCheck};
+use crate::path_spec::PathSpec;
 use crate::settings::{check_speed_pct, MotionSettings, Profile};
 use crate::solutions::ptp_target;
 
 /// Path-parameter resolution of a straight line under the paper profile [counts per line].
 const LINE_COUNTS: i64 = 1 << 40;
+
+/// The room past a path's end, along its last segment continued, within which the law of a
+/// path that flows into a PTP may brake ([`VelocityGenerator::plan_depart`]), largest first
+/// [mm]: each gives the path a faster exit.
+pub const DEPART_ROOM_MM: [f64; 3] = [100.0, 30.0, 10.0];
+
+/// The fractions of the nominal velocity at a via point tried by
+/// [`VelocityGenerator::plan_ptp_via`], fastest first.
+pub const VIA_SPEEDS: [f64; 3] = [1.0, 0.6, 0.3];
 
 /// What [`VelocityGenerator::next_period`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,6 +73,45 @@ pub enum Goal {
         /// The joints at the end of the line [pulse].
         pulses: [i64; MAX_AXES],
     },
+    /// A composite path ([`PathSpec`]): its end pose (the yaw as the path reaches it, not
+    /// wrapped) and its end joints followed along it [pulse]. RESUME sends the same path
+    /// again: from a point of it, the generator continues along the rest.
+    Path {
+        /// The path's end pose.
+        pose: Pose,
+        /// The joints at the end of the path [pulse].
+        pulses: [i64; MAX_AXES],
+    },
+}
+
+impl Goal {
+    /// Where a Cartesian path ends, with its end joints [pulse].
+    fn of_path(path: &Geometry, pulses: [i64; MAX_AXES]) -> Goal {
+        match path {
+            Geometry::Line(l) => Goal::Line {
+                pose: l.pose_at(1.0),
+                pulses,
+            },
+            Geometry::Curve(w) => Goal::Path {
+                pose: w.curve.pose_at(1.0),
+                pulses,
+            },
+        }
+    }
+}
+
+/// How the elbow and the hand must enter a path flowed into from a PTP
+/// ([`VelocityGenerator::plan_ptp_into`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EntryRule {
+    /// A station's rule (a wafer transfer): entering moving, the TCP stays behind the
+    /// path's start (the half-plane behind it, across the direction in which the path
+    /// leaves it) until it is on the path, and the move has a commit point
+    /// ([`MotionState::entry_committed`]) before which a stop at full limits ends behind it.
+    Station,
+    /// No rule besides every joint in range (a program's blended PTP): the joint-space part
+    /// is checked as a PTP is.
+    Free,
 }
 
 /// How the axes of a PTP move are synchronised.
@@ -146,15 +198,21 @@ enum Active {
         sync: Sync,
         /// Speed override of the move as a fraction.
         scale: f64,
+        /// A second PTP from rest at the end to this target [pulse] (a PTP through a via
+        /// that could not be passed moving: two moves in one).
+        then: Option<[i64; MAX_AXES]>,
     },
+    /// A Cartesian move: a straight line or a composite path.
     Line {
-        path: LinePath,
+        path: Geometry,
         law: LineLaw,
         target: [i64; MAX_AXES],
         last: Joints,
         /// When the line starts, after the move's first period's start [s] (0, or the end
         /// of a blended approach's first part).
         t0: f64,
+        /// What follows the path.
+        then: Then,
     },
     /// A blended approach (docs/motion.md): every axis's jerk-limited move to the line's
     /// start, reached at the line's entry velocity, then the line, which takes over at
@@ -164,10 +222,19 @@ enum Active {
         /// The last period from which a stop at every axis's full limits, asked for up to
         /// two periods later, still comes to rest behind the line's start.
         commit_k: u64,
-        path: LinePath,
+        path: Geometry,
         law: LineLaw,
         target: [i64; MAX_AXES],
         last: Joints,
+    },
+    /// Ruckig's synchronised moves in joint space, one after the other (`count` of
+    /// `parts`, from time `t0` of the move), ending at rest on `target` [pulse]: a PTP
+    /// through a via point, or the PTP a path flows into.
+    Jerk {
+        parts: [JerkAxes; 2],
+        count: usize,
+        t0: f64,
+        target: [i64; MAX_AXES],
     },
     /// Every axis's own time-optimal brake ([`Brake1d`]), from a state off any single law
     /// (a stop during a blended approach's first part); `goal` is the move's.
@@ -177,6 +244,39 @@ enum Active {
         t0: f64,
         goal: Goal,
     },
+}
+
+/// What follows a Cartesian move ([`Active::Line`]); fixed-size on purpose, as [`Law`].
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Then {
+    /// Nothing: the move ends with the path.
+    End,
+    /// A PTP from rest at the path's end to `target` [pulse] (a path that could not flow
+    /// into it moving: two moves in one).
+    Ptp { target: [i64; MAX_AXES] },
+    /// The path's law is cut at `cut` (the law's parameter, where the path ends; beyond it
+    /// the law's window continues the last segment, room for its brakes), reached `t_cut`
+    /// [s] after the path's start; from there `ptp` takes every axis to rest on `target`.
+    Flow {
+        t_cut: f64,
+        ptp: JerkAxes,
+        target: [i64; MAX_AXES],
+    },
+    /// A stop came during the path: it ends there; the move was going to `target`.
+    Cancelled { target: [i64; MAX_AXES] },
+}
+
+impl Then {
+    /// The joint target the move goes on to, if any.
+    fn target(&self) -> Option<[i64; MAX_AXES]> {
+        match self {
+            Then::End => None,
+            Then::Ptp { target } | Then::Flow { target, .. } | Then::Cancelled { target } => {
+                Some(*target)
+            }
+        }
+    }
 }
 
 /// The dynamic state of a [`VelocityGenerator`]: position, the move under way and its
@@ -209,20 +309,25 @@ impl MotionState {
         match &self.active {
             Active::Idle => None,
             Active::Joint {
-                start, distance, ..
+                start,
+                distance,
+                then,
+                ..
             } => {
                 let mut target = [0i64; MAX_AXES];
                 for ((t, s), d) in target.iter_mut().zip(start).zip(distance) {
                     *t = s + d;
                 }
-                Some(Goal::Joints(target))
+                Some(Goal::Joints(then.unwrap_or(target)))
             }
-            Active::Line { path, target, .. } | Active::Approach { path, target, .. } => {
-                Some(Goal::Line {
-                    pose: path.pose_at(1.0),
-                    pulses: *target,
-                })
-            }
+            Active::Line {
+                path, target, then, ..
+            } => Some(match then.target() {
+                Some(t) => Goal::Joints(t),
+                None => Goal::of_path(path, *target),
+            }),
+            Active::Approach { path, target, .. } => Some(Goal::of_path(path, *target)),
+            Active::Jerk { target, .. } => Some(Goal::Joints(*target)),
             Active::Brake { goal, .. } => Some(*goal),
         }
     }
@@ -502,6 +607,12 @@ impl VelocityGenerator {
         if !self.start_line(target)? {
             return Ok(self.nothing_to_do());
         }
+        self.run_ahead()
+    }
+
+    /// The duration of the Cartesian move just started: its law run to its end once, on a
+    /// copy. Refused (and the move dropped) if the law does not get there.
+    fn run_ahead(&mut self) -> Result<MoveInfo, PlanError> {
         let ts = self.settings.period_s;
         let info = match &self.active {
             Active::Line {
@@ -542,6 +653,7 @@ impl VelocityGenerator {
             Active::Idle
             | Active::Joint { .. }
             | Active::Approach { .. }
+            | Active::Jerk { .. }
             | Active::Brake { .. } => return Ok(self.nothing_to_do()),
         };
         Ok(info)
@@ -560,7 +672,31 @@ impl VelocityGenerator {
     fn start_line_at(&mut self, target: &Pose, scale: f64) -> Result<bool, PlanError> {
         self.ensure_idle()?;
         let current = self.joints();
-        let (path, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
+        let (line, check) = line_path(&self.robot, &current, target, Some(&mut self.table))?;
+        self.start_cartesian(Geometry::Line(line), &check, &current, scale, Then::End)
+    }
+
+    /// The bounds a Cartesian move along `path` is planned with (at the acceleration
+    /// override in force).
+    fn bounds_of(&self, path: &Geometry) -> Bounds {
+        let (robot, axes, line) = (&self.robot, &self.line_axes, &self.settings.line);
+        match path {
+            Geometry::Line(l) => Bounds::new(robot, axes, line, l.length_mm()),
+            Geometry::Curve(_) => Bounds::for_path(robot, axes, line),
+        }
+        .with_accel(self.accel())
+    }
+
+    /// Start the Cartesian move along `path` — checked from `current` by `check`, its
+    /// derivative table filled — at speed override `scale` (a fraction), followed by `then`.
+    fn start_cartesian(
+        &mut self,
+        path: Geometry,
+        check: &PathCheck,
+        current: &Joints,
+        scale: f64,
+        then: Then,
+    ) -> Result<bool, PlanError> {
         let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
         let n = self.robot.axis_count();
         if target_pulses[..n] == self.position[..n] {
@@ -571,8 +707,7 @@ impl VelocityGenerator {
         let length = path.length_mm();
         let law = match self.settings.profile {
             Profile::Fir => {
-                let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length)
-                    .with_accel(self.accel());
+                let bounds = self.bounds_of(&path);
                 let table = &self.table;
                 LineLaw::Timed {
                     profile: LineProfile::start(&bounds, &|u: f64| table.at(u)),
@@ -603,12 +738,59 @@ impl VelocityGenerator {
             path,
             law,
             target: target_pulses,
-            last: current,
+            last: *current,
             t0: 0.0,
+            then,
         };
         self.k = 0;
         self.stopped = false;
         Ok(true)
+    }
+
+    /// Refused under the paper profile, whose moves start and end at rest.
+    fn fir_only(&self) -> Result<(), PlanError> {
+        match self.settings.profile {
+            Profile::Fir => Ok(()),
+            Profile::Paper { .. } => Err(PlanError::ProfileUnsupported),
+        }
+    }
+
+    /// Plan a composite path ([`PathSpec`]: lines and arcs, corners blended) as
+    /// [`VelocityGenerator::plan_line`] plans a line: checked at every point, timed by the
+    /// same time-optimal jerk-limited law within every joint's limits and the TCP's (its
+    /// speed, tangential acceleration and jerk along the path within the line limits, its
+    /// centripetal acceleration within the line acceleration limit), the law run once to its
+    /// end for the duration.
+    pub fn plan_path(&mut self, path: &PathSpec) -> Result<MoveInfo, PlanError> {
+        if !self.start_path(path)? {
+            return Ok(self.nothing_to_do());
+        }
+        self.run_ahead()
+    }
+
+    /// Start a composite path as [`VelocityGenerator::start_line`] starts a line: before the
+    /// first pulse the path is built and checked at every point (as [`crate::check_path`]
+    /// does) and its derivative table filled; the law advances as periods are produced.
+    /// From the path's start (within [`crate::START_TOL_MM`]) the whole path; from a point of
+    /// it (a RESUME after a HOLD on it) the rest of it, to the same end; from anywhere else
+    /// refused ([`PlanError::NotOnPath`]). Returns whether anything moves. Only under the
+    /// default profile.
+    pub fn start_path(&mut self, path: &PathSpec) -> Result<bool, PlanError> {
+        self.start_path_at(path, self.scale())
+    }
+
+    /// [`VelocityGenerator::start_path`] at speed override `scale` (a fraction).
+    fn start_path_at(&mut self, spec: &PathSpec, scale: f64) -> Result<bool, PlanError> {
+        self.ensure_idle()?;
+        self.fir_only()?;
+        let current = self.joints();
+        let Some(window) = path_window(&self.robot, &current, spec)? else {
+            self.nothing_to_do();
+            return Ok(false);
+        };
+        let path = Geometry::Curve(window);
+        let check = scan(&path, &self.robot, &current, Some(&mut self.table))?;
+        self.start_cartesian(path, &check, &current, scale, Then::End)
     }
 
     /// Plan a blended approach (docs/motion.md, "Blended approach"): every axis from here to
@@ -622,7 +804,8 @@ impl VelocityGenerator {
     /// moving, the TCP behind the line's start, the one that gets to `target` soonest (from
     /// the approach pose itself, entering at rest). Entering at rest is the unblended
     /// transfer's move to the approach pose, committed only there. Refused
-    /// ([`PlanError::ApproachCrossesEntry`]) if none passes.
+    /// ([`PlanError::ApproachCrossesEntry`]) if none passes. This is
+    /// [`VelocityGenerator::plan_ptp_into`] with [`EntryRule::Station`] on a straight line.
     ///
     /// From the hand already on the line between its start and `target` (a `RESUME` after
     /// a HOLD inside) it is the line alone. Returns whether anything moves. Only under the
@@ -651,23 +834,90 @@ impl VelocityGenerator {
         if there || on_segment(&here, &entry, target) {
             return self.start_line_at(target, line_scale);
         }
-        let (path, check) = line_path(&self.robot, via, target, Some(&mut self.table))?;
+        let (line, check) = line_path(&self.robot, via, target, Some(&mut self.table))?;
+        self.plan_entry(
+            via,
+            Geometry::Line(line),
+            &check,
+            line_scale,
+            EntryRule::Station,
+        )
+    }
+
+    /// Plan a PTP into a composite path without stopping at its start (docs/motion.md, "PTP
+    /// blends"): every axis from here to `via` (the joints at the path's start,
+    /// `path.start`, checked by the caller), reached moving at the path's entry velocity,
+    /// flowing into `path` at `path_pct` (never faster than this move's override). The same
+    /// planning as [`VelocityGenerator::plan_approach`] — four entry speeds, down to rest (a
+    /// PTP and the path in one move), the one that gets to the end soonest of those that keep
+    /// every joint in range — with `rule`: [`EntryRule::Free`] for a program's blended PTP
+    /// (no station rule, so it never refuses what the PTP and the path as two moves would
+    /// do), [`EntryRule::Station`] for a transfer. From the path's start or a point of it (a
+    /// RESUME after a HOLD on it) it is the path alone, from there. Returns whether anything
+    /// moves. Only under the default profile.
+    pub fn plan_ptp_into(
+        &mut self,
+        via: &Joints,
+        path: &PathSpec,
+        path_pct: f64,
+        rule: EntryRule,
+    ) -> Result<bool, PlanError> {
+        self.ensure_idle()?;
+        check_speed_pct(path_pct).map_err(|_| PlanError::SpeedOverride(path_pct))?;
+        self.fir_only()?;
+        self.robot.check_joints(via)?;
+        let scale = (path_pct / 100.0).min(self.scale());
+        let current = self.joints();
+        let curve = Curve::build(path, self.robot.arm().wrist.is_some())?;
+        if place_on(&self.robot, &curve, path, &current, 1.0).is_ok() {
+            return self.start_path_at(path, scale);
+        }
+        let Some(window) = path_window(&self.robot, via, path)? else {
+            // `via` is where the path ends (it has no length from there): the PTP alone.
+            return self.plan_ptp(via).map(|info| info.periods > 0);
+        };
+        if window.from > 0.0 {
+            // `via` is on the path but not its start.
+            return Err(PlanError::NotOnPath {
+                here: self.robot.forward(via),
+                start: path.start,
+            });
+        }
+        let geometry = Geometry::Curve(window);
+        let check = scan(&geometry, &self.robot, via, Some(&mut self.table))?;
+        self.plan_entry(via, geometry, &check, scale, rule)
+    }
+
+    /// A blended entry: from here to `via` (the joints at the start of `path`, which is
+    /// checked from them by `check` and tabulated), reached moving, flowing into `path` at
+    /// speed override `line_scale`, with `rule` (docs/motion.md, "Blended approach").
+    fn plan_entry(
+        &mut self,
+        via: &Joints,
+        path: Geometry,
+        check: &PathCheck,
+        line_scale: f64,
+        rule: EntryRule,
+    ) -> Result<bool, PlanError> {
+        let current = self.joints();
+        let here = self.robot.forward(&current);
+        let entry = self.robot.forward(via);
         let target_pulses = self.robot.joints_to_pulses(&check.end_joints);
-        let length = path.length_mm();
-        let bounds = Bounds::new(&self.robot, &self.line_axes, &self.settings.line, length)
-            .with_accel(self.accel());
-        let (dx, dy) = (target.x - entry.x, target.y - entry.y);
+        let bounds = self.bounds_of(&path);
+        // The station's half-plane: across the direction in which the path leaves its start.
+        let d = path.pose_jet(0.0);
+        let (dx, dy) = (d.x.d[1], d.y.d[1]);
         let norm = dx.hypot(dy);
-        let dir = if norm > 1e-9 {
+        let dir = if norm > 1e-9 && rule == EntryRule::Station {
             (dx / norm, dy / norm)
         } else {
             (0.0, 0.0)
         };
-        // How far into the station (along the line, from its start) a pose is [mm].
+        // How far into the station (along the path, from its start) a pose is [mm].
         let along = |p: &Pose| (p.x - entry.x) * dir.0 + (p.y - entry.y) * dir.1;
         let inner = along(&here).max(0.0) + 1e-6;
         let v_max = 0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u));
-        let scale = self.scale();
+        let scale = (self.scale(), self.accel());
         let ts = self.settings.period_s;
         // The fastest candidate: (duration, first part, its commit period, the line's law).
         let mut best: Option<(f64, JerkAxes, u64, LineProfile)> = None;
@@ -683,7 +933,7 @@ impl VelocityGenerator {
             } else {
                 LineProfile::start(&bounds, &derivs)
             };
-            // The line's joint velocity and acceleration where it starts, in real time.
+            // The path's joint velocity and acceleration where it starts, in real time.
             let d0 = derivs(0.0);
             let (mut vel, mut acc) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
             for k in 0..self.line_axes.n {
@@ -691,23 +941,19 @@ impl VelocityGenerator {
                 vel[i] = line_scale * d0.d1[k] * v0;
                 acc[i] = line_scale * line_scale * d0.d2[k] * v0 * v0;
             }
-            let Some(ptp) = self.planner.rest_to_moving(
-                &self.robot,
-                &current,
-                via,
-                &vel,
-                &acc,
-                (scale, self.accel()),
-            ) else {
+            let Some(ptp) =
+                self.planner
+                    .rest_to_moving(&self.robot, &current, via, &vel, &acc, scale)
+            else {
                 continue;
             };
-            // Every point of the first part: each joint in range, the TCP never further in
-            // than the line's start (or than where it starts, if a stop left it inside). The
-            // entry at rest is the move to the approach pose a transfer makes without
-            // blending: only its joints are checked, so blending never refuses a transfer
-            // that the unblended one makes (the half-plane behind the line's start also
-            // holds poses far to the side of the station, which a move from the other side
-            // of the robot passes through).
+            // Every point of the first part: each joint in range, and for a station the TCP
+            // never further in than the path's start (or than where it starts, if a stop
+            // left it inside). The entry at rest is the move to the approach pose a transfer
+            // makes without blending: only its joints are checked, so blending never refuses
+            // a transfer that the unblended one makes (the half-plane behind the line's start
+            // also holds poses far to the side of the station, which a move from the other
+            // side of the robot passes through).
             let step = ts.min(0.002);
             let samples = (ptp.duration() / step).ceil() as u64;
             let keeps = (0..=samples).all(|k| {
@@ -720,10 +966,11 @@ impl VelocityGenerator {
             }
             // The last period from which every axis's full-limit brake ends behind the start;
             // entering at rest, the end of the first part (at the approach pose, where a
-            // transfer without blending checks the station's interlock).
+            // transfer without blending checks the station's interlock). Without a station
+            // there is nothing to commit to.
             let periods = (ptp.duration() / ts).ceil() as u64;
             let mut last_ok = if v0 == 0.0 { periods + 2 } else { 0u64 };
-            for k in (0..=periods).filter(|_| v0 > 0.0) {
+            for k in (0..=periods).filter(|_| v0 > 0.0 && rule == EntryRule::Station) {
                 let (q, v, a) = ptp.state(k as f64 * ts);
                 let mut stop = q;
                 for (i, s) in stop.iter_mut().enumerate().take(self.robot.axis_count()) {
@@ -735,6 +982,9 @@ impl VelocityGenerator {
                     break;
                 }
                 last_ok = k;
+            }
+            if rule == EntryRule::Free {
+                last_ok = 0;
             }
             // The line's time from this entry (its law run once on a copy).
             let mut dry = profile;
@@ -767,6 +1017,283 @@ impl VelocityGenerator {
         self.k = 0;
         self.stopped = false;
         Ok(true)
+    }
+
+    /// Plan a composite path that flows into a PTP without stopping at its end (docs/
+    /// motion.md, "PTP blends"): `path` at `path_pct` (never faster than this move's
+    /// override), then every axis to the joints `to` and rest there, jerk-limited and
+    /// time-optimal (Ruckig from the path's state where it ends), the TCP leaving the path at
+    /// its end moving.
+    ///
+    /// How fast it leaves: the path's law is planned with room past its end to brake along
+    /// the path's continuation (its last segment continued) — 100, 30 or 10 mm, each checked
+    /// like the path — so the path may end moving; every state of it keeps a verified brake
+    /// along the path, as a line's does. Each room gives an exit state; its PTP part is
+    /// checked every 2 ms (every joint in range), and of those that pass, and the path to
+    /// rest at its end followed by the PTP from there (two moves in one, the fallback), the
+    /// one that arrives soonest is taken: it never refuses what the two moves would do.
+    ///
+    /// From the path's start the whole move; from a point of the path (a RESUME after a HOLD
+    /// on it) the rest of the path and the PTP; from anywhere else — at or past the path's end,
+    /// or off it (a RESUME after a HOLD in the PTP part) — the PTP to `to` alone. Returns
+    /// whether anything moves. Only under the default profile.
+    pub fn plan_depart(
+        &mut self,
+        path: &PathSpec,
+        to: &Joints,
+        path_pct: f64,
+    ) -> Result<bool, PlanError> {
+        self.ensure_idle()?;
+        check_speed_pct(path_pct).map_err(|_| PlanError::SpeedOverride(path_pct))?;
+        self.fir_only()?;
+        self.robot.check_joints(to)?;
+        let line_scale = (path_pct / 100.0).min(self.scale());
+        let current = self.joints();
+        let curve = Curve::build(path, self.robot.arm().wrist.is_some())?;
+        let total = curve.total();
+        let upto = 1.0 + DEPART_ROOM_MM[0] / total;
+        let from = match place_on(&self.robot, &curve, path, &current, upto) {
+            Ok(u) if u < 1.0 - 1e-9 => u,
+            // At or past the path's end, or off it: the PTP alone.
+            Ok(_) | Err(_) => return self.plan_ptp(to).map(|info| info.periods > 0),
+        };
+        let Some(posture) = Posture::of(&self.robot, &current) else {
+            // No posture to keep: let the path's own check say why.
+            return self.start_path_at(path, line_scale);
+        };
+        let target = self.robot.joints_to_pulses(to);
+        let n = self.robot.axis_count();
+        let window = |to: f64| Window {
+            curve,
+            from,
+            to,
+            posture,
+        };
+        // The fallback: the path to rest at its end (checked: its refusal is the move's),
+        // then the PTP from there.
+        let rest = Geometry::Curve(window(1.0));
+        let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
+        let bounds = self.bounds_of(&rest);
+        let end_pulses = self.robot.joints_to_pulses(&check.end_joints);
+        let rest_time = {
+            let table = &self.table;
+            let derivs = |u: f64| table.at(u);
+            let mut dry = LineProfile::start(&bounds, &derivs);
+            let end_t = dry.run_to_end(&bounds, &derivs);
+            if !dry.completed() {
+                let fraction_pct = 100.0 * dry.at(&bounds, &derivs, end_t);
+                return Err(PlanError::Untimed { fraction_pct });
+            }
+            end_t / line_scale + self.ptp_duration(&end_pulses, &target)
+        };
+        // The flowing candidates: (duration, room past the end [u], the PTP part, t_cut).
+        let mut best: Option<(f64, f64, JerkAxes, f64)> = None;
+        let step = self.settings.period_s.min(0.002);
+        for room in DEPART_ROOM_MM {
+            let to_u = 1.0 + room / total;
+            let geometry = Geometry::Curve(window(to_u));
+            let cut = geometry.path_end();
+            let Ok((_, at_cut)) =
+                scan_recording(&geometry, &self.robot, &current, Some(&mut self.table), cut)
+            else {
+                continue;
+            };
+            let table = &self.table;
+            let derivs = |u: f64| table.at(u);
+            let mut dry = LineProfile::start(&bounds, &derivs);
+            let Some((t_cut, (_, v, a))) = dry.time_at(&bounds, &derivs, cut) else {
+                continue;
+            };
+            // Every joint's state where the path ends, in real time.
+            let Ok(jets) = geometry.jets_at(&self.robot, cut, &at_cut) else {
+                continue;
+            };
+            let (v, a) = (v * line_scale, a * line_scale * line_scale);
+            let (mut qv, mut qa) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+            for i in 0..n {
+                let d = jets.joints[i].d;
+                qv[i] = d[1] * v;
+                qa[i] = d[1] * a + d[2] * v * v;
+            }
+            let rest = [0.0; MAX_AXES];
+            let Some(ptp) = self.planner.between(
+                &self.robot,
+                (&at_cut, &qv, &qa),
+                (to, &rest, &rest),
+                (self.scale(), self.accel()),
+            ) else {
+                continue;
+            };
+            let samples = (ptp.duration() / step).ceil() as u64;
+            let keeps = (0..=samples).all(|k| {
+                self.robot
+                    .check_joints(&ptp.state(k as f64 * step).0)
+                    .is_ok()
+            });
+            let time = t_cut / line_scale + ptp.duration();
+            if keeps && best.as_ref().is_none_or(|b| time < b.0) {
+                best = Some((time, to_u, ptp, t_cut / line_scale));
+            }
+        }
+        match best {
+            Some((time, to_u, ptp, t_cut)) if time < rest_time => {
+                let geometry = Geometry::Curve(window(to_u));
+                let check = scan(&geometry, &self.robot, &current, Some(&mut self.table))?;
+                let then = Then::Flow { t_cut, ptp, target };
+                self.start_cartesian(geometry, &check, &current, line_scale, then)?;
+                // The path's own end is not where this move ends.
+                if let Active::Line { target: t, .. } = &mut self.active {
+                    *t = target;
+                }
+                Ok(true)
+            }
+            _ => {
+                let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
+                let then = Then::Ptp { target };
+                if self.start_cartesian(rest, &check, &current, line_scale, then)? {
+                    Ok(true)
+                } else {
+                    self.plan_ptp_pulses(&target).map(|info| info.periods > 0)
+                }
+            }
+        }
+    }
+
+    /// Plan a PTP through the joints `via` to the joints `to` without stopping at `via`
+    /// (docs/motion.md, "PTP blends"): Ruckig's time-optimal synchronised move from rest to
+    /// `via`, reached moving, then from there to rest at `to`, every axis within its limits
+    /// at the overrides. The velocity at `via`: each axis that moves on in the same direction
+    /// passes it at the smaller of its limit and 1.5 times its mean speed over either part
+    /// (the parts' rest-to-rest times), times 1, 0.6 or 0.3; an axis that turns back there
+    /// passes it at rest. Both parts are checked every 2 ms (every joint in range), and of the
+    /// candidates that pass and the two PTPs at rest (the fallback, two moves in one: it never
+    /// refuses what they would do) the one that arrives soonest is taken.
+    ///
+    /// `start` is where the move began (the end of the previous motion): from elsewhere (a
+    /// RESUME after a HOLD) it goes through `via` unless it has passed it — when the robot is
+    /// nearer the joint-space segment from `via` to `to` than the one from `start` to `via`
+    /// (each axis in time at its velocity limit), or at `via` — and then straight to `to`.
+    /// Returns whether anything moves. Only under the default profile.
+    pub fn plan_ptp_via(
+        &mut self,
+        start: &Joints,
+        via: &Joints,
+        to: &Joints,
+    ) -> Result<bool, PlanError> {
+        self.ensure_idle()?;
+        self.fir_only()?;
+        self.robot.check_joints(via)?;
+        self.robot.check_joints(to)?;
+        let n = self.robot.axis_count();
+        let (via_pulses, to_pulses) = (
+            self.robot.joints_to_pulses(via),
+            self.robot.joints_to_pulses(to),
+        );
+        let here = self.position;
+        let near = |p: &[i64; MAX_AXES]| (0..n).all(|i| (p[i] - here[i]).abs() <= 1);
+        let current = self.joints();
+        let from_start = near(&self.robot.joints_to_pulses(start));
+        if near(&via_pulses) || (!from_start && passed_via(&self.robot, start, via, to, &current)) {
+            return self
+                .plan_ptp_pulses(&to_pulses)
+                .map(|info| info.periods > 0);
+        }
+        let t1 = self.ptp_duration(&here, &via_pulses);
+        let t2 = self.ptp_duration(&via_pulses, &to_pulses);
+        let fallback = t1 + t2;
+        let (s, alpha) = (self.scale(), self.accel());
+        let mut nominal = [0.0; MAX_AXES];
+        for (i, v) in nominal.iter_mut().enumerate().take(n) {
+            let (d1, d2) = (via[i] - current[i], to[i] - via[i]);
+            if d1 * d2 > 0.0 && t1 > 0.0 && t2 > 0.0 {
+                let limit = self.robot.axes()[i].limits.max_velocity * s;
+                *v = d1.signum() * limit.min(1.5 * d1.abs() / t1).min(1.5 * d2.abs() / t2);
+            }
+        }
+        let step = self.settings.period_s.min(0.002);
+        let rest = [0.0; MAX_AXES];
+        let mut best: Option<(f64, JerkAxes, JerkAxes)> = None;
+        for fraction in VIA_SPEEDS {
+            if nominal.iter().all(|&v| v == 0.0) {
+                break;
+            }
+            let vel = nominal.map(|v| v * fraction);
+            let Some(first) =
+                self.planner
+                    .rest_to_moving(&self.robot, &current, via, &vel, &rest, (s, alpha))
+            else {
+                continue;
+            };
+            let Some(second) = self.planner.between(
+                &self.robot,
+                (via, &vel, &rest),
+                (to, &rest, &rest),
+                (s, alpha),
+            ) else {
+                continue;
+            };
+            let keeps = [first, second].iter().all(|part| {
+                let samples = (part.duration() / step).ceil() as u64;
+                (0..=samples).all(|k| {
+                    self.robot
+                        .check_joints(&part.state(k as f64 * step).0)
+                        .is_ok()
+                })
+            });
+            let time = first.duration() + second.duration();
+            if keeps && best.as_ref().is_none_or(|b| time < b.0) {
+                best = Some((time, first, second));
+            }
+        }
+        match best {
+            Some((time, first, second)) if time < fallback => {
+                self.active = Active::Jerk {
+                    parts: [first, second],
+                    count: 2,
+                    t0: 0.0,
+                    target: to_pulses,
+                };
+                self.k = 0;
+                self.stopped = false;
+                Ok(true)
+            }
+            _ => {
+                // Two PTPs at rest, in one move.
+                let info = self.plan_ptp_pulses(&via_pulses)?;
+                if info.periods == 0 {
+                    return self
+                        .plan_ptp_pulses(&to_pulses)
+                        .map(|info| info.periods > 0);
+                }
+                if let Active::Joint { then, .. } = &mut self.active {
+                    *then = Some(to_pulses);
+                }
+                Ok(true)
+            }
+        }
+    }
+
+    /// The duration of a PTP from `from` to `to` [pulse] planned now [s]: the slowest axis's
+    /// time-optimal profile at the overrides (what the move itself takes, synchronised).
+    fn ptp_duration(&self, from: &[i64; MAX_AXES], to: &[i64; MAX_AXES]) -> f64 {
+        let (s, alpha) = (self.scale(), self.accel());
+        let mut t = 0.0f64;
+        for (i, axis) in self.robot.axes().iter().enumerate() {
+            let d = (to[i] - from[i]).unsigned_abs() as f64 / axis.pulses_per_unit;
+            if d > 0.0 {
+                let l = &axis.limits;
+                t = t.max(
+                    DoubleS::time_optimal(
+                        d,
+                        l.max_velocity * s,
+                        l.max_acceleration * s * s * alpha,
+                        l.max_jerk * s * s * s * alpha,
+                    )
+                    .duration(),
+                );
+            }
+        }
+        t
     }
 
     fn nothing_to_do(&mut self) -> MoveInfo {
@@ -885,6 +1412,7 @@ impl VelocityGenerator {
             law,
             sync: info.sync,
             scale: s,
+            then: None,
         };
         self.k = 0;
         self.stopped = false;
@@ -964,14 +1492,36 @@ impl VelocityGenerator {
             Active::Approach {
                 ptp, path, target, ..
             } => {
-                let goal = Goal::Line {
-                    pose: path.pose_at(1.0),
-                    pulses: *target,
-                };
+                let goal = Goal::of_path(path, *target);
                 let (ptp, robot) = (*ptp, &self.robot);
                 self.active = axis_brakes(
                     robot,
                     &ptp.state(now),
+                    now,
+                    limits,
+                    self.settings.speed_pct,
+                    goal,
+                );
+                cut_short = true;
+            }
+            Active::Jerk {
+                parts,
+                count,
+                t0,
+                target,
+            } => {
+                // Every axis's own brake from its state on the part under way.
+                let t = now - *t0;
+                let d0 = parts[0].duration();
+                let state = if *count == 2 && t > d0 {
+                    parts[1].state(t - d0)
+                } else {
+                    parts[0].state(t)
+                };
+                let goal = Goal::Joints(*target);
+                self.active = axis_brakes(
+                    &self.robot,
+                    &state,
                     now,
                     limits,
                     self.settings.speed_pct,
@@ -1004,6 +1554,7 @@ impl VelocityGenerator {
                 law,
                 last,
                 t0,
+                then,
                 ..
             } => match law {
                 LineLaw::Timed {
@@ -1016,11 +1567,12 @@ impl VelocityGenerator {
                     // whoever planned the line: the generator that planned it and another one
                     // restored to the same state (the Pulse Generator's) take the same brake.
                     let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
-                    let derivs = |u: f64| {
-                        path.jets_at(robot, u, &reference)
-                            .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
-                    };
+                    let derivs = |u: f64| path.derivs(robot, axes, u, &reference);
                     stop_line(profile, bounds, scale, limits, now - *t0, &derivs);
+                    // Nothing follows a stopped path; the move was going to its target.
+                    if let Some(target) = then.target() {
+                        *then = Then::Cancelled { target };
+                    }
                 }
                 LineLaw::Paper(ch) => {
                     ch.stop();
@@ -1058,6 +1610,7 @@ impl VelocityGenerator {
             Active::Idle
             | Active::Joint { .. }
             | Active::Approach { .. }
+            | Active::Jerk { .. }
             | Active::Brake { .. }
             | Active::Line {
                 law: LineLaw::Paper(_),
@@ -1090,10 +1643,58 @@ impl VelocityGenerator {
                     target,
                     last,
                     t0: ptp.duration(),
+                    then: Then::End,
+                };
+            }
+        }
+        if let Active::Line {
+            t0,
+            then: Then::Flow { t_cut, ptp, target },
+            ..
+        } = self.active
+        {
+            // The PTP takes over where the path ends.
+            if (self.k + 1) as f64 * ts >= t0 + t_cut {
+                self.active = Active::Jerk {
+                    parts: [ptp; 2],
+                    count: 1,
+                    t0: t0 + t_cut,
+                    target,
                 };
             }
         }
         let finished = match &mut self.active {
+            Active::Jerk {
+                parts,
+                count,
+                t0,
+                target,
+            } => {
+                self.k += 1;
+                let t = self.k as f64 * ts - *t0;
+                let d0 = parts[0].duration();
+                let last = &parts[*count - 1];
+                let end = if *count == 2 {
+                    d0 + parts[1].duration()
+                } else {
+                    d0
+                };
+                if t >= end {
+                    out.exact = last.state(last.duration()).0;
+                    self.position[..n].copy_from_slice(&target[..n]);
+                    true
+                } else {
+                    let q = if *count == 2 && t > d0 {
+                        parts[1].state(t - d0).0
+                    } else {
+                        parts[0].state(t).0
+                    };
+                    let p = self.robot.joints_to_pulses(&q);
+                    self.position[..n].copy_from_slice(&p[..n]);
+                    out.exact = q;
+                    false
+                }
+            }
             Active::Approach { ptp, .. } => {
                 self.k += 1;
                 let q = ptp.state(self.k as f64 * ts).0;
@@ -1181,6 +1782,7 @@ impl VelocityGenerator {
                 target,
                 last,
                 t0,
+                ..
             } => {
                 self.k += 1;
                 let t = self.k as f64 * ts - *t0;
@@ -1199,10 +1801,7 @@ impl VelocityGenerator {
                             // from the present state (verified with them): the derivatives
                             // from the kinematics, exactly.
                             let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
-                            let derivs = |u: f64| {
-                                path.jets_at(robot, u, &reference)
-                                    .map_or_else(|_| Derivs::default(), |j| Derivs::of(&j, axes))
-                            };
+                            let derivs = |u: f64| path.derivs(robot, axes, u, &reference);
                             profile.at(bounds, &derivs, t * *scale)
                         };
                         (u, profile.done(), profile.completed())
@@ -1244,6 +1843,31 @@ impl VelocityGenerator {
             .take(n)
         {
             *out = now - was;
+        }
+        if finished && !self.stopped {
+            // A second PTP from rest where the first part ends (a via or a path's end that
+            // could not be passed moving).
+            let next = match &self.active {
+                Active::Joint {
+                    then: Some(target),
+                    law: Law::Fir(fir),
+                    ..
+                } if fir.braking().is_none() => Some(*target),
+                Active::Line {
+                    then: Then::Ptp { target },
+                    ..
+                } => Some(*target),
+                _ => None,
+            };
+            if let Some(target) = next {
+                let mut distance = [0i64; MAX_AXES];
+                for (i, d) in distance.iter_mut().enumerate().take(n) {
+                    *d = target[i] - self.position[i];
+                }
+                if self.start_joint_move(distance).periods > 0 {
+                    return Status::Working;
+                }
+            }
         }
         if finished {
             self.active = Active::Idle;
@@ -1350,6 +1974,39 @@ fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
 
 /// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
 /// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
+/// Whether a held PTP through `via` (from `start` to `to`) has passed it: the joints `q` are
+/// nearer the joint-space segment from `via` to `to` than the one from `start` to `via`, each
+/// axis measured in time at its velocity limit.
+fn passed_via(robot: &Robot, start: &Joints, via: &Joints, to: &Joints, q: &Joints) -> bool {
+    let n = robot.axis_count();
+    let w: Joints = std::array::from_fn(|i| {
+        robot
+            .axes()
+            .get(i)
+            .map_or(0.0, |a| 1.0 / a.limits.max_velocity.max(1e-9))
+    });
+    let dist = |a: &Joints, b: &Joints| {
+        let (mut ab, mut aq) = (0.0, 0.0);
+        for i in 0..n {
+            let d = (b[i] - a[i]) * w[i];
+            ab += d * d;
+            aq += d * (q[i] - a[i]) * w[i];
+        }
+        let t = if ab > 0.0 {
+            (aq / ab).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (0..n)
+            .map(|i| {
+                let e = (a[i] + t * (b[i] - a[i]) - q[i]) * w[i];
+                e * e
+            })
+            .sum::<f64>()
+    };
+    dist(via, to) < dist(start, via)
+}
+
 fn paper_rate(v: f64, a: f64, j: f64, half: u64, ts: f64) -> f64 {
     let m_ts = half as f64 * ts;
     v.min(a * m_ts).min(j * m_ts * m_ts)

@@ -1,5 +1,6 @@
-//! A time-synchronised jerk-limited move of every axis from rest to a moving state: the
-//! first part of a blended approach (docs/motion.md, "Blended approach"), computed by Ruckig
+//! A time-synchronised jerk-limited move of every axis between two states (from rest to a
+//! moving state, from a moving state to rest): the joint-space parts of the blended moves
+//! (docs/motion.md, "Blended approach", "PTP blends"), computed by Ruckig
 //! (`rsruckig`, the time-optimal jerk-limited online trajectory generator) and kept as plain
 //! data: up to seven constant-jerk phases per axis.
 //!
@@ -127,22 +128,42 @@ impl Planner {
         end: &Joints,
         v_end: &Joints,
         a_end: &Joints,
+        scale: (f64, f64),
+    ) -> Option<JerkAxes> {
+        let rest = [0.0; MAX_AXES];
+        self.between(robot, (start, &rest, &rest), (end, v_end, a_end), scale)
+    }
+
+    /// The time-optimal synchronised move from joints, velocities and accelerations `from`
+    /// to `to`, each axis within its limits scaled by `(s, α)` as in
+    /// [`Planner::rest_to_moving`]. `None` if Ruckig finds none, if it would need a brake
+    /// or acceleration pre-trajectory first (a start beyond the limits), or if the robot has
+    /// more than [`RUCKIG_DOF`] axes.
+    pub fn between(
+        &mut self,
+        robot: &Robot,
+        from: (&Joints, &Joints, &Joints),
+        to: (&Joints, &Joints, &Joints),
         (scale, accel): (f64, f64),
     ) -> Option<JerkAxes> {
         let n = robot.axis_count();
         if n > RUCKIG_DOF {
             return None;
         }
+        let (start, v0, a0) = from;
+        let (end, v_end, a_end) = to;
         let mut idx = [0usize; RUCKIG_DOF];
         for (k, i) in idx.iter_mut().enumerate() {
             *i = k.min(n.saturating_sub(1));
         }
         let inp = &mut self.input;
         for k in 0..RUCKIG_DOF {
-            let (p0, p1, v1, a1, (v, a, j)) = if k < n {
+            let (p0, pv0, pa0, p1, v1, a1, (v, a, j)) = if k < n {
                 let l = &robot.axes()[k].limits;
                 (
                     start[k],
+                    v0[k],
+                    a0[k],
                     end[k],
                     v_end[k],
                     a_end[k],
@@ -153,11 +174,11 @@ impl Planner {
                     ),
                 )
             } else {
-                (0.0, 0.0, 0.0, 0.0, (1.0, 1.0, 1.0))
+                (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, (1.0, 1.0, 1.0))
             };
             inp.current_position[k] = p0;
-            inp.current_velocity[k] = 0.0;
-            inp.current_acceleration[k] = 0.0;
+            inp.current_velocity[k] = pv0;
+            inp.current_acceleration[k] = pa0;
             inp.target_position[k] = p1;
             inp.target_velocity[k] = v1;
             inp.target_acceleration[k] = a1;
@@ -171,8 +192,8 @@ impl Planner {
         let mut axes = [Phases::default(); RUCKIG_DOF];
         for (k, out) in axes.iter_mut().enumerate().take(n) {
             let pr = &profiles[k];
-            // From rest there is no brake or acceleration pre-trajectory; one would not be
-            // part of the phases kept here.
+            // A brake or acceleration pre-trajectory (from a start beyond the limits) would
+            // not be part of the phases kept here.
             if pr.brake.duration > 0.0 || pr.accel.duration > 0.0 {
                 return None;
             }
@@ -190,6 +211,12 @@ impl Planner {
             start: *start,
             duration,
         };
+        // What is kept must start where it was asked to.
+        let (q, v, a) = m.state(0.0);
+        let near = |x: f64, y: f64| (x - y).abs() <= 1e-9 * y.abs().max(1.0);
+        if !(0..n).all(|i| near(q[i], start[i]) && near(v[i], v0[i]) && near(a[i], a0[i])) {
+            return None;
+        }
         // What is kept must end where it was asked to: position, velocity and acceleration.
         let (q, v, a) = m.state(duration);
         let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * y.abs().max(1.0);

@@ -52,25 +52,32 @@
 
 pub mod bench;
 mod brake;
+mod curve;
 mod double_s;
 mod error;
 mod fir_axes;
 mod generator;
+mod geometry;
 mod jerk_axes;
 mod line_profile;
 mod paper;
 mod path;
+mod path_spec;
 pub mod reference;
 mod settings;
 mod solutions;
 
 pub use brake::Brake1d;
+pub use curve::{MAX_ARC_RADIUS_MM, MIN_BLEND_SPEED, MIN_SEGMENT_MM, TANGENT_DEG, TANGENT_ZONE_MM};
 pub use double_s::DoubleS;
-pub use error::{PathProblem, PlanError, SettingsError};
+pub use error::{ArcProblem, PathPlace, PathProblem, PlanError, SettingsError};
 pub use generator::{
-    BrakeLimits, Goal, MotionState, MoveEnd, MoveInfo, Period, Status, Sync, VelocityGenerator,
+    BrakeLimits, EntryRule, Goal, MotionState, MoveEnd, MoveInfo, Period, Status, Sync,
+    VelocityGenerator, DEPART_ROOM_MM, VIA_SPEEDS,
 };
+pub use geometry::{check_path, ON_PATH_TOL_MM, START_TOL_MM, YAW_TOL_DEG};
 pub use paper::PaperChannel;
 pub use path::{check_line, LinePath, PathCheck, PathLimits};
+pub use path_spec::{PathSegment, PathSpec, MAX_PATH_SEGMENTS};
 pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};
 pub use solutions::{ptp_cost, ptp_target, solutions, sooner, Solutions, MAX_SOLUTIONS};

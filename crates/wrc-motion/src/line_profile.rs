@@ -57,12 +57,18 @@
 //! line's derivatives, which can be computed on the spot.
 
 use crate::brake::Brake1d;
-use crate::path::{Derivs, LineAxes, LINE_AXES};
+use crate::path::{Derivs, LineAxes, CHANNELS};
 use crate::settings::LineLimits;
 use wrc_robot::Robot;
 
 /// Step of the timing law in plan time [s]: u⃛ is constant over each step.
 pub const STEP_S: f64 = 0.004;
+
+/// Points checked per step of the law and of its brakes on a composite path (every 1 ms of
+/// plan time): a blend may be shorter than a step (a tangent corner's is 2 mm, a 4 ms step at
+/// 350 mm/s 1.4 mm), and checked at the step's ends alone the jerk of J2 passed its limit by
+/// 1.5 % within one.
+pub(crate) const PATH_CHECKS: usize = 4;
 
 /// Fraction of every limit the planner uses; the rest absorbs the interpolation of the
 /// derivative table and the variation of the bounds within a step.
@@ -171,33 +177,45 @@ const RELEASE_BAND: f64 = 1e-3;
 /// A speed this small counts as standing still [1/s].
 const REST_V: f64 = 1e-12;
 
-/// The limits of a line's axes and of its TCP, as bounds on u's derivatives, at 100 % and
-/// times [`LIMIT_MARGIN`].
+/// The limits of a path's axes and of its TCP, as bounds on u's derivatives, at 100 % and
+/// times [`LIMIT_MARGIN`]: per channel of the derivative rows (each moving axis, and on a
+/// composite path the TCP's speed along it), the Cartesian limits of a straight line as
+/// constant bounds of u, and the centripetal acceleration of a composite path's TCP.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Bounds {
     n: usize,
-    v: [f64; LINE_AXES],
-    a: [f64; LINE_AXES],
-    j: [f64; LINE_AXES],
-    /// Cartesian limits in u units (∞ for a line of no length) [1/s, 1/s², 1/s³].
+    v: [f64; CHANNELS],
+    a: [f64; CHANNELS],
+    j: [f64; CHANNELS],
+    /// A straight line's Cartesian limits in u units (∞ for a line of no length, and for a
+    /// composite path, whose TCP is a channel) [1/s, 1/s², 1/s³].
     cv: f64,
     ca: f64,
     cj: f64,
+    /// Bound of [`Derivs::dn`]·u̇: the square root of the largest centripetal acceleration
+    /// of the TCP [√(mm/s²)] (∞ on a straight line).
+    cn: f64,
     /// The acceleration override the acceleration and jerk bounds are scaled by (0, 1].
     accel: f64,
+    /// How many points of each step of the law and of its brakes are checked (the end, and
+    /// `sub − 1` evenly between): 1 on a straight line, whose derivatives vary slowly;
+    /// [`PATH_CHECKS`] on a composite path, whose blends may be shorter than a step.
+    sub: usize,
 }
 
 impl Bounds {
     pub(crate) fn new(robot: &Robot, axes: &LineAxes, line: &LineLimits, length_mm: f64) -> Self {
         let mut b = Bounds {
             n: axes.n,
-            v: [0.0; LINE_AXES],
-            a: [0.0; LINE_AXES],
-            j: [0.0; LINE_AXES],
+            v: [0.0; CHANNELS],
+            a: [0.0; CHANNELS],
+            j: [0.0; CHANNELS],
             cv: f64::INFINITY,
             ca: f64::INFINITY,
             cj: f64::INFINITY,
+            cn: f64::INFINITY,
             accel: 1.0,
+            sub: 1,
         };
         for k in 0..axes.n {
             let l = &robot.axes()[axes.idx[k]].limits;
@@ -213,6 +231,21 @@ impl Bounds {
         b
     }
 
+    /// The bounds of a composite path ([`crate::geometry::Geometry::Curve`]): every moving
+    /// axis, then the TCP's speed, tangential acceleration and jerk along the path within
+    /// the line limits, and its centripetal acceleration within the line acceleration limit.
+    pub(crate) fn for_path(robot: &Robot, axes: &LineAxes, line: &LineLimits) -> Self {
+        let mut b = Bounds::new(robot, axes, line, 0.0);
+        let k = axes.n;
+        b.n = k + 1;
+        b.v[k] = line.max_speed_mm_s * LIMIT_MARGIN;
+        b.a[k] = line.max_accel_mm_s2 * LIMIT_MARGIN;
+        b.j[k] = line.max_jerk_mm_s3 * LIMIT_MARGIN;
+        b.cn = (line.max_accel_mm_s2 * LIMIT_MARGIN).sqrt();
+        b.sub = PATH_CHECKS;
+        b
+    }
+
     /// These bounds with every acceleration and jerk bound (each axis's and the TCP's)
     /// times `accel` in (0, 1]: the acceleration override a move is planned with.
     pub(crate) fn with_accel(&self, accel: f64) -> Bounds {
@@ -222,6 +255,7 @@ impl Bounds {
             j: self.j.map(|x| x * f),
             ca: self.ca * f,
             cj: self.cj * f,
+            cn: self.cn * f.sqrt(),
             accel,
             ..*self
         }
@@ -247,14 +281,33 @@ impl Bounds {
             cv: self.cv * f,
             ca: self.ca * f,
             cj: self.cj * f,
+            cn: self.cn * f.sqrt(),
             accel: self.accel,
+            sub: self.sub,
         }
+    }
+
+    /// Whether the states strictly inside a step of `dt` at jerk `j` from (u, v, a) keep
+    /// every limit, at `sub − 1` evenly spaced points (none on a straight line): the law
+    /// checks the end of each step itself.
+    #[inline]
+    fn ok_within(
+        &self,
+        derivs: &impl Fn(f64) -> Derivs,
+        (u, v, a): (f64, f64, f64),
+        j: f64,
+        dt: f64,
+    ) -> bool {
+        (1..self.sub).all(|i| {
+            let (ui, vi, ai) = advance(u, v, a, j, dt * i as f64 / self.sub as f64);
+            self.ok(&derivs(ui), vi.max(0.0), ai, j)
+        })
     }
 
     /// Whether the state (v = u̇ ≥ 0, a = ü) with jerk j = u⃛ keeps every limit.
     #[inline]
     fn ok(&self, d: &Derivs, v: f64, a: f64, j: f64) -> bool {
-        if v > self.cv || a.abs() > self.ca || j.abs() > self.cj {
+        if v > self.cv || a.abs() > self.ca || j.abs() > self.cj || d.dn * v > self.cn {
             return false;
         }
         let v2 = v * v;
@@ -509,7 +562,7 @@ fn brake_stop(
             return Err(Unsafe::Limit);
         }
         d = derivs(un);
-        if !check.ok(&d, vn, an, j) {
+        if !check.ok(&d, vn, an, j) || !check.ok_within(derivs, (u, v, a), j, dt) {
             return Err(Unsafe::Limit);
         }
         (u, v, a) = (un, vn.max(0.0), an);
@@ -699,6 +752,9 @@ impl LineProfile {
     pub(crate) fn entry_speed(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
         let d = derivs(0.0);
         let mut v = b.cv;
+        if d.dn > 1e-12 {
+            v = v.min(b.cn / d.dn);
+        }
         for k in 0..b.n {
             if d.d1[k].abs() >= 1e-9 {
                 v = v.min(b.v[k] / d.d1[k].abs());
@@ -745,6 +801,48 @@ impl LineProfile {
             }
             _ => u,
         }
+    }
+
+    /// Advance the law to where u first reaches `target` (a path's end, where a blended move
+    /// leaves it for a PTP): the plan time [s] and (u, u̇, ü) there; `None` if the law comes
+    /// to rest before. Searches in quarter steps, then by bisection within one (the law
+    /// between two knots is a cubic, evaluated without new knots).
+    pub(crate) fn time_at(
+        &mut self,
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        target: f64,
+    ) -> Option<(f64, (f64, f64, f64))> {
+        let h = STEP_S / 4.0;
+        let mut t = self.t;
+        for _ in 0..4 * MAX_BRAKE_STEPS {
+            let before = *self;
+            if self.at(b, derivs, t + h) >= target {
+                let after = *self;
+                let u_at = |x: f64| {
+                    let mut p = if x >= after.t { after } else { before };
+                    p.at(b, derivs, x)
+                };
+                let (mut lo, mut hi) = (t, t + h);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if u_at(mid) >= target {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                let mut p = if hi >= after.t { after } else { before };
+                p.at(b, derivs, hi);
+                let (_, v, a) = p.state(hi);
+                return Some((hi, (u_at(hi), v, a)));
+            }
+            if self.done() {
+                return None;
+            }
+            t += h;
+        }
+        None
     }
 
     /// Run the law to its end; returns the plan time at which it comes to rest [s].
@@ -1005,7 +1103,10 @@ impl LineProfile {
                 return Err(Unsafe::Limit);
             }
             let (un, vn, an) = step_to(u, v, a, j, STEP_S);
-            if vn < -1e-9 || !b.ok(&derivs(un), vn.max(0.0), an, j) {
+            if vn < -1e-9
+                || !b.ok(&derivs(un), vn.max(0.0), an, j)
+                || !b.ok_within(derivs, (u, v, a), j, STEP_S)
+            {
                 return Err(Unsafe::Limit);
             }
             safe(b, derivs, (un, vn.max(0.0), an), brakes, horizon)
@@ -1078,7 +1179,9 @@ fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d)
         return false;
     }
     brake.phases().all(|(start, len, jerk)| {
-        let steps = (len / CHECK_S).ceil().clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;
+        let steps = (len * b.sub as f64 / CHECK_S)
+            .ceil()
+            .clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;
         (0..=steps).all(|i| {
             let (u, v, a) = brake.at(start + len * (i as f64 / steps as f64));
             v >= -1e-9 && b.ok(&derivs(u), v.max(0.0) * (1.0 - VELOCITY_SLACK), a, jerk)

@@ -22,6 +22,8 @@ use wrc_robot::{
 };
 
 use crate::error::{PathProblem, PlanError};
+use crate::geometry::Geometry;
+use crate::geometry::MAX_TABLE_PIECES;
 use crate::settings::LineLimits;
 
 /// Spacing of the samples that check a line and tabulate its derivatives: along the TCP
@@ -40,6 +42,13 @@ const DERIVATIVE_MARGIN: f64 = 1.05;
 
 /// Most moving axes of a line: shoulder, elbow, wrist, Z.
 pub(crate) const LINE_AXES: usize = 4;
+
+/// Channels of a derivative row: the moving axes, then (on a composite path) the TCP's
+/// speed along the path ([`Derivs::set_tcp`]).
+pub(crate) const CHANNELS: usize = LINE_AXES + 1;
+
+/// Most points of a derivative table: a composite path's samples, both ends of each piece.
+const TABLE_POINTS: usize = crate::curve::MAX_CURVE_INTERVALS + MAX_TABLE_PIECES;
 
 /// A straight segment in Cartesian space.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,13 +103,16 @@ impl LineAxes {
     }
 }
 
-/// The derivatives of the moving axes ([`LineAxes`] order) at one point of a line:
-/// q', q'', q''' [unit per u, u², u³].
+/// The derivatives of the moving axes ([`LineAxes`] order) at one point of a path:
+/// q', q'', q''' [unit per u, u², u³]; on a composite path also the TCP's channels after
+/// them ([`Derivs::set_tcp`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(crate) struct Derivs {
-    pub d1: [f64; LINE_AXES],
-    pub d2: [f64; LINE_AXES],
-    pub d3: [f64; LINE_AXES],
+    pub d1: [f64; CHANNELS],
+    pub d2: [f64; CHANNELS],
+    pub d3: [f64; CHANNELS],
+    /// √(κ)·s′ [√mm per u]: κ·s′²·u̇² is the TCP's centripetal acceleration (0 on a line).
+    pub dn: f64,
 }
 
 impl Derivs {
@@ -114,19 +126,59 @@ impl Derivs {
         }
         d
     }
+
+    /// Set channel `k` to the TCP's path length s along the path of `pose` (s′ = |p′|, its
+    /// speed per unit of the parameter; s″ and s‴), and [`Derivs::dn`] to √(κ)·s′, with κ
+    /// the curvature of the TCP's path in x, y, z.
+    pub(crate) fn set_tcp(&mut self, k: usize, pose: &PoseJet) {
+        let p = |m: usize| [pose.x.d[m], pose.y.d[m], pose.z.d[m]];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let (p1, p2, p3) = (p(1), p(2), p(3));
+        let m = dot(p1, p1).sqrt();
+        if m < 1e-12 {
+            (self.d1[k], self.d2[k], self.d3[k], self.dn) = (0.0, 0.0, 0.0, 0.0);
+            return;
+        }
+        let q = dot(p1, p2);
+        let cross = [
+            p1[1] * p2[2] - p1[2] * p2[1],
+            p1[2] * p2[0] - p1[0] * p2[2],
+            p1[0] * p2[1] - p1[1] * p2[0],
+        ];
+        self.d1[k] = m;
+        self.d2[k] = q / m;
+        self.d3[k] = (dot(p2, p2) + dot(p1, p3)) / m - q * q / (m * m * m);
+        self.dn = (dot(cross, cross).sqrt() / m).sqrt();
+    }
 }
 
 /// Identity of the next derivative table filled (0 means none), unique in the process.
 static NEXT_TABLE_ID: AtomicU64 = AtomicU64::new(1);
 
-/// The derivatives of a line's axes tabulated at evenly spaced u, interpolated between
-/// (cubic Hermite for q' and q'', whose derivatives are tabulated too; linear for q''').
-/// Preallocated once; filling it for a new line does not allocate.
+/// One piece of a derivative table: evenly spaced samples of v from `v0` to `v1`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct TablePiece {
+    v0: f64,
+    v1: f64,
+    /// Index of its first point.
+    offset: usize,
+    intervals: usize,
+}
+
+/// The derivatives of a path's channels tabulated at evenly spaced v within each piece (one
+/// piece for a line; a composite path's segments and blends each have their own spacing, and
+/// both ends, since q‴ may jump where they meet), interpolated between (cubic Hermite for q'
+/// and q'', whose derivatives are tabulated too; linear for q''' and the centripetal
+/// channel). Preallocated once ([`TABLE_POINTS`] rows, 1.2 MB); filling it for a new path
+/// does not allocate.
 #[derive(Clone)]
 pub(crate) struct DerivTable {
     /// Which plan the table holds (0: none).
     pub id: u64,
-    intervals: usize,
+    /// Channels interpolated (the line's axes, plus the TCP's on a composite path).
+    channels: usize,
+    pieces: [TablePiece; MAX_TABLE_PIECES],
+    count: usize,
     points: Box<[Derivs]>,
 }
 
@@ -134,20 +186,32 @@ impl DerivTable {
     pub(crate) fn new() -> DerivTable {
         DerivTable {
             id: 0,
-            intervals: 0,
-            points: vec![Derivs::default(); MAX_INTERVALS + 1].into_boxed_slice(),
+            channels: CHANNELS,
+            pieces: [TablePiece::default(); MAX_TABLE_PIECES],
+            count: 0,
+            points: vec![Derivs::default(); TABLE_POINTS].into_boxed_slice(),
         }
     }
 
-    /// The derivatives at `u` in [0, 1].
+    /// The derivatives at `v` in [0, 1].
     #[inline]
-    pub(crate) fn at(&self, u: f64) -> Derivs {
-        let n = self.intervals;
-        let x = u.clamp(0.0, 1.0) * n as f64;
+    pub(crate) fn at(&self, v: f64) -> Derivs {
+        let v = v.clamp(0.0, 1.0);
+        let mut k = self.count.saturating_sub(1);
+        while k > 0 && self.pieces[k].v0 > v {
+            k -= 1;
+        }
+        let piece = &self.pieces[k];
+        let n = piece.intervals;
+        let span = piece.v1 - piece.v0;
+        let x = ((v - piece.v0) / span).clamp(0.0, 1.0) * n as f64;
         let i = (x as usize).min(n.saturating_sub(1));
         let f = x - i as f64;
-        let (p, q) = (&self.points[i], &self.points[i + 1]);
-        let du = 1.0 / n as f64;
+        let (p, q) = (
+            &self.points[piece.offset + i],
+            &self.points[piece.offset + i + 1],
+        );
+        let du = span / n as f64;
         // Cubic Hermite basis on [0, 1].
         let (f2, f3) = (f * f, f * f * f);
         let h00 = 2.0 * f3 - 3.0 * f2 + 1.0;
@@ -155,11 +219,12 @@ impl DerivTable {
         let h01 = -2.0 * f3 + 3.0 * f2;
         let h11 = f3 - f2;
         let mut d = Derivs::default();
-        for k in 0..LINE_AXES {
+        for k in 0..self.channels {
             d.d1[k] = h00 * p.d1[k] + h10 * du * p.d2[k] + h01 * q.d1[k] + h11 * du * q.d2[k];
             d.d2[k] = h00 * p.d2[k] + h10 * du * p.d3[k] + h01 * q.d2[k] + h11 * du * q.d3[k];
             d.d3[k] = p.d3[k] + f * (q.d3[k] - p.d3[k]);
         }
+        d.dn = p.dn + f * (q.dn - p.dn);
         d
     }
 }
@@ -168,7 +233,7 @@ impl std::fmt::Debug for DerivTable {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("DerivTable")
             .field("id", &self.id)
-            .field("intervals", &self.intervals)
+            .field("pieces", &self.count)
             .finish_non_exhaustive()
     }
 }
@@ -194,28 +259,48 @@ pub(crate) fn line_path(
 ) -> Result<(LinePath, PathCheck), PlanError> {
     let from = robot.forward(start);
     let Some(posture) = Posture::of(robot, start) else {
-        // The elbow is exactly straight or folded: no posture to keep.
-        let r = robot.wrist_radius(&from);
-        let arm = robot.arm();
-        let stretched = robot.axes()[arm.elbow].min <= 0.0 && start[arm.elbow].abs() < 90.0;
-        let problem = if stretched {
-            PathProblem::Stretched {
-                r_mm: r,
-                limit_mm: arm.link1_mm + arm.link2_mm - arm.singularity_margin_mm,
-            }
-        } else {
-            PathProblem::Folded {
-                r_mm: r,
-                limit_mm: (arm.link1_mm - arm.link2_mm).abs() + arm.singularity_margin_mm,
-            }
-        };
+        let (pose, problem) = no_posture(robot, start);
         return Err(PlanError::PathLeavesWorkspace {
             fraction_pct: 0.0,
-            pose: from,
+            pose,
             problem,
         });
     };
-    // The target itself, with a clear message if only the other posture reaches it.
+    end_reachable(robot, start, target, posture)?;
+    let path = LinePath::new(robot, from, *target, posture);
+    let check = scan(&Geometry::Line(path), robot, start, table)?;
+    Ok((path, check))
+}
+
+/// A path cannot start from joints whose elbow is exactly straight or folded (no posture
+/// to keep): where the TCP is, and which singularity it is at.
+pub(crate) fn no_posture(robot: &Robot, start: &Joints) -> (Pose, PathProblem) {
+    let from = robot.forward(start);
+    let r = robot.wrist_radius(&from);
+    let arm = robot.arm();
+    let stretched = robot.axes()[arm.elbow].min <= 0.0 && start[arm.elbow].abs() < 90.0;
+    let problem = if stretched {
+        PathProblem::Stretched {
+            r_mm: r,
+            limit_mm: arm.link1_mm + arm.link2_mm - arm.singularity_margin_mm,
+        }
+    } else {
+        PathProblem::Folded {
+            r_mm: r,
+            limit_mm: (arm.link1_mm - arm.link2_mm).abs() + arm.singularity_margin_mm,
+        }
+    };
+    (from, problem)
+}
+
+/// A path's end `target` with the posture kept along it, with a clear message if only the
+/// other posture reaches it.
+pub(crate) fn end_reachable(
+    robot: &Robot,
+    start: &Joints,
+    target: &Pose,
+    posture: Posture,
+) -> Result<(), PlanError> {
     if let Err(err) = robot.inverse(target, posture, Some(start)) {
         let other = match posture {
             Posture::Right => Posture::Left,
@@ -226,9 +311,7 @@ pub(crate) fn line_path(
             Err(_) => PlanError::Kinematics(err),
         });
     }
-    let path = LinePath::new(robot, from, *target, posture);
-    let check = path.scan(robot, start, table)?;
-    Ok((path, check))
+    Ok(())
 }
 
 /// What the scan of a line tracks between two samples of one quantity (a joint or the wrist
@@ -334,38 +417,74 @@ impl LinePath {
     /// Limits crossed and extrema reached between samples are found exactly. On success
     /// returns the joints at u = 1 and the derivative maxima.
     pub fn check(&self, robot: &Robot, start_joints: &Joints) -> Result<PathCheck, PlanError> {
-        self.scan(robot, start_joints, None)
+        scan(&Geometry::Line(*self), robot, start_joints, None)
     }
 
     /// [`LinePath::check`], tabulating the derivatives into `table` for the timing law.
+    #[cfg(test)]
     pub(crate) fn scan(
         &self,
         robot: &Robot,
         start_joints: &Joints,
-        mut table: Option<&mut DerivTable>,
+        table: Option<&mut DerivTable>,
     ) -> Result<PathCheck, PlanError> {
-        let axes = LineAxes::of(robot);
-        let n = self.intervals();
-        let arm = robot.arm();
-        let margin = arm.singularity_margin_mm;
-        let r_lo = (arm.link1_mm - arm.link2_mm).abs() + margin;
-        let r_hi = arm.link1_mm + arm.link2_mm - margin;
-        let mut max_derivatives = [[0.0; 3]; MAX_AXES];
-        let mut reference = *start_joints;
-        let mut prev_r: Option<Sample> = None;
-        let mut prev_q = [None::<Sample>; LINE_AXES];
+        scan(&Geometry::Line(*self), robot, start_joints, table)
+    }
+}
+
+/// Check every point of a path (a line or a composite path), following the joints
+/// continuously from `start_joints` (the joints at v = 0): the wrist point stays more than
+/// the singularity margin away from the stretched and folded arm, and every joint within its
+/// limits. Each piece is sampled evenly; limits crossed and extrema reached between samples
+/// are found exactly. Tabulates the derivative rows into `table` if given. On success
+/// returns the joints at v = 1 and the joint derivative maxima.
+pub(crate) fn scan(
+    path: &Geometry,
+    robot: &Robot,
+    start_joints: &Joints,
+    table: Option<&mut DerivTable>,
+) -> Result<PathCheck, PlanError> {
+    scan_recording(path, robot, start_joints, table, f64::NAN).map(|(check, _)| check)
+}
+
+/// [`scan`], also returning the joints at `record`, a v where one of the pieces ends (the
+/// start joints if it is none).
+pub(crate) fn scan_recording(
+    path: &Geometry,
+    robot: &Robot,
+    start_joints: &Joints,
+    mut table: Option<&mut DerivTable>,
+    record: f64,
+) -> Result<(PathCheck, Joints), PlanError> {
+    let mut recorded = *start_joints;
+    let axes = LineAxes::of(robot);
+    let arm = robot.arm();
+    let margin = arm.singularity_margin_mm;
+    let r_lo = (arm.link1_mm - arm.link2_mm).abs() + margin;
+    let r_hi = arm.link1_mm + arm.link2_mm - margin;
+    let mut max_derivatives = [[0.0; 3]; MAX_AXES];
+    let mut reference = *start_joints;
+    let mut prev_r: Option<Sample> = None;
+    let mut prev_q = [None::<Sample>; LINE_AXES];
+    let (pieces, count) = path.pieces();
+    let mut offset = 0;
+    for (k, &(v0, v1, n)) in pieces[..count].iter().enumerate() {
         for i in 0..=n {
-            let u = i as f64 / n as f64;
-            let jets = match self.jets_at(robot, u, &reference) {
-                Ok(j) => j,
+            let u = if i == n {
+                v1
+            } else {
+                v0 + (v1 - v0) * (i as f64 / n as f64)
+            };
+            let (row, jets) = match path.row(robot, &axes, u, &reference) {
+                Ok(r) => r,
                 Err(KinematicsError::NotFinite { what }) => {
                     return Err(PlanError::NotFinite { what });
                 }
                 Err(_) => {
                     // Beyond the stretched or folded arm: the margin was crossed since the
-                    // last sample (or the line starts there).
+                    // last sample (or the path starts there).
                     let from = prev_r.map_or(0.0, |s| s.u);
-                    return Err(self.radius_refusal(robot, from, u, r_lo, r_hi));
+                    return Err(radius_refusal(path, robot, from, u, r_lo, r_hi));
                 }
             };
             // The wrist radius and every moving joint, between the last sample and here.
@@ -377,9 +496,9 @@ impl LinePath {
             let r = sample(jets.wrist_radius);
             let band = |v: f64| v > r_lo && v < r_hi;
             let radius = |j: &JointJets| j.wrist_radius;
-            if let Some(at) = self.outside_at(robot, prev_r, r, &reference, radius, band) {
+            if let Some(at) = outside_at(path, robot, prev_r, r, &reference, radius, band) {
                 let from = prev_r.map_or(0.0, |s| s.u);
-                return Err(self.radius_refusal(robot, from, at, r_lo, r_hi));
+                return Err(radius_refusal(path, robot, from, at, r_lo, r_hi));
             }
             prev_r = Some(r);
             for (&ax, prev) in axes.idx[..axes.n].iter().zip(prev_q.iter_mut()) {
@@ -388,9 +507,9 @@ impl LinePath {
                 let axis = &robot.axes()[ax];
                 let joint = |j: &JointJets| j.joints[ax];
                 let within = |v: f64| axis.within_limits(v);
-                if let Some(at) = self.outside_at(robot, *prev, s, &reference, joint, within) {
+                if let Some(at) = outside_at(path, robot, *prev, s, &reference, joint, within) {
                     let from = prev.map_or(0.0, |p| p.u);
-                    return Err(self.joint_refusal(robot, ax, from, at, &reference));
+                    return Err(joint_refusal(path, robot, ax, from, at, &reference));
                 }
                 *prev = Some(s);
                 let m: &mut [f64; 3] = &mut max_derivatives[ax];
@@ -405,127 +524,149 @@ impl LinePath {
             {
                 *q = j.value();
             }
+            if u == record {
+                recorded = reference;
+            }
             if let Some(t) = table.as_deref_mut() {
-                t.points[i] = Derivs::of(&jets, &axes);
+                t.points[offset + i] = row;
             }
         }
-        if let Some(t) = table {
-            t.intervals = n;
-            t.id = NEXT_TABLE_ID.fetch_add(1, Ordering::Relaxed);
+        if let Some(t) = table.as_deref_mut() {
+            t.pieces[k] = TablePiece {
+                v0,
+                v1,
+                offset,
+                intervals: n,
+            };
         }
-        Ok(PathCheck {
+        offset += n + 1;
+    }
+    if let Some(t) = table {
+        t.count = count;
+        t.channels = if path.cartesian_channels() {
+            axes.n + 1
+        } else {
+            axes.n
+        };
+        t.id = NEXT_TABLE_ID.fetch_add(1, Ordering::Relaxed);
+    }
+    Ok((
+        PathCheck {
             end_joints: reference,
             max_derivatives,
-        })
-    }
+        },
+        recorded,
+    ))
+}
 
-    /// Where a quantity of the line (`pick` of its joint jets) is outside its allowed range
-    /// (`inside` false) from the sample `prev` (if any) to the sample `s`: the extremum
-    /// between them when the slope changes sign there and it is outside, otherwise `s` when
-    /// it is outside; `None` when it stays inside. `reference`: the joints at `prev`.
-    fn outside_at(
-        &self,
-        robot: &Robot,
-        prev: Option<Sample>,
-        s: Sample,
-        reference: &Joints,
-        pick: impl Fn(&JointJets) -> Jet,
-        inside: impl Fn(f64) -> bool,
-    ) -> Option<f64> {
-        if let Some(p) = prev.filter(|p| p.slope * s.slope < 0.0) {
-            let at = |u: f64| self.jets_at(robot, u, reference).ok().map(|j| pick(&j).d);
-            let e = find_extremum(&p, &s, |u| at(u).map(|d| d[1]));
-            if at(e).is_none_or(|d| !inside(d[0])) {
-                return Some(e);
-            }
+/// Where a quantity of the path (`pick` of its joint jets) is outside its allowed range
+/// (`inside` false) from the sample `prev` (if any) to the sample `s`: the extremum
+/// between them when the slope changes sign there and it is outside, otherwise `s` when
+/// it is outside; `None` when it stays inside. `reference`: the joints at `prev`.
+fn outside_at(
+    path: &Geometry,
+    robot: &Robot,
+    prev: Option<Sample>,
+    s: Sample,
+    reference: &Joints,
+    pick: impl Fn(&JointJets) -> Jet,
+    inside: impl Fn(f64) -> bool,
+) -> Option<f64> {
+    if let Some(p) = prev.filter(|p| p.slope * s.slope < 0.0) {
+        let at = |u: f64| path.jets_at(robot, u, reference).ok().map(|j| pick(&j).d);
+        let e = find_extremum(&p, &s, |u| at(u).map(|d| d[1]));
+        if at(e).is_none_or(|d| !inside(d[0])) {
+            return Some(e);
         }
-        (!inside(s.value)).then_some(s.u)
     }
+    (!inside(s.value)).then_some(s.u)
+}
 
-    /// The refusal for a wrist radius that leaves (lo, hi) somewhere in (`from`, `to`]: the
-    /// first point where it does, found by bisection.
-    fn radius_refusal(&self, robot: &Robot, from: f64, to: f64, lo: f64, hi: f64) -> PlanError {
-        let r_at = |u: f64| robot.wrist_radius(&self.pose_at(u));
-        let inside = |u: f64| {
-            let r = r_at(u);
-            r > lo && r < hi
-        };
-        let u = if inside(from) {
-            first_failure(from, to, |u| !inside(u))
-        } else {
-            from
-        };
+/// The refusal for a wrist radius that leaves (lo, hi) somewhere in (`from`, `to`]: the
+/// first point where it does, found by bisection.
+fn radius_refusal(
+    path: &Geometry,
+    robot: &Robot,
+    from: f64,
+    to: f64,
+    lo: f64,
+    hi: f64,
+) -> PlanError {
+    let r_at = |u: f64| robot.wrist_radius(&path.pose_at(u));
+    let inside = |u: f64| {
         let r = r_at(u);
-        let problem = if (r - hi).abs() < (r - lo).abs() {
-            PathProblem::Stretched {
-                r_mm: r,
-                limit_mm: hi,
-            }
-        } else {
-            PathProblem::Folded {
-                r_mm: r,
-                limit_mm: lo,
-            }
-        };
-        PlanError::PathLeavesWorkspace {
-            fraction_pct: 100.0 * u,
-            pose: self.pose_at(u),
-            problem,
+        r > lo && r < hi
+    };
+    let u = if inside(from) {
+        first_failure(from, to, |u| !inside(u))
+    } else {
+        from
+    };
+    let r = r_at(u);
+    let problem = if (r - hi).abs() < (r - lo).abs() {
+        PathProblem::Stretched {
+            r_mm: r,
+            limit_mm: hi,
         }
-    }
+    } else {
+        PathProblem::Folded {
+            r_mm: r,
+            limit_mm: lo,
+        }
+    };
+    path.refusal(u, problem)
+}
 
-    /// The refusal for joint `ax` leaving its limits somewhere in (`from`, `to`]: the first
-    /// point where it does, and the farthest value the rest of the line takes it to.
-    fn joint_refusal(
-        &self,
-        robot: &Robot,
-        ax: usize,
-        from: f64,
-        to: f64,
-        reference: &Joints,
-    ) -> PlanError {
-        let axis = &robot.axes()[ax];
-        let value = |u: f64, r: &Joints| self.jets_at(robot, u, r).ok().map(|j| j.joints[ax].d[0]);
-        let outside = |u: f64| value(u, reference).is_some_and(|v| !axis.within_limits(v));
-        let u = if outside(from) {
-            from
-        } else {
-            first_failure(from, to, outside)
+/// The refusal for joint `ax` leaving its limits somewhere in (`from`, `to`]: the first
+/// point where it does, and the farthest value the rest of the path takes it to.
+fn joint_refusal(
+    path: &Geometry,
+    robot: &Robot,
+    ax: usize,
+    from: f64,
+    to: f64,
+    reference: &Joints,
+) -> PlanError {
+    let axis = &robot.axes()[ax];
+    let value = |u: f64, r: &Joints| path.jets_at(robot, u, r).ok().map(|j| j.joints[ax].d[0]);
+    let outside = |u: f64| value(u, reference).is_some_and(|v| !axis.within_limits(v));
+    let u = if outside(from) {
+        from
+    } else {
+        first_failure(from, to, outside)
+    };
+    // The farthest value: follow the rest of the path (continuously) while it is reachable
+    // at all, at the line's sampling (every 0.5 mm, at most 2,048 steps).
+    let above = value(u, reference).is_some_and(|v| v > axis.max);
+    let mut extreme = value(u, reference).unwrap_or(if above { axis.max } else { axis.min });
+    let n = ((path.length_mm() / SAMPLE_MM).ceil() as usize).clamp(MIN_INTERVALS, MAX_INTERVALS);
+    let mut r = *reference;
+    let start = (u * n as f64).floor() as usize;
+    for i in start..=n {
+        let ui = (i as f64 / n as f64).max(u);
+        let Ok(jets) = path.jets_at(robot, ui, &r) else {
+            break;
         };
-        // The farthest value: follow the rest of the line (continuously) while it is
-        // reachable at all.
-        let above = value(u, reference).is_some_and(|v| v > axis.max);
-        let mut extreme = value(u, reference).unwrap_or(if above { axis.max } else { axis.min });
-        let n = self.intervals();
-        let mut r = *reference;
-        let start = (u * n as f64).floor() as usize;
-        for i in start..=n {
-            let ui = (i as f64 / n as f64).max(u);
-            let Ok(jets) = self.jets_at(robot, ui, &r) else {
-                break;
-            };
-            for (q, j) in r.iter_mut().zip(&jets.joints).take(robot.axis_count()) {
-                *q = j.value();
-            }
-            let v = jets.joints[ax].d[0];
-            extreme = if above {
-                extreme.max(v)
-            } else {
-                extreme.min(v)
-            };
+        for (q, j) in r.iter_mut().zip(&jets.joints).take(robot.axis_count()) {
+            *q = j.value();
         }
-        PlanError::PathLeavesWorkspace {
-            fraction_pct: 100.0 * u,
-            pose: self.pose_at(u),
-            problem: PathProblem::JointLimit {
-                axis: axis.name,
-                unit: axis.unit,
-                extreme,
-                min: axis.min,
-                max: axis.max,
-            },
-        }
+        let v = jets.joints[ax].d[0];
+        extreme = if above {
+            extreme.max(v)
+        } else {
+            extreme.min(v)
+        };
     }
+    path.refusal(
+        u,
+        PathProblem::JointLimit {
+            axis: axis.name,
+            unit: axis.unit,
+            extreme,
+            min: axis.min,
+            max: axis.max,
+        },
+    )
 }
 
 /// The u in (a.u, b.u) where a slope that changes sign between two samples is zero:

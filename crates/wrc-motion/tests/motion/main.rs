@@ -6,6 +6,7 @@ mod alloc;
 mod approach;
 mod common;
 mod line;
+mod path;
 mod ptp;
 mod ruckig;
 mod stop;

@@ -319,6 +319,8 @@ pub struct PathDistance {
     pub off_mm: f64,
     /// Where that point is: a segment, or the blend after it.
     pub place: PathPlace,
+    /// The path's parameter there, 0 to 1 (close to the fraction of its length).
+    pub u: f64,
     /// In a blend: the pose's distance from that blend's corner point (the end of the
     /// segment before it), in x, y and z [mm].
     pub from_corner_mm: Option<f64>,
@@ -344,6 +346,7 @@ impl PathProbe {
         PathDistance {
             off_mm,
             place,
+            u,
             from_corner_mm,
         }
     }

@@ -1169,11 +1169,11 @@ impl VelocityGenerator {
     /// candidates that pass and the two PTPs at rest (the fallback, two moves in one: it never
     /// refuses what they would do) the one that arrives soonest is taken.
     ///
-    /// `start` is where the move began (the end of the previous motion): from elsewhere (a
-    /// RESUME after a HOLD) it goes through `via` unless it has passed it — when the robot is
-    /// nearer the joint-space segment from `via` to `to` than the one from `start` to `via`
-    /// (each axis in time at its velocity limit), or at `via` — and then straight to `to`.
-    /// Returns whether anything moves. Only under the default profile.
+    /// `start` is where the move began (the end of the previous motion). From elsewhere (a
+    /// RESUME after a HOLD) the move is planned again from `start`, as it was, and the point
+    /// of it nearest the robot (each axis measured in time at its velocity limit) says where
+    /// it was held: before `via` it goes through `via` from here, after it (or at `via`)
+    /// straight to `to`. Returns whether anything moves. Only under the default profile.
     pub fn plan_ptp_via(
         &mut self,
         start: &Joints,
@@ -1193,34 +1193,77 @@ impl VelocityGenerator {
         let near = |p: &[i64; MAX_AXES]| (0..n).all(|i| (p[i] - here[i]).abs() <= 1);
         let current = self.joints();
         let from_start = near(&self.robot.joints_to_pulses(start));
-        if near(&via_pulses) || (!from_start && passed_via(&self.robot, start, via, to, &current)) {
+        if near(&via_pulses) || (!from_start && self.passed_via(start, via, to, &current)) {
             return self
                 .plan_ptp_pulses(&to_pulses)
                 .map(|info| info.periods > 0);
         }
-        let t1 = self.ptp_duration(&here, &via_pulses);
+        match self.via_parts(&current, via, to) {
+            Some((first, second)) => {
+                self.active = Active::Jerk {
+                    parts: [first, second],
+                    count: 2,
+                    t0: 0.0,
+                    target: to_pulses,
+                };
+                self.k = 0;
+                self.stopped = false;
+                Ok(true)
+            }
+            None => {
+                // Two PTPs at rest, in one move.
+                let info = self.plan_ptp_pulses(&via_pulses)?;
+                if info.periods == 0 {
+                    return self
+                        .plan_ptp_pulses(&to_pulses)
+                        .map(|info| info.periods > 0);
+                }
+                if let Active::Joint { then, .. } = &mut self.active {
+                    *then = Some(to_pulses);
+                }
+                Ok(true)
+            }
+        }
+    }
+
+    /// The two parts of a PTP from `from` through `via` to `to` passing `via` moving
+    /// ([`VelocityGenerator::plan_ptp_via`]), or `None` when the two PTPs at rest are as
+    /// fast (or no moving candidate passes).
+    fn via_parts(
+        &mut self,
+        from: &Joints,
+        via: &Joints,
+        to: &Joints,
+    ) -> Option<(JerkAxes, JerkAxes)> {
+        let n = self.robot.axis_count();
+        let (from_pulses, via_pulses, to_pulses) = (
+            self.robot.joints_to_pulses(from),
+            self.robot.joints_to_pulses(via),
+            self.robot.joints_to_pulses(to),
+        );
+        let t1 = self.ptp_duration(&from_pulses, &via_pulses);
         let t2 = self.ptp_duration(&via_pulses, &to_pulses);
         let fallback = t1 + t2;
         let (s, alpha) = (self.scale(), self.accel());
         let mut nominal = [0.0; MAX_AXES];
         for (i, v) in nominal.iter_mut().enumerate().take(n) {
-            let (d1, d2) = (via[i] - current[i], to[i] - via[i]);
+            let (d1, d2) = (via[i] - from[i], to[i] - via[i]);
             if d1 * d2 > 0.0 && t1 > 0.0 && t2 > 0.0 {
                 let limit = self.robot.axes()[i].limits.max_velocity * s;
                 *v = d1.signum() * limit.min(1.5 * d1.abs() / t1).min(1.5 * d2.abs() / t2);
             }
         }
+        if nominal.iter().all(|&v| v == 0.0) {
+            return None;
+        }
         let step = self.settings.period_s.min(0.002);
         let rest = [0.0; MAX_AXES];
         let mut best: Option<(f64, JerkAxes, JerkAxes)> = None;
         for fraction in VIA_SPEEDS {
-            if nominal.iter().all(|&v| v == 0.0) {
-                break;
-            }
             let vel = nominal.map(|v| v * fraction);
             let Some(first) =
                 self.planner
-                    .rest_to_moving(&self.robot, &current, via, &vel, &rest, (s, alpha))
+                    .rest_to_moving(&self.robot, from, via, &vel, &rest, (s, alpha))
             else {
                 continue;
             };
@@ -1245,30 +1288,49 @@ impl VelocityGenerator {
                 best = Some((time, first, second));
             }
         }
-        match best {
-            Some((time, first, second)) if time < fallback => {
-                self.active = Active::Jerk {
-                    parts: [first, second],
-                    count: 2,
-                    t0: 0.0,
-                    target: to_pulses,
+        best.filter(|b| b.0 < fallback).map(|(_, a, b)| (a, b))
+    }
+
+    /// Whether the robot at `q` has passed `via` on the PTP from `start` through `via` to
+    /// `to`: the nearest point of that move, planned again from `start` (each axis measured
+    /// in time at its velocity limit), is after `via`.
+    fn passed_via(&mut self, start: &Joints, via: &Joints, to: &Joints, q: &Joints) -> bool {
+        let n = self.robot.axis_count();
+        let w: Joints = std::array::from_fn(|i| {
+            self.robot
+                .axes()
+                .get(i)
+                .map_or(0.0, |a| 1.0 / a.limits.max_velocity.max(1e-9))
+        });
+        let dist = |p: &Joints| (0..n).map(|i| ((p[i] - q[i]) * w[i]).powi(2)).sum::<f64>();
+        match self.via_parts(start, via, to) {
+            Some((first, second)) => {
+                let nearest = |part: &JerkAxes| {
+                    let samples = (part.duration() / 0.002).ceil().max(1.0) as u64;
+                    (0..=samples)
+                        .map(|k| dist(&part.state(part.duration() * k as f64 / samples as f64).0))
+                        .fold(f64::INFINITY, f64::min)
                 };
-                self.k = 0;
-                self.stopped = false;
-                Ok(true)
+                nearest(&second) < nearest(&first)
             }
-            _ => {
-                // Two PTPs at rest, in one move.
-                let info = self.plan_ptp_pulses(&via_pulses)?;
-                if info.periods == 0 {
-                    return self
-                        .plan_ptp_pulses(&to_pulses)
-                        .map(|info| info.periods > 0);
-                }
-                if let Active::Joint { then, .. } = &mut self.active {
-                    *then = Some(to_pulses);
-                }
-                Ok(true)
+            None => {
+                // Two straight lines in joint space.
+                let segment = |a: &Joints, b: &Joints| {
+                    let (mut ab, mut aq) = (0.0, 0.0);
+                    for i in 0..n {
+                        let d = (b[i] - a[i]) * w[i];
+                        ab += d * d;
+                        aq += d * (q[i] - a[i]) * w[i];
+                    }
+                    let t = if ab > 0.0 {
+                        (aq / ab).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let p: Joints = std::array::from_fn(|i| a[i] + t * (b[i] - a[i]));
+                    dist(&p)
+                };
+                segment(via, to) < segment(start, via)
             }
         }
     }
@@ -1974,39 +2036,6 @@ fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
 
 /// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`
 /// [s] within v, a and j: the mask's peak acceleration is rate/(m·Ts), its jerk rate/(m·Ts)².
-/// Whether a held PTP through `via` (from `start` to `to`) has passed it: the joints `q` are
-/// nearer the joint-space segment from `via` to `to` than the one from `start` to `via`, each
-/// axis measured in time at its velocity limit.
-fn passed_via(robot: &Robot, start: &Joints, via: &Joints, to: &Joints, q: &Joints) -> bool {
-    let n = robot.axis_count();
-    let w: Joints = std::array::from_fn(|i| {
-        robot
-            .axes()
-            .get(i)
-            .map_or(0.0, |a| 1.0 / a.limits.max_velocity.max(1e-9))
-    });
-    let dist = |a: &Joints, b: &Joints| {
-        let (mut ab, mut aq) = (0.0, 0.0);
-        for i in 0..n {
-            let d = (b[i] - a[i]) * w[i];
-            ab += d * d;
-            aq += d * (q[i] - a[i]) * w[i];
-        }
-        let t = if ab > 0.0 {
-            (aq / ab).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        (0..n)
-            .map(|i| {
-                let e = (a[i] + t * (b[i] - a[i]) - q[i]) * w[i];
-                e * e
-            })
-            .sum::<f64>()
-    };
-    dist(via, to) < dist(start, via)
-}
-
 fn paper_rate(v: f64, a: f64, j: f64, half: u64, ts: f64) -> f64 {
     let m_ts = half as f64 * ts;
     v.min(a * m_ts).min(j * m_ts * m_ts)

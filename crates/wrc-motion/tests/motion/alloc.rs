@@ -2,7 +2,7 @@
 //! lines, in this generator or another one) allocate nothing.
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
-use wrc_motion::{BrakeLimits, Goal, Period, Profile, Status};
+use wrc_motion::{BrakeLimits, EntryRule, Goal, Period, Profile, Status};
 use wrc_robot::{Pose, Posture};
 
 use crate::common::generator;
@@ -210,5 +210,101 @@ fn planning_and_periods_allocate_nothing() {
                 "{profile:?} at {period} s allocated"
             );
         }
+    }
+}
+
+#[test]
+fn paths_and_ptp_blends_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
+    let (_, spec) = crate::path::cases().remove(2);
+    for period in [0.01, 0.001] {
+        let mut vg = crate::path::at(Profile::Fir, period, 100.0, &spec.start);
+        let mut stopper = generator(Profile::Fir, period, 100.0);
+        let start = vg.joints();
+        let elsewhere = vg
+            .robot()
+            .inverse(
+                &Pose {
+                    x: 100.0,
+                    y: 250.0,
+                    z: 150.0,
+                    yaw: 90.0,
+                },
+                Posture::Right,
+                None,
+            )
+            .unwrap();
+        let mut out = Period::default();
+        let before = heap_calls().allocations;
+        // The admission check; a path at ACCEL 50 % started, held half-way by another
+        // generator (with the derivatives computed on the spot), resumed to its end.
+        wrc_motion::check_path(vg.robot(), &start, &spec).unwrap();
+        vg.set_accel_pct(50.0).unwrap();
+        assert!(vg.start_path(&spec).unwrap());
+        for _ in 0..(0.6 / period) as usize {
+            vg.next_period(&mut out);
+        }
+        stopper.restore(&vg.state());
+        stopper.stop(BrakeLimits::Override);
+        while stopper.is_moving() {
+            stopper.next_period(&mut out);
+        }
+        vg.restore(&stopper.state());
+        vg.set_accel_pct(100.0).unwrap();
+        assert!(vg.start_path(&spec).unwrap());
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        // The path into a PTP (flowing, its candidates planned with Ruckig), stopped in its
+        // PTP part with ESTOP; the PTP part alone to resume.
+        vg.plan_ptp(&start).unwrap();
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        assert!(vg.plan_depart(&spec, &elsewhere, 100.0).unwrap());
+        let mut k = 0;
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+            k += 1;
+            if k == (2.1 / period) as usize {
+                vg.stop(BrakeLimits::Full);
+            }
+        }
+        if vg.plan_depart(&spec, &elsewhere, 100.0).unwrap() {
+            while vg.is_moving() {
+                vg.next_period(&mut out);
+            }
+        }
+        // A PTP into the path, and a PTP through a via point, each stopped once.
+        assert!(vg
+            .plan_ptp_into(&start, &spec, 80.0, EntryRule::Free)
+            .unwrap());
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        let end = vg.joints();
+        vg.plan_ptp(&elsewhere).unwrap();
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        let here = vg.joints();
+        assert!(vg.plan_ptp_via(&here, &start, &end).unwrap());
+        let mut k = 0;
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+            k += 1;
+            if k == 20 {
+                vg.stop(BrakeLimits::Override);
+            }
+        }
+        assert!(vg.plan_ptp_via(&here, &start, &end).unwrap());
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        assert_eq!(
+            heap_calls().allocations - before,
+            0,
+            "paths and blends at {period} s allocated"
+        );
     }
 }

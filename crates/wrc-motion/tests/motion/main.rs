@@ -4,6 +4,7 @@
 
 mod alloc;
 mod approach;
+mod blend;
 mod common;
 mod line;
 mod path;

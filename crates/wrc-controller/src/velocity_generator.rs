@@ -1,7 +1,8 @@
 //! Velocity Generator task (Table 1: priority 30, 50 ms): takes move orders from the Command
-//! Interpreter, plans them with `wrc-motion` (PTP, straight line, jog; accel/decel, IK for
-//! lines) and fills the per-period pulse ring for the Pulse Generator, a little more than one
-//! of its own periods ahead. After a stop it drops its plan and resumes from the state the
+//! Interpreter, plans them with `wrc-motion` (PTP, straight line, path, the blends between
+//! PTP and Cartesian moves, jog; accel/decel at the order's speed and acceleration
+//! overrides, IK for lines and paths) and fills the per-period pulse ring for the Pulse
+//! Generator, a little more than one of its own periods ahead. After a stop it drops its plan and resumes from the state the
 //! Pulse Generator brought to rest.
 //!
 //! Real-time promise: planning and producing periods do not allocate (`wrc-motion`
@@ -12,7 +13,9 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use wrc_motion::{MotionState, Period, PlanError, Status, VelocityGenerator as Generator};
+use wrc_motion::{
+    EntryRule, MotionState, Period, PlanError, Status, VelocityGenerator as Generator,
+};
 use wrc_robot::KinematicsError;
 use wrc_rt::ipc::mailbox::MailboxReader;
 use wrc_rt::ipc::queue::MessageQueue;
@@ -28,7 +31,9 @@ pub mod refusal {
     pub const OUT_OF_REACH: u16 = 111;
     /// A joint would leave its limits.
     pub const JOINT_LIMIT: u16 = 112;
-    /// The straight path leaves the workspace or needs a posture change.
+    /// The straight line or path leaves the workspace, needs a posture change, is
+    /// malformed (an arc on a line, a sharp corner without a blend zone, …) or does not
+    /// start where the robot is.
     pub const PATH: u16 = 113;
     /// Any other planning failure.
     pub const OTHER: u16 = 199;
@@ -41,9 +46,17 @@ pub fn refusal_code(err: &PlanError) -> u16 {
         | PlanError::JogBeyondLimit { .. } => refusal::JOINT_LIMIT,
         PlanError::Kinematics(_) => refusal::OUT_OF_REACH,
         PlanError::PathLeavesWorkspace { .. }
+        | PlanError::SegmentLeavesWorkspace { .. }
         | PlanError::PostureChange
         | PlanError::ApproachCrossesEntry
-        | PlanError::Untimed { .. } => refusal::PATH,
+        | PlanError::Untimed { .. }
+        | PlanError::PathSegments { .. }
+        | PlanError::Arc { .. }
+        | PlanError::SegmentTooShort { .. }
+        | PlanError::BlendZone { .. }
+        | PlanError::SharpCorner { .. }
+        | PlanError::CornerTurnsBack { .. }
+        | PlanError::NotOnPath { .. } => refusal::PATH,
         _ => refusal::OTHER,
     }
 }
@@ -112,6 +125,7 @@ impl VelocityGenerator {
             // produced (wrc-motion's start_line), not all before the first one.
             let planned = g
                 .set_speed_pct(order.speed_pct)
+                .and_then(|()| g.set_accel_pct(order.accel_pct))
                 .and_then(|()| match order.kind {
                     MoveKind::Joints(j) => g.plan_ptp(&j).map(|i| i.periods > 0),
                     MoveKind::Pose(p, posture) => {
@@ -121,6 +135,14 @@ impl VelocityGenerator {
                     MoveKind::Approach { via, to, line_pct } => {
                         g.plan_approach(&via, &to, line_pct)
                     }
+                    MoveKind::Path(path) => g.start_path(&path),
+                    MoveKind::PtpToPath {
+                        via,
+                        path,
+                        path_pct,
+                    } => g.plan_ptp_into(&via, &path, path_pct, EntryRule::Free),
+                    MoveKind::Depart { path, to, path_pct } => g.plan_depart(&path, &to, path_pct),
+                    MoveKind::Via { start, via, to } => g.plan_ptp_via(&start, &via, &to),
                     MoveKind::Jog { axis, pulses } => {
                         g.plan_jog(axis, pulses).map(|i| i.periods > 0)
                     }

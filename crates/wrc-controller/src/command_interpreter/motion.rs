@@ -123,7 +123,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         // A line is resumed as a line to its pose; every other motion as a PTP to the joint
         // target admission checked (the one the Velocity Generator goes to).
         let resume = match kind {
-            MoveKind::Line(_) | MoveKind::Approach { .. } => kind,
+            MoveKind::Line(_)
+            | MoveKind::Approach { .. }
+            | MoveKind::Path(_)
+            | MoveKind::PtpToPath { .. }
+            | MoveKind::Depart { .. }
+            | MoveKind::Via { .. } => kind,
             MoveKind::Joints(_) | MoveKind::Pose(..) | MoveKind::Jog { .. } => {
                 MoveKind::Joints(end)
             }

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 
 use wrc_lang::Program;
-use wrc_motion::MotionState;
+use wrc_motion::{MotionState, PathSpec};
 use wrc_protocol::{ProgramName, ReplyTo, Request, StationName, MAX_LINE};
 use wrc_robot::{Joints, Pose, Posture, MAX_AXES};
 use wrc_rt::ipc::MessageQueue;
@@ -46,6 +46,47 @@ pub enum MoveKind {
         /// Speed override of the line [%].
         line_pct: f64,
     },
+    /// A composite path (docs/motion.md, "Arcs", "Blended paths"): lines and arcs from
+    /// `start`, each corner blended within its zone. `start` must be where the motion before
+    /// it ends (the move is refused, code 113, from anywhere else); from a point of the path
+    /// it is the rest of it (RESUME sends the same order again).
+    Path(PathSpec),
+    /// A PTP flowing into a path without stopping at its start (docs/motion.md, "PTP
+    /// blends"): every axis to `via` (the joints at `path.start`, checked), reached moving,
+    /// then `path` at `path_pct` (never above the order's speed). No station rule: a
+    /// program's blended PTP. From the path's start or a point of it, the path alone.
+    PtpToPath {
+        /// The joints at the path's start.
+        via: Joints,
+        /// The path.
+        path: PathSpec,
+        /// Speed override of the path [%].
+        path_pct: f64,
+    },
+    /// A path flowing into a PTP without stopping at its end (docs/motion.md, "PTP
+    /// blends"): `path` at `path_pct` (never above the order's speed) from `path.start`,
+    /// then every axis to the joints `to` (checked), at rest there. From a point of the path,
+    /// the rest of it and the PTP; from anywhere else, the PTP alone (a RESUME after a HOLD
+    /// in the PTP part).
+    Depart {
+        /// The path.
+        path: PathSpec,
+        /// The joints the PTP goes to.
+        to: Joints,
+        /// Speed override of the path [%].
+        path_pct: f64,
+    },
+    /// A PTP through the joints `via` to the joints `to` without stopping at `via`
+    /// (docs/motion.md, "PTP blends"). `start` is where the motion before it ends: from
+    /// elsewhere (RESUME) it goes through `via` unless it was held past it.
+    Via {
+        /// The joints where the move starts.
+        start: Joints,
+        /// The joints it passes moving.
+        via: Joints,
+        /// The joints it ends at.
+        to: Joints,
+    },
     /// A pulse count on one axis.
     Jog {
         /// Axis index.
@@ -64,6 +105,9 @@ pub struct MoveOrder {
     pub epoch: u32,
     /// Speed override for this move [%].
     pub speed_pct: f64,
+    /// Acceleration override for this move [%] (100: the axes' full acceleration and
+    /// jerk).
+    pub accel_pct: f64,
     /// What to do.
     pub kind: MoveKind,
 }

@@ -9,6 +9,7 @@ mod estop_input;
 mod ethernet;
 mod host_access;
 mod motion;
+mod paths;
 mod pipeline;
 mod sessions;
 mod stall;

@@ -16,8 +16,8 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_cell::{
-    Blade, Reconciled, SlotCode, Station, StationError, Stations, Step, Transfer, TransferKind,
-    WaferMap, WaferMapError, MAX_BLADES,
+    Blade, Reconciled, SlotCode, SlotState, Station, StationError, Stations, Step, Transfer,
+    TransferKind, WaferMap, WaferMapError, MAX_BLADES,
 };
 use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
@@ -326,6 +326,75 @@ impl CellService {
             ));
         }
         None
+    }
+
+    /// Answer a running program's question about the wafer map or a station (`SLOT(…)`,
+    /// `WAFER$(…)`, `HAND$(…)`, `SLOTS(…)`, `PITCH(…)`, `STATION(…)`, `APPROACH(…)`), or the
+    /// code and text of why it cannot be answered.
+    pub fn answer(&self, query: &wrc_lang::CellQuery) -> Result<wrc_lang::Answer, (Code, String)> {
+        use wrc_lang::{Answer, CellInfo, Text};
+        let text = |t: &str| Answer::Text(Text::cut(t));
+        if query.info == CellInfo::HandWafer {
+            let blade = if query.blade_b { Blade::B } else { Blade::A };
+            if blade == Blade::B && !self.wafers.is_dual() {
+                return Err((
+                    Code::NotAvailable,
+                    "this robot has one blade: HAND$(B) names a dual-blade robot's second".into(),
+                ));
+            }
+            return Ok(text(
+                &self
+                    .wafers
+                    .hand_of(blade)
+                    .map_or_else(String::new, |w| w.to_string()),
+            ));
+        }
+        let name = query.station.as_str();
+        let Some(station) = self.stations.get(name) else {
+            return Err((
+                Code::StationUnknown,
+                format!("no station named {name}; STN lists them"),
+            ));
+        };
+        let slot_state = || {
+            if query.slot == 0 || query.slot > station.slots {
+                return Err((
+                    Code::SlotUnknown,
+                    format!(
+                        "{name} has slots 1 to {}, not {}",
+                        station.slots, query.slot
+                    ),
+                ));
+            }
+            self.wafers
+                .slot(name, query.slot)
+                .map_err(|e| (map_error_code(&e), e.to_string()))
+        };
+        Ok(match query.info {
+            CellInfo::SlotState => Answer::Number(match slot_state()? {
+                SlotState::Unknown => -1.0,
+                SlotState::Empty => 0.0,
+                SlotState::Wafer(_) => 1.0,
+                SlotState::Fault(f) => match f.code() {
+                    SlotCode::Double => 2.0,
+                    _ => 3.0,
+                },
+            }),
+            CellInfo::SlotWafer => match slot_state()? {
+                SlotState::Wafer(w) => text(&w.to_string()),
+                _ => text(""),
+            },
+            CellInfo::Slots => Answer::Number(f64::from(station.slots)),
+            CellInfo::Pitch => Answer::Number(station.pitch_mm),
+            CellInfo::Pose => Answer::Pose(station.pose),
+            CellInfo::Approach => Answer::Number(station.approach_mm),
+            _ => {
+                return Err((
+                    Code::NotAvailable,
+                    "this controller cannot answer that question".into(),
+                ))
+            }
+        })
     }
 
     /// `TEACH <station>`.

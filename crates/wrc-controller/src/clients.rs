@@ -677,14 +677,21 @@ impl ClientSet {
             joints: &joints[..self.robot.axis_count()],
             tcp,
         };
+        let at = shared.program_line.load(Ordering::Acquire);
+        let program_line = (at != 0).then_some(((at >> 32) as u16, at as u32));
         for slot in self
             .slots
             .iter_mut()
             .filter(|s| s.subscribed && s.stream.is_some())
         {
-            let line = self
-                .buf
-                .event(slot.checksum, &Event::Status { status, position });
+            let line = self.buf.event(
+                slot.checksum,
+                &Event::Status {
+                    status,
+                    position,
+                    program_line,
+                },
+            );
             if slot.out_len + line.len() <= slot.out.len() / 2 {
                 let _ = Self::push_out(slot, line);
             }
@@ -788,7 +795,9 @@ fn route<'b>(
             }
         }
         Command::Programs
-        | Command::Run(_)
+        | Command::Run { .. }
+        | Command::Points(_)
+        | Command::Point { .. }
         | Command::Delete(_)
         | Command::Robot
         | Command::Tasks
@@ -802,7 +811,24 @@ fn route<'b>(
         | Command::Map(_) => {
             let from = slot.source;
             let request = match request.command {
-                Command::Run(name) => StoreRequest::Run { from, to, name },
+                Command::Run { name, step } => StoreRequest::Run {
+                    from,
+                    to,
+                    name,
+                    step,
+                },
+                Command::Points(program) => StoreRequest::Points { from, to, program },
+                Command::Point {
+                    program,
+                    point,
+                    action,
+                } => StoreRequest::Point {
+                    from,
+                    to,
+                    program,
+                    point,
+                    action,
+                },
                 Command::Delete(name) => StoreRequest::Delete { from, to, name },
                 Command::Robot => StoreRequest::Robot { from, to },
                 Command::Tasks => StoreRequest::Tasks { from, to },

@@ -361,7 +361,8 @@ pub(crate) fn assemble<H: Host>(
         path: options.programs.display().to_string(),
         reason,
     })?
-    .with_queries(config.motion.period_s * 1000.0, task_cells.clone());
+    .with_queries(config.motion.period_s * 1000.0, task_cells.clone())
+    .with_shared(shared.clone());
     let store = match &options.cell {
         Some(files) => store.with_cell(
             crate::cell_service::CellService::open(

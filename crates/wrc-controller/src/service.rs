@@ -16,15 +16,19 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use wrc_lang::Program;
-use wrc_protocol::{Code, Event, ProgramName, ReplyBuf, ReplyTo};
+use std::fmt::Write as _;
+
+use wrc_lang::{PointValue, Points, Program};
+use wrc_protocol::{Code, Event, Num, PointAction, ProgramName, ReplyBuf, ReplyTo};
 use wrc_robot::Robot;
 use wrc_rt::clock::monotonic_now_ns;
 use wrc_rt::Waiter;
 
 use crate::cell_service::CellService;
-use crate::messages::{Outputs, ProgramStart, SourceId, StoreLinks, StoreRequest};
+use crate::messages::cell_job::JobRefusal;
+use crate::messages::{Outputs, ProgramAnswer, ProgramStart, SourceId, StoreLinks, StoreRequest};
 use crate::queries::TaskCells;
+use crate::shared::Shared;
 use crate::upload::{self, ProgramText};
 
 /// The service thread's longest wait between two looks at its queues [ns].
@@ -50,6 +54,8 @@ pub struct Service {
     tasks: TaskCells,
     cell: Option<CellService>,
     recorder: Option<crate::recorder::Recorder>,
+    /// The commanded position, for `POINT … HERE` (none: refused).
+    shared: Option<Arc<Shared>>,
 }
 
 impl Service {
@@ -72,6 +78,7 @@ impl Service {
             tasks: TaskCells::default(),
             cell: None,
             recorder: None,
+            shared: None,
         })
     }
 
@@ -79,6 +86,12 @@ impl Service {
     pub fn with_cell(mut self, mut cell: CellService) -> Service {
         cell.connect(self.out.clone(), self.links.clone());
         self.cell = Some(cell);
+        self
+    }
+
+    /// Also read the commanded position, for `POINT <program> <name> HERE`.
+    pub fn with_shared(mut self, shared: Arc<Shared>) -> Service {
+        self.shared = Some(shared);
         self
     }
 
@@ -241,7 +254,43 @@ impl Service {
                     self.reply_nak(from, to, Code::Internal, &text);
                 }
             },
-            StoreRequest::Run { from, to, name } => self.run_program(from, to, name),
+            StoreRequest::Run {
+                from,
+                to,
+                name,
+                step,
+            } => self.run_program(from, to, name, step),
+            StoreRequest::Points { from, to, program } => self.points(from, to, program),
+            StoreRequest::Point {
+                from,
+                to,
+                program,
+                point,
+                action,
+            } => self.point(from, to, program, point, action),
+            StoreRequest::Cell { query } => {
+                let answer = match self.cell.as_ref() {
+                    Some(cell) => cell.answer(&query),
+                    None => Err((
+                        Code::NotAvailable,
+                        "this controller has no wafer cell (no stations file)".into(),
+                    )),
+                };
+                self.answer_program(answer);
+            }
+            StoreRequest::TeachPoint {
+                program,
+                point,
+                value,
+            } => {
+                let answer = self
+                    .store_point(program, point.as_str(), Some(value))
+                    .map(|()| match value {
+                        wrc_lang::PointValue::Pose(p) => wrc_lang::Answer::Pose(p),
+                        wrc_lang::PointValue::Joints(j) => wrc_lang::Answer::Joints(j),
+                    });
+                self.answer_program(answer);
+            }
             StoreRequest::Robot { from, to } => {
                 let blade_b = self.cell.as_ref().and_then(|c| c.blade_b_offset());
                 let (axes, ack) = crate::queries::robot_reply(&self.robot, self.period_ms, blade_b);
@@ -334,7 +383,10 @@ impl Service {
         name: &ProgramName,
         source: &str,
     ) -> Option<(Program, usize)> {
-        let verdict = upload::check(name, source, &self.robot);
+        let sources = wrc_lang::DirSources {
+            dir: self.dir.clone(),
+        };
+        let verdict = upload::check(name, source, &self.robot, Some(&sources));
         for text in &verdict.diagnostics {
             let line = self.buf.event(to.checksum, &Event::Diag(text));
             self.out.send(from, line);
@@ -378,7 +430,7 @@ impl Service {
         }
     }
 
-    fn run_program(&mut self, from: SourceId, to: ReplyTo, name: ProgramName) {
+    fn run_program(&mut self, from: SourceId, to: ReplyTo, name: ProgramName, step: bool) {
         let source = match fs::read_to_string(self.path(&name)) {
             Ok(s) => s,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -398,6 +450,7 @@ impl Service {
             to,
             name,
             program: Box::new(program),
+            step,
         };
         if self.links.starts.try_send(start).is_err() {
             self.reply_nak(
@@ -406,6 +459,160 @@ impl Service {
                 Code::Busy,
                 "the controller is busy starting another program; repeat RUN",
             );
+        }
+    }
+}
+
+impl Service {
+    /// Send the running program the answer to its question (or why there is none).
+    fn answer_program(&mut self, answer: Result<wrc_lang::Answer, (Code, String)>) {
+        let message = match answer {
+            Ok(a) => ProgramAnswer::Value(a),
+            Err((code, text)) => ProgramAnswer::Failed(JobRefusal::new(code, &text)),
+        };
+        // The queue holds four answers and the program asks one question at a time.
+        let _ = self.links.answers.try_send(message);
+    }
+
+    fn points_path(&self, program: &ProgramName) -> PathBuf {
+        self.dir
+            .join(wrc_lang::points::points_file_name(program.as_str()))
+    }
+
+    /// Program `program`'s points (none when it has no points file).
+    fn load_points(&self, program: &ProgramName) -> Result<Points, String> {
+        match fs::read_to_string(self.points_path(program)) {
+            Ok(text) => Points::parse(&text, self.robot.axis_count()).map_err(|e| {
+                format!(
+                    "{}: {e}",
+                    wrc_lang::points::points_file_name(program.as_str())
+                )
+            }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Points::new()),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+
+    /// `<program> <name> pose <x> <y> <z> <yaw>` or `… joints <j1> …` (`deleted`).
+    fn point_line(&self, program: &ProgramName, name: &str, value: Option<&PointValue>) -> String {
+        let mut line = format!("{program} {name} ");
+        let _ = match value {
+            None => write!(line, "deleted"),
+            Some(PointValue::Pose(p)) => write!(
+                line,
+                "pose {} {} {} {}",
+                Num(p.x),
+                Num(p.y),
+                Num(p.z),
+                Num(p.yaw)
+            ),
+            Some(PointValue::Joints(j)) => {
+                let _ = line.write_str("joints");
+                for v in &j[..self.robot.axis_count()] {
+                    let _ = write!(line, " {}", Num(*v));
+                }
+                Ok(())
+            }
+        };
+        line
+    }
+
+    /// Store (`Some`) or delete (`None`) point `name` of `program`, atomically, and tell
+    /// every connection (`EVT POINT`).
+    fn store_point(
+        &mut self,
+        program: ProgramName,
+        name: &str,
+        value: Option<PointValue>,
+    ) -> Result<(), (Code, String)> {
+        let mut points = self
+            .load_points(&program)
+            .map_err(|e| (Code::Internal, format!("cannot read the points: {e}")))?;
+        match value {
+            Some(v) => points
+                .set(name, v)
+                .map_err(|e| (Code::BadArgument, e.to_string()))?,
+            None => {
+                if !points.remove(name) {
+                    return Err((
+                        Code::BadArgument,
+                        format!("{program} has no point {name}; POINTS lists them"),
+                    ));
+                }
+            }
+        }
+        let text = points.to_text(program.as_str(), self.robot.axis_count());
+        wrc_cell::write_atomic(&self.points_path(&program), text.as_bytes()).map_err(|e| {
+            (
+                Code::Internal,
+                format!("cannot write the points of {program}: {e}; nothing changed"),
+            )
+        })?;
+        let line = self.point_line(&program, name, value.as_ref());
+        tracing::info!("wrc: point {line}");
+        let reply = self.buf.event(false, &Event::Point(&line));
+        self.out.send(SourceId::BROADCAST, reply);
+        Ok(())
+    }
+
+    /// `POINTS <program>`.
+    fn points(&mut self, from: SourceId, to: ReplyTo, program: ProgramName) {
+        let points = match self.load_points(&program) {
+            Ok(p) => p,
+            Err(e) => {
+                let text = format!("cannot read the points of {program}: {e}");
+                return self.reply_nak(from, to, Code::Internal, &text);
+            }
+        };
+        for (name, value) in points.iter() {
+            let line = self.point_line(&program, name, Some(value));
+            let reply = self.buf.event(to.checksum, &Event::Point(&line));
+            self.out.send(from, reply);
+        }
+        let line = self.buf.ack(to, format_args!("points={}", points.len()));
+        self.out.send(from, line);
+    }
+
+    /// `POINT <program> <name> …`.
+    fn point(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        program: ProgramName,
+        point: ProgramName,
+        action: PointAction,
+    ) {
+        let name = point.as_str();
+        let value = match action {
+            PointAction::Delete => None,
+            PointAction::Pose(p) => Some(PointValue::Pose(p)),
+            PointAction::Joints(j) => Some(PointValue::Joints(j)),
+            PointAction::Here => {
+                let Some(shared) = self.shared.as_ref() else {
+                    let text = "this controller cannot read the robot's position here";
+                    return self.reply_nak(from, to, Code::NotAvailable, text);
+                };
+                let joints = self.robot.pulses_to_joints(&shared.commanded_pulses());
+                let is_joints = matches!(
+                    self.load_points(&program)
+                        .ok()
+                        .and_then(|p| p.get(name).copied()),
+                    Some(PointValue::Joints(_))
+                );
+                Some(if is_joints {
+                    PointValue::Joints(joints)
+                } else {
+                    PointValue::Pose(self.robot.forward(&joints))
+                })
+            }
+        };
+        match self.store_point(program, name, value) {
+            Ok(()) => {
+                let line = self.point_line(&program, name, value.as_ref());
+                let reply = self.buf.ack(to, line.as_str());
+                self.out.send(from, reply);
+            }
+            Err((code, text)) => self.reply_nak(from, to, code, &text),
         }
     }
 }

@@ -12,6 +12,10 @@ use wrc_robot::MAX_AXES;
 /// Everything the tasks share, as atomics.
 pub struct Shared {
     state: AtomicU8,
+    /// Where the running program is: its source file (high 32 bits; 0 the program's own)
+    /// and line (low 32 bits); 0 when no program runs. The Command Interpreter publishes
+    /// it each cycle for the status stream.
+    pub program_line: AtomicU64,
     /// The robot has been homed since start-up.
     pub homed: AtomicBool,
     /// The source holding control ([`crate::messages::SourceId`] bits; 0 = nobody).
@@ -93,6 +97,7 @@ impl Default for Shared {
     fn default() -> Self {
         Shared {
             state: AtomicU8::new(RobotState::Idle.to_u8()),
+            program_line: AtomicU64::new(0),
             owner: AtomicU32::new(0),
             speed_pct: AtomicU32::new(100),
             homed: AtomicBool::new(false),

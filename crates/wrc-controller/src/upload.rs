@@ -15,7 +15,7 @@
 //!     text.push_line(line);
 //! }
 //! let source = text.finish(&name).unwrap();
-//! let verdict = check(&name, &source, &Robot::paper_default());
+//! let verdict = check(&name, &source, &Robot::paper_default(), None);
 //! assert!(verdict.diagnostics[0].starts_with("demo.wrl:3:1: error: "));
 //! assert!(verdict.result.unwrap_err().starts_with("demo: 1 error; first: 3:1 "));
 //! ```
@@ -82,10 +82,24 @@ pub struct Verdict {
     pub result: Result<(Program, usize), String>,
 }
 
-/// Compile `source`, the program `name`, for `robot`.
-pub fn check(name: &ProgramName, source: &str, robot: &Robot) -> Verdict {
+/// Compile `source`, the program `name`, for `robot`, with its libraries, the programs it
+/// calls and its points file from `sources` (none: a program on its own).
+pub fn check(
+    name: &ProgramName,
+    source: &str,
+    robot: &Robot,
+    sources: Option<&dyn wrc_lang::Sources>,
+) -> Verdict {
     let file = format!("{name}.wrl");
-    let compiled = wrc_lang::compile(source, &file, robot);
+    let compiled = wrc_lang::compile_with(
+        source,
+        &file,
+        robot,
+        &wrc_lang::CompileOptions {
+            name: name.as_str(),
+            sources,
+        },
+    );
     let mut errors = 0;
     let mut warnings = 0;
     let mut first_error = String::new();
@@ -103,9 +117,16 @@ pub fn check(name: &ProgramName, source: &str, robot: &Robot) -> Verdict {
         };
         // Replies are printable ASCII: write the compiler's ellipsis as three dots rather
         // than let the line writer turn it into '?'.
-        let message = d.message.replace('\u{2026}', "...");
+        let message = d
+            .message
+            .replace('\u{2026}', "...")
+            .replace('\u{2192}', "->");
         let mut text = String::new();
-        let _ = write!(text, "{file}:{}:{}: {severity}: {message}", d.line, d.col);
+        let shown = match &d.file {
+            Some(other) => format!("{other}.wrl"),
+            None => file.clone(),
+        };
+        let _ = write!(text, "{shown}:{}:{}: {severity}: {message}", d.line, d.col);
         if severity == "error" && first_error.is_empty() {
             first_error = format!("{}:{} {message}", d.line, d.col);
         }
@@ -156,10 +177,10 @@ mod tests {
     #[test]
     fn a_good_program_compiles_and_a_bad_one_names_its_first_error() {
         let robot = Robot::paper_default();
-        let good = check(&name(), "HOME\n", &robot);
+        let good = check(&name(), "HOME\n", &robot, None);
         assert!(good.diagnostics.is_empty());
         assert_eq!(good.result.unwrap().1, 0);
-        let bad = check(&name(), "HOME\nBOGUS\nBOGUS\n", &robot);
+        let bad = check(&name(), "HOME\nBOGUS\nBOGUS\n", &robot, None);
         assert_eq!(bad.diagnostics.len(), 2);
         assert!(bad.diagnostics[0].starts_with("p.wrl:2:1: error: "));
         assert!(bad

@@ -5,6 +5,7 @@ use wrc_robot::Posture;
 
 use crate::diagnostic::Span;
 use crate::statements::StatementDef;
+use crate::value::Ty;
 
 /// A name as written, and its upper-case key (names are case-insensitive).
 #[derive(Debug, Clone, PartialEq)]
@@ -28,6 +29,7 @@ pub(crate) enum BinOp {
     Sub,
     Mul,
     Div,
+    Mod,
     Eq,
     Ne,
     Lt,
@@ -45,6 +47,7 @@ impl BinOp {
             BinOp::Sub => "-",
             BinOp::Mul => "*",
             BinOp::Div => "/",
+            BinOp::Mod => "MOD",
             BinOp::Eq => "=",
             BinOp::Ne => "<>",
             BinOp::Lt => "<",
@@ -73,10 +76,14 @@ pub(crate) enum ExprKind {
     Bool(bool),
     Str(String),
     Var(Name),
+    /// `NAME[i]` or `NAME[i, j]`: an element of an array.
+    Index(Name, Vec<Expr>),
     Unary(UnOp, Box<Expr>),
     /// Operator, its own span (where runtime errors point), operands.
     Binary(BinOp, Span, Box<Expr>, Box<Expr>),
-    /// A function call `NAME(args)`: built-ins and the JOINTS / POSE constructors.
+    /// A function call `NAME(args)`: built-ins, the JOINTS / POSE constructors and the
+    /// program's FUNCTIONs; `ERR`, `ERRMSG$`, `ERRLINE` and `OPERATOR$` written without
+    /// parentheses too.
     Call(Name, Vec<Expr>),
     /// `expr.FIELD`.
     Field(Box<Expr>, Name),
@@ -88,6 +95,8 @@ pub(crate) enum ExprKind {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Arg {
     Value(Expr),
+    /// An optional value after a comma; `None` when left out.
+    OptValue(Option<Expr>),
     /// `, L|R`; `None` when left out.
     Posture(Option<Posture>),
     /// `, A|B`: whether blade B was named (A when left out).
@@ -96,8 +105,8 @@ pub(crate) enum Arg {
     Axis(AxisRef),
     /// PRINT items.
     Items(Vec<Expr>),
-    /// CALL's SUB name.
-    Sub(Name),
+    /// A name the statement acts on (TEACH's point).
+    Target(Name),
     /// WAIT's `IN(n) = value`.
     Input {
         n: Expr,
@@ -105,6 +114,17 @@ pub(crate) enum Arg {
     },
     /// An optional `KEYWORD value`, e.g. `TIMEOUT s`.
     Keyword(Option<Expr>),
+    /// A motion's options: `SPEED s`, `ACCEL a`, `BLEND [r]`, in any order.
+    Motion(MotionOpts),
+}
+
+/// A motion statement's options, as written.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(crate) struct MotionOpts {
+    pub speed: Option<Expr>,
+    pub accel: Option<Expr>,
+    /// `BLEND` was written (with its zone [mm] where the statement takes one).
+    pub blend: Option<(Span, Option<Expr>)>,
 }
 
 /// How a statement names a robot axis.
@@ -112,6 +132,82 @@ pub(crate) enum Arg {
 pub(crate) enum AxisRef {
     Name(Name),
     Number(f64, Span),
+}
+
+/// A declared type: `AS NUMBER | BOOLEAN | STRING | POSE | JOINTS`, where it was written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TypeDecl {
+    pub ty: Ty,
+    pub span: Span,
+}
+
+/// A parameter of a SUB or FUNCTION.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Param {
+    pub name: Name,
+    pub ty: Option<TypeDecl>,
+}
+
+/// Which kind of routine a `SUB` / `FUNCTION` block is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RoutineKind {
+    Sub,
+    Function,
+}
+
+impl RoutineKind {
+    pub fn word(self) -> &'static str {
+        match self {
+            RoutineKind::Sub => "SUB",
+            RoutineKind::Function => "FUNCTION",
+        }
+    }
+}
+
+/// What `EXIT` leaves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ExitKind {
+    For,
+    While,
+    Do,
+    Sub,
+    Function,
+}
+
+impl ExitKind {
+    pub fn word(self) -> &'static str {
+        match self {
+            ExitKind::For => "FOR",
+            ExitKind::While => "WHILE",
+            ExitKind::Do => "DO",
+            ExitKind::Sub => "SUB",
+            ExitKind::Function => "FUNCTION",
+        }
+    }
+}
+
+/// One value test of a `CASE` line.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum CaseTest {
+    /// `CASE v`: equal to the value.
+    Is(Expr),
+    /// `CASE lo TO hi`: within the range (numbers).
+    Range(Expr, Expr),
+}
+
+/// One `CATCH` clause: its codes (none: every error) and its block.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Catch {
+    pub codes: Vec<Expr>,
+    pub body: Vec<Stmt>,
+    pub span: Span,
+}
+
+/// A loop condition of `DO` / `LOOP`: `WHILE cond` (`until == false`) or `UNTIL cond`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct LoopCond {
+    pub until: bool,
+    pub cond: Expr,
 }
 
 /// A statement.
@@ -126,14 +222,26 @@ pub(crate) struct Stmt {
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum StmtKind {
+    /// `name = value` or `name[i] = value`.
     Assign {
         target: Name,
+        index: Vec<Expr>,
         value: Expr,
     },
     /// A statement from the statement table.
     Command {
         def: &'static StatementDef,
         args: Vec<Arg>,
+    },
+    /// `CALL name [(args)]`.
+    Call {
+        name: Name,
+        args: Vec<Expr>,
+    },
+    /// `CALL PROGRAM "name"`.
+    CallProgram {
+        name: String,
+        span: Span,
     },
     If {
         /// Each `IF` / `ELSEIF` condition and its block.
@@ -153,8 +261,55 @@ pub(crate) enum StmtKind {
         /// Where `NEXT` is (the loop's increment and jump back point there).
         next: Span,
     },
-    Sub {
-        name: Name,
+    /// `DO [WHILE|UNTIL cond]` … `LOOP [WHILE|UNTIL cond]`.
+    Do {
+        pre: Option<LoopCond>,
+        post: Option<LoopCond>,
         body: Vec<Stmt>,
+        /// Where `LOOP` is.
+        end: Span,
+    },
+    /// `SELECT CASE subject` … `CASE …` … `CASE ELSE` … `ENDSELECT`.
+    Select {
+        subject: Expr,
+        cases: Vec<(Vec<CaseTest>, Vec<Stmt>, Span)>,
+        else_block: Option<Vec<Stmt>>,
+    },
+    /// `TRY` … `CATCH [codes]` … `ENDTRY`.
+    Try {
+        body: Vec<Stmt>,
+        catches: Vec<Catch>,
+    },
+    /// `SUB name [(params)]` … `ENDSUB`, `FUNCTION name(params) [AS type]` …
+    /// `ENDFUNCTION`.
+    Routine {
+        kind: RoutineKind,
+        name: Name,
+        params: Vec<Param>,
+        ret: Option<TypeDecl>,
+        body: Vec<Stmt>,
+    },
+    /// `DIM name[dims] [AS type]` or `DIM name AS type`.
+    Dim {
+        name: Name,
+        dims: Vec<Expr>,
+        ty: Option<TypeDecl>,
+    },
+    /// `LOCAL name [AS type] [= value]`.
+    Local {
+        name: Name,
+        ty: Option<TypeDecl>,
+        init: Option<Expr>,
+    },
+    /// `RETURN [value]`.
+    Return(Option<Expr>),
+    /// `EXIT FOR | WHILE | DO | SUB | FUNCTION`.
+    Exit(ExitKind),
+    /// `RETRY`.
+    Retry,
+    /// `INCLUDE "name"`: the library's SUBs and FUNCTIONs (already parsed in; the
+    /// statement stays for its position).
+    Include {
+        name: String,
     },
 }

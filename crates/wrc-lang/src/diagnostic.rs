@@ -3,19 +3,22 @@
 
 use core::fmt;
 
-/// A place in the source: line and column [1-based, characters] and a length [characters].
+/// A place in the source: line and column [1-based, characters] and a length [characters],
+/// in source file `file` (0: the program compiled; others: its INCLUDEd libraries and the
+/// programs it calls, in the order they were loaded).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(crate) struct Span {
     pub line: u32,
     pub col: u32,
     pub len: u32,
+    pub file: u16,
 }
 
 impl Span {
     /// A span from the start of `self` to the end of `end` (on the same line; otherwise
     /// `self`).
     pub fn to(self, end: Span) -> Span {
-        if end.line == self.line && end.col + end.len > self.col {
+        if end.file == self.file && end.line == self.line && end.col + end.len > self.col {
             Span {
                 len: end.col + end.len - self.col,
                 ..self
@@ -28,6 +31,16 @@ impl Span {
     /// `line:col`, as messages cite other places.
     pub fn at(self) -> String {
         format!("{}:{}", self.line, self.col)
+    }
+
+    /// A span at the start of line `line` of file `file`.
+    pub fn line_start(file: u16, line: u32) -> Span {
+        Span {
+            line,
+            col: 1,
+            len: 1,
+            file,
+        }
     }
 }
 
@@ -55,6 +68,11 @@ impl Severity {
 pub struct Diagnostic {
     /// Error or warning.
     pub severity: Severity,
+    /// The source file it is in: `None` for the program compiled, the name of an INCLUDEd
+    /// library or a called program otherwise ([`crate::Compiled::sources`] has its text).
+    pub file: Option<String>,
+    /// Index of that file ([`crate::Compiled::sources`]; 0 for the program compiled).
+    pub file_index: u16,
     /// Line [1-based].
     pub line: u32,
     /// Column [1-based, in characters; a tab counts as one].
@@ -77,6 +95,8 @@ impl Diagnostic {
     fn new(severity: Severity, span: Span, message: String) -> Diagnostic {
         Diagnostic {
             severity,
+            file: None,
+            file_index: span.file,
             line: span.line.max(1),
             col: span.col.max(1),
             len: span.len.max(1),
@@ -163,6 +183,7 @@ mod tests {
                 line: 2,
                 col: 3,
                 len: 4,
+                file: 0,
             },
             "bad",
         );
@@ -180,6 +201,7 @@ mod tests {
                 line: 99,
                 col: 40,
                 len: 7,
+                file: 0,
             },
             "x",
         );

@@ -24,26 +24,31 @@ pub enum RuntimeErrorKind {
     /// A value a built-in or a statement does not take; the text says which.
     #[error("{0}")]
     BadArgument(&'static str),
-    /// The host refused a move (out of reach, beyond a joint limit, not homed…); the text
-    /// is the host's.
-    #[error("move refused: {0}")]
-    Unreachable(&'static str),
-    /// A move or wait ended abnormally on the host's side (stopped, E-stop, fault); the text
-    /// is the host's.
-    #[error("stopped: {0}")]
-    Aborted(&'static str),
-    /// A GET, PUT or MAP the host could not carry out for a wafer-handling reason (the slot
-    /// is empty or occupied, the hand is full or empty, the station's interlock is closed,
-    /// the vacuum sensor did not confirm the wafer, …). The host resumes with this:
-    /// `code` is its protocol code (e.g. 131 for an empty slot), which it reports when the
-    /// program ends, and `reason` its text.
-    #[error("transfer failed: {reason}")]
-    Transfer {
-        /// The host's code for the failure (the controller's protocol code, `ABS … 131 …`).
+    /// The host refused or ended what the program asked for (a move out of reach or
+    /// stopped, a transfer whose slot is empty, a RESET it cannot do, …): `code` is the
+    /// host's protocol code (docs/protocol.md, e.g. 111 out of reach, 131 the slot is empty,
+    /// 212 the wafer was not sensed); the host's text is [`Vm::error_text`](crate::Vm::error_text).
+    #[error("the controller could not do it (code {code})")]
+    Host {
+        /// The host's code (the controller's protocol code).
         code: u16,
-        /// What went wrong, in the host's words.
-        reason: &'static str,
     },
+    /// `RAISE code [, text]`: an error the program raised itself; the text is
+    /// [`Vm::error_text`](crate::Vm::error_text).
+    #[error("error {code} raised by the program")]
+    Raised {
+        /// The code RAISE gave (1 to 65535).
+        code: u16,
+    },
+    /// An array index outside the array (the text names the index and the bounds).
+    #[error("array index out of range")]
+    IndexOutOfRange,
+    /// A FUNCTION ended without `RETURN value`.
+    #[error("a FUNCTION ended without RETURN")]
+    NoReturn,
+    /// TRY blocks (with the calls between them) nested deeper than the VM's handler stack.
+    #[error("TRY blocks nested too deep")]
+    TryTooDeep,
     /// `WAIT IN(n) = v TIMEOUT s`: the input did not reach the level in time.
     #[error("WAIT timed out")]
     WaitTimeout,
@@ -55,6 +60,35 @@ pub enum RuntimeErrorKind {
     InvalidProgram(&'static str),
 }
 
+impl RuntimeErrorKind {
+    /// The error's code, as `ERR` gives it and an uncaught error ends the program with:
+    /// the host's or RAISE's code; 211 for a WAIT that timed out; 301 for an internal
+    /// error; 210 (a program error) for the rest.
+    pub fn code(&self) -> u16 {
+        match self {
+            RuntimeErrorKind::Host { code } | RuntimeErrorKind::Raised { code } => *code,
+            RuntimeErrorKind::WaitTimeout => 211,
+            RuntimeErrorKind::NotLoaded | RuntimeErrorKind::InvalidProgram(_) => 301,
+            RuntimeErrorKind::DivisionByZero
+            | RuntimeErrorKind::StackOverflow
+            | RuntimeErrorKind::CallTooDeep
+            | RuntimeErrorKind::NotFinite
+            | RuntimeErrorKind::BadArgument(_)
+            | RuntimeErrorKind::IndexOutOfRange
+            | RuntimeErrorKind::NoReturn
+            | RuntimeErrorKind::TryTooDeep => 210,
+        }
+    }
+
+    /// Whether a TRY can catch it (not the VM's own invariants).
+    pub fn catchable(&self) -> bool {
+        !matches!(
+            self,
+            RuntimeErrorKind::NotLoaded | RuntimeErrorKind::InvalidProgram(_)
+        )
+    }
+}
+
 /// A run-time fault and where in the source it happened.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RuntimeError {
@@ -64,6 +98,8 @@ pub struct RuntimeError {
     pub line: u32,
     /// Source column [1-based] of the instruction; 0 when there is none.
     pub col: u32,
+    /// The source file ([`Program::files`](crate::Program::files); 0: the program's own).
+    pub file: u16,
 }
 
 impl fmt::Display for RuntimeError {
@@ -142,6 +178,14 @@ pub enum LoadError {
         /// Variables of the program (including hidden FOR loop slots).
         needed: usize,
         /// The VM's variable slots.
+        limit: usize,
+    },
+    /// A routine's frame is larger than the VM's room for locals.
+    #[error("a SUB or FUNCTION needs {needed} local slots, the VM has room for {limit}")]
+    FrameTooLarge {
+        /// Slots of the largest frame.
+        needed: usize,
+        /// The VM's local slots.
         limit: usize,
     },
 }

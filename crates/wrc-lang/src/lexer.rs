@@ -6,7 +6,8 @@ use crate::diagnostic::{Diagnostic, Span};
 /// What a token is.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Tok {
-    /// A name: letters, digits and `_`, starting with a letter or `_`.
+    /// A name: letters, digits and `_`, starting with a letter or `_`, and an optional `$`
+    /// at its end (`ERRMSG$`, `NAME$`: a string, by the BASIC convention).
     Ident,
     /// A number literal.
     Number(f64),
@@ -14,6 +15,8 @@ pub(crate) enum Tok {
     Str(String),
     LParen,
     RParen,
+    LBracket,
+    RBracket,
     Comma,
     Dot,
     Plus,
@@ -43,8 +46,9 @@ pub(crate) struct Token {
 
 /// Split `source` into tokens. Bad characters, unterminated strings and numbers that are too
 /// large become diagnostics and are skipped; the token list always ends with `Newline`, `Eof`.
-pub(crate) fn lex(source: &str, diags: &mut Vec<Diagnostic>) -> Vec<Token> {
+pub(crate) fn lex(source: &str, file: u16, diags: &mut Vec<Diagnostic>) -> Vec<Token> {
     let mut lexer = Lexer {
+        file,
         src: source,
         bytes: source.as_bytes(),
         pos: 0,
@@ -57,6 +61,7 @@ pub(crate) fn lex(source: &str, diags: &mut Vec<Diagnostic>) -> Vec<Token> {
 }
 
 struct Lexer<'a> {
+    file: u16,
     src: &'a str,
     bytes: &'a [u8],
     pos: usize,
@@ -73,6 +78,7 @@ impl Lexer<'_> {
                 line: self.line,
                 col,
                 len,
+                file: self.file,
             },
             start,
             end: self.pos,
@@ -121,6 +127,10 @@ impl Lexer<'_> {
                         self.pos += 1;
                         self.col += 1;
                     }
+                    if self.peek() == b'$' {
+                        self.pos += 1;
+                        self.col += 1;
+                    }
                     self.push(Tok::Ident, start, col, self.col - col);
                 }
                 _ => {
@@ -133,6 +143,8 @@ impl Lexer<'_> {
                         (b'=', _) => (Some(Tok::Eq), 1),
                         (b'(', _) => (Some(Tok::LParen), 1),
                         (b')', _) => (Some(Tok::RParen), 1),
+                        (b'[', _) => (Some(Tok::LBracket), 1),
+                        (b']', _) => (Some(Tok::RBracket), 1),
                         (b',', _) => (Some(Tok::Comma), 1),
                         (b'.', _) => (Some(Tok::Dot), 1),
                         (b'+', _) => (Some(Tok::Plus), 1),
@@ -154,6 +166,7 @@ impl Lexer<'_> {
                                 line: self.line,
                                 col,
                                 len: 1,
+                                file: self.file,
                             };
                             let message = if c == ';' || c == ':' {
                                 format!("unexpected '{c}': write one statement per line, and separate PRINT items with ','")
@@ -206,6 +219,7 @@ impl Lexer<'_> {
             line: self.line,
             col,
             len: self.col - col,
+            file: self.file,
         };
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => self.push(Tok::Number(v), start, col, self.col - col),
@@ -238,6 +252,7 @@ impl Lexer<'_> {
                         line: self.line,
                         col,
                         len: self.col - col,
+                        file: self.file,
                     };
                     diags.push(Diagnostic::error(
                         span,
@@ -262,7 +277,7 @@ mod tests {
 
     fn kinds(src: &str) -> Vec<Tok> {
         let mut d = Vec::new();
-        lex(src, &mut d).into_iter().map(|t| t.tok).collect()
+        lex(src, 0, &mut d).into_iter().map(|t| t.tok).collect()
     }
 
     #[test]
@@ -290,7 +305,7 @@ mod tests {
             vec![Tok::Str("a\"b".into()), Tok::Newline, Tok::Eof]
         );
         let mut d = Vec::new();
-        lex("PRINT \"open\nX", &mut d);
+        lex("PRINT \"open\nX", 0, &mut d);
         assert_eq!(d.len(), 1);
         assert_eq!((d[0].line, d[0].col), (1, 7));
     }
@@ -298,7 +313,7 @@ mod tests {
     #[test]
     fn columns_count_characters() {
         let mut d = Vec::new();
-        let t = lex("\"é\" X", &mut d);
+        let t = lex("\"é\" X", 0, &mut d);
         assert_eq!(t[1].span.col, 5);
     }
 }

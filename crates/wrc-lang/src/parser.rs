@@ -6,25 +6,31 @@ use std::collections::HashSet;
 
 use wrc_robot::Posture;
 
-use crate::ast::{Arg, AxisRef, BinOp, Expr, ExprKind, Name, Stmt, StmtKind, UnOp};
+use crate::ast::{
+    Arg, AxisRef, BinOp, CaseTest, Catch, ExitKind, Expr, ExprKind, LoopCond, MotionOpts, Name,
+    Param, RoutineKind, Stmt, StmtKind, TypeDecl, UnOp,
+};
 use crate::diagnostic::{Diagnostic, Span};
 use crate::lexer::{Tok, Token};
-use crate::statements::{self, ArgSpec, StatementDef};
+use crate::statements::{self, ArgSpec, Blend, StatementDef};
 
 /// Deepest expression tree accepted (operators and parentheses nested).
 pub(crate) const MAX_EXPR_DEPTH: u32 = 100;
-/// Deepest block nesting accepted (IF, WHILE, FOR inside each other).
+/// Deepest block nesting accepted (IF, WHILE, FOR, … inside each other).
 pub(crate) const MAX_BLOCK_DEPTH: usize = 64;
+/// Most parameters of a SUB or FUNCTION.
+pub(crate) const MAX_PARAMS: usize = 32;
 
 /// Parse a token list (from [`crate::lexer::lex`]) into top-level statements.
 pub(crate) fn parse(source: &str, tokens: &[Token], diags: &mut Vec<Diagnostic>) -> Vec<Stmt> {
+    let file = tokens.first().map_or(0, |t| t.span.file);
     let mut p = Parser {
         src: source,
         toks: tokens,
         pos: 0,
         error_lines: diags
             .iter()
-            .filter(|d| d.is_error())
+            .filter(|d| d.is_error() && d.file_index == file)
             .map(|d| d.line)
             .collect(),
         diags,
@@ -47,7 +53,7 @@ pub(crate) fn parse(source: &str, tokens: &[Token], diags: &mut Vec<Diagnostic>)
 
 /// A block that is open while its body is parsed.
 struct Open {
-    /// `IF`, `WHILE`, `FOR` or `SUB`.
+    /// `IF`, `WHILE`, `FOR`, `DO`, `SELECT`, `TRY`, `SUB` or `FUNCTION`.
     word: &'static str,
     span: Span,
     /// Words that end (or continue) this block.
@@ -68,13 +74,30 @@ enum End {
     Eof,
 }
 
-const CLOSERS: &[&str] = &["ENDIF", "ELSEIF", "ELSE", "ENDWHILE", "NEXT", "ENDSUB"];
+const CLOSERS: &[&str] = &[
+    "ENDIF",
+    "ELSEIF",
+    "ELSE",
+    "ENDWHILE",
+    "NEXT",
+    "ENDSUB",
+    "ENDFUNCTION",
+    "LOOP",
+    "CASE",
+    "ENDSELECT",
+    "CATCH",
+    "ENDTRY",
+];
 
 fn opener_of(closer: &str) -> &'static str {
     match closer {
         "ENDIF" | "ELSEIF" | "ELSE" => "IF",
         "ENDWHILE" => "WHILE",
         "NEXT" => "FOR",
+        "ENDFUNCTION" => "FUNCTION",
+        "LOOP" => "DO",
+        "CASE" | "ENDSELECT" => "SELECT CASE",
+        "CATCH" | "ENDTRY" => "TRY",
         _ => "SUB",
     }
 }
@@ -84,6 +107,10 @@ fn closer_of(opener: &str) -> &'static str {
         "IF" => "ENDIF",
         "WHILE" => "ENDWHILE",
         "FOR" => "NEXT",
+        "FUNCTION" => "ENDFUNCTION",
+        "DO" => "LOOP",
+        "SELECT" => "ENDSELECT",
+        "TRY" => "ENDTRY",
         _ => "ENDSUB",
     }
 }
@@ -199,7 +226,7 @@ impl Parser<'_, '_> {
     }
 
     /// A closer word at the start of the line: its key and how many tokens it takes
-    /// (`END IF` is reported and read as `ENDIF`).
+    /// (`END IF`, `END TRY`, … are read as `ENDIF`, `ENDTRY`).
     fn closer_here(&mut self) -> Option<(&'static str, Span, usize)> {
         let t = self.peek().clone();
         if t.tok != Tok::Ident {
@@ -215,11 +242,12 @@ impl Parser<'_, '_> {
                 "IF" => "ENDIF",
                 "WHILE" => "ENDWHILE",
                 "SUB" => "ENDSUB",
+                "FUNCTION" => "ENDFUNCTION",
+                "SELECT" => "ENDSELECT",
+                "TRY" => "ENDTRY",
                 _ => return None,
             };
-            let span = t.span.to(next.span);
-            self.block_error(span, format!("write {joined} as one word"));
-            return Some((joined, span, 2));
+            return Some((joined, t.span.to(next.span), 2));
         }
         None
     }
@@ -272,7 +300,7 @@ impl Parser<'_, '_> {
         }
         let key = self.key(&t);
         match key.as_str() {
-            "IF" | "WHILE" | "FOR" | "SUB" => {
+            "IF" | "WHILE" | "FOR" | "SUB" | "FUNCTION" | "DO" | "SELECT" | "TRY" => {
                 if open.len() >= MAX_BLOCK_DEPTH {
                     self.error(
                         t.span,
@@ -285,11 +313,30 @@ impl Parser<'_, '_> {
                     "IF" => self.if_block(open),
                     "WHILE" => self.while_block(open),
                     "FOR" => self.for_block(open),
-                    _ => self.sub_block(open),
+                    "DO" => self.do_block(open),
+                    "SELECT" => self.select_block(open),
+                    "TRY" => self.try_block(open),
+                    "FUNCTION" => self.routine_block(open, RoutineKind::Function),
+                    _ => self.routine_block(open, RoutineKind::Sub),
                 }
             }
+            "CALL" => self.call(),
+            "DIM" => self.dim(),
+            "LOCAL" => self.local(),
+            "RETURN" => self.return_stmt(),
+            "EXIT" => self.exit(),
+            "RETRY" => {
+                self.bump();
+                self.end_line("RETRY");
+                Ok(Stmt {
+                    span: t.span,
+                    kind: StmtKind::Retry,
+                })
+            }
+            "INCLUDE" => self.include(open),
             _ => {
-                if let Some(def) = statements::find(&key) {
+                let next = self.key(&self.peek_at(1).clone());
+                if let Some(def) = statements::find(&key, &next) {
                     return self.command(def);
                 }
                 self.assignment()
@@ -297,10 +344,14 @@ impl Parser<'_, '_> {
         }
     }
 
-    /// `name = expr`.
+    /// `name = expr` or `name[i] = expr`.
     fn assignment(&mut self) -> PResult<Stmt> {
         let t = self.bump();
         let target = self.name(&t);
+        let mut index = Vec::new();
+        if self.peek().tok == Tok::LBracket {
+            index = self.indices(&target)?;
+        }
         let next = self.peek().clone();
         if next.tok != Tok::Eq {
             let msg = if next.tok == Tok::Dot {
@@ -310,9 +361,14 @@ impl Parser<'_, '_> {
                 )
             } else if statements::is_reserved(&target.key) {
                 format!("{} cannot start a statement", target.text)
+            } else if next.tok == Tok::LParen {
+                format!(
+                    "{} is not a statement; to run a SUB write CALL {}(…)",
+                    target.text, target.text
+                )
             } else {
                 format!(
-                    "{} is not a statement; statements are {} and IF, WHILE, FOR, SUB; to assign a variable write {} = value",
+                    "{} is not a statement; statements are {} and IF, WHILE, FOR, DO, SELECT CASE, TRY, SUB, FUNCTION, CALL, DIM, LOCAL; to assign a variable write {} = value",
                     target.text,
                     statement_list(),
                     target.text
@@ -351,15 +407,39 @@ impl Parser<'_, '_> {
         };
         Ok(Stmt {
             span: target.span,
-            kind: StmtKind::Assign { target, value },
+            kind: StmtKind::Assign {
+                target,
+                index,
+                value,
+            },
         })
+    }
+
+    /// `[i]` or `[i, j]` after an array's name.
+    fn indices(&mut self, name: &Name) -> PResult<Vec<Expr>> {
+        let open = self.bump();
+        let mut out = Vec::new();
+        loop {
+            out.push(self.nested(open.span, |p| p.expr())?);
+            if self.peek().tok == Tok::Comma {
+                self.bump();
+                continue;
+            }
+            break;
+        }
+        self.expect(
+            Tok::RBracket,
+            &format!("',' or ']' to close {}[", name.text),
+        )?;
+        Ok(out)
     }
 
     /// A statement from the table: its arguments by the table's grammar.
     fn command(&mut self, def: &'static StatementDef) -> PResult<Stmt> {
         let kw = self.bump();
+        let mut span = kw.span;
         if self.peek().tok == Tok::Eq {
-            // `MAP = 1`: a name that became a statement keyword (GET, PUT, MAP are recent).
+            // `MAP = 1`: a name that became a statement keyword.
             let msg = format!(
                 "{} is a statement keyword and cannot name a variable; choose another name",
                 self.text(&kw)
@@ -367,6 +447,11 @@ impl Parser<'_, '_> {
             self.error(kw.span, msg);
             self.skip_line();
             return Err(());
+        }
+        if let Some(second) = def.second {
+            let t = self.bump();
+            debug_assert!(self.is_word(&t, second));
+            span = span.to(t.span);
         }
         let result = self.command_args(def);
         match result {
@@ -380,7 +465,7 @@ impl Parser<'_, '_> {
                 }
                 self.end_line(def.keyword);
                 Ok(Stmt {
-                    span: kw.span,
+                    span,
                     kind: StmtKind::Command { def, args },
                 })
             }
@@ -397,7 +482,13 @@ impl Parser<'_, '_> {
             let needs_comma = i > 0 && matches!(spec, ArgSpec::Value { .. } | ArgSpec::Axis);
             if needs_comma {
                 self.expect_comma(def)?;
-            } else if i == 0 && self.at_line_end() && !matches!(spec, ArgSpec::Keyword { .. }) {
+            } else if i == 0
+                && self.at_line_end()
+                && !matches!(
+                    spec,
+                    ArgSpec::Keyword { .. } | ArgSpec::Motion { .. } | ArgSpec::OptValue { .. }
+                )
+            {
                 let t = self.peek().clone();
                 let msg = format!(
                     "{} needs arguments; the syntax is {}",
@@ -408,6 +499,21 @@ impl Parser<'_, '_> {
             }
             let arg = match spec {
                 ArgSpec::Value { .. } => Arg::Value(self.expr()?),
+                ArgSpec::OptValue { .. } => {
+                    // The first argument has no comma before it; a later one has.
+                    if i == 0 {
+                        if self.at_line_end() {
+                            Arg::OptValue(None)
+                        } else {
+                            Arg::OptValue(Some(self.expr()?))
+                        }
+                    } else if self.peek().tok == Tok::Comma {
+                        self.bump();
+                        Arg::OptValue(Some(self.expr()?))
+                    } else {
+                        Arg::OptValue(None)
+                    }
+                }
                 ArgSpec::Posture => Arg::Posture(self.posture(def)?),
                 ArgSpec::Blade => Arg::Blade(self.blade(def)?),
                 ArgSpec::Axis => Arg::Axis(self.axis()?),
@@ -419,15 +525,19 @@ impl Parser<'_, '_> {
                     }
                     Arg::Items(items)
                 }
-                ArgSpec::Sub => {
+                ArgSpec::Target => {
                     let t = self.peek().clone();
                     if t.tok != Tok::Ident {
-                        let msg = format!("expected a SUB name, found {}", self.describe(&t));
+                        let msg = format!(
+                            "expected the name of a point, found {}; the syntax is {}",
+                            self.describe(&t),
+                            def.syntax
+                        );
                         self.error(t.span, msg);
                         return Err(());
                     }
                     self.bump();
-                    Arg::Sub(self.name(&t))
+                    Arg::Target(self.name(&t))
                 }
                 ArgSpec::Input => self.input_condition(def)?,
                 ArgSpec::Keyword { word, .. } => {
@@ -438,10 +548,74 @@ impl Parser<'_, '_> {
                         Arg::Keyword(None)
                     }
                 }
+                ArgSpec::Motion { blend } => Arg::Motion(self.motion_opts(def, *blend)?),
             };
             args.push(arg);
         }
         Ok(args)
+    }
+
+    /// `SPEED pct`, `ACCEL pct`, `BLEND [zone]` in any order, each at most once.
+    fn motion_opts(&mut self, def: &StatementDef, blend: Blend) -> PResult<MotionOpts> {
+        let mut opts = MotionOpts::default();
+        while !self.at_line_end() && self.peek().tok != Tok::Comma {
+            let t = self.peek().clone();
+            let key = self.key(&t);
+            let seen = match key.as_str() {
+                "SPEED" => opts.speed.is_some(),
+                "ACCEL" => opts.accel.is_some(),
+                "BLEND" if blend != Blend::No => opts.blend.is_some(),
+                _ => {
+                    let options = match blend {
+                        Blend::No => "SPEED pct or ACCEL pct",
+                        Blend::Pass => "SPEED pct, ACCEL pct or BLEND",
+                        Blend::Zone => "SPEED pct, ACCEL pct or BLEND mm",
+                    };
+                    let msg = format!(
+                        "expected the end of the line or an option ({options}), found {}; the syntax is {}",
+                        self.describe(&t),
+                        def.syntax
+                    );
+                    self.error(t.span, msg);
+                    return Err(());
+                }
+            };
+            if seen {
+                self.error(t.span, format!("{key} is given twice"));
+                return Err(());
+            }
+            self.bump();
+            match key.as_str() {
+                "SPEED" => opts.speed = Some(self.expr()?),
+                "ACCEL" => opts.accel = Some(self.expr()?),
+                _ => {
+                    let zone = if blend == Blend::Zone {
+                        if self.at_line_end() {
+                            let msg = format!(
+                                "BLEND needs the corner zone [mm] on {}: BLEND 5 rounds the corner within 5 mm",
+                                def.keyword
+                            );
+                            self.error(t.span, msg);
+                            return Err(());
+                        }
+                        Some(self.expr()?)
+                    } else {
+                        let next = self.peek().clone();
+                        if matches!(next.tok, Tok::Number(_) | Tok::LParen) {
+                            let msg = format!(
+                                "BLEND on {} takes no distance: a PTP motion passes its target moving",
+                                def.keyword
+                            );
+                            self.error(next.span, msg);
+                            return Err(());
+                        }
+                        None
+                    };
+                    opts.blend = Some((t.span, zone));
+                }
+            }
+        }
+        Ok(opts)
     }
 
     fn expect_comma(&mut self, def: &StatementDef) -> PResult<()> {
@@ -537,7 +711,7 @@ impl Parser<'_, '_> {
         let t = self.peek().clone();
         if !self.is_word(&t, "IN") {
             let msg = format!(
-                "expected IN(n) = 0|1, found {}; the syntax is {}",
+                "expected IN(n) = 0|1 or OPERATOR, found {}; the syntax is {} (or WAIT OPERATOR [text])",
                 self.describe(&t),
                 def.syntax
             );
@@ -564,6 +738,289 @@ impl Parser<'_, '_> {
         Err(())
     }
 
+    /// A name that is not a keyword, for a declaration (`what`: "a SUB", "a parameter", …).
+    fn decl_name(&mut self, what: &str) -> PResult<Name> {
+        let t = self.peek().clone();
+        if t.tok != Tok::Ident {
+            let msg = format!("expected the name of {what}, found {}", self.describe(&t));
+            self.error(t.span, msg);
+            return Err(());
+        }
+        self.bump();
+        let name = self.name(&t);
+        if statements::is_reserved(&name.key) {
+            let msg = format!("{} is a keyword and cannot name {what}", name.text);
+            self.error(name.span, msg);
+            return Err(());
+        }
+        Ok(name)
+    }
+
+    /// An optional `AS type`.
+    fn as_type(&mut self) -> PResult<Option<TypeDecl>> {
+        if !self.is_word(&self.peek().clone(), "AS") {
+            return Ok(None);
+        }
+        self.bump();
+        let t = self.peek().clone();
+        match statements::type_named(&self.key(&t)) {
+            Some(ty) => {
+                self.bump();
+                Ok(Some(TypeDecl { ty, span: t.span }))
+            }
+            None => {
+                let msg = format!(
+                    "expected a type after AS (NUMBER, BOOLEAN, STRING, POSE or JOINTS), found {}",
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                Err(())
+            }
+        }
+    }
+
+    /// `CALL name [(args)]` or `CALL PROGRAM "name"`.
+    fn call(&mut self) -> PResult<Stmt> {
+        let kw = self.bump();
+        let t = self.peek().clone();
+        if self.is_word(&t, "PROGRAM") {
+            self.bump();
+            let s = self.peek().clone();
+            let Tok::Str(name) = &s.tok else {
+                let msg = format!(
+                    "expected the program's name in quotes after CALL PROGRAM, found {}",
+                    self.describe(&s)
+                );
+                self.error(s.span, msg);
+                self.skip_line();
+                return Err(());
+            };
+            self.bump();
+            self.end_line("CALL PROGRAM's name");
+            return Ok(Stmt {
+                span: kw.span,
+                kind: StmtKind::CallProgram {
+                    name: name.clone(),
+                    span: s.span,
+                },
+            });
+        }
+        if t.tok != Tok::Ident {
+            let msg = format!("expected a SUB name, found {}", self.describe(&t));
+            self.error(t.span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        self.bump();
+        let name = self.name(&t);
+        let mut args = Vec::new();
+        if self.peek().tok == Tok::LParen {
+            let open = self.bump();
+            if self.peek().tok != Tok::RParen {
+                loop {
+                    match self.nested(open.span, |p| p.expr()) {
+                        Ok(e) => args.push(e),
+                        Err(()) => {
+                            self.skip_line();
+                            return Err(());
+                        }
+                    }
+                    if self.peek().tok == Tok::Comma {
+                        self.bump();
+                        continue;
+                    }
+                    break;
+                }
+            }
+            if self
+                .expect(Tok::RParen, &format!("',' or ')' to close {}(", name.text))
+                .is_err()
+            {
+                self.skip_line();
+                return Err(());
+            }
+        } else if !self.at_line_end() {
+            let t = self.peek().clone();
+            let msg = format!(
+                "a SUB's arguments go in parentheses: CALL {}(a, b), found {}",
+                name.text,
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        self.end_line("CALL");
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Call { name, args },
+        })
+    }
+
+    /// `DIM name[dims] [AS type]` or `DIM name AS type`.
+    fn dim(&mut self) -> PResult<Stmt> {
+        let kw = self.bump();
+        let r = (|| {
+            let name = self.decl_name("an array or variable")?;
+            let dims = if self.peek().tok == Tok::LBracket {
+                self.indices(&name)?
+            } else {
+                Vec::new()
+            };
+            let ty = self.as_type()?;
+            if dims.is_empty() && ty.is_none() {
+                let t = self.peek().clone();
+                let msg = format!(
+                    "DIM needs a size or a type: DIM {0}[10] (an array) or DIM {0} AS POSE, found {1}",
+                    name.text,
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                return Err(());
+            }
+            Ok((name, dims, ty))
+        })();
+        match r {
+            Ok((name, dims, ty)) => {
+                self.end_line("the DIM declaration");
+                Ok(Stmt {
+                    span: kw.span,
+                    kind: StmtKind::Dim { name, dims, ty },
+                })
+            }
+            Err(()) => {
+                self.skip_line();
+                Err(())
+            }
+        }
+    }
+
+    /// `LOCAL name [AS type] [= value]`.
+    fn local(&mut self) -> PResult<Stmt> {
+        let kw = self.bump();
+        let r = (|| {
+            let name = self.decl_name("a local variable")?;
+            if self.peek().tok == Tok::LBracket {
+                let t = self.peek().clone();
+                self.error(
+                    t.span,
+                    format!(
+                        "a local array is declared with DIM: DIM {}[n] AS type",
+                        name.text
+                    ),
+                );
+                return Err(());
+            }
+            let ty = self.as_type()?;
+            let init = if self.peek().tok == Tok::Eq {
+                self.bump();
+                Some(self.expr()?)
+            } else {
+                None
+            };
+            if ty.is_none() && init.is_none() {
+                let t = self.peek().clone();
+                let msg = format!(
+                    "LOCAL needs a type or a first value: LOCAL {0} AS NUMBER or LOCAL {0} = 0, found {1}",
+                    name.text,
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                return Err(());
+            }
+            Ok((name, ty, init))
+        })();
+        match r {
+            Ok((name, ty, init)) => {
+                self.end_line("the LOCAL declaration");
+                Ok(Stmt {
+                    span: kw.span,
+                    kind: StmtKind::Local { name, ty, init },
+                })
+            }
+            Err(()) => {
+                self.skip_line();
+                Err(())
+            }
+        }
+    }
+
+    fn return_stmt(&mut self) -> PResult<Stmt> {
+        let kw = self.bump();
+        let value = if self.at_line_end() {
+            None
+        } else {
+            match self.expr() {
+                Ok(e) => Some(e),
+                Err(()) => {
+                    self.skip_line();
+                    return Err(());
+                }
+            }
+        };
+        self.end_line("RETURN");
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Return(value),
+        })
+    }
+
+    fn exit(&mut self) -> PResult<Stmt> {
+        let kw = self.bump();
+        let t = self.peek().clone();
+        let kind = match self.key(&t).as_str() {
+            "FOR" => ExitKind::For,
+            "WHILE" => ExitKind::While,
+            "DO" => ExitKind::Do,
+            "SUB" => ExitKind::Sub,
+            "FUNCTION" => ExitKind::Function,
+            _ => {
+                let msg = format!(
+                    "expected what to leave after EXIT (FOR, WHILE, DO, SUB or FUNCTION), found {}",
+                    self.describe(&t)
+                );
+                self.error(t.span, msg);
+                self.skip_line();
+                return Err(());
+            }
+        };
+        self.bump();
+        self.end_line("EXIT");
+        Ok(Stmt {
+            span: kw.span.to(t.span),
+            kind: StmtKind::Exit(kind),
+        })
+    }
+
+    /// `INCLUDE "name"`, at the top level only.
+    fn include(&mut self, open: &[Open]) -> PResult<Stmt> {
+        let kw = self.bump();
+        if let Some(outer) = open.last() {
+            let msg = format!(
+                "INCLUDE must be at the top level, not inside {} at {}",
+                outer.word,
+                outer.span.at()
+            );
+            self.block_error(kw.span, msg);
+        }
+        let t = self.peek().clone();
+        let Tok::Str(name) = &t.tok else {
+            let msg = format!(
+                "expected the library's name in quotes after INCLUDE, found {}",
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            self.skip_line();
+            return Err(());
+        };
+        self.bump();
+        self.end_line("INCLUDE's name");
+        Ok(Stmt {
+            span: t.span,
+            kind: StmtKind::Include { name: name.clone() },
+        })
+    }
+
     /// `THEN` (optional) and the end of the line after a condition.
     fn then_line(&mut self, word: &str) {
         let t = self.peek().clone();
@@ -587,6 +1044,10 @@ impl Parser<'_, '_> {
             "IF" => &["ENDIF", "ELSEIF", "ELSE"],
             "WHILE" => &["ENDWHILE"],
             "FOR" => &["NEXT"],
+            "DO" => &["LOOP"],
+            "SELECT" => &["CASE", "ENDSELECT"],
+            "TRY" => &["CATCH", "ENDTRY"],
+            "FUNCTION" => &["ENDFUNCTION"],
             _ => &["ENDSUB"],
         };
         open.push(Open {
@@ -611,29 +1072,25 @@ impl Parser<'_, '_> {
         let start = self.peek().span;
         if self.at_line_end() {
             let msg = match word {
-                "WHILE" => "WHILE needs a condition: WHILE condition".to_string(),
+                "WHILE" | "UNTIL" => format!("{word} needs a condition: {word} condition"),
                 _ => format!("{word} needs a condition: {word} condition THEN"),
             };
             self.error(start, msg);
             self.skip_line();
-            return Expr {
-                kind: ExprKind::Error,
-                span: start,
-                depth: 1,
-            };
+            return error_expr(start);
         }
         match self.expr() {
             Ok(e) => {
-                self.then_line(word);
+                if word == "WHILE" || word == "UNTIL" {
+                    self.end_line("the condition");
+                } else {
+                    self.then_line(word);
+                }
                 e
             }
             Err(()) => {
                 self.skip_line();
-                Expr {
-                    kind: ExprKind::Error,
-                    span: start,
-                    depth: 1,
-                }
+                error_expr(start)
             }
         }
     }
@@ -732,7 +1189,7 @@ impl Parser<'_, '_> {
                 for _ in 0..tokens {
                     self.bump();
                 }
-                if key != "NEXT" {
+                if key != "NEXT" && key != "LOOP" {
                     self.end_line(key);
                 }
                 Some(span)
@@ -829,49 +1286,341 @@ impl Parser<'_, '_> {
         Ok((var, from, to, step))
     }
 
-    fn sub_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+    /// An optional `WHILE cond` or `UNTIL cond` after `DO` or `LOOP`.
+    fn loop_cond(&mut self, after: &str) -> Option<LoopCond> {
+        let t = self.peek().clone();
+        let until = match self.key(&t).as_str() {
+            "WHILE" => false,
+            "UNTIL" => true,
+            _ => {
+                if !self.at_line_end() {
+                    let msg = format!(
+                        "expected WHILE condition, UNTIL condition or the end of the line after {after}, found {}",
+                        self.describe(&t)
+                    );
+                    self.error(t.span, msg);
+                    self.skip_line();
+                } else {
+                    self.bump();
+                }
+                return None;
+            }
+        };
+        self.bump();
+        let cond = self.condition(if until { "UNTIL" } else { "WHILE" });
+        Some(LoopCond { until, cond })
+    }
+
+    /// `DO [WHILE|UNTIL cond]` … `LOOP [WHILE|UNTIL cond]`.
+    fn do_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
         let kw = self.bump();
+        let pre = self.loop_cond("DO");
+        self.open(open, "DO", kw.span);
+        let (body, end) = self.block(open);
+        open.pop();
+        let loop_span = self.close(end, "DO", kw.span);
+        let post = if loop_span.is_some() {
+            self.loop_cond("LOOP")
+        } else {
+            None
+        };
+        if let (Some(_), Some(p)) = (&pre, &post) {
+            let span = p.cond.span;
+            self.block_error(
+                span,
+                "a DO loop has one condition: after DO or after LOOP, not both",
+            );
+        }
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Do {
+                pre,
+                post,
+                body,
+                end: loop_span.unwrap_or(kw.span),
+            },
+        })
+    }
+
+    /// The value tests of a `CASE` line: `v`, `lo TO hi`, separated by commas.
+    fn case_tests(&mut self) -> PResult<Vec<CaseTest>> {
+        let mut tests = Vec::new();
+        loop {
+            let first = self.expr()?;
+            if self.is_word(&self.peek().clone(), "TO") {
+                self.bump();
+                let last = self.expr()?;
+                tests.push(CaseTest::Range(first, last));
+            } else {
+                tests.push(CaseTest::Is(first));
+            }
+            if self.peek().tok == Tok::Comma {
+                self.bump();
+                continue;
+            }
+            return Ok(tests);
+        }
+    }
+
+    /// `SELECT CASE subject` … `CASE v, lo TO hi` … `CASE ELSE` … `ENDSELECT`.
+    fn select_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        let t = self.peek().clone();
+        if !self.is_word(&t, "CASE") {
+            let msg = format!(
+                "expected CASE after SELECT (SELECT CASE value), found {}",
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            self.skip_line();
+            return Err(());
+        }
+        self.bump();
+        let subject = match self.expr() {
+            Ok(e) => {
+                self.end_line("the value SELECT CASE tests");
+                e
+            }
+            Err(()) => {
+                self.skip_line();
+                error_expr(t.span)
+            }
+        };
+        self.open(open, "SELECT", kw.span);
+        let mut cases: Vec<(Vec<CaseTest>, Vec<Stmt>, Span)> = Vec::new();
+        let mut else_block: Option<Vec<Stmt>> = None;
+        // Before the first CASE: nothing but blank lines.
+        let (before, mut end) = self.block(open);
+        if let Some(s) = before.first() {
+            self.block_error(
+                s.span,
+                "statements between SELECT CASE and its first CASE never run; start with CASE",
+            );
+        }
+        loop {
+            match end {
+                End::Word { key, span, tokens } => {
+                    for _ in 0..tokens {
+                        self.bump();
+                    }
+                    if key == "ENDSELECT" {
+                        self.end_line("ENDSELECT");
+                        break;
+                    }
+                    // CASE …
+                    let is_else = self.is_word(&self.peek().clone(), "ELSE");
+                    let tests = if is_else {
+                        self.bump();
+                        if else_block.is_some() {
+                            self.block_error(span, "a second CASE ELSE in this SELECT CASE");
+                        }
+                        self.end_line("CASE ELSE");
+                        None
+                    } else if else_block.is_some() {
+                        self.block_error(span, "CASE after CASE ELSE; CASE ELSE must be the last");
+                        self.skip_line();
+                        None
+                    } else {
+                        match self.case_tests() {
+                            Ok(tests) => {
+                                self.end_line("the CASE values");
+                                Some(tests)
+                            }
+                            Err(()) => {
+                                self.skip_line();
+                                Some(Vec::new())
+                            }
+                        }
+                    };
+                    let (body, next) = self.block(open);
+                    match tests {
+                        Some(tests) => cases.push((tests, body, span)),
+                        None if is_else => else_block = Some(body),
+                        None => {}
+                    }
+                    end = next;
+                }
+                End::Outer => break,
+                End::Eof => {
+                    self.unclosed_at_eof("SELECT", kw.span);
+                    break;
+                }
+            }
+        }
+        open.pop();
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Select {
+                subject,
+                cases,
+                else_block,
+            },
+        })
+    }
+
+    /// `TRY` … `CATCH [code, …]` … `ENDTRY`.
+    fn try_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let kw = self.bump();
+        self.end_line("TRY");
+        self.open(open, "TRY", kw.span);
+        let (body, mut end) = self.block(open);
+        let mut catches: Vec<Catch> = Vec::new();
+        let mut catch_all: Option<Span> = None;
+        loop {
+            match end {
+                End::Word { key, span, tokens } => {
+                    for _ in 0..tokens {
+                        self.bump();
+                    }
+                    if key == "ENDTRY" {
+                        self.end_line("ENDTRY");
+                        break;
+                    }
+                    // CATCH [codes]
+                    let mut codes = Vec::new();
+                    if !self.at_line_end() {
+                        loop {
+                            match self.expr() {
+                                Ok(e) => codes.push(e),
+                                Err(()) => {
+                                    self.skip_line();
+                                    break;
+                                }
+                            }
+                            if self.peek().tok == Tok::Comma {
+                                self.bump();
+                                continue;
+                            }
+                            self.end_line("the CATCH codes");
+                            break;
+                        }
+                    } else {
+                        self.bump();
+                    }
+                    if let Some(all) = catch_all {
+                        self.block_error(
+                            span,
+                            format!(
+                                "this CATCH never runs: the CATCH at {} (without codes) catches every error",
+                                all.at()
+                            ),
+                        );
+                    }
+                    if codes.is_empty() {
+                        catch_all.get_or_insert(span);
+                    }
+                    let (body, next) = self.block(open);
+                    catches.push(Catch { codes, body, span });
+                    end = next;
+                }
+                End::Outer => break,
+                End::Eof => {
+                    self.unclosed_at_eof("TRY", kw.span);
+                    break;
+                }
+            }
+        }
+        open.pop();
+        if catches.is_empty() {
+            self.block_error(
+                kw.span,
+                "TRY needs at least one CATCH: TRY … CATCH [codes] … ENDTRY",
+            );
+        }
+        Ok(Stmt {
+            span: kw.span,
+            kind: StmtKind::Try { body, catches },
+        })
+    }
+
+    /// `SUB name [(params)]` … `ENDSUB` or `FUNCTION name(params) [AS type]` …
+    /// `ENDFUNCTION`.
+    fn routine_block(&mut self, open: &mut Vec<Open>, kind: RoutineKind) -> PResult<Stmt> {
+        let kw = self.bump();
+        let word = kind.word();
         if let Some(outer) = open.last() {
             let msg = format!(
-                "SUB must be at the top level, not inside {} at {}",
+                "{word} must be at the top level, not inside {} at {}",
                 outer.word,
                 outer.span.at()
             );
             self.block_error(kw.span, msg);
         }
-        let t = self.peek().clone();
-        let name = if t.tok == Tok::Ident {
-            self.bump();
-            let name = self.name(&t);
-            if statements::is_reserved(&name.key) {
-                let msg = format!("{} is a keyword and cannot name a SUB", name.text);
-                self.error(name.span, msg);
-            }
-            if self.peek().tok == Tok::LParen {
-                let t = self.peek().clone();
-                self.error(
-                    t.span,
-                    "SUBs take no parameters; share values through variables",
-                );
-                self.skip_line();
+        let header = (|| {
+            let what = if kind == RoutineKind::Sub {
+                "a SUB"
             } else {
-                self.end_line("the SUB name");
+                "a FUNCTION"
+            };
+            let name = self.decl_name(what)?;
+            let mut params = Vec::new();
+            if self.peek().tok == Tok::LParen {
+                self.bump();
+                if self.peek().tok != Tok::RParen {
+                    loop {
+                        let p = self.decl_name("a parameter")?;
+                        let ty = self.as_type()?;
+                        params.push(Param { name: p, ty });
+                        if self.peek().tok == Tok::Comma {
+                            self.bump();
+                            continue;
+                        }
+                        break;
+                    }
+                }
+                self.expect(Tok::RParen, "',' or ')' to close the parameters")?;
+            } else if kind == RoutineKind::Function {
+                let t = self.peek().clone();
+                let msg = format!(
+                    "a FUNCTION's parameters go in parentheses, also when there are none: FUNCTION {}()",
+                    name.text
+                );
+                self.error(t.span, msg);
+                return Err(());
             }
-            Some(name)
+            if params.len() > MAX_PARAMS {
+                self.error(
+                    name.span,
+                    format!("{word} {} has more than {MAX_PARAMS} parameters", name.text),
+                );
+                return Err(());
+            }
+            let ret = self.as_type()?;
+            if ret.is_some() && kind == RoutineKind::Sub {
+                self.error(
+                    name.span,
+                    format!(
+                        "a SUB returns no value; write FUNCTION {} to return one",
+                        name.text
+                    ),
+                );
+                return Err(());
+            }
+            Ok((name, params, ret))
+        })();
+        match &header {
+            Ok(_) => self.end_line(&format!("the {word} header")),
+            Err(()) => self.skip_line(),
+        }
+        let opener = if kind == RoutineKind::Sub {
+            "SUB"
         } else {
-            let msg = format!("expected the SUB's name, found {}", self.describe(&t));
-            self.error(t.span, msg);
-            self.skip_line();
-            None
+            "FUNCTION"
         };
-        self.open(open, "SUB", kw.span);
+        self.open(open, opener, kw.span);
         let (body, end) = self.block(open);
         open.pop();
-        self.close(end, "SUB", kw.span);
-        let name = name.ok_or(())?;
+        self.close(end, opener, kw.span);
+        let (name, params, ret) = header?;
         Ok(Stmt {
             span: kw.span,
-            kind: StmtKind::Sub { name, body },
+            kind: StmtKind::Routine {
+                kind,
+                name,
+                params,
+                ret,
+                body,
+            },
         })
     }
 
@@ -994,6 +1743,7 @@ impl Parser<'_, '_> {
             let op = match self.peek().tok {
                 Tok::Star => BinOp::Mul,
                 Tok::Slash => BinOp::Div,
+                Tok::Ident if self.is_word(&self.peek().clone(), "MOD") => BinOp::Mod,
                 _ => return Ok(l),
             };
             let t = self.bump();
@@ -1090,11 +1840,20 @@ impl Parser<'_, '_> {
                     let span = name.span.to(close.span);
                     return self.node(ExprKind::Call(name, args), span, depth);
                 }
+                if self.peek().tok == Tok::LBracket {
+                    let close_at = self.pos;
+                    let index = self.indices(&name)?;
+                    let end = self.toks[self.pos.saturating_sub(1).max(close_at)].span;
+                    let depth = index.iter().map(|e| e.depth).max().unwrap_or(0) + 1;
+                    let span = name.span.to(end);
+                    return self.node(ExprKind::Index(name, index), span, depth);
+                }
+                if crate::builtins::find(&name.key).is_some_and(|b| b.bare) {
+                    return self.node(ExprKind::Call(name, Vec::new()), t.span, 1);
+                }
                 if statements::is_reserved(&name.key) {
                     let msg = match name.key.as_str() {
-                        "HERE" => "HERE needs parentheses: HERE()".to_string(),
-                        "JOINTS" | "POSE" | "IN" | "SIN" | "COS" | "ATAN2" | "SQRT" | "ABS"
-                        | "MIN" | "MAX" => {
+                        "JOINTS" | "POSE" => {
                             format!("{} needs its arguments in parentheses", name.text)
                         }
                         _ => format!("expected a value, found keyword {}", name.text),
@@ -1115,11 +1874,22 @@ impl Parser<'_, '_> {
 
 /// `HOME, MOVEJ, …` for messages.
 fn statement_list() -> String {
-    statements::STATEMENTS
-        .iter()
-        .map(|d| d.keyword)
-        .collect::<Vec<_>>()
-        .join(", ")
+    let mut words: Vec<&str> = Vec::new();
+    for d in statements::STATEMENTS {
+        if !words.contains(&d.keyword) {
+            words.push(d.keyword);
+        }
+    }
+    words.join(", ")
+}
+
+/// An expression standing in for one that could not be read (already reported).
+fn error_expr(span: Span) -> Expr {
+    Expr {
+        kind: ExprKind::Error,
+        span,
+        depth: 1,
+    }
 }
 
 #[cfg(test)]
@@ -1129,7 +1899,7 @@ mod tests {
 
     fn parse_src(src: &str) -> (Vec<Stmt>, Vec<Diagnostic>) {
         let mut d = Vec::new();
-        let toks = lex(src, &mut d);
+        let toks = lex(src, 0, &mut d);
         let s = parse(src, &toks, &mut d);
         (s, d)
     }

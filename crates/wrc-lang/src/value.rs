@@ -73,13 +73,98 @@ impl fmt::Display for Ty {
     }
 }
 
-/// A value on the VM's stack or in a variable. `Copy`, no heap: strings are indices into the
-/// program's string table.
+/// Longest text a string value built at run time holds [bytes] (`"a" + "b"`, `STR$`,
+/// `FORMAT$`, a host's answer); string literals of any length live in the program's string
+/// table.
+pub const TEXT_CAPACITY: usize = 126;
+
+/// The error text of a string that would be longer than [`TEXT_CAPACITY`].
+pub(crate) const TEXT_TOO_LONG: &str =
+    "a string built while the program runs is limited to 126 bytes";
+
+/// A string built at run time, inline (no heap): at most [`TEXT_CAPACITY`] bytes of UTF-8.
+#[derive(Clone, Copy)]
+pub struct Text {
+    len: u8,
+    bytes: [u8; TEXT_CAPACITY],
+}
+
+impl Text {
+    /// The empty text.
+    pub const EMPTY: Text = Text {
+        len: 0,
+        bytes: [0; TEXT_CAPACITY],
+    };
+
+    /// `text`, or `None` when it is longer than [`TEXT_CAPACITY`] bytes.
+    pub fn new(text: &str) -> Option<Text> {
+        let mut t = Text::EMPTY;
+        t.push(text).then_some(t)
+    }
+
+    /// `text` cut at [`TEXT_CAPACITY`] bytes on a character boundary.
+    pub fn cut(text: &str) -> Text {
+        let mut n = text.len().min(TEXT_CAPACITY);
+        while !text.is_char_boundary(n) {
+            n -= 1;
+        }
+        let mut t = Text::EMPTY;
+        t.push(&text[..n]);
+        t
+    }
+
+    /// Append `text`; `false` (and nothing appended) when it does not fit.
+    pub fn push(&mut self, text: &str) -> bool {
+        let len = usize::from(self.len);
+        let end = len + text.len();
+        if end > TEXT_CAPACITY {
+            return false;
+        }
+        self.bytes[len..end].copy_from_slice(text.as_bytes());
+        self.len = end as u8;
+        true
+    }
+
+    /// The text.
+    pub fn as_str(&self) -> &str {
+        // Only whole `&str`s are ever copied in, so the bytes are UTF-8.
+        core::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("")
+    }
+}
+
+impl PartialEq for Text {
+    fn eq(&self, other: &Text) -> bool {
+        self.as_str() == other.as_str()
+    }
+}
+
+impl fmt::Debug for Text {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Debug::fmt(self.as_str(), f)
+    }
+}
+
+impl fmt::Write for Text {
+    /// Appends, or fails when the text would not fit (nothing of `s` is appended then).
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        if self.push(s) {
+            Ok(())
+        } else {
+            Err(fmt::Error)
+        }
+    }
+}
+
+/// A value on the VM's stack or in a variable. `Copy`, no heap: a string literal is an
+/// index into the program's string table, a string built at run time is inline [`Text`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Value {
     Num(f64),
     Bool(bool),
+    /// String literal `$i` of the program's table (`u32::MAX`: the empty string).
     Str(u32),
+    /// A string built at run time.
+    Text(Text),
     Pose(Pose),
     Joints(Joints),
 }
@@ -90,10 +175,31 @@ impl Value {
         match ty {
             Ty::Number => Value::Num(0.0),
             Ty::Bool => Value::Bool(false),
-            Ty::Str => Value::Str(u32::MAX),
+            Ty::Str => Value::Text(Text::EMPTY),
             Ty::Pose => Value::Pose(Pose::default()),
             Ty::Joints => Value::Joints([0.0; MAX_AXES]),
         }
+    }
+
+    /// The type of the value.
+    pub fn ty(&self) -> Ty {
+        match self {
+            Value::Num(_) => Ty::Number,
+            Value::Bool(_) => Ty::Bool,
+            Value::Str(_) | Value::Text(_) => Ty::Str,
+            Value::Pose(_) => Ty::Pose,
+            Value::Joints(_) => Ty::Joints,
+        }
+    }
+}
+
+/// The text of a string value, with `strings` the program's string table; `None` for a
+/// value that is not a string.
+pub(crate) fn text_of<'a>(v: &'a Value, strings: &'a [String]) -> Option<&'a str> {
+    match v {
+        Value::Str(i) => Some(strings.get(*i as usize).map_or("", |s| s.as_str())),
+        Value::Text(t) => Some(t.as_str()),
+        _ => None,
     }
 }
 
@@ -107,7 +213,7 @@ pub(crate) fn num(x: f64) -> R {
     }
 }
 
-fn pose(p: Pose) -> R {
+pub(crate) fn pose(p: Pose) -> R {
     if p.x.is_finite() && p.y.is_finite() && p.z.is_finite() && p.yaw.is_finite() {
         Ok(Value::Pose(p))
     } else {
@@ -147,8 +253,17 @@ pub(crate) fn not(v: Value) -> R {
     }
 }
 
-/// Arithmetic: numbers with numbers; poses and joints add and subtract field by field.
-pub(crate) fn arith(op: Arith, a: Value, b: Value) -> R {
+/// Arithmetic: numbers with numbers; poses and joints add and subtract field by field;
+/// strings add (`"a" + "b"`), with `strings` the program's string table.
+pub(crate) fn arith(op: Arith, a: Value, b: Value, strings: &[String]) -> R {
+    if let (Some(x), Some(y), Arith::Add) = (text_of(&a, strings), text_of(&b, strings), op) {
+        let mut t = Text::EMPTY;
+        return if t.push(x) && t.push(y) {
+            Ok(Value::Text(t))
+        } else {
+            Err(RuntimeErrorKind::BadArgument(TEXT_TOO_LONG))
+        };
+    }
     match (a, b) {
         (Value::Num(a), Value::Num(b)) => match op {
             Arith::Add => num(a + b),
@@ -156,6 +271,10 @@ pub(crate) fn arith(op: Arith, a: Value, b: Value) -> R {
             Arith::Mul => num(a * b),
             Arith::Div if b == 0.0 => Err(RuntimeErrorKind::DivisionByZero),
             Arith::Div => num(a / b),
+            Arith::Mod if b == 0.0 => Err(RuntimeErrorKind::DivisionByZero),
+            // The remainder takes the sign of the divisor (-7 MOD 3 = 2), as a slot
+            // counter wrapping around expects.
+            Arith::Mod => num(a - b * (a / b).floor()),
         },
         (Value::Pose(p), Value::Pose(q)) => {
             let s = match op {
@@ -193,6 +312,7 @@ pub(crate) enum Arith {
     Sub,
     Mul,
     Div,
+    Mod,
 }
 
 /// The comparison operators.
@@ -206,8 +326,16 @@ pub(crate) enum Cmp {
     Ge,
 }
 
-/// Comparison: numbers with every operator; booleans and strings with `=` and `<>`.
-pub(crate) fn compare(op: Cmp, a: Value, b: Value) -> R {
+/// Comparison: numbers with every operator; booleans and strings with `=` and `<>` (strings
+/// by their text, with `strings` the program's string table).
+pub(crate) fn compare(op: Cmp, a: Value, b: Value, strings: &[String]) -> R {
+    if let (Some(x), Some(y)) = (text_of(&a, strings), text_of(&b, strings)) {
+        return match op {
+            Cmp::Eq => Ok(Value::Bool(x == y)),
+            Cmp::Ne => Ok(Value::Bool(x != y)),
+            _ => Err(MISMATCH),
+        };
+    }
     let r = match (a, b) {
         (Value::Num(a), Value::Num(b)) => match op {
             Cmp::Eq => a == b,
@@ -218,12 +346,6 @@ pub(crate) fn compare(op: Cmp, a: Value, b: Value) -> R {
             Cmp::Ge => a >= b,
         },
         (Value::Bool(a), Value::Bool(b)) => match op {
-            Cmp::Eq => a == b,
-            Cmp::Ne => a != b,
-            _ => return Err(MISMATCH),
-        },
-        // Strings are deduplicated in the string table: equal text, equal index.
-        (Value::Str(a), Value::Str(b)) => match op {
             Cmp::Eq => a == b,
             Cmp::Ne => a != b,
             _ => return Err(MISMATCH),
@@ -315,6 +437,50 @@ pub(crate) fn speed(v: Value) -> Result<f64, RuntimeErrorKind> {
         Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
             "SPEED must be from 1 to 100 [%]",
         )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// An acceleration override: 1 to 100 [%].
+pub(crate) fn accel(v: Value) -> Result<f64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (1.0..=100.0).contains(&x) => Ok(x),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "ACCEL must be from 1 to 100 [%]",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// Largest BLEND zone [mm].
+pub(crate) const MAX_ZONE_MM: f64 = 1000.0;
+
+/// A BLEND zone: 0 to [`MAX_ZONE_MM`] [mm].
+pub(crate) fn zone(v: Value) -> Result<f64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (0.0..=MAX_ZONE_MM).contains(&x) => Ok(x),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "a BLEND zone is 0 to 1000 mm",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// An error or alarm code: a whole number from 1 to 65535.
+pub(crate) fn error_code(v: Value) -> Result<u16, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) if (1.0..=65535.0).contains(&x) && x.fract() == 0.0 => Ok(x as u16),
+        Value::Num(_) => Err(RuntimeErrorKind::BadArgument(
+            "a code is a whole number from 1 to 65535",
+        )),
+        _ => Err(MISMATCH),
+    }
+}
+
+/// A distance [mm]: any finite number.
+pub(crate) fn distance(v: Value) -> Result<f64, RuntimeErrorKind> {
+    match v {
+        Value::Num(x) => Ok(x),
         _ => Err(MISMATCH),
     }
 }

@@ -146,6 +146,9 @@ pub enum Code {
     WaferLost = 213,
     /// 214: the station's interlock opened while the hand was entering or inside it.
     InterlockOpened = 214,
+    /// 215: the program ended on an error it raised itself (`RAISE` with a code of its
+    /// own, 1000 and up) that no TRY caught; the text names the code.
+    ProgramAlarm = 215,
 
     // 3xx fatal: the controller cannot go on.
     /// 300: the motion board stopped answering.
@@ -207,6 +210,7 @@ impl Code {
         Code::WaferNotSensed,
         Code::WaferLost,
         Code::InterlockOpened,
+        Code::ProgramAlarm,
         Code::BoardLost,
         Code::Internal,
     ];
@@ -283,6 +287,7 @@ impl Code {
             Code::WaferNotSensed => "wafer not sensed",
             Code::WaferLost => "wafer lost",
             Code::InterlockOpened => "station interlock opened",
+            Code::ProgramAlarm => "the program raised an alarm",
             Code::BoardLost => "motion board lost",
             Code::Internal => "internal error",
         }
@@ -368,6 +373,7 @@ mod tests {
             (Code::WaferNotSensed, 212),
             (Code::WaferLost, 213),
             (Code::InterlockOpened, 214),
+            (Code::ProgramAlarm, 215),
             (Code::BoardLost, 300),
             (Code::Internal, 301),
         ];

@@ -380,21 +380,43 @@ pub enum Event<'a> {
         /// Source now holding control, `None` when free.
         owner: Option<&'a str>,
     },
-    /// `EVT STATUS <status body> <where body>`: one status-stream sample (subscribers only).
+    /// `EVT STATUS <status body> <where body>[ line=<file>:<line>]`: one status-stream
+    /// sample (subscribers only); `line=` while a program runs: the source file (0 the
+    /// program's own, then its libraries and called programs as `EVT PROGRAM … RUNNING
+    /// files=…` lists them) and line of the statement it is at.
     Status {
         /// As in the `STATUS` ACK.
         status: StatusBody<'a>,
         /// As in the `WHERE` ACK.
         position: WhereBody<'a>,
+        /// Where the running program is: file index and line.
+        program_line: Option<(u16, u32)>,
     },
-    /// `EVT PROGRAM <name> RUNNING|PAUSED|ENDED`: a program started, paused, continued or
-    /// ended.
+    /// `EVT PROGRAM <name> <state> [<detail>]`: a program started (`RUNNING files=…`),
+    /// paused (`PAUSED <file>:<line>`), waits for the operator (`WAITING <file>:<line>
+    /// <text>`) or ended (`ENDED`).
     Program {
         /// The program's name.
         name: &'a str,
-        /// `RUNNING`, `PAUSED` or `ENDED`.
+        /// `RUNNING`, `PAUSED`, `WAITING` or `ENDED`.
         state: &'a str,
+        /// What follows the state (may be empty).
+        detail: &'a str,
     },
+    /// `EVT ALARM <code> <text>`: a running program's `ALARM` (to every connection).
+    Alarm {
+        /// The alarm's code.
+        code: u16,
+        /// The program, where, and what.
+        text: &'a str,
+    },
+    /// `EVT VAR <name> <type> <value>`: one variable in the reply to `VARS` (to the
+    /// requester only); the body after `VAR`.
+    Var(&'a str),
+    /// `EVT POINT <program> <name> pose <x> <y> <z> <yaw>` or `… joints <j1> …`: a named
+    /// point, in the reply to `POINTS` (requester) and when one changes (every
+    /// connection); the body after `POINT`.
+    Point(&'a str),
     /// `EVT PRINT <text>`: a running program's `PRINT` output (line breaks become spaces).
     Print(&'a str),
     /// `EVT DIAG <diagnostic>`: one compiler warning or error, as
@@ -420,6 +442,15 @@ pub enum Event<'a> {
         /// What happened and what to do, e.g. `no request for 600 s; …`.
         text: &'a str,
     },
+}
+
+/// `text` with line breaks turned into spaces.
+fn write_one_line(f: &mut fmt::Formatter<'_>, text: &str) -> fmt::Result {
+    for c in text.chars() {
+        let c = if c == '\n' || c == '\r' { ' ' } else { c };
+        fmt::Write::write_char(f, c)?;
+    }
+    Ok(())
 }
 
 /// Why the controller closes a connection (`EVT CLOSING <reason> …`; docs/protocol.md
@@ -463,6 +494,9 @@ impl Event<'_> {
             Event::Control { .. } => "CONTROL",
             Event::Status { .. } => "STATUS",
             Event::Program { .. } => "PROGRAM",
+            Event::Alarm { .. } => "ALARM",
+            Event::Var(_) => "VAR",
+            Event::Point(_) => "POINT",
             Event::Print(_) => "PRINT",
             Event::Diag(_) => "DIAG",
             Event::Axis(_) => "AXIS",
@@ -481,21 +515,42 @@ impl Display for Event<'_> {
             Event::Error { code, text } => write!(f, "{code} {text}"),
             Event::Input { n, on } => write!(f, "{n} {}", u8::from(*on)),
             Event::Control { owner } => f.write_str(owner.unwrap_or("none")),
-            Event::Status { status, position } => write!(f, "{status} {position}"),
-            Event::Program { name, state } => write!(f, "{name} {state}"),
+            Event::Status {
+                status,
+                position,
+                program_line,
+            } => {
+                write!(f, "{status} {position}")?;
+                if let Some((file, line)) = program_line {
+                    write!(f, " line={file}:{line}")?;
+                }
+                Ok(())
+            }
+            Event::Program {
+                name,
+                state,
+                detail,
+            } => {
+                write!(f, "{name} {state}")?;
+                if !detail.is_empty() {
+                    f.write_str(" ")?;
+                    write_one_line(f, detail)?;
+                }
+                Ok(())
+            }
+            Event::Alarm { code, text } => {
+                write!(f, "{code} ")?;
+                write_one_line(f, text)
+            }
             Event::Closing { reason, text } => write!(f, "{} {text}", reason.as_str()),
             Event::Print(text)
             | Event::Diag(text)
             | Event::Axis(text)
             | Event::Task(text)
             | Event::Station(text)
-            | Event::Wafer(text) => {
-                for c in text.chars() {
-                    let c = if c == '\n' || c == '\r' { ' ' } else { c };
-                    fmt::Write::write_char(f, c)?;
-                }
-                Ok(())
-            }
+            | Event::Wafer(text)
+            | Event::Var(text)
+            | Event::Point(text) => write_one_line(f, text),
         }
     }
 }
@@ -652,7 +707,7 @@ mod tests {
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
         assert!(text(&help).ends_with(
-            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP,AUTH\n"
+            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP,AUTH,BREAK,STEP,VARS,POINTS,POINT\n"
         ));
     }
 
@@ -691,8 +746,9 @@ mod tests {
                         joints: &[1.0, 2.0],
                         tcp: Pose::default(),
                     },
+                    program_line: Some((0, 12)),
                 },
-                "EVT STATUS state=MOVING homed=1 speed=50 owner=unix err=0 j=1,2 x=0 y=0 z=0 yaw=0\n",
+                "EVT STATUS state=MOVING homed=1 speed=50 owner=unix err=0 j=1,2 x=0 y=0 z=0 yaw=0 line=0:12\n",
             ),
         ];
         for (event, line) in cases {

@@ -18,8 +18,12 @@ pub const MAX_ID_DIGITS: usize = 8;
 /// Number of digital outputs `OUT` can address (0 to 31, the bits of the output word).
 pub const OUTPUT_COUNT: u8 = 32;
 
-/// Most arguments any verb takes (`MOVJ` on a 16-axis robot).
-const MAX_ARGS: usize = MAX_AXES;
+/// Most arguments any verb takes (`POINT <program> <name> JOINTS` and a value per axis on a
+/// 16-axis robot).
+const MAX_ARGS: usize = MAX_AXES + 3;
+
+/// Most names one `VARS` request asks for.
+pub const MAX_VAR_NAMES: usize = 4;
 
 /// One parsed request line.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,12 +160,18 @@ pub enum Command {
     },
     /// `MAP <station>`: scan the station's slots with the mapping sensor.
     Map(StationName),
-    /// `RUN <name>`.
-    Run(ProgramName),
+    /// `RUN <name> [STEP]`.
+    Run {
+        /// The program.
+        name: ProgramName,
+        /// `STEP`: start paused before the first statement.
+        step: bool,
+    },
     /// `PAUSE`.
     Pause,
-    /// `CONTINUE`.
-    Continue,
+    /// `CONTINUE [<answer>]`: the answer to a `WAIT OPERATOR` (a word of 1-32 letters,
+    /// digits, `_` or `-`).
+    Continue(Option<ProgramName>),
     /// `ABORT`.
     Abort,
     /// `DELETE <name>`.
@@ -171,6 +181,123 @@ pub enum Command {
     TraceSave(Option<ProgramName>),
     /// `AUTH <token>`: the control token, answered by the connection itself.
     Auth(AuthToken),
+    /// `BREAK …`: the running program's breakpoints.
+    Break(BreakArg),
+    /// `STEP [INTO|OVER|OUT]`.
+    Step(StepKind),
+    /// `VARS [<name> …]`: all the variables in scope (none named), or these.
+    Vars(VarNames),
+    /// `POINTS <program>`.
+    Points(ProgramName),
+    /// `POINT <program> <name> …`.
+    Point {
+        /// The stored program whose points file it is.
+        program: ProgramName,
+        /// The point (a name of the language: letters, digits, `_`).
+        point: ProgramName,
+        /// What to do with it.
+        action: PointAction,
+    },
+}
+
+/// A line of the running program's source: of the program itself (`file` `None`), or of
+/// one of its libraries or called programs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SourceLine {
+    /// The library or called program, by name; `None`: the program itself.
+    pub file: Option<ProgramName>,
+    /// Line [1-based].
+    pub line: u32,
+}
+
+/// What `BREAK` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BreakArg {
+    /// `BREAK`: list the breakpoints.
+    List,
+    /// `BREAK [<file>:]<line>`: stop before the statement on that line (or the next line
+    /// with one).
+    Set(SourceLine),
+    /// `BREAK CLEAR`: every breakpoint; `BREAK CLEAR [<file>:]<line>`: that one.
+    Clear(Option<SourceLine>),
+}
+
+/// How far `STEP` goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepKind {
+    /// `STEP` or `STEP INTO`: the next statement, into a called SUB too.
+    Into,
+    /// `STEP OVER`: the next statement of this SUB (a CALL runs whole).
+    Over,
+    /// `STEP OUT`: until the running SUB or FUNCTION has returned.
+    Out,
+}
+
+/// A name `VARS` asks for: a variable, or an element (`A[3]`): letters, digits, `_`, `$`,
+/// `[`, `]` and `,`, at most [`VarName::MAX_LEN`] characters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VarName {
+    bytes: [u8; VarName::MAX_LEN],
+    len: u8,
+}
+
+impl VarName {
+    /// Most characters.
+    pub const MAX_LEN: usize = 40;
+
+    /// `text` as a name `VARS` takes.
+    pub fn new(text: &str) -> Option<VarName> {
+        let ok = !text.is_empty()
+            && text.len() <= Self::MAX_LEN
+            && text
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b"_$[],".contains(&b));
+        if !ok {
+            return None;
+        }
+        let mut bytes = [0u8; Self::MAX_LEN];
+        bytes[..text.len()].copy_from_slice(text.as_bytes());
+        Some(VarName {
+            bytes,
+            len: text.len() as u8,
+        })
+    }
+
+    /// The name as written.
+    pub fn as_str(&self) -> &str {
+        core::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("")
+    }
+}
+
+/// The names of a `VARS` request (none: every variable in scope).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct VarNames {
+    names: [Option<VarName>; MAX_VAR_NAMES],
+}
+
+impl VarNames {
+    /// The names asked for, in order.
+    pub fn iter(&self) -> impl Iterator<Item = &VarName> {
+        self.names.iter().flatten()
+    }
+
+    /// No names: every variable.
+    pub fn is_empty(&self) -> bool {
+        self.names[0].is_none()
+    }
+}
+
+/// What `POINT` does with a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PointAction {
+    /// `<x> <y> <z> <yaw>`: store this pose [mm, deg].
+    Pose(Pose),
+    /// `JOINTS <j1> … <jn>`: store these joint positions, one per axis.
+    Joints([f64; MAX_AXES]),
+    /// `HERE`: store where the robot is (as a pose, or as joints for a point of joints).
+    Here,
+    /// `DELETE`: remove it.
+    Delete,
 }
 
 impl Command {
@@ -210,12 +337,17 @@ impl Command {
             Command::Put { .. } => Verb::Put,
             Command::Swap { .. } => Verb::Swap,
             Command::Map(_) => Verb::Map,
-            Command::Run(_) => Verb::Run,
+            Command::Run { .. } => Verb::Run,
             Command::Pause => Verb::Pause,
-            Command::Continue => Verb::Continue,
+            Command::Continue(_) => Verb::Continue,
             Command::Abort => Verb::Abort,
             Command::Delete(_) => Verb::Delete,
             Command::Auth(_) => Verb::Auth,
+            Command::Break(_) => Verb::Break,
+            Command::Step(_) => Verb::Step,
+            Command::Vars(_) => Verb::Vars,
+            Command::Points(_) => Verb::Points,
+            Command::Point { .. } => Verb::Point,
         }
     }
 }
@@ -490,6 +622,24 @@ pub enum ParseError {
     /// An `AUTH` token that is not 16-64 letters, digits, `_` or `-` (not echoed).
     #[error("a token is 16-64 letters, digits, _ or -")]
     BadToken,
+    /// A BREAK line that is not `<line>` or `<file>:<line>`.
+    #[error("\"{0}\" is not a source line: write <line> or <file>:<line> (a line from 1)")]
+    BadLine(Token),
+    /// A STEP that is not INTO, OVER or OUT.
+    #[error("STEP goes INTO, OVER or OUT, not \"{0}\"")]
+    BadStep(Token),
+    /// A VARS or POINT name that cannot be a variable's.
+    #[error("\"{0}\" is not a variable name (letters, digits, _, $, or an element like A[3])")]
+    BadVarName(Token),
+    /// A RUN option other than STEP.
+    #[error("RUN takes STEP after the name (RUN <name> STEP), not \"{0}\"")]
+    BadRunOption(Token),
+    /// A CONTINUE answer that is not a word.
+    #[error("the answer \"{0}\" must be 1-32 letters, digits, _ or -")]
+    BadAnswer(Token),
+    /// A POINT whose action is none of the four.
+    #[error("POINT {0}: give <x> <y> <z> <yaw>, JOINTS and one value per axis, HERE or DELETE")]
+    BadPointAction(Token),
 }
 
 impl ParseError {
@@ -515,7 +665,13 @@ impl ParseError {
             | ParseError::BadTraceName(_)
             | ParseError::TraceAction(_)
             | ParseError::BadStationName(_)
-            | ParseError::BadToken => Code::BadArgument,
+            | ParseError::BadToken
+            | ParseError::BadLine(_)
+            | ParseError::BadStep(_)
+            | ParseError::BadVarName(_)
+            | ParseError::BadRunOption(_)
+            | ParseError::BadAnswer(_)
+            | ParseError::BadPointAction(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::SlotNumber(_) => Code::SlotUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
@@ -821,12 +977,103 @@ impl Parser {
                 Ok(Command::Swap { station, slot })
             }
             Verb::Map => station_name(args).map(Command::Map),
-            Verb::Run => program_name(args).map(Command::Run),
+            Verb::Run => {
+                args.between(1, 2)?;
+                let name = ProgramName::new(as_str(args.words[0]))
+                    .ok_or_else(|| ParseError::BadProgramName(Token::new(args.words[0])))?;
+                let step = match args.words.get(1) {
+                    None => false,
+                    Some(w) if w.eq_ignore_ascii_case(b"STEP") => true,
+                    Some(w) => return Err(ParseError::BadRunOption(Token::new(w))),
+                };
+                Ok(Command::Run { name, step })
+            }
             Verb::Pause => simple(Command::Pause),
-            Verb::Continue => simple(Command::Continue),
+            Verb::Continue => {
+                args.between(0, 1)?;
+                match args.words.first() {
+                    None => Ok(Command::Continue(None)),
+                    Some(w) => ProgramName::new(as_str(w))
+                        .map(|a| Command::Continue(Some(a)))
+                        .ok_or_else(|| ParseError::BadAnswer(Token::new(w))),
+                }
+            }
             Verb::Abort => simple(Command::Abort),
             Verb::Delete => program_name(args).map(Command::Delete),
+            Verb::Break => {
+                args.between(0, 2)?;
+                match args.words {
+                    [] => Ok(Command::Break(BreakArg::List)),
+                    [w] if w.eq_ignore_ascii_case(b"CLEAR") => {
+                        Ok(Command::Break(BreakArg::Clear(None)))
+                    }
+                    [w, line] if w.eq_ignore_ascii_case(b"CLEAR") => {
+                        Ok(Command::Break(BreakArg::Clear(Some(source_line(line)?))))
+                    }
+                    [line] => Ok(Command::Break(BreakArg::Set(source_line(line)?))),
+                    [_, extra] => Err(ParseError::BadLine(Token::new(extra))),
+                    _ => Err(args.wrong(Arity::Between(0, 2))),
+                }
+            }
+            Verb::Step => {
+                args.between(0, 1)?;
+                let kind = match args.words.first() {
+                    None => StepKind::Into,
+                    Some(w) if w.eq_ignore_ascii_case(b"INTO") => StepKind::Into,
+                    Some(w) if w.eq_ignore_ascii_case(b"OVER") => StepKind::Over,
+                    Some(w) if w.eq_ignore_ascii_case(b"OUT") => StepKind::Out,
+                    Some(w) => return Err(ParseError::BadStep(Token::new(w))),
+                };
+                Ok(Command::Step(kind))
+            }
+            Verb::Vars => {
+                args.between(0, MAX_VAR_NAMES)?;
+                let mut names = [None; MAX_VAR_NAMES];
+                for (slot, w) in names.iter_mut().zip(args.words) {
+                    *slot = Some(
+                        VarName::new(as_str(w))
+                            .ok_or_else(|| ParseError::BadVarName(Token::new(w)))?,
+                    );
+                }
+                Ok(Command::Vars(VarNames { names }))
+            }
+            Verb::Points => program_name(args).map(Command::Points),
+            Verb::Point => self.point(args),
         }
+    }
+
+    /// `POINT <program> <name> <x> <y> <z> <yaw> | JOINTS <j1> … | HERE | DELETE`.
+    fn point(&self, args: &Args<'_>) -> Result<Command, ParseError> {
+        if args.count < 3 {
+            return Err(args.wrong(Arity::Between(3, 6)));
+        }
+        let program = ProgramName::new(as_str(args.words[0]))
+            .ok_or_else(|| ParseError::BadProgramName(Token::new(args.words[0])))?;
+        let point = ProgramName::new(as_str(args.words[1]))
+            .ok_or_else(|| ParseError::BadVarName(Token::new(args.words[1])))?;
+        let rest = &args.words[2..];
+        let bad = || ParseError::BadPointAction(Token::new(args.words[1]));
+        let action = match rest {
+            [w] if w.eq_ignore_ascii_case(b"HERE") => PointAction::Here,
+            [w] if w.eq_ignore_ascii_case(b"DELETE") => PointAction::Delete,
+            [w, values @ ..] if w.eq_ignore_ascii_case(b"JOINTS") => {
+                if args.count - 3 != self.axis_count {
+                    return Err(args.wrong(Arity::PerAxis(self.axis_count)));
+                }
+                let mut joints = [0.0; MAX_AXES];
+                for (j, word) in joints.iter_mut().zip(values) {
+                    *j = number(word)?;
+                }
+                PointAction::Joints(joints)
+            }
+            [_, _, _, _] => PointAction::Pose(pose(rest)?),
+            _ => return Err(bad()),
+        };
+        Ok(Command::Point {
+            program,
+            point,
+            action,
+        })
     }
 
     /// An axis number (checked against the axis count) or an axis name.
@@ -879,6 +1126,24 @@ fn station_and_slot(args: &Args<'_>) -> Result<(StationName, u16), ParseError> {
     match u16::try_from(slot) {
         Ok(n) if n >= 1 => Ok((station, n)),
         _ => Err(ParseError::SlotNumber(slot)),
+    }
+}
+
+/// `<line>` or `<file>:<line>`.
+fn source_line(word: &[u8]) -> Result<SourceLine, ParseError> {
+    let text = as_str(word);
+    let (file, line) = match text.rsplit_once(':') {
+        Some((f, l)) => (
+            Some(ProgramName::new(f).ok_or(ParseError::BadLine(Token::new(word)))?),
+            l,
+        ),
+        None => (None, text),
+    };
+    match line.parse::<u32>() {
+        Ok(n) if n >= 1 && line.bytes().all(|b| b.is_ascii_digit()) => {
+            Ok(SourceLine { file, line: n })
+        }
+        _ => Err(ParseError::BadLine(Token::new(word))),
     }
 }
 

@@ -86,6 +86,16 @@ pub enum Verb {
     Swap,
     /// `AUTH`: present the control token on a connection from off the machine.
     Auth,
+    /// `BREAK`: set, list or clear the running program's breakpoints.
+    Break,
+    /// `STEP`: run one statement of the paused program (into, over or out of a call).
+    Step,
+    /// `VARS`: the values of the running program's variables.
+    Vars,
+    /// `POINTS`: a stored program's named points.
+    Points,
+    /// `POINT`: set, teach or delete one named point of a stored program.
+    Point,
 }
 
 /// What a verb does, which decides who may send it (docs/protocol.md "Connections").
@@ -168,6 +178,11 @@ impl Verb {
         Verb::Map,
         Verb::Swap,
         Verb::Auth,
+        Verb::Break,
+        Verb::Step,
+        Verb::Vars,
+        Verb::Points,
+        Verb::Point,
     ];
 
     /// The verb's table entry.
@@ -259,9 +274,21 @@ impl Verb {
                 Access::Act,
             ),
             Verb::Programs => v("PROGRAMS", "", "list the stored programs", false, Access::Read),
-            Verb::Run => v("RUN", "<name>", "run a stored program", true, Access::Control),
+            Verb::Run => v(
+                "RUN",
+                "<name> [STEP]",
+                "run a stored program (STEP: paused before its first statement)",
+                true,
+                Access::Control,
+            ),
             Verb::Pause => v("PAUSE", "", "pause the running program", false, Access::Control),
-            Verb::Continue => v("CONTINUE", "", "continue a paused program", false, Access::Control),
+            Verb::Continue => v(
+                "CONTINUE",
+                "[<answer>]",
+                "continue a paused program, or answer its WAIT OPERATOR",
+                false,
+                Access::Control,
+            ),
             Verb::Abort => v("ABORT", "", "end the running program", false, Access::Act),
             Verb::Delete => v("DELETE", "<name>", "remove a stored program", false, Access::Control),
             Verb::Robot => v("ROBOT", "", "the robot's geometry and axes", false, Access::Read),
@@ -316,6 +343,41 @@ impl Verb {
                 "present the control token (connections from off the machine)",
                 false,
                 Access::Read,
+            ),
+            Verb::Break => v(
+                "BREAK",
+                "[[<file>:]<line> | CLEAR [[<file>:]<line>]]",
+                "set a breakpoint, list them, or clear one or all",
+                false,
+                Access::Control,
+            ),
+            Verb::Step => v(
+                "STEP",
+                "[INTO|OVER|OUT]",
+                "run one statement of the paused program (its motion at the step speed)",
+                false,
+                Access::Control,
+            ),
+            Verb::Vars => v(
+                "VARS",
+                "[<name> ...]",
+                "the running program's variables (all in scope, or these)",
+                false,
+                Access::Read,
+            ),
+            Verb::Points => v(
+                "POINTS",
+                "<program>",
+                "a stored program's named points",
+                false,
+                Access::Read,
+            ),
+            Verb::Point => v(
+                "POINT",
+                "<program> <name> <x> <y> <z> <yaw> | JOINTS <j1> ... | HERE | DELETE",
+                "set, teach or delete a named point of a stored program",
+                false,
+                Access::Control,
             ),
         }
     }

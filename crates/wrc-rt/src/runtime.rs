@@ -19,6 +19,11 @@ use crate::table::TaskSpec;
 use crate::task::Task;
 use crate::wake::{NoWaiter, Notify, Waiter};
 
+/// Stack of each task thread [bytes]: locked with the rest of the process (mlockall), so
+/// never faulted in during a cycle. Room for the Command Interpreter's unoptimised (debug)
+/// frames, which hold whole move orders (a composite path is under 1 KiB) by value.
+pub const TASK_STACK_BYTES: usize = 2 * 1024 * 1024;
+
 /// How the runtime runs its tasks.
 #[derive(Clone)]
 pub struct RuntimeOptions {
@@ -265,7 +270,7 @@ impl Runtime {
             };
             let spawned = std::thread::Builder::new()
                 .name(thread_name(&spec.name))
-                .stack_size(512 * 1024)
+                .stack_size(TASK_STACK_BYTES)
                 .spawn(move || start(ctx));
             match spawned {
                 Ok(handle) => threads.push(TaskThread {

@@ -46,7 +46,30 @@ pub fn run(args: CompileArgs) -> anyhow::Result<ExitCode> {
     let name = args.file.display().to_string();
     let source = std::fs::read_to_string(&args.file)
         .with_context(|| format!("cannot read the program {name}"))?;
-    let compiled = wrc_lang::compile(&source, &name, &config.robot);
+    // Libraries (INCLUDE), called programs (CALL PROGRAM) and the points file are read
+    // next to the program: <dir>/<name>.wrl, <dir>/<stem>.points.toml.
+    let dir = args
+        .file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let stem = args
+        .file
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("program");
+    let sources = wrc_lang::DirSources {
+        dir: dir.to_path_buf(),
+    };
+    let compiled = wrc_lang::compile_with(
+        &source,
+        &name,
+        &config.robot,
+        &wrc_lang::CompileOptions {
+            name: stem,
+            sources: Some(&sources),
+        },
+    );
     if !compiled.diagnostics.is_empty() {
         eprintln!("{}", compiled.render(&name, &source));
     }

@@ -38,16 +38,46 @@ pub struct RunArgs {
     timeout: f64,
 }
 
-/// A program checked here and ready to upload.
+/// A program checked here and what to send for it: the uploads of its libraries and the
+/// programs it calls (deepest first), then its own, its points (those the controller does
+/// not have yet), then `RUN`.
 pub(crate) struct Checked {
     /// The name it is stored under.
     pub name: ProgramName,
-    /// The `UPLOAD` request with the program's text, ending with its `.` line.
-    pub upload: String,
+    /// The `UPLOAD` requests, each with its text and `.` line, in the order to send them.
+    uploads: Vec<String>,
+    /// The points of its local points file, as `POINT` arguments after the program's name:
+    /// the point's name and its value.
+    points: Vec<(String, String)>,
 }
 
-/// Compile `file` here against `config` (diagnostics on stderr) and make its upload under
-/// `name` (default: the file's stem). `Err(code)`: it does not compile (exit 2).
+/// The `UPLOAD` request of program `name` with `source`, request id `id`.
+fn upload_request(id: u32, name: &str, source: &str) -> anyhow::Result<String> {
+    if source.lines().any(|l| l.len() > wrc_protocol::MAX_LINE) {
+        bail!(
+            "{name} has a line longer than {} bytes, which the protocol cannot carry",
+            wrc_protocol::MAX_LINE
+        );
+    }
+    let mut upload = format!("{id} UPLOAD {name}\n");
+    for line in source.lines() {
+        // A line that is exactly "." would end the upload early; a leading space keeps its
+        // meaning (it is not valid program text anyway).
+        if line == "." {
+            upload.push_str(" .\n");
+        } else {
+            upload.push_str(line);
+            upload.push('\n');
+        }
+    }
+    upload.push_str(".\n");
+    Ok(upload)
+}
+
+/// Compile `file` here against `config` (diagnostics on stderr), with the libraries and
+/// called programs next to it and its points file (`<name>.points.toml` there), and make
+/// what to send to store it under `name` (default: the file's stem). `Err(code)`: it does
+/// not compile (exit 2).
 pub(crate) fn check(
     file: &Path,
     name: Option<&str>,
@@ -66,46 +96,68 @@ pub(crate) fn check(
             "\"{name_text}\" cannot name a program (1-32 letters, digits, _ or -); give one with --name"
         );
     };
-
-    let compiled = wrc_lang::compile(&source, &shown, &config.robot);
-    for d in &compiled.diagnostics {
-        eprint!("{}", d.render(&shown, &source));
+    let dir = file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let sources = wrc_lang::DirSources {
+        dir: dir.to_path_buf(),
+    };
+    let compiled = wrc_lang::compile_with(
+        &source,
+        &shown,
+        &config.robot,
+        &wrc_lang::CompileOptions {
+            name: stem,
+            sources: Some(&sources),
+        },
+    );
+    if !compiled.diagnostics.is_empty() {
+        eprintln!("{}", compiled.render(&shown, &source));
     }
-    if compiled.program.is_none() || compiled.diagnostics.iter().any(|d| d.is_error()) {
+    if compiled.program.is_none() || compiled.errors() > 0 {
         eprintln!("wrc: {shown} does not compile; nothing sent");
         return Ok(Err(ExitCode::from(2)));
     }
-    if source.lines().any(|l| l.len() > wrc_protocol::MAX_LINE) {
-        bail!(
-            "{shown} has a line longer than {} bytes, which the protocol cannot carry",
-            wrc_protocol::MAX_LINE
-        );
+    let mut uploads = Vec::new();
+    // Libraries and called programs first, the deepest first: each compiles on its
+    // upload with what it includes already stored.
+    for (k, other) in compiled.sources.iter().enumerate().skip(1).rev() {
+        uploads.push(upload_request(10 + k as u32, &other.name, &other.text)?);
     }
-    let mut upload = format!("1 UPLOAD {name}\n");
-    for line in source.lines() {
-        // A line that is exactly "." would end the upload early; a leading space keeps its
-        // meaning (it is not valid program text anyway).
-        if line == "." {
-            upload.push_str(" .\n");
-        } else {
-            upload.push_str(line);
-            upload.push('\n');
+    uploads.push(upload_request(1, name.as_str(), &source)?);
+    let mut points = Vec::new();
+    if let Ok(Some(text)) = wrc_lang::Sources::points(&sources, stem) {
+        let parsed = wrc_lang::Points::parse(&text, config.robot.axis_count())
+            .map_err(|e| anyhow::anyhow!("{}: {e}", wrc_lang::points::points_file_name(stem)))?;
+        for (point, value) in parsed.iter() {
+            let args = match value {
+                wrc_lang::PointValue::Pose(p) => format!("{} {} {} {}", p.x, p.y, p.z, p.yaw),
+                wrc_lang::PointValue::Joints(j) => {
+                    let values: Vec<String> = j[..config.robot.axis_count()]
+                        .iter()
+                        .map(|v| v.to_string())
+                        .collect();
+                    format!("JOINTS {}", values.join(" "))
+                }
+            };
+            points.push((point.to_string(), args));
         }
     }
-    upload.push_str(".\n");
-    Ok(Ok(Checked { name, upload }))
-}
-
-/// The `RUN` request of a checked program, sent once its upload is acknowledged.
-pub(crate) fn run_request(name: &ProgramName) -> String {
-    format!("2 RUN {name}\n")
+    Ok(Ok(Checked {
+        name,
+        uploads,
+        points,
+    }))
 }
 
 /// Where a program's conversation with the controller stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Phase {
-    /// The upload is sent; waiting for its `ACK 1`.
-    Uploading,
+enum Phase {
+    /// An upload (or a POINT) is sent; waiting for its `ACK`.
+    Setting,
+    /// `POINTS` is sent: collecting the points the controller has.
+    Points,
     /// `RUN` is sent; printing what the program prints until it ends.
     Running,
 }
@@ -115,53 +167,146 @@ pub(crate) enum Phase {
 pub(crate) enum Heard {
     /// Nothing to do.
     Nothing,
-    /// The upload is stored: send `RUN` now.
-    Stored,
+    /// Send this next.
+    Send(String),
     /// The conversation is over with this exit code.
     Ended(ExitCode),
 }
 
-/// Take one line `l` from the controller in `phase`: print what `wrc run` prints (`PRINT`
-/// events and the final line on stdout, diagnostics and refusals on stderr).
-pub(crate) fn hear(phase: Phase, l: &str) -> Heard {
-    let mut words = l.splitn(3, ' ');
-    let kind = words.next().unwrap_or("");
-    let id = words.next().unwrap_or("");
-    match phase {
-        Phase::Uploading => {
-            if let Some(diag) = l.strip_prefix("EVT DIAG ") {
-                eprintln!("{diag}");
-            } else if l.starts_with("ACK 1") {
-                return Heard::Stored;
-            } else if l.starts_with("NAK") {
-                eprintln!("wrc: the controller refused the program: {l}");
-                return Heard::Ended(ExitCode::from(1));
-            }
-            Heard::Nothing
+/// The conversation of `wrc run` and `wrc sim` with the controller: uploads, points, RUN,
+/// then what the program prints until it ends.
+pub(crate) struct Conversation {
+    name: ProgramName,
+    /// Requests still to send before `POINTS` (the uploads; then the missing points).
+    queue: std::collections::VecDeque<String>,
+    points: Vec<(String, String)>,
+    /// The names of the points the controller has.
+    known: Vec<String>,
+    phase: Phase,
+    /// The id of the request whose ACK is awaited.
+    awaiting: String,
+    points_asked: bool,
+}
+
+impl Conversation {
+    /// The conversation for `checked`, and the first request to send.
+    pub(crate) fn start(checked: Checked) -> (Conversation, String) {
+        let mut queue: std::collections::VecDeque<String> = checked.uploads.into();
+        let first = queue.pop_front().unwrap_or_default();
+        let awaiting = first.split(' ').next().unwrap_or("1").to_string();
+        (
+            Conversation {
+                name: checked.name,
+                queue,
+                points: checked.points,
+                known: Vec::new(),
+                phase: Phase::Setting,
+                awaiting,
+                points_asked: false,
+            },
+            first,
+        )
+    }
+
+    fn send(&mut self, request: String) -> Heard {
+        self.awaiting = request.split(' ').next().unwrap_or("").to_string();
+        Heard::Send(request)
+    }
+
+    /// The next request after an ACK of the setup.
+    fn next(&mut self) -> Heard {
+        if let Some(r) = self.queue.pop_front() {
+            return self.send(r);
         }
-        Phase::Running => match (kind, id) {
-            ("EVT", "PRINT") => {
-                println!("{}", words.next().unwrap_or(""));
+        if !self.points.is_empty() && !self.points_asked {
+            self.points_asked = true;
+            self.phase = Phase::Points;
+            return self.send(format!("9 POINTS {}\n", self.name));
+        }
+        self.phase = Phase::Running;
+        Heard::Send(format!("2 RUN {}\n", self.name))
+    }
+
+    /// Take one line `l` from the controller: print what `wrc run` prints (`PRINT` events
+    /// and the final line on stdout, diagnostics, alarms and refusals on stderr).
+    pub(crate) fn hear(&mut self, l: &str) -> Heard {
+        let mut words = l.splitn(3, ' ');
+        let kind = words.next().unwrap_or("");
+        let id = words.next().unwrap_or("");
+        let rest = words.next().unwrap_or("");
+        match self.phase {
+            Phase::Setting | Phase::Points => {
+                if let Some(diag) = l.strip_prefix("EVT DIAG ") {
+                    eprintln!("{diag}");
+                } else if let (Phase::Points, Some(point)) =
+                    (self.phase, l.strip_prefix("EVT POINT "))
+                {
+                    let mut w = point.split(' ');
+                    if w.next() == Some(self.name.as_str()) {
+                        if let Some(p) = w.next() {
+                            self.known.push(p.to_ascii_uppercase());
+                        }
+                    }
+                } else if kind == "ACK" && id == self.awaiting {
+                    if self.phase == Phase::Points {
+                        self.phase = Phase::Setting;
+                        // Only the points the controller does not have: never overwrite a
+                        // point taught there.
+                        let missing: Vec<String> = self
+                            .points
+                            .iter()
+                            .filter(|(p, _)| !self.known.contains(&p.to_ascii_uppercase()))
+                            .enumerate()
+                            .map(|(k, (p, args))| {
+                                format!("{} POINT {} {p} {args}\n", 30 + k, self.name)
+                            })
+                            .collect();
+                        self.queue.extend(missing);
+                    }
+                    return self.next();
+                } else if kind == "NAK" && id == self.awaiting {
+                    eprintln!("wrc: the controller refused it: {l}");
+                    return Heard::Ended(ExitCode::from(1));
+                }
                 Heard::Nothing
             }
-            ("EVT", "DIAG") => {
-                eprintln!("{}", words.next().unwrap_or(""));
-                Heard::Nothing
-            }
-            ("NAK", _) => {
-                eprintln!("wrc: refused: {l}");
-                Heard::Ended(ExitCode::from(1))
-            }
-            ("INF", "2") => {
-                println!("{l}");
-                Heard::Ended(ExitCode::SUCCESS)
-            }
-            ("ABS", _) => {
-                println!("{l}");
-                Heard::Ended(ExitCode::from(1))
-            }
-            _ => Heard::Nothing,
-        },
+            Phase::Running => match (kind, id) {
+                ("EVT", "PRINT") => {
+                    println!("{rest}");
+                    Heard::Nothing
+                }
+                ("EVT", "DIAG") => {
+                    eprintln!("{rest}");
+                    Heard::Nothing
+                }
+                ("EVT", "ALARM") => {
+                    eprintln!("wrc: alarm {rest}");
+                    Heard::Nothing
+                }
+                ("EVT", "PROGRAM") if rest.split(' ').nth(1) == Some("WAITING") => {
+                    eprintln!("wrc: the program waits for the operator (answer with `wrc send CONTINUE [answer]`): {rest}");
+                    Heard::Nothing
+                }
+                ("NAK", _) => {
+                    eprintln!("wrc: refused: {l}");
+                    Heard::Ended(ExitCode::from(1))
+                }
+                ("INF", "2") => {
+                    println!("{l}");
+                    Heard::Ended(ExitCode::SUCCESS)
+                }
+                ("ABS", _) => {
+                    println!("{l}");
+                    Heard::Ended(ExitCode::from(1))
+                }
+                _ => Heard::Nothing,
+            },
+        }
+    }
+
+    /// Whether `RUN` has been sent.
+    pub(crate) fn running(&self) -> bool {
+        self.phase == Phase::Running
     }
 }
 
@@ -180,33 +325,31 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         Duration::from_secs_f64(args.timeout),
         args.token_file.as_deref(),
     )?;
-    writer.write_all(checked.upload.as_bytes())?;
+    let (mut talk, first) = Conversation::start(checked);
+    writer.write_all(first.as_bytes())?;
     writer.flush()?;
 
-    // RUN only once this text is stored: never an older program of the same name.
-    let mut phase = Phase::Uploading;
+    // RUN only once every text is stored: never an older program of the same name.
     let mut line = String::new();
     loop {
         line.clear();
-        let what = match phase {
-            Phase::Uploading => "no reply to the upload before the timeout",
-            Phase::Running => "no reply from the controller before the timeout",
+        let what = if talk.running() {
+            "no reply from the controller before the timeout"
+        } else {
+            "no reply to the upload before the timeout"
         };
         let n = reader.read_line(&mut line).context(what)?;
         if n == 0 {
-            match phase {
-                Phase::Uploading => bail!("the controller closed the connection during the upload"),
-                Phase::Running => {
-                    bail!("the controller closed the connection before the program ended")
-                }
+            if talk.running() {
+                bail!("the controller closed the connection before the program ended")
             }
+            bail!("the controller closed the connection during the upload")
         }
-        match hear(phase, line.trim_end()) {
+        match talk.hear(line.trim_end()) {
             Heard::Nothing => {}
-            Heard::Stored => {
-                writer.write_all(run_request(&checked.name).as_bytes())?;
+            Heard::Send(request) => {
+                writer.write_all(request.as_bytes())?;
                 writer.flush()?;
-                phase = Phase::Running;
             }
             Heard::Ended(code) => return Ok(code),
         }

@@ -26,7 +26,7 @@ use wrc_config::Config;
 use wrc_controller::simulation::{ClientError, SimCellFrom, Simulation};
 use wrc_rt::virtual_time::Pace;
 
-use crate::run::{self as run_program, Heard, Phase};
+use crate::run::{self as run_program, Conversation, Heard};
 
 /// Arguments of `wrc sim`.
 #[derive(Debug, Args)]
@@ -261,9 +261,9 @@ fn run_file(args: &SimArgs, config: &Config, program: &Path) -> anyhow::Result<E
     let mut sim = simulation(args, config, &dir.path)?;
     let mut records = Records::open(args, &sim)?;
     let mut client = sim.connect()?;
-    sim.send(&mut client, &checked.upload)?;
-    records.line(&sim, ">", &checked.upload)?;
-    let mut phase = Phase::Uploading;
+    let (mut talk, first) = Conversation::start(checked);
+    sim.send(&mut client, &first)?;
+    records.line(&sim, ">", &first)?;
     let limit_ns = sim.now_ns() + (args.timeout * 1e9) as u64;
     let code = loop {
         let line = match sim.next_line(&mut client, limit_ns.saturating_sub(sim.now_ns())) {
@@ -279,13 +279,11 @@ fn run_file(args: &SimArgs, config: &Config, program: &Path) -> anyhow::Result<E
         };
         records.line(&sim, "<", &line)?;
         records.pulses(&sim)?;
-        match run_program::hear(phase, &line) {
+        match talk.hear(&line) {
             Heard::Nothing => {}
-            Heard::Stored => {
-                let request = run_program::run_request(&checked.name);
+            Heard::Send(request) => {
                 sim.send(&mut client, &request)?;
                 records.line(&sim, ">", &request)?;
-                phase = Phase::Running;
             }
             Heard::Ended(code) => break code,
         }

@@ -135,15 +135,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     pub(super) fn offer_job(&mut self, offer: JobOffer) {
         match offer {
             JobOffer::Start(job) => self.start_job(job),
-            JobOffer::Refused(r) => {
-                if self
-                    .program
-                    .as_ref()
-                    .is_some_and(|p| p.wait == ProgramWait::Job)
-                {
-                    self.end_program(Some((r.code, r.text())));
-                }
-            }
+            JobOffer::Refused(r) => self.program_job_refused(r.code, r.text()),
         }
     }
 
@@ -209,13 +201,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         };
         if let Some((code, text)) = refusal {
             if job.from == SourceId::PROGRAM {
-                if self
-                    .program
-                    .as_ref()
-                    .is_some_and(|p| p.wait == ProgramWait::Job)
-                {
-                    self.end_program(Some((code, text)));
-                }
+                self.program_job_refused(code, text);
             } else {
                 self.nak(job.from, job.to, code, text);
             }
@@ -654,7 +640,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         }
                         self.vm.resume(wrc_lang::Resume::Ok);
                     }
-                    Some((code, text)) => self.end_program(Some((code, text))),
+                    // The operator's STOP ends the program; anything else is its error.
+                    Some((Code::Stopped, text)) => self.end_program(Some((Code::Stopped, text))),
+                    Some((code, text)) => self.program_failed(code, text),
                 }
             }
             return;

@@ -23,6 +23,7 @@ use wrc_rt::ipc::MessageQueue;
 use wrc_rt::{CycleContext, Release, Task};
 
 mod admission;
+mod debug;
 mod job;
 mod motion;
 mod program;
@@ -131,6 +132,12 @@ pub struct CommandInterpreter<B: MotionBoard> {
     pub estop_input: Option<u8>,
     vm: Vm,
     program: Option<RunningProgram>,
+    /// When the running program started [ns] (its `TIMER()`).
+    program_started_ns: u64,
+    /// The options of the motion the program orders next.
+    next_move: program::NextMove,
+    /// The breakpoints, kept across runs.
+    breaks: debug::Breakpoints,
     /// A finished program the store's queue had no room for yet (freed there, not here).
     retire: Option<Box<Program>>,
     refusal: Refusal,
@@ -167,6 +174,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             estop_input: None,
             vm: Vm::new(VmLimits::default()),
             program: None,
+            program_started_ns: 0,
+            next_move: program::NextMove::default(),
+            breaks: debug::Breakpoints::default(),
             retire: None,
             refusal: Refusal {
                 code: None,

@@ -85,9 +85,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         for w in self.waiters.iter_mut().flatten() {
             w.ended.get_or_insert(code);
         }
-        if self.program.is_some() {
-            self.end_program(Some((code, text)));
-        }
+        self.program_stopped(code, text);
     }
 
     pub(super) fn new_ticket(
@@ -137,10 +135,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
             return None;
         };
+        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
         let order = MoveOrder {
             ticket,
             epoch: self.shared.stop_epoch.load(Ordering::Acquire),
-            speed_pct: f64::from(self.shared.speed_pct.load(Ordering::Acquire)),
+            speed_pct: self
+                .next_move
+                .speed_pct
+                .map_or(operator, |s| s.min(operator)),
+            accel_pct: self.next_move.accel_pct.unwrap_or(100.0),
             kind,
         };
         if self.io.orders.try_send(order).is_err() {
@@ -300,6 +303,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 ticket,
                 epoch,
                 speed_pct,
+                accel_pct: 100.0,
                 kind,
             });
             // The order queue holds MAX_TICKETS orders and the Velocity Generator dropped

@@ -1,6 +1,13 @@
 //! The program runner of the Command Interpreter: runs the robot-language VM a fixed budget
 //! per cycle; each motion statement becomes the request a connection would send, checked
-//! the same way; DELAY and WAIT IN are deadlines on the cycle's clock.
+//! the same way; DELAY and WAIT IN are deadlines on the cycle's clock; questions about the
+//! cell and TEACH go to the service thread and wait for its answer; the operator answers
+//! WAIT OPERATOR with CONTINUE.
+//!
+//! Errors: what the controller cannot carry out (a refused motion, a failed transfer, a
+//! stop by a fault) is handed to the program as an error its TRY may catch — once the robot
+//! stands still, so a handler never runs while the arm still brakes. The operator's STOP and
+//! ABORT end the program.
 
 use std::fmt::Write as _;
 
@@ -8,14 +15,28 @@ use std::sync::atomic::Ordering;
 use wrc_rt::FixedText;
 
 use wrc_board::MotionBoard;
-use wrc_lang::{Motion, Program, Resume, RuntimeErrorKind, Step, VmIo};
+use wrc_lang::{
+    Answer, Motion, MoveOptions, PointValue, Program, Request as VmRequest, Resume,
+    RuntimeErrorKind, SourcePos, Step, StepMode, Text, VmIo,
+};
 use wrc_protocol::{AxisArg, Code, Command, Event, ProgramName, ReplyTo};
 use wrc_robot::Pose;
 
 use super::motion::motion_failure;
 use super::{deliver, CommandInterpreter, PROGRAM_BUDGET, PROGRAM_REQUESTS};
-use crate::messages::{MoveOutcome, ProgramStart, SourceId};
+use crate::messages::{MoveOutcome, ProgramAnswer, ProgramStart, SourceId, StoreRequest};
 use crate::shared::RobotState;
+
+/// The speed override of the motions a single STEP runs [%] (a reduced speed while an
+/// engineer steps through a program, as a teach mode's).
+pub const STEP_SPEED_PCT: f64 = 25.0;
+
+/// How long a program's GET, PUT or MAP that the cell refuses as busy (the map still being
+/// settled after a failed transfer) is asked again before it fails [ns].
+const JOB_BUSY_RETRY_NS: u64 = 10_000_000_000;
+
+/// How often it is asked again [ns].
+const JOB_BUSY_PERIOD_NS: u64 = 100_000_000;
 
 /// What a running program waits for.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +55,17 @@ pub(super) enum ProgramWait {
     },
     /// `GET`, `PUT` or `MAP`: the cell service's answer, then the job.
     Job,
+    /// The same, refused as busy: asked again at `at` [ns] until `deadline` [ns].
+    JobAgain { at: u64, deadline: u64 },
+    /// A question about the cell or a TEACH: the service's answer.
+    Answer,
+    /// `WAIT OPERATOR`: the operator's CONTINUE.
+    Operator,
+    /// `RESET`: the board clearing the alarm.
+    Reset,
+    /// An error for the program (its TRY may catch it), handed over once the robot stands
+    /// still.
+    Failed(Code),
 }
 
 /// The program the Command Interpreter is running.
@@ -44,12 +76,22 @@ pub(super) struct RunningProgram {
     pub(super) program: Box<Program>,
     pub(super) wait: ProgramWait,
     pub(super) paused: bool,
+    /// The acceleration override of its motions (ACCEL) [%].
+    pub(super) accel_pct: f64,
+    /// A STEP is under way: its motions run at [`STEP_SPEED_PCT`] at most.
+    pub(super) stepping: bool,
+    /// The last GET, PUT or MAP asked for (asked again while the cell is busy).
+    pub(super) job_request: Option<StoreRequest>,
+    /// The text of the error being handed over ([`ProgramWait::Failed`]).
+    pub(super) failure: FixedText<200>,
 }
 
-/// What a program reads synchronously: inputs and the pose where its last motion ended.
+/// What a program reads synchronously: inputs, the pose where its last motion ended and
+/// its run time.
 pub(super) struct ProgramIo {
     pub(super) inputs: u32,
     pub(super) here: Pose,
+    pub(super) seconds: f64,
 }
 
 impl VmIo for ProgramIo {
@@ -59,18 +101,55 @@ impl VmIo for ProgramIo {
     fn here(&self) -> Pose {
         self.here
     }
+    fn seconds(&self) -> f64 {
+        self.seconds
+    }
+}
+
+/// The options of the next motion a program orders (consumed by the motion runner).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(super) struct NextMove {
+    /// Its speed override [%] (the smaller of the statement's and the operator's).
+    pub(super) speed_pct: Option<f64>,
+    /// Its acceleration override [%].
+    pub(super) accel_pct: Option<f64>,
+}
+
+/// A source file's name as events show it: the program's or library's name.
+pub(super) fn file_label(program: &Program, file: u16) -> &str {
+    let name = program
+        .files()
+        .get(usize::from(file))
+        .map_or("?", String::as_str);
+    name.strip_suffix(".wrl").unwrap_or(name)
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
-    pub(super) fn program_event(&mut self, name: ProgramName, state: &str) {
+    /// `EVT PROGRAM <name> <state> [<detail>]` to everyone.
+    pub(super) fn program_event(&mut self, name: ProgramName, state: &str, detail: &str) {
         let line = self.buf.event(
             false,
             &Event::Program {
                 name: name.as_str(),
                 state,
+                detail,
             },
         );
         self.io.out.send(SourceId::BROADCAST, line);
+    }
+
+    /// `EVT PROGRAM <name> <state> <file>:<line>[ <text>]` at `pos`.
+    fn program_event_at(&mut self, state: &str, pos: SourcePos, text: &str) {
+        let Some(p) = self.program.as_ref() else {
+            return;
+        };
+        let mut detail = FixedText::<400>::new();
+        let _ = write!(detail, "{}:{}", file_label(&p.program, pos.file), pos.line);
+        if !text.is_empty() {
+            let _ = write!(detail, " {text}");
+        }
+        let name = p.name;
+        self.program_event(name, state, detail.as_str());
     }
 
     /// `RUN`: the store compiled the program; start it unless something forbids it.
@@ -80,6 +159,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             to,
             name,
             program,
+            step,
         } = start;
         let owner = self.owner();
         let refusal = if self.program.is_some() {
@@ -109,6 +189,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         let line = self.buf.ack(to, "");
         deliver(&self.io.out, from, line);
+        let mut files = FixedText::<400>::new();
+        let _ = write!(files, "files=");
+        for i in 0..program.files().len() {
+            if i > 0 {
+                let _ = files.write_str(",");
+            }
+            let _ = files.write_str(file_label(&program, i as u16));
+        }
         self.program = Some(RunningProgram {
             from,
             to,
@@ -116,8 +204,17 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             program,
             wait: ProgramWait::Nothing,
             paused: false,
+            accel_pct: 100.0,
+            stepping: false,
+            job_request: None,
+            failure: FixedText::new(),
         });
-        self.program_event(name, "RUNNING");
+        self.program_started_ns = self.now_ns;
+        self.apply_breakpoints();
+        if step {
+            self.vm.step(StepMode::Into);
+        }
+        self.program_event(name, "RUNNING", files.as_str());
     }
 
     pub(super) fn retire_program(&mut self, program: Box<Program>) {
@@ -137,20 +234,21 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.end_program_at(failure, None);
     }
 
-    /// [`Self::end_program`] naming source line `line` (default: where the program is).
-    pub(super) fn end_program_at(&mut self, failure: Option<(Code, &str)>, line: Option<u32>) {
+    /// [`Self::end_program`] naming source position `at` (default: where the program is).
+    pub(super) fn end_program_at(&mut self, failure: Option<(Code, &str)>, at: Option<SourcePos>) {
         let Some(p) = self.program.take() else {
             return;
         };
+        self.shared.program_line.store(0, Ordering::Release);
         // A GET, PUT or MAP of the program's (ABORT, a refusal) ends with it and stops.
         if self.job.is_some_and(|j| j.from() == SourceId::PROGRAM) {
             self.end_job(Some(
                 failure.unwrap_or((Code::Stopped, "the program that asked for it ended")),
             ));
         }
-        let line_no = line
-            .or_else(|| self.vm.position(&p.program).map(|pos| pos.line))
-            .unwrap_or(0);
+        let pos = at
+            .or_else(|| self.vm.position(&p.program))
+            .unwrap_or_default();
         self.vm.abort();
         match failure {
             None => {
@@ -164,13 +262,49 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 };
                 self.abandon_motion(waiting, SourceId::PROGRAM);
                 let mut body = FixedText::<400>::new();
-                let _ = write!(body, "{} line {line_no}: {text}", p.name);
+                let _ = write!(body, "{} ", p.name);
+                if pos.file != 0 {
+                    let _ = write!(body, "{} ", file_label(&p.program, pos.file));
+                }
+                let _ = write!(body, "line {}: {text}", pos.line);
                 let line = self.buf.abs(p.to, code, body.as_str());
                 deliver(&self.io.out, p.from, line);
             }
         }
-        self.program_event(p.name, "ENDED");
+        self.program_event(p.name, "ENDED", "");
         self.retire_program(p.program);
+    }
+
+    /// The running program's statement could not be carried out: hand it `code` and `text`
+    /// as an error (its TRY may catch it) once the robot stands still. A motion of the
+    /// program's still under way is stopped, and its queued motions are dropped.
+    pub(super) fn program_failed(&mut self, code: Code, text: &str) {
+        let Some(p) = self.program.as_ref() else {
+            return;
+        };
+        let waiting = match p.wait {
+            ProgramWait::Motion(ticket) => Some(ticket),
+            _ => None,
+        };
+        self.abandon_motion(waiting, SourceId::PROGRAM);
+        if let Some(p) = self.program.as_mut() {
+            p.wait = ProgramWait::Failed(code);
+            p.failure = FixedText::new();
+            let _ = p.failure.write_str(text);
+        }
+    }
+
+    /// Whether the robot is safe for an error handler: it stands still, nothing of the
+    /// program's moves or brakes, and no wafer job runs.
+    fn safe_for_handler(&self) -> bool {
+        self.job.is_none()
+            && self.stands_still()
+            && !self
+                .tickets
+                .iter()
+                .flatten()
+                .any(|t| t.from == SourceId::PROGRAM)
+            && self.shared.state() != RobotState::Stopping
     }
 
     /// `PAUSE`, `CONTINUE`, `ABORT`.
@@ -183,19 +317,31 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             Command::Pause => {
                 let changed = !p.paused;
                 p.paused = true;
+                p.stepping = false;
+                self.vm.cancel_step();
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);
                 if changed {
-                    self.program_event(name, "PAUSED");
+                    self.program_event(name, "PAUSED", "");
                 }
             }
-            Command::Continue => {
-                let changed = p.paused;
+            Command::Continue(answer) => {
+                let operator = p.wait == ProgramWait::Operator;
+                let changed = p.paused || operator;
                 p.paused = false;
+                p.stepping = false;
+                self.vm.cancel_step();
+                if operator {
+                    p.wait = ProgramWait::Nothing;
+                    match answer.and_then(|a| Text::new(a.as_str())) {
+                        Some(t) => self.vm.resume(Resume::Value(Answer::Text(t))),
+                        None => self.vm.resume(Resume::Ok),
+                    }
+                }
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);
                 if changed {
-                    self.program_event(name, "RUNNING");
+                    self.program_event(name, "RUNNING", "");
                 }
             }
             _ => {
@@ -219,8 +365,84 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 p.wait = ProgramWait::Nothing;
                 self.vm.resume(Resume::Ok);
             }
-            failure => self.end_program(failure),
+            // The operator's STOP ends the program.
+            Some((Code::Stopped, text)) => self.end_program(Some((Code::Stopped, text))),
+            Some((code, text)) => self.program_failed(code, text),
         }
+    }
+
+    /// The operator's STOP, an E-stop or a fault ended every motion with `code`: STOP ends
+    /// the program; anything else is an error for the program (handled once the robot
+    /// stands still).
+    pub(super) fn program_stopped(&mut self, code: Code, text: &str) {
+        let Some(p) = self.program.as_ref() else {
+            return;
+        };
+        if code == Code::Stopped {
+            return self.end_program(Some((code, text)));
+        }
+        // A program between requests finds out at its next motion (refused in ERROR); one
+        // that waits for something hears it now.
+        if !matches!(p.wait, ProgramWait::Nothing | ProgramWait::Failed(_)) {
+            self.program_failed(code, text);
+        }
+    }
+
+    /// The service answered the program's question or TEACH.
+    pub(super) fn program_answer(&mut self, answer: ProgramAnswer) {
+        let Some(p) = self.program.as_mut() else {
+            return;
+        };
+        if p.wait != ProgramWait::Answer {
+            return;
+        }
+        match answer {
+            ProgramAnswer::Value(a) => {
+                p.wait = ProgramWait::Nothing;
+                self.vm.resume(Resume::Value(a));
+            }
+            ProgramAnswer::Failed(r) => {
+                p.wait = ProgramWait::Nothing;
+                self.vm.fail(r.code.number(), r.text());
+            }
+        }
+    }
+
+    /// A RESET the program asked for was carried out (`refused`: it was not, and why).
+    pub(super) fn program_reset_done(&mut self, refused: Option<(Code, &str)>) {
+        let Some(p) = self.program.as_mut() else {
+            return;
+        };
+        if p.wait != ProgramWait::Reset {
+            return;
+        }
+        p.wait = ProgramWait::Nothing;
+        match refused {
+            None => self.vm.resume(Resume::Ok),
+            Some((code, text)) => self.vm.fail(code.number(), text),
+        }
+    }
+
+    /// A program's GET, PUT or MAP was refused: asked again while the cell is only busy
+    /// settling the map, an error for the program otherwise.
+    pub(super) fn program_job_refused(&mut self, code: Code, text: &str) {
+        let now = self.now_ns;
+        let Some(p) = self.program.as_mut() else {
+            return;
+        };
+        let deadline = match p.wait {
+            ProgramWait::Job => now.saturating_add(JOB_BUSY_RETRY_NS),
+            ProgramWait::JobAgain { deadline, .. } => deadline,
+            _ => return,
+        };
+        if code == Code::TransferBusy && now < deadline && p.job_request.is_some() {
+            p.wait = ProgramWait::JobAgain {
+                at: now.saturating_add(JOB_BUSY_PERIOD_NS),
+                deadline,
+            };
+            return;
+        }
+        self.program_failed(code, text);
     }
 
     /// Hand one of the program's requests to the checks every connection's request goes
@@ -232,12 +454,46 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// Run the program for this cycle's budget, or check what it waits for.
     pub(super) fn run_program(&mut self) {
+        while let Ok(answer) = self.io.store.answers.try_recv() {
+            self.program_answer(answer);
+        }
         let Some(p) = self.program.as_mut() else {
             return;
         };
         match p.wait {
             ProgramWait::Nothing => {}
-            ProgramWait::Motion(_) | ProgramWait::Job => return,
+            ProgramWait::Motion(_)
+            | ProgramWait::Job
+            | ProgramWait::Answer
+            | ProgramWait::Operator
+            | ProgramWait::Reset => return,
+            ProgramWait::JobAgain { at, .. } => {
+                if self.now_ns < at {
+                    return;
+                }
+                let Some(request) = p.job_request else {
+                    return;
+                };
+                p.wait = ProgramWait::Job;
+                if self.io.store.requests.try_send(request).is_err() {
+                    p.wait = ProgramWait::JobAgain {
+                        at: self.now_ns.saturating_add(JOB_BUSY_PERIOD_NS),
+                        deadline: self.now_ns,
+                    };
+                }
+                return;
+            }
+            ProgramWait::Failed(code) => {
+                if !self.safe_for_handler() {
+                    return;
+                }
+                let Some(p) = self.program.as_mut() else {
+                    return;
+                };
+                p.wait = ProgramWait::Nothing;
+                let text = p.failure;
+                self.vm.fail(code.number(), text.as_str());
+            }
             ProgramWait::Until(t) => {
                 if self.now_ns < t {
                     return;
@@ -259,7 +515,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 }
             }
         }
-        if p.paused {
+        if self.program.as_ref().is_some_and(|p| p.paused) {
             return;
         }
         // At most PROGRAM_BUDGET instructions between two requests, and at most
@@ -271,18 +527,43 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             let mut io = ProgramIo {
                 inputs: self.shared.inputs[0].load(Ordering::Acquire),
                 here: self.robot.forward(&self.planned_end),
+                seconds: self.now_ns.saturating_sub(self.program_started_ns) as f64 * 1e-9,
             };
-            match self.vm.run(&p.program, PROGRAM_BUDGET, &mut io) {
+            let step = self.vm.run(&p.program, PROGRAM_BUDGET, &mut io);
+            self.publish_line();
+            match step {
                 Step::Budget => return,
                 Step::Done => return self.end_program(None),
+                Step::Break(pos) => {
+                    if let Some(p) = self.program.as_mut() {
+                        p.paused = true;
+                        p.stepping = false;
+                    }
+                    self.program_event_at("PAUSED", pos, "");
+                    return;
+                }
                 Step::Fault(e) => {
                     let code = match e.kind {
                         RuntimeErrorKind::WaitTimeout => Code::WaitTimeout,
+                        RuntimeErrorKind::Host { code } | RuntimeErrorKind::Raised { code } => {
+                            Code::from_number(code).unwrap_or(Code::ProgramAlarm)
+                        }
+                        RuntimeErrorKind::NotLoaded | RuntimeErrorKind::InvalidProgram(_) => {
+                            Code::Internal
+                        }
                         _ => Code::ProgramError,
                     };
-                    let mut text = FixedText::<200>::new();
-                    let _ = write!(text, "{}", e.kind);
-                    return self.end_program_at(Some((code, text.as_str())), Some(e.line));
+                    let mut text = FixedText::<300>::new();
+                    if code == Code::ProgramAlarm {
+                        let _ = write!(text, "alarm {}: ", e.kind.code());
+                    }
+                    let _ = write!(text, "{}", self.vm.error_text());
+                    let pos = SourcePos {
+                        line: e.line,
+                        col: e.col,
+                        file: e.file,
+                    };
+                    return self.end_program_at(Some((code, text.as_str())), Some(pos));
                 }
                 Step::Yield(request) => {
                     if !self.program_yield(request) {
@@ -293,22 +574,73 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
+    /// Publish where the program is, for the status stream (file and line).
+    fn publish_line(&self) {
+        let Some(p) = self.program.as_ref() else {
+            return;
+        };
+        let pos = self.vm.position(&p.program).unwrap_or_default();
+        self.shared.program_line.store(
+            (u64::from(pos.file) << 32) | u64::from(pos.line),
+            Ordering::Release,
+        );
+    }
+
+    /// The motion command a program's motion statement stands for; its options go to
+    /// [`NextMove`].
+    fn program_motion(&mut self, motion: Motion, options: MoveOptions) -> Option<Command> {
+        let p = self.program.as_ref()?;
+        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let mut speed = options.speed_pct.map(|s| s.min(operator));
+        if p.stepping {
+            speed = Some(speed.unwrap_or(operator).min(STEP_SPEED_PCT));
+        }
+        self.next_move = super::program::NextMove {
+            speed_pct: speed,
+            accel_pct: Some(options.accel_pct.unwrap_or(p.accel_pct)),
+        };
+        Some(match motion {
+            Motion::Home => Command::Home,
+            Motion::Joints(joints) => Command::MovJ {
+                joints,
+                count: self.robot.axis_count(),
+            },
+            Motion::Pose(pose, posture) => Command::MovP { pose, posture },
+            Motion::Line(pose) => Command::MovL { pose },
+            Motion::Jog { axis, pulses } => Command::Jog {
+                axis: AxisArg::Number(u8::try_from(axis + 1).unwrap_or(u8::MAX)),
+                pulses,
+            },
+            Motion::Arc { .. } => return None,
+        })
+    }
+
+    /// Ask the service thread (a GET/PUT/MAP, a question, a TEACH); the program waits for
+    /// `wait`. `false`: the queue is full (the program gets a busy error).
+    fn ask_service(&mut self, request: StoreRequest, wait: ProgramWait) {
+        if self.io.store.requests.try_send(request).is_err() {
+            self.program_failed(
+                Code::Busy,
+                "the controller is busy; the request could not be made",
+            );
+        } else if let Some(p) = self.program.as_mut() {
+            p.wait = wait;
+        }
+    }
+
     /// Carry out one request of the program; `true` when it may go on at once.
-    pub(super) fn program_yield(&mut self, request: wrc_lang::Request) -> bool {
-        use wrc_lang::Request as R;
+    pub(super) fn program_yield(&mut self, request: VmRequest) -> bool {
+        use VmRequest as R;
         let command = match request {
-            R::Move(motion) => match motion {
-                Motion::Home => Command::Home,
-                Motion::Joints(joints) => Command::MovJ {
-                    joints,
-                    count: self.robot.axis_count(),
-                },
-                Motion::Pose(pose, posture) => Command::MovP { pose, posture },
-                Motion::Line(pose) => Command::MovL { pose },
-                Motion::Jog { axis, pulses } => Command::Jog {
-                    axis: AxisArg::Number(u8::try_from(axis + 1).unwrap_or(u8::MAX)),
-                    pulses,
-                },
+            R::Move(motion, options) => match self.program_motion(motion, options) {
+                Some(c) => c,
+                None => {
+                    self.vm.fail(
+                        Code::NotAvailable.number(),
+                        "ARC is not available on this controller yet",
+                    );
+                    return true;
+                }
             },
             R::Delay { seconds } => {
                 let ns = (seconds.max(0.0) * 1e9) as u64;
@@ -340,6 +672,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             R::Out { n, on } => Command::Out { n, on },
             R::Speed { pct } => Command::Speed(pct),
+            R::Accel { pct } => {
+                if let Some(p) = self.program.as_mut() {
+                    p.accel_pct = pct;
+                }
+                self.vm.resume(Resume::Ok);
+                return true;
+            }
             R::Transfer { .. } | R::Swap { .. } | R::Map { .. } => {
                 use crate::messages::cell_job::JobKind;
                 use wrc_cell::Blade;
@@ -362,28 +701,81 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     R::Map { station } => (JobKind::Map, station, 0, Blade::A),
                     _ => return true,
                 };
-                let asked = self
-                    .io
-                    .store
-                    .requests
-                    .try_send(crate::messages::StoreRequest::Job {
-                        from: SourceId::PROGRAM,
-                        to: ReplyTo::default(),
-                        kind,
-                        station,
-                        slot,
-                        blade,
-                    });
-                if asked.is_err() {
-                    self.end_program(Some((
-                        Code::Busy,
-                        "the controller is busy; the transfer could not be asked for",
-                    )));
-                } else if let Some(p) = self.program.as_mut() {
-                    p.wait = ProgramWait::Job;
+                let request = StoreRequest::Job {
+                    from: SourceId::PROGRAM,
+                    to: ReplyTo::default(),
+                    kind,
+                    station,
+                    slot,
+                    blade,
+                };
+                if let Some(p) = self.program.as_mut() {
+                    p.job_request = Some(request);
                 }
+                self.ask_service(request, ProgramWait::Job);
                 return false;
             }
+            R::Cell(query) => {
+                self.ask_service(StoreRequest::Cell { query }, ProgramWait::Answer);
+                return false;
+            }
+            R::Teach { point, joints } => {
+                let Some(p) = self.program.as_ref() else {
+                    return false;
+                };
+                let value = if joints {
+                    PointValue::Joints(self.planned_end)
+                } else {
+                    PointValue::Pose(self.robot.forward(&self.planned_end))
+                };
+                let request = StoreRequest::TeachPoint {
+                    program: p.name,
+                    point: ProgramName::new(point.as_str()).unwrap_or(p.name),
+                    value,
+                };
+                self.ask_service(request, ProgramWait::Answer);
+                return false;
+            }
+            R::Operator => {
+                if let Some(p) = self.program.as_mut() {
+                    p.wait = ProgramWait::Operator;
+                }
+                let pos = self
+                    .program
+                    .as_ref()
+                    .and_then(|p| self.vm.position(&p.program))
+                    .unwrap_or_default();
+                let mut text = FixedText::<260>::new();
+                let _ = text.write_str(self.vm.print_text());
+                self.program_event_at("WAITING", pos, text.as_str());
+                return false;
+            }
+            R::Alarm { code } => {
+                let Some(p) = self.program.as_ref() else {
+                    return false;
+                };
+                let pos = self.vm.position(&p.program).unwrap_or_default();
+                let mut text = FixedText::<400>::new();
+                let _ = write!(
+                    text,
+                    "{} {}:{}: {}",
+                    p.name,
+                    file_label(&p.program, pos.file),
+                    pos.line,
+                    self.vm.print_text()
+                );
+                let line = self.buf.event(
+                    false,
+                    &Event::Alarm {
+                        code,
+                        text: text.as_str(),
+                    },
+                );
+                self.io.out.send(SourceId::BROADCAST, line);
+                self.vm.resume(Resume::Ok);
+                return true;
+            }
+            R::Reset => return self.program_reset(),
             _ => {
                 self.vm.resume(Resume::Failed(RuntimeErrorKind::BadArgument(
                     "this controller cannot carry out that request",
@@ -391,8 +783,10 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 return true;
             }
         };
-        let is_motion = matches!(request, R::Move(_));
-        match self.program_request(command) {
+        let is_motion = matches!(request, R::Move(..));
+        let result = self.program_request(command);
+        self.next_move = NextMove::default();
+        match result {
             Ok(Some(ticket)) if is_motion => {
                 if let Some(p) = self.program.as_mut() {
                     p.wait = ProgramWait::Motion(ticket);
@@ -404,10 +798,59 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 true
             }
             Err(code) => {
-                // The text is copied out: ending the program writes replies.
+                // The text is copied out: the VM keeps its own copy.
                 let refusal = self.refusal;
-                self.end_program(Some((code, refusal.text())));
-                false
+                self.vm.fail(code.number(), refusal.text());
+                true
+            }
+        }
+    }
+
+    /// The program's `RESET`: clears a vacuum (212) or interlock (214) alarm as a host's
+    /// RESET does; any other alarm needs the operator. `true`: go on at once.
+    fn program_reset(&mut self) -> bool {
+        let state = self.shared.state();
+        let code = self.shared.error_code.load(Ordering::Acquire) as u16;
+        match state {
+            RobotState::Estop => {
+                self.vm.fail(
+                    Code::InEstop.number(),
+                    "the robot is in ESTOP: only the operator's RESET clears an emergency stop",
+                );
+                return true;
+            }
+            RobotState::Error => {}
+            // Nothing to clear.
+            _ => {
+                self.vm.resume(Resume::Ok);
+                return true;
+            }
+        }
+        if code != Code::WaferNotSensed.number() && code != Code::InterlockOpened.number() {
+            let mut text = FixedText::<160>::new();
+            let _ = write!(
+                text,
+                "a program's RESET clears a vacuum (212) or interlock (214) alarm; alarm {code} needs the operator's RESET"
+            );
+            self.vm.fail(Code::InError.number(), text.as_str());
+            return true;
+        }
+        match self.program_request(Command::Reset) {
+            Ok(_) => {
+                if self.reset_pending.is_some() {
+                    if let Some(p) = self.program.as_mut() {
+                        p.wait = ProgramWait::Reset;
+                    }
+                    false
+                } else {
+                    self.vm.resume(Resume::Ok);
+                    true
+                }
+            }
+            Err(code) => {
+                let refusal = self.refusal;
+                self.vm.fail(code.number(), refusal.text());
+                true
             }
         }
     }

@@ -302,9 +302,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     );
                 }
             }
-            Command::Pause | Command::Continue | Command::Abort => {
+            Command::Pause | Command::Continue(_) | Command::Abort => {
                 self.program_control(from, to, request.command)
             }
+            Command::Break(arg) => self.break_command(from, to, arg),
+            Command::Step(kind) => self.step_command(from, to, kind),
+            Command::Vars(names) => self.vars_command(from, to, &names),
             Command::Help => {
                 let line = self.buf.ack(to, HelpBody);
                 deliver(&self.io.out, from, line);

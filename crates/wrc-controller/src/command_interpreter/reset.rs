@@ -63,6 +63,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);
                 self.set_state(RobotState::Idle);
+                if from == crate::messages::SourceId::PROGRAM {
+                    self.program_reset_done(None);
+                }
             }
             Some(reason) if dead || self.now_ns >= deadline => {
                 self.reset_pending = None;
@@ -74,6 +77,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     Code::InError
                 };
                 self.nak(from, to, code, reason);
+                if from == crate::messages::SourceId::PROGRAM {
+                    self.program_reset_done(Some((code, reason)));
+                }
             }
             Some(_) => {}
         }

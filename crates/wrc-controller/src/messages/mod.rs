@@ -18,6 +18,9 @@ use crate::shared::StopKind;
 pub mod cell_job;
 
 /// A request or a disconnection, for the Command Interpreter.
+// Fixed-size on purpose (a request is sent from real-time tasks without allocating); the
+// largest request, POINT with a joint value per axis, is some 200 bytes.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
 pub enum Incoming {
     /// A parsed request from a source.
@@ -423,7 +426,7 @@ pub enum StoreRequest {
         /// GET/PUT: the blade (A for MAP and SWAP).
         blade: wrc_cell::Blade,
     },
-    /// `RUN <name>`: compile the stored text and hand it to the Command Interpreter.
+    /// `RUN <name> [STEP]`: compile the stored text and hand it to the Command Interpreter.
     Run {
         /// The requesting connection.
         from: SourceId,
@@ -431,7 +434,57 @@ pub enum StoreRequest {
         to: ReplyTo,
         /// The program.
         name: ProgramName,
+        /// Start paused before the first statement.
+        step: bool,
     },
+    /// `POINTS <program>`: list a stored program's named points.
+    Points {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
+        /// The program.
+        program: ProgramName,
+    },
+    /// `POINT <program> <name> …`: set, teach or delete a named point.
+    Point {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+        /// The program.
+        program: ProgramName,
+        /// The point.
+        point: ProgramName,
+        /// What to do.
+        action: wrc_protocol::PointAction,
+    },
+    /// The running program asks about the wafer map or a station (`SLOT(…)`, …); the
+    /// answer comes back on [`StoreLinks::answers`].
+    Cell {
+        /// The question.
+        query: wrc_lang::CellQuery,
+    },
+    /// The running program's `TEACH point`: store `value` in `program`'s points file; the
+    /// answer (the value stored, or why not) comes back on [`StoreLinks::answers`].
+    TeachPoint {
+        /// The program.
+        program: ProgramName,
+        /// The point.
+        point: ProgramName,
+        /// Where the robot is: a pose, or joints for a point of joints.
+        value: wrc_lang::PointValue,
+    },
+}
+
+/// The service's answer to the running program's question ([`StoreRequest::Cell`],
+/// [`StoreRequest::TeachPoint`]).
+#[derive(Debug, Clone, Copy)]
+pub enum ProgramAnswer {
+    /// The answer.
+    Value(wrc_lang::Answer),
+    /// It could not be answered: the program's statement fails with this code and text.
+    Failed(cell_job::JobRefusal),
 }
 
 impl StoreRequest {
@@ -458,6 +511,8 @@ pub struct ProgramStart {
     pub name: ProgramName,
     /// The compiled program.
     pub program: Box<Program>,
+    /// Start paused before the first statement (`RUN <name> STEP`).
+    pub step: bool,
 }
 
 /// The queues between the store and the real-time tasks.
@@ -473,6 +528,8 @@ pub struct StoreLinks {
     pub jobs: Arc<MessageQueue<crate::messages::cell_job::JobOffer>>,
     /// What the Command Interpreter reports of the wafer jobs.
     pub cell_events: Arc<MessageQueue<crate::messages::cell_job::CellEvent>>,
+    /// Answers to the running program's questions, for the Command Interpreter.
+    pub answers: Arc<MessageQueue<ProgramAnswer>>,
 }
 
 impl StoreLinks {
@@ -484,6 +541,7 @@ impl StoreLinks {
             retired: Arc::new(MessageQueue::new(16)),
             jobs: Arc::new(MessageQueue::new(4)),
             cell_events: Arc::new(MessageQueue::new(64)),
+            answers: Arc::new(MessageQueue::new(4)),
         }
     }
 }
@@ -497,8 +555,9 @@ impl StoreLinks {
             requests: Arc::new(MessageQueue::with_notify(4096, service.clone())),
             starts: Arc::new(MessageQueue::with_notify(4, interpreter.clone())),
             retired: Arc::new(MessageQueue::new(16)),
-            jobs: Arc::new(MessageQueue::with_notify(4, interpreter)),
+            jobs: Arc::new(MessageQueue::with_notify(4, interpreter.clone())),
             cell_events: Arc::new(MessageQueue::with_notify(64, service)),
+            answers: Arc::new(MessageQueue::with_notify(4, interpreter)),
         }
     }
 }

@@ -169,6 +169,7 @@ fn a_command_interpreter_cycle_running_a_program_allocates_and_frees_nothing() {
         },
         name: ProgramName::new("alloc").unwrap(),
         program: Box::new(program),
+        step: false,
     };
     rig.run_until(
         1_000_000_000,

@@ -150,6 +150,7 @@ impl Rig {
                 ticket,
                 epoch,
                 speed_pct,
+                accel_pct: 100.0,
                 kind,
             })
             .unwrap();
@@ -398,6 +399,7 @@ fn a_stop_decelerates_in_the_boards_next_period_and_keeps_the_books() {
             ticket: 2,
             epoch,
             speed_pct: 100.0,
+            accel_pct: 100.0,
             kind: MoveKind::Joints(back),
         })
         .unwrap();

@@ -584,6 +584,11 @@ fn every_verb_is_carried_out_by_someone() {
             "MAP" => "MAP PM1",
             "SWAP" => "SWAP PM1 1",
             "AUTH" => "AUTH s3cret-token-0123456789",
+            "BREAK" => "BREAK 3",
+            "STEP" => "STEP OVER",
+            "VARS" => "VARS N",
+            "POINTS" => "POINTS p",
+            "POINT" => "POINT p SAFE 300 0 50 0",
             "STATUS" | "WHERE" | "HOME" | "STOP" | "ESTOP" | "HOLD" | "RESUME" | "RESET" | "IO"
             | "WAIT" | "CONTROL" | "RELEASE" | "HELP" | "SUBSCRIBE" | "UNSUBSCRIBE"
             | "PROGRAMS" | "PAUSE" | "CONTINUE" | "ABORT" | "ROBOT" | "TASKS" | "STN"

@@ -79,6 +79,7 @@ fn load_run_and_resume_allocate_nothing() {
                 Step::Budget => {}
                 Step::Done => break,
                 Step::Fault(e) => panic!("{e}"),
+                Step::Break(at) => panic!("stopped at {at:?}"),
                 Step::Yield(r) => {
                     requests += 1;
                     if r == Request::Print {
@@ -144,23 +145,22 @@ fn wafer_transfers_and_their_failures_allocate_nothing() {
         loop {
             match vm.run(p, 5, &mut io) {
                 Step::Budget => {}
+                Step::Break(at) => panic!("stopped at {at:?}"),
                 Step::Done => break,
                 Step::Fault(e) => {
                     faults.push((round, e));
                     break;
                 }
                 Step::Yield(r) => {
-                    let mut answer = Resume::Ok;
+                    let answer = Resume::Ok;
                     match r {
                         Request::Transfer { kind, station, .. } => {
                             transfers += 1;
                             if kind == wrc_lang::TransferKind::Get && station.as_str() == "LP1" {
                                 gets += 1;
                                 if round == 1 && gets == 4 {
-                                    answer = Resume::Failed(RuntimeErrorKind::Transfer {
-                                        code: 131,
-                                        reason: "the slot is empty",
-                                    });
+                                    vm.fail(131, "the slot is empty");
+                                    continue;
                                 }
                             }
                         }
@@ -183,8 +183,113 @@ fn wafer_transfers_and_their_failures_allocate_nothing() {
     assert_eq!(lines, [(1, 8), (2, 16), (3, 16)]);
     assert!(matches!(
         faults[0].1.kind,
-        RuntimeErrorKind::Transfer { code: 131, .. }
+        RuntimeErrorKind::Host { code: 131 }
     ));
     assert!(matches!(faults[1].1.kind, RuntimeErrorKind::BadArgument(_)));
     assert!(matches!(faults[2].1.kind, RuntimeErrorKind::BadArgument(_)));
+}
+
+/// Error handling, procedures with locals and recursion, arrays, strings built at run
+/// time, cell questions and the debugger's stops and reads.
+const SEQUENCE: &str = "\
+DIM IDS$[25] AS STRING
+DIM DONE[25]
+TRIES = 0
+FOR n = 1 TO 25
+  IF SLOT(\"LP1\", n) = 1 THEN
+    TRY
+      GET \"LP1\", n
+      PUT \"LP2\", n
+      IDS$[n - 1] = WAFER$(\"LP1\", n) + \"@\" + FORMAT$(n, \"00\")
+      DONE[n - 1] = fact(5)
+    CATCH 212
+      TRIES = TRIES + 1
+      IF TRIES MOD 2 = 1 THEN
+        RETRY
+      ENDIF
+      ALARM 1001, \"vacuum miss at LP1 slot \" + STR$(n)
+      WAIT OPERATOR \"check the hand\"
+    CATCH
+      PRINT \"skipped\", n, ERR, ERRMSG$
+    ENDTRY
+  ENDIF
+  SELECT CASE n MOD 3
+    CASE 0
+      X$ = LEFT$(\"abcdef\", 2) + MID$(\"wafer\", 2, 3)
+    CASE ELSE
+      X$ = UCASE$(\"lp\")
+  ENDSELECT
+NEXT
+DO
+  TRIES = TRIES - 1
+LOOP UNTIL TRIES <= 0
+PRINT \"done\", IDS$[4], DONE[4], X$
+END
+FUNCTION fact(k)
+  LOCAL acc = 1
+  IF k > 1 THEN
+    acc = k * fact(k - 1)
+  ENDIF
+  RETURN acc
+ENDFUNCTION
+";
+
+#[test]
+fn errors_procedures_arrays_strings_and_the_debugger_allocate_nothing() {
+    wrc_alloc_count::assert_installed();
+    let p = program(SEQUENCE);
+    let mut vm = Vm::new(VmLimits::default());
+    let io = Io::default();
+    let get_line = p
+        .statement_on_line(7)
+        .unwrap_or_else(|| panic!("line 7 has a statement"));
+    let mut transfers = 0;
+    let mut stops = 0;
+    let mut printed = 0;
+    let mut watched = 0;
+    let before = heap_calls().allocations;
+    for round in 0..2 {
+        let breaks = [get_line];
+        vm.set_breakpoints(if round == 1 { &breaks } else { &[] });
+        vm.load(&p).unwrap();
+        loop {
+            match vm.run(&p, 37, &mut io.clone()) {
+                Step::Budget => {}
+                Step::Done => break,
+                Step::Fault(e) => panic!("{e}"),
+                Step::Break(_) => {
+                    stops += 1;
+                    if let Some(v) = vm.variable(&p, "TRIES") {
+                        let mut text = wrc_lang::Text::EMPTY;
+                        let _ = vm.write_variable(&p, &v, None, &mut text);
+                        watched += text.as_str().len();
+                    }
+                    if stops % 3 == 0 {
+                        vm.step(wrc_lang::StepMode::Over);
+                    }
+                }
+                Step::Yield(r) => {
+                    if let Request::Transfer { slot, .. } = r {
+                        transfers += 1;
+                        // Every fifth GET misses its wafer.
+                        if slot % 5 == 0 {
+                            vm.fail(212, "wafer not sensed");
+                            continue;
+                        }
+                    }
+                    if r == Request::Print {
+                        printed += vm.print_text().len();
+                    }
+                    vm.resume(crate::common::answer(&r, &io));
+                }
+            }
+        }
+    }
+    let after = heap_calls().allocations;
+    assert_eq!(after - before, 0, "the sequence allocated");
+    assert!(transfers > 2 * 45, "{transfers}");
+    assert!(stops >= 25, "{stops}");
+    assert!(watched > 0 && printed > 0);
+    let _ = RuntimeErrorKind::NoReturn;
+    let _ = Resume::Ok;
 }

@@ -1,7 +1,10 @@
 //! Shared helpers: the default robot, compiling without errors, and a host that runs a
 //! program to its end and records what it asked for.
 
-use wrc_lang::{compile, Program, Request, Resume, RuntimeError, Step, Vm, VmIo, VmLimits};
+use wrc_lang::{
+    compile, Answer, CellInfo, Program, Request, Resume, RuntimeError, Step, Text, Vm, VmIo,
+    VmLimits,
+};
 use wrc_robot::{Pose, Robot};
 
 /// The robot of the embedded default configuration (the paper's 300 mm robot).
@@ -43,10 +46,43 @@ pub struct Run {
     pub printed: Vec<String>,
     /// The fault that ended the run, if any.
     pub fault: Option<RuntimeError>,
+    /// Its text.
+    pub error_text: String,
 }
 
-/// Run `program` to its end, answering every request with `Resume::Ok` (an input wait sets
-/// the input, so it is met). Panics after a million budget rounds.
+/// The answer of the test's cell to a request: every slot holds wafer `W<slot>`, stations
+/// have 25 slots 10 mm apart 200 mm from their approach pose at POSE(300, 0, 0, 0), the hand
+/// is empty, TEACH stores the pose `HERE()` gives (or zero joints).
+pub fn answer(request: &Request, io: &Io) -> Resume {
+    match request {
+        Request::Cell(q) => Resume::Value(match q.info {
+            CellInfo::SlotState => Answer::Number(1.0),
+            CellInfo::SlotWafer => {
+                // Written without allocating: the allocation tests answer with it.
+                let mut t = Text::EMPTY;
+                let _ = std::fmt::Write::write_fmt(&mut t, format_args!("W{}", q.slot));
+                Answer::Text(t)
+            }
+            CellInfo::HandWafer => Answer::Text(Text::EMPTY),
+            CellInfo::Slots => Answer::Number(25.0),
+            CellInfo::Pitch => Answer::Number(10.0),
+            CellInfo::Pose => Answer::Pose(Pose {
+                x: 300.0,
+                y: 0.0,
+                z: 0.0,
+                yaw: 0.0,
+            }),
+            CellInfo::Approach => Answer::Number(200.0),
+            other => panic!("{other:?}"),
+        }),
+        Request::Teach { joints: true, .. } => Resume::Value(Answer::Joints([0.0; 16])),
+        Request::Teach { .. } => Resume::Value(Answer::Pose(io.here)),
+        _ => Resume::Ok,
+    }
+}
+
+/// Run `program` to its end, answering every request as [`answer`] does (an input wait
+/// sets the input, so it is met). Panics after a million budget rounds.
 pub fn run(program: &Program) -> Run {
     run_with(program, Io::default(), VmLimits::default())
 }
@@ -62,8 +98,10 @@ pub fn run_with(program: &Program, mut io: Io, limits: VmLimits) -> Run {
             Step::Done => return out,
             Step::Fault(e) => {
                 out.fault = Some(e);
+                out.error_text = vm.error_text().to_string();
                 return out;
             }
+            Step::Break(at) => panic!("stopped at {at:?}"),
             Step::Yield(r) => {
                 if r == Request::Print {
                     out.printed.push(vm.print_text().to_string());
@@ -76,7 +114,7 @@ pub fn run_with(program: &Program, mut io: Io, limits: VmLimits) -> Run {
                     }
                 }
                 out.requests.push(r);
-                vm.resume(Resume::Ok);
+                vm.resume(answer(&r, &io));
             }
         }
     }

@@ -47,7 +47,7 @@ fn the_paper_figures_ask_for_the_papers_moves() {
         .requests
         .iter()
         .filter_map(|q| match q {
-            Request::Move(m) => Some(*m),
+            Request::Move(m, _) => Some(*m),
             _ => None,
         })
         .collect();
@@ -63,8 +63,8 @@ fn the_paper_figures_ask_for_the_papers_moves() {
         .requests
         .iter()
         .filter_map(|q| match q {
-            Request::Move(Motion::Pose(p, _)) => Some(("ptp", p.x, p.y)),
-            Request::Move(Motion::Line(p)) => Some(("line", p.x, p.y)),
+            Request::Move(Motion::Pose(p, _), _) => Some(("ptp", p.x, p.y)),
+            Request::Move(Motion::Line(p), _) => Some(("line", p.x, p.y)),
             _ => None,
         })
         .collect();

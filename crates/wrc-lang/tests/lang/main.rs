@@ -3,10 +3,15 @@
 //! loading and running a program allocate nothing.
 
 mod alloc;
+mod cell;
 mod common;
+mod data;
+mod debugger;
 mod docs;
+mod errors;
 mod examples;
 mod golden;
+mod motion;
 mod requests;
 mod robustness;
 mod roundtrip;

@@ -1,6 +1,6 @@
 //! Every request a program makes reaches the host with the right values.
 
-use wrc_lang::{Motion, Request, TransferKind};
+use wrc_lang::{Motion, MoveOptions, Request, TransferKind};
 use wrc_robot::{InlineName, Pose, Posture, MAX_AXES};
 
 use crate::common::{program, run};
@@ -44,27 +44,42 @@ PUT \"PM_2\", 1
     assert_eq!(
         r.requests,
         [
-            Request::Move(Motion::Home),
-            Request::Move(Motion::Joints(joints(&[30.0, 60.0, -90.0, 100.0]))),
-            Request::Move(Motion::Pose(pose(300.0, -100.0, 0.0, 0.0), None)),
-            Request::Move(Motion::Pose(
-                pose(300.0, -100.0, 10.0, 0.0),
-                Some(Posture::Left)
-            )),
-            Request::Move(Motion::Pose(
-                pose(300.0, -100.0, 0.0, 0.0),
-                Some(Posture::Right)
-            )),
-            Request::Move(Motion::Line(pose(300.0, 150.0, 0.0, 0.0))),
-            Request::Move(Motion::Jog {
-                axis: 1,
-                pulses: -2500
-            }),
-            Request::Move(Motion::Jog {
-                axis: 3,
-                pulses: 1000
-            }),
-            Request::Move(Motion::Jog { axis: 3, pulses: 7 }),
+            Request::Move(Motion::Home, MoveOptions::default()),
+            Request::Move(
+                Motion::Joints(joints(&[30.0, 60.0, -90.0, 100.0])),
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Pose(pose(300.0, -100.0, 0.0, 0.0), None),
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Pose(pose(300.0, -100.0, 10.0, 0.0), Some(Posture::Left)),
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Pose(pose(300.0, -100.0, 0.0, 0.0), Some(Posture::Right)),
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Line(pose(300.0, 150.0, 0.0, 0.0)),
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Jog {
+                    axis: 1,
+                    pulses: -2500
+                },
+                MoveOptions::default()
+            ),
+            Request::Move(
+                Motion::Jog {
+                    axis: 3,
+                    pulses: 1000
+                },
+                MoveOptions::default()
+            ),
+            Request::Move(Motion::Jog { axis: 3, pulses: 7 }, MoveOptions::default()),
             Request::Speed { pct: 35.5 },
             Request::Delay { seconds: 0.25 },
             Request::Out { n: 3, on: true },
@@ -110,7 +125,7 @@ fn computed_arguments_are_evaluated_at_run_time() {
         .requests
         .iter()
         .filter_map(|q| match q {
-            Request::Move(Motion::Joints(j)) => Some((j[0], j[3])),
+            Request::Move(Motion::Joints(j), _) => Some((j[0], j[3])),
             _ => None,
         })
         .collect();

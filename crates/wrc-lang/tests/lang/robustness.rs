@@ -44,7 +44,7 @@ fn exercise(source: &str) {
         let mut io = Io::default();
         for _ in 0..200 {
             match vm.run(&p, 100, &mut io) {
-                Step::Budget => {}
+                Step::Budget | Step::Break(_) => {}
                 Step::Yield(_) => vm.resume(Resume::Ok),
                 Step::Done | Step::Fault(_) => break,
             }

@@ -103,17 +103,20 @@ fn header_errors_say_what_is_wrong() {
 #[test]
 fn the_listing_and_json_describe_the_program() {
     let p =
-        program("P = POSE(300, 0, 0, 0)\nMOVEL P\nCALL s\nEND\nSUB s\n  PRINT \"hi\"\nENDSUB\n");
+        program("P = POSE(300, 0, 0, 0)\nMOVEL P\nCALL s\nPRINT f(2)\nEND\nSUB s\n  PRINT \"hi\"\nENDSUB\nFUNCTION f(x)\n  RETURN x * 2\nENDFUNCTION\n");
     let listing = p.listing();
     assert!(listing.contains("; v0 P (pose)"), "{listing}");
     assert!(listing.contains("; SUB s @"), "{listing}");
+    assert!(listing.contains("; FUNCTION (number) f @"), "{listing}");
     assert!(listing.contains("2:1      MOVEL"), "{listing}");
     assert!(listing.contains("CALL     @"), "{listing}");
     let json: serde_json::Value = serde_json::from_str(&p.to_json()).expect("valid JSON");
     assert_eq!(json["version"], FORMAT_VERSION);
     assert_eq!(json["variables"][0]["type"], "pose");
     assert_eq!(json["strings"][0], "hi");
-    assert_eq!(json["subs"][0]["name"], "s");
+    assert_eq!(json["routines"][0]["name"], "s");
+    assert_eq!(json["routines"][1]["returns"], "number");
+    assert_eq!(json["routines"][1]["params"], 1);
     let code = json["code"].as_array().unwrap();
     assert_eq!(code.len(), p.len());
     assert!(code.iter().any(|i| i["op"] == "MOVEL" && i["line"] == 2));

@@ -110,21 +110,17 @@ fn a_failed_transfer_ends_the_program_with_the_hosts_fault_at_the_get_line() {
     // The request repeats until the host answers.
     assert_eq!(vm.run(&p, 100, &mut io), Step::Yield(get("LP1", 1)));
     assert_eq!(vm.position(&p).map(|pos| pos.line), Some(3));
-    let empty = RuntimeErrorKind::Transfer {
-        code: 131,
-        reason: "the slot is empty",
-    };
-    vm.resume(Resume::Failed(empty));
+    let empty = RuntimeErrorKind::Host { code: 131 };
+    vm.fail(131, "the slot is empty");
     let fault = RuntimeError {
         kind: empty,
         line: 3,
         col: 3,
+        file: 0,
     };
     assert_eq!(vm.run(&p, 100, &mut io), Step::Fault(fault));
-    assert_eq!(
-        fault.to_string(),
-        "line 3: transfer failed: the slot is empty"
-    );
+    assert_eq!(vm.error_text(), "the slot is empty");
+    assert_eq!(fault.kind.code(), 131);
     // Nothing after the failed GET runs (no PUT); the fault is sticky until the next load.
     assert_eq!(vm.run(&p, 100, &mut io), Step::Fault(fault));
     assert!(!vm.is_waiting());
@@ -137,21 +133,19 @@ fn a_failed_transfer_ends_the_program_with_the_hosts_fault_at_the_get_line() {
         vm.resume(Resume::Ok);
     }
     assert_eq!(vm.run(&p, 100, &mut io), Step::Yield(put("LP2", 2)));
-    vm.resume(Resume::Failed(RuntimeErrorKind::Transfer {
-        code: 132,
-        reason: "the slot is occupied",
-    }));
+    vm.fail(132, "the slot is occupied");
     let Step::Fault(e) = vm.run(&p, 100, &mut io) else {
         panic!("a fault")
     };
     assert_eq!((e.line, e.col), (4, 3));
     vm.load(&p).unwrap();
     assert_eq!(vm.run(&p, 100, &mut io), Step::Yield(map("LP1")));
-    vm.resume(Resume::Failed(RuntimeErrorKind::Aborted("E-stop")));
+    vm.fail(201, "E-stop");
     let Step::Fault(e) = vm.run(&p, 100, &mut io) else {
         panic!("a fault")
     };
-    assert_eq!((e.kind, e.line), (RuntimeErrorKind::Aborted("E-stop"), 1));
+    assert_eq!((e.kind, e.line), (RuntimeErrorKind::Host { code: 201 }, 1));
+    assert_eq!(vm.error_text(), "E-stop");
 }
 
 /// The rendered diagnostics of `source`, which must not compile.

@@ -168,17 +168,16 @@ fn a_refused_move_faults_at_the_move_on_the_next_run() {
     assert!(matches!(vm.run(&p, 100, &mut io), Step::Yield(_)));
     vm.resume(Resume::Ok);
     let step = vm.run(&p, 100, &mut io);
-    assert!(matches!(step, Step::Yield(Request::Move(_))), "{step:?}");
+    assert!(matches!(step, Step::Yield(Request::Move(..))), "{step:?}");
     assert!(vm.is_waiting());
     assert_eq!(vm.position(&p).map(|p| p.line), Some(2));
-    vm.resume(Resume::Failed(RuntimeErrorKind::Unreachable(
-        "target out of reach",
-    )));
+    vm.fail(111, "target out of reach");
     let Step::Fault(e) = vm.run(&p, 100, &mut io) else {
         panic!("a fault")
     };
     assert_eq!(e.line, 2);
-    assert_eq!(e.to_string(), "line 2: move refused: target out of reach");
+    assert_eq!(e.kind.code(), 111);
+    assert_eq!(vm.error_text(), "target out of reach");
     // The fault is sticky until the next load.
     assert!(matches!(vm.run(&p, 100, &mut io), Step::Fault(_)));
     vm.load(&p).unwrap();
@@ -210,7 +209,8 @@ fn a_wait_timeout_from_the_host_is_a_fault_at_the_wait() {
         Step::Fault(RuntimeError {
             kind: RuntimeErrorKind::WaitTimeout,
             line: 2,
-            col: 1
+            col: 1,
+            file: 0,
         })
     );
 }
@@ -270,6 +270,7 @@ fn load_checks_the_limits_and_run_checks_the_program() {
         stack: 1,
         variables: 16,
         call_depth: 4,
+        ..VmLimits::default()
     });
     assert_eq!(
         vm.load(&p),
@@ -282,6 +283,7 @@ fn load_checks_the_limits_and_run_checks_the_program() {
         stack: 16,
         variables: 2,
         call_depth: 4,
+        ..VmLimits::default()
     });
     assert_eq!(
         vm.load(&p),

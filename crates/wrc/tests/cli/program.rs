@@ -70,7 +70,9 @@ fn an_uploaded_program_runs_prints_and_ends_with_inf() {
     assert_eq!(prints.len(), 2, "{lines:?}");
     assert!(prints[0].starts_with("EVT PRINT at 20"), "{prints:?}");
     assert!(prints[1].starts_with("EVT PRINT at 40"), "{prints:?}");
-    assert!(lines.iter().any(|l| l == "EVT PROGRAM loop RUNNING"));
+    assert!(lines
+        .iter()
+        .any(|l| l == "EVT PROGRAM loop RUNNING files=loop"));
     let (_, x, y) = host.where_();
     assert!(
         (x - 300.0).abs() < 0.05 && (y - 40.0).abs() < 0.05,

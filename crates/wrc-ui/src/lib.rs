@@ -7,8 +7,11 @@
 //!   lines out, as text frames, each pushed the moment it arrives.
 //! - The controller's simulator datagrams (UDP) are fanned out to every WebSocket as binary
 //!   frames; a browser that is behind loses datagrams, never lines.
+//! - `/api/compile` and `/api/language`: the editor's compiler, which needs no controller
+//!   (a program, its libraries and points compiled against the configured robot on a
+//!   blocking thread; `compile.rs`, `api.rs`).
 //! - Loopback by default; any other listening address needs a token that every WebSocket
-//!   must present, and a WebSocket from a page of another origin is refused.
+//!   and API request must present, and a page of another origin is refused.
 //!
 //! ```no_run
 //! use wrc_ui::{Endpoint, Options, Ui};
@@ -19,13 +22,17 @@
 //!     token: None,
 //!     controller_token: None,
 //!     web_dir: None,
+//!     robot: wrc_robot::Robot::paper_default(),
+//!     programs: Some("/tmp/wrc/programs".into()),
 //! })
 //! .expect("starts");
 //! println!("GUI on http://{}", ui.local_addr());
 //! ```
 #![deny(missing_docs)]
 
+mod api;
 pub mod assets;
+pub mod compile;
 pub mod session;
 
 use std::net::{SocketAddr, TcpListener, UdpSocket};
@@ -35,13 +42,14 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 use axum::extract::ws::rejection::WebSocketUpgradeRejection;
-use axum::extract::{Query, State, WebSocketUpgrade};
+use axum::extract::{DefaultBodyLimit, Query, State, WebSocketUpgrade};
 use axum::http::{header, HeaderMap, Method, StatusCode, Uri};
 use axum::response::{IntoResponse, Response};
 use axum::routing::any;
 use axum::serve::ListenerExt;
 use axum::Router;
-use tokio::sync::{broadcast, watch};
+use tokio::sync::{broadcast, watch, Semaphore};
+use wrc_robot::Robot;
 
 pub use assets::Assets;
 use session::Datagram;
@@ -66,6 +74,11 @@ pub struct Options {
     pub controller_token: Option<String>,
     /// Serve the app from this folder instead of the embedded one.
     pub web_dir: Option<PathBuf>,
+    /// The robot the editor's programs are compiled for (`/api/compile`): the controller's.
+    pub robot: Robot,
+    /// The controller's program folder (`STATE_DIR/programs`): libraries, called programs
+    /// and points files the editor does not send are read there; `None`: only what it sends.
+    pub programs: Option<PathBuf>,
 }
 
 /// Why `wrc ui` could not start.
@@ -176,6 +189,37 @@ struct App {
     hub: Arc<Hub>,
     assets: Assets,
     token: Option<String>,
+    /// The robot programs are compiled for.
+    robot: Arc<Robot>,
+    /// The controller's program folder, if known.
+    programs: Option<Arc<PathBuf>>,
+    /// Compilations running at once (each on a blocking thread) are at most its permits.
+    compiles: Arc<Semaphore>,
+}
+
+/// Compilations `wrc ui` runs at once; more requests wait their turn.
+const PARALLEL_COMPILES: usize = 2;
+
+/// Why a request to `/ws` or `/api/…` is refused (HTTP 403), if it is: without the right
+/// `?token=` when a token is set, or from a page of another origin than the one it names
+/// (a page of another site must not drive the robot through the operator's browser).
+fn refusal(app: &App, headers: &HeaderMap, query: &[(String, String)]) -> Option<&'static str> {
+    if let Some(expected) = &app.token {
+        let given = query
+            .iter()
+            .find(|(k, _)| k == "token")
+            .map(|(_, v)| v.as_str());
+        if !given.is_some_and(|t| same(t, expected)) {
+            return Some("wrong or missing token: open the page as http://HOST:PORT/?token=…");
+        }
+    }
+    let header = |name: header::HeaderName| headers.get(name).and_then(|v| v.to_str().ok());
+    if let (Some(origin), Some(host)) = (header(header::ORIGIN), header(header::HOST)) {
+        if authority(origin) != authority(host) {
+            return Some("a page of another origin may not use the robot's WebSocket or API");
+        }
+    }
+    None
 }
 
 impl Ui {
@@ -234,6 +278,9 @@ impl Ui {
             hub: hub.clone(),
             assets: assets.clone(),
             token: options.token.clone(),
+            robot: Arc::new(options.robot),
+            programs: options.programs.map(Arc::new),
+            compiles: Arc::new(Semaphore::new(PARALLEL_COMPILES)),
         };
         let thread = std::thread::Builder::new()
             .name("wrc-ui".into())
@@ -303,6 +350,11 @@ async fn serve(listener: TcpListener, sim: Option<UdpSocket>, app: App) {
     }
     let router = Router::new()
         .route("/ws", any(websocket))
+        .route(
+            "/api/compile",
+            any(api::compile).layer(DefaultBodyLimit::max(compile::MAX_REQUEST_BYTES)),
+        )
+        .route("/api/language", any(api::language))
         .fallback(file)
         .with_state(app);
     // Lines go out the moment they are written (no Nagle delay waiting for the browser's
@@ -316,20 +368,24 @@ async fn serve(listener: TcpListener, sim: Option<UdpSocket>, app: App) {
         .await;
 }
 
-/// A short text answer; a refusal also closes the connection.
-fn plain(status: StatusCode, text: &'static str) -> Response {
-    let connection = if status.is_success() || status == StatusCode::NOT_FOUND {
+/// `keep-alive` for an answer, `close` after a refusal.
+fn connection_after(status: StatusCode) -> &'static str {
+    if status.is_success() || status == StatusCode::NOT_FOUND {
         "keep-alive"
     } else {
         "close"
-    };
+    }
+}
+
+/// A one-line text answer; a refusal also closes the connection.
+fn plain(status: StatusCode, text: &str) -> Response {
     (
         status,
         [
             (header::CONTENT_TYPE, "text/plain; charset=utf-8"),
-            (header::CONNECTION, connection),
+            (header::CONNECTION, connection_after(status)),
         ],
-        text,
+        format!("{text}\n"),
     )
         .into_response()
 }
@@ -343,31 +399,13 @@ async fn websocket(
     upgrade: Result<WebSocketUpgrade, WebSocketUpgradeRejection>,
 ) -> Response {
     if method != Method::GET {
-        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET\n");
+        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET");
     }
     let Ok(upgrade) = upgrade else {
-        return plain(StatusCode::BAD_REQUEST, "WebSocket upgrade expected\n");
+        return plain(StatusCode::BAD_REQUEST, "WebSocket upgrade expected");
     };
-    if let Some(expected) = &app.token {
-        let given = query
-            .iter()
-            .find(|(k, _)| k == "token")
-            .map(|(_, v)| v.as_str());
-        if !given.is_some_and(|t| same(t, expected)) {
-            return plain(
-                StatusCode::FORBIDDEN,
-                "wrong or missing token: open the page as http://HOST:PORT/?token=…\n",
-            );
-        }
-    }
-    let header = |name: header::HeaderName| headers.get(name).and_then(|v| v.to_str().ok());
-    if let (Some(origin), Some(host)) = (header(header::ORIGIN), header(header::HOST)) {
-        if authority(origin) != authority(host) {
-            return plain(
-                StatusCode::FORBIDDEN,
-                "a page of another origin may not open the robot's WebSocket\n",
-            );
-        }
+    if let Some(why) = refusal(&app, &headers, &query) {
+        return plain(StatusCode::FORBIDDEN, why);
     }
     let hub = app.hub.clone();
     upgrade
@@ -378,7 +416,7 @@ async fn websocket(
 /// Every other path: a file of the app (GET or HEAD).
 async fn file(State(app): State<App>, method: Method, uri: Uri) -> Response {
     if method != Method::GET && method != Method::HEAD {
-        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET\n");
+        return plain(StatusCode::METHOD_NOT_ALLOWED, "only GET");
     }
     let path = uri.path();
     match app.assets.get(path) {
@@ -401,7 +439,7 @@ async fn file(State(app): State<App>, method: Method, uri: Uri) -> Response {
             MISSING_PAGE,
         )
             .into_response(),
-        None => plain(StatusCode::NOT_FOUND, "no such file\n"),
+        None => plain(StatusCode::NOT_FOUND, "no such file"),
     }
 }
 
@@ -478,6 +516,8 @@ mod tests {
             token: None,
             controller_token: None,
             web_dir: None,
+            robot: Robot::paper_default(),
+            programs: None,
         };
         assert!(matches!(
             Ui::start(options.clone()),

@@ -1,5 +1,6 @@
-//! `wrc ui`: the web GUI's server and bridge (crate `wrc-ui`), started by `wrc up` or alone
-//! on another PC with `--controller HOST:PORT`; stopped by SIGINT or SIGTERM.
+//! `wrc ui`: the web GUI's server, bridge and the editor's compiler (crate `wrc-ui`), started
+//! by `wrc up` or alone on another PC with `--controller HOST:PORT`; stopped by SIGINT or
+//! SIGTERM.
 
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
@@ -7,6 +8,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
+use wrc_config::Config;
 use wrc_ui::{Endpoint, Options, Ui};
 
 /// Arguments of `wrc ui`.
@@ -44,6 +46,15 @@ pub struct UiArgs {
     /// Serve the app from this folder (a `web/dist` build) instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     web_dir: Option<PathBuf>,
+    /// Robot configuration (TOML) the editor's programs are compiled for: the controller's
+    /// (`wrc up` passes its own); default: the embedded paper robot.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// The controller's program folder (`STATE_DIR/programs`; `wrc up` passes its own): the
+    /// editor's compiler reads the libraries, called programs and points files it does not
+    /// send from there.
+    #[arg(long, value_name = "DIR")]
+    programs: Option<PathBuf>,
 }
 
 /// Run `wrc ui` until SIGINT or SIGTERM.
@@ -51,6 +62,7 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
     let mut signals = crate::up::termination_signals()?;
     let listen = SocketAddr::new(args.listen, args.ui_port);
     let controller = Endpoint::parse(&args.controller)?;
+    let config = Config::load(args.config.as_deref())?;
     let controller_token = match &args.controller_token_file {
         Some(file) => Some(
             wrc_controller::host_access::read_token(file)?
@@ -66,6 +78,8 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
         sim_addr: (!args.no_sim).then_some(args.sim_addr),
         token: args.token.clone(),
         web_dir: args.web_dir.clone(),
+        robot: config.robot.clone(),
+        programs: args.programs.clone(),
     })
     .context("the GUI could not start")?;
     let addr = ui.local_addr();
@@ -82,6 +96,18 @@ pub fn run(args: UiArgs) -> anyhow::Result<ExitCode> {
     println!("wrc ui: GUI on http://{host}:{}{query}", addr.port());
     println!("wrc ui: app {}", ui.assets().describe());
     println!("wrc ui: controller {controller}");
+    match &args.programs {
+        Some(dir) => println!(
+            "wrc ui: the editor compiles for {} ({}), with the programs in {}",
+            config.robot.name,
+            config.source,
+            dir.display()
+        ),
+        None => println!(
+            "wrc ui: the editor compiles for {} ({})",
+            config.robot.name, config.source
+        ),
+    }
     match ui.sim_addr() {
         Some(a) => println!("wrc ui: simulator datagrams from udp {a}"),
         None => println!("wrc ui: no simulator stream (--no-sim)"),

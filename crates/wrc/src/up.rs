@@ -315,13 +315,15 @@ fn reap(boards: &mut [BoardProcess], ui: &mut Option<Child>, config: Option<&Pat
     }
 }
 
-/// Start `wrc ui` on the controller's Unix socket and wait until it serves; returns the
-/// child and the GUI's address. Its output after the start goes to `STATE_DIR/ui.log`.
+/// Start `wrc ui` on the controller's Unix socket, compiling for the controller's robot
+/// (`config`) with its program folder, and wait until it serves; returns the child and the
+/// GUI's address. Its output after the start goes to `STATE_DIR/ui.log`.
 fn spawn_ui(
     socket: &Path,
     sim_addr: SocketAddr,
     port: u16,
     state_dir: &Path,
+    config: Option<&Path>,
 ) -> anyhow::Result<(Child, String)> {
     let exe = std::env::current_exe().context("cannot find the wrc executable to start wrc ui")?;
     let log_path = state_dir.join("ui.log");
@@ -333,7 +335,13 @@ fn spawn_ui(
         .arg(sim_addr.to_string())
         .arg("--ui-port")
         .arg(port.to_string())
-        .stdin(Stdio::null())
+        // The editor compiles for this robot and reads the stored programs and points.
+        .arg("--programs")
+        .arg(state_dir.join("programs"));
+    if let Some(config) = config {
+        cmd.arg("--config").arg(config);
+    }
+    cmd.stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     // SAFETY: runs in the child between fork and exec and only calls async-signal-safe
@@ -638,7 +646,13 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
     if args.no_ui {
         println!("wrc: GUI not started (--no-ui)");
     } else if let Some(socket) = &running.socket {
-        match spawn_ui(socket, running.sim_addr, args.ui_port, &args.state_dir) {
+        match spawn_ui(
+            socket,
+            running.sim_addr,
+            args.ui_port,
+            &args.state_dir,
+            args.config.as_deref(),
+        ) {
             Ok((child, url)) => {
                 println!("wrc: GUI on {url}");
                 ui = Some(child);

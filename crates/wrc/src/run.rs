@@ -38,17 +38,28 @@ pub struct RunArgs {
     timeout: f64,
 }
 
-/// A program checked here and what to send for it: the uploads of its libraries and the
-/// programs it calls (deepest first), then its own, its points (those the controller does
-/// not have yet), then `RUN`.
+/// A program checked here and what to send for it: for its libraries and the programs it
+/// calls (deepest first), then for itself, the points of the local points file the
+/// controller does not have yet and the upload; then `RUN`.
 pub(crate) struct Checked {
     /// The name it is stored under.
     pub name: ProgramName,
-    /// The `UPLOAD` requests, each with its text and `.` line, in the order to send them.
-    uploads: Vec<String>,
-    /// The points of its local points file, as `POINT` arguments after the program's name:
-    /// the point's name and its value.
-    points: Vec<(String, String)>,
+    /// What to send before `RUN`, in order.
+    steps: Vec<Setup>,
+}
+
+/// One step of the setup before `RUN`.
+#[derive(Debug, Clone, PartialEq)]
+enum Setup {
+    /// A request (an `UPLOAD` with its text and `.` line).
+    Send(String),
+    /// Program `name`'s local points (`POINT` arguments after the program's name: the
+    /// point's name and its value): ask the controller's with `POINTS`, then send the
+    /// missing ones, before the program's upload (it compiles against them).
+    Points {
+        name: String,
+        points: Vec<(String, String)>,
+    },
 }
 
 /// The `UPLOAD` request of program `name` with `source`, request id `id`.
@@ -119,18 +130,39 @@ pub(crate) fn check(
         eprintln!("wrc: {shown} does not compile; nothing sent");
         return Ok(Err(ExitCode::from(2)));
     }
-    let mut uploads = Vec::new();
+    let mut steps = Vec::new();
     // Libraries and called programs first, the deepest first: each compiles on its
-    // upload with what it includes already stored.
+    // upload with what it includes already stored, and with its points.
     for (k, other) in compiled.sources.iter().enumerate().skip(1).rev() {
-        uploads.push(upload_request(10 + k as u32, &other.name, &other.text)?);
+        steps.extend(local_points(&sources, &other.name, &other.name, config)?);
+        steps.push(Setup::Send(upload_request(
+            10 + k as u32,
+            &other.name,
+            &other.text,
+        )?));
     }
-    uploads.push(upload_request(1, name.as_str(), &source)?);
-    let mut points = Vec::new();
-    if let Ok(Some(text)) = wrc_lang::Sources::points(&sources, stem) {
-        let parsed = wrc_lang::Points::parse(&text, config.robot.axis_count())
-            .map_err(|e| anyhow::anyhow!("{}: {e}", wrc_lang::points::points_file_name(stem)))?;
-        for (point, value) in parsed.iter() {
+    steps.extend(local_points(&sources, stem, name.as_str(), config)?);
+    steps.push(Setup::Send(upload_request(1, name.as_str(), &source)?));
+    Ok(Ok(Checked { name, steps }))
+}
+
+/// The points step of program `stem`'s local points file (`<stem>.points.toml` in
+/// `sources`), for the program stored as `name`; none without a points file.
+fn local_points(
+    sources: &wrc_lang::DirSources,
+    stem: &str,
+    name: &str,
+    config: &Config,
+) -> anyhow::Result<Option<Setup>> {
+    let text = match wrc_lang::Sources::points(sources, stem) {
+        Ok(Some(text)) => text,
+        _ => return Ok(None),
+    };
+    let parsed = wrc_lang::Points::parse(&text, config.robot.axis_count())
+        .map_err(|e| anyhow::anyhow!("{}: {e}", wrc_lang::points::points_file_name(stem)))?;
+    let points = parsed
+        .iter()
+        .map(|(point, value)| {
             let args = match value {
                 wrc_lang::PointValue::Pose(p) => format!("{} {} {} {}", p.x, p.y, p.z, p.yaw),
                 wrc_lang::PointValue::Joints(j) => {
@@ -141,12 +173,11 @@ pub(crate) fn check(
                     format!("JOINTS {}", values.join(" "))
                 }
             };
-            points.push((point.to_string(), args));
-        }
-    }
-    Ok(Ok(Checked {
-        name,
-        uploads,
+            (point.to_string(), args)
+        })
+        .collect();
+    Ok(Some(Setup::Points {
+        name: name.to_string(),
         points,
     }))
 }
@@ -177,35 +208,33 @@ pub(crate) enum Heard {
 /// then what the program prints until it ends.
 pub(crate) struct Conversation {
     name: ProgramName,
-    /// Requests still to send before `POINTS` (the uploads; then the missing points).
-    queue: std::collections::VecDeque<String>,
-    points: Vec<(String, String)>,
-    /// The names of the points the controller has.
+    /// What is still to do before `RUN`.
+    queue: std::collections::VecDeque<Setup>,
+    /// While `POINTS` is asked: the program and its local points.
+    asked: Option<(String, Vec<(String, String)>)>,
+    /// The names of the points the controller has (of the program asked about).
     known: Vec<String>,
     phase: Phase,
     /// The id of the request whose ACK is awaited.
     awaiting: String,
-    points_asked: bool,
 }
 
 impl Conversation {
     /// The conversation for `checked`, and the first request to send.
     pub(crate) fn start(checked: Checked) -> (Conversation, String) {
-        let mut queue: std::collections::VecDeque<String> = checked.uploads.into();
-        let first = queue.pop_front().unwrap_or_default();
-        let awaiting = first.split(' ').next().unwrap_or("1").to_string();
-        (
-            Conversation {
-                name: checked.name,
-                queue,
-                points: checked.points,
-                known: Vec::new(),
-                phase: Phase::Setting,
-                awaiting,
-                points_asked: false,
-            },
-            first,
-        )
+        let mut talk = Conversation {
+            name: checked.name,
+            queue: checked.steps.into(),
+            asked: None,
+            known: Vec::new(),
+            phase: Phase::Setting,
+            awaiting: String::new(),
+        };
+        let first = match talk.next() {
+            Heard::Send(r) => r,
+            _ => String::new(),
+        };
+        (talk, first)
     }
 
     fn send(&mut self, request: String) -> Heard {
@@ -213,18 +242,25 @@ impl Conversation {
         Heard::Send(request)
     }
 
-    /// The next request after an ACK of the setup.
+    /// The next request of the setup, or `RUN` once it is done.
     fn next(&mut self) -> Heard {
-        if let Some(r) = self.queue.pop_front() {
-            return self.send(r);
+        match self.queue.pop_front() {
+            Some(Setup::Send(r)) => {
+                self.phase = Phase::Setting;
+                self.send(r)
+            }
+            Some(Setup::Points { name, points }) => {
+                self.phase = Phase::Points;
+                self.known.clear();
+                let request = format!("9 POINTS {name}\n");
+                self.asked = Some((name, points));
+                self.send(request)
+            }
+            None => {
+                self.phase = Phase::Running;
+                Heard::Send(format!("2 RUN {}\n", self.name))
+            }
         }
-        if !self.points.is_empty() && !self.points_asked {
-            self.points_asked = true;
-            self.phase = Phase::Points;
-            return self.send(format!("9 POINTS {}\n", self.name));
-        }
-        self.phase = Phase::Running;
-        Heard::Send(format!("2 RUN {}\n", self.name))
     }
 
     /// Take one line `l` from the controller: print what `wrc run` prints (`PRINT` events
@@ -242,26 +278,27 @@ impl Conversation {
                     (self.phase, l.strip_prefix("EVT POINT "))
                 {
                     let mut w = point.split(' ');
-                    if w.next() == Some(self.name.as_str()) {
+                    let asked = self.asked.as_ref().map(|(n, _)| n.as_str());
+                    if w.next() == asked {
                         if let Some(p) = w.next() {
                             self.known.push(p.to_ascii_uppercase());
                         }
                     }
                 } else if kind == "ACK" && id == self.awaiting {
-                    if self.phase == Phase::Points {
-                        self.phase = Phase::Setting;
+                    if let (Phase::Points, Some((name, points))) = (self.phase, self.asked.take()) {
                         // Only the points the controller does not have: never overwrite a
-                        // point taught there.
-                        let missing: Vec<String> = self
-                            .points
+                        // point taught there. They go before the program's upload.
+                        let missing: Vec<Setup> = points
                             .iter()
                             .filter(|(p, _)| !self.known.contains(&p.to_ascii_uppercase()))
                             .enumerate()
                             .map(|(k, (p, args))| {
-                                format!("{} POINT {} {p} {args}\n", 30 + k, self.name)
+                                Setup::Send(format!("{} POINT {name} {p} {args}\n", 30 + k))
                             })
                             .collect();
-                        self.queue.extend(missing);
+                        for step in missing.into_iter().rev() {
+                            self.queue.push_front(step);
+                        }
                     }
                     return self.next();
                 } else if kind == "NAK" && id == self.awaiting {

@@ -23,6 +23,7 @@ use wrc_rt::ipc::MessageQueue;
 use wrc_rt::{CycleContext, Release, Task};
 
 mod admission;
+mod blend;
 mod debug;
 mod job;
 mod motion;

@@ -22,6 +22,7 @@ use wrc_lang::{
 use wrc_protocol::{AxisArg, Code, Command, Event, ProgramName, ReplyTo};
 use wrc_robot::Pose;
 
+use super::blend::{Deferred, Pending};
 use super::motion::motion_failure;
 use super::{deliver, CommandInterpreter, PROGRAM_BUDGET, PROGRAM_REQUESTS};
 use crate::messages::{MoveOutcome, ProgramAnswer, ProgramStart, SourceId, StoreRequest};
@@ -84,6 +85,10 @@ pub(super) struct RunningProgram {
     pub(super) job_request: Option<StoreRequest>,
     /// The text of the error being handed over ([`ProgramWait::Failed`]).
     pub(super) failure: FixedText<200>,
+    /// A motion held back because it blends into the next.
+    pub(super) pending: Option<Pending>,
+    /// What runs once the awaited motion (a held one, ordered) has ended.
+    pub(super) deferred: Option<Deferred>,
 }
 
 /// What a program reads synchronously: inputs, the pose where its last motion ended and
@@ -208,6 +213,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             stepping: false,
             job_request: None,
             failure: FixedText::new(),
+            pending: None,
+            deferred: None,
         });
         self.program_started_ns = self.now_ns;
         self.apply_breakpoints();
@@ -291,6 +298,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             p.wait = ProgramWait::Failed(code);
             p.failure = FixedText::new();
             let _ = p.failure.write_str(text);
+            p.pending = None;
+            p.deferred = None;
         }
     }
 
@@ -352,22 +361,34 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// A motion of the running program finished.
+    /// A motion of the running program finished (the one it waits for, or one queued
+    /// before it: a held run ordered ahead of the next motion).
     pub(super) fn program_motion_done(&mut self, ticket: u32, outcome: MoveOutcome) {
         let Some(p) = self.program.as_mut() else {
             return;
         };
-        if p.wait != ProgramWait::Motion(ticket) {
-            return;
-        }
+        let awaited = p.wait == ProgramWait::Motion(ticket);
         match motion_failure(outcome) {
             None => {
+                if !awaited {
+                    return;
+                }
                 p.wait = ProgramWait::Nothing;
-                self.vm.resume(Resume::Ok);
+                match p.deferred.take() {
+                    None => self.vm.resume(Resume::Ok),
+                    Some(Deferred::End) => self.end_program(None),
+                    Some(Deferred::Request(request)) => {
+                        self.program_yield(request);
+                    }
+                }
             }
             // The operator's STOP ends the program.
             Some((Code::Stopped, text)) => self.end_program(Some((Code::Stopped, text))),
-            Some((code, text)) => self.program_failed(code, text),
+            Some((code, text)) => {
+                if awaited || matches!(p.wait, ProgramWait::Motion(_)) {
+                    self.program_failed(code, text);
+                }
+            }
         }
     }
 
@@ -524,16 +545,26 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             let Some(p) = self.program.as_ref() else {
                 return;
             };
+            let here = match p.pending {
+                Some(held) => held.end_pose(&self.robot),
+                None => self.robot.forward(&self.planned_end),
+            };
             let mut io = ProgramIo {
                 inputs: self.shared.inputs[0].load(Ordering::Acquire),
-                here: self.robot.forward(&self.planned_end),
+                here,
                 seconds: self.now_ns.saturating_sub(self.program_started_ns) as f64 * 1e-9,
             };
             let step = self.vm.run(&p.program, PROGRAM_BUDGET, &mut io);
             self.publish_line();
             match step {
                 Step::Budget => return,
-                Step::Done => return self.end_program(None),
+                Step::Done => {
+                    // A held (blended) motion runs to its target first.
+                    if self.flush_before(Deferred::End) {
+                        self.end_program(None);
+                    }
+                    return;
+                }
                 Step::Break(pos) => {
                     if let Some(p) = self.program.as_mut() {
                         p.paused = true;
@@ -543,6 +574,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     return;
                 }
                 Step::Fault(e) => {
+                    self.drop_pending();
                     let code = match e.kind {
                         RuntimeErrorKind::WaitTimeout => Code::WaitTimeout,
                         RuntimeErrorKind::Host { code } | RuntimeErrorKind::Raised { code } => {
@@ -631,6 +663,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// Carry out one request of the program; `true` when it may go on at once.
     pub(super) fn program_yield(&mut self, request: VmRequest) -> bool {
         use VmRequest as R;
+        if let R::Move(motion, options) = request {
+            if let Some(going_on) = self.blend_motion(motion, options) {
+                return going_on;
+            }
+        } else if !self.flush_before(Deferred::Request(request)) {
+            // A held (blended) motion runs to its target first; then this request.
+            return false;
+        }
         let command = match request {
             R::Move(motion, options) => match self.program_motion(motion, options) {
                 Some(c) => c,

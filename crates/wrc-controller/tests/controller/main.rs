@@ -11,6 +11,7 @@ mod host_access;
 mod motion;
 mod paths;
 mod pipeline;
+mod programs;
 mod sessions;
 mod stall;
 mod stop_end;

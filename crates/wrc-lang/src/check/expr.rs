@@ -124,7 +124,7 @@ impl Checker<'_> {
             )
         } else {
             format!(
-                "unknown variable {}: it is never assigned (assign it first: {} = …)",
+                "unknown variable {}: it is never assigned (assign it first, {} = …, or teach it as a named point)",
                 name.text, name.text
             )
         };

@@ -442,7 +442,7 @@ impl Checker<'_> {
             self.dims(name, dims)
         };
         let g = self.new_global(u, name);
-        let ty = ty.map_or(Ty::Number, |t| t.ty);
+        let ty = ty.map_or(default_ty(name), |t| t.ty);
         let glob = &mut self.globals[g as usize];
         glob.ty = Some(ty);
         glob.ty_span = name.span;
@@ -501,7 +501,7 @@ impl Checker<'_> {
             kind,
             params: Vec::new(),
             ret: match kind {
-                RoutineKind::Function => Some(ret.map_or(Ty::Number, |t| t.ty)),
+                RoutineKind::Function => Some(ret.map_or(default_ty(name), |t| t.ty)),
                 RoutineKind::Sub => None,
             },
             called: false,
@@ -513,7 +513,7 @@ impl Checker<'_> {
         };
         let mut signature = Vec::new();
         for p in params {
-            let ty = p.ty.map_or(Ty::Number, |t| t.ty);
+            let ty = p.ty.map_or(default_ty(&p.name), |t| t.ty);
             if routine.local_index.contains_key(&p.name.key) {
                 self.error(
                     p.name.span,
@@ -548,7 +548,9 @@ impl Checker<'_> {
                     "FUNCTION {}({}) AS {}",
                     name.text,
                     signature.join(", "),
-                    ret.map_or(Ty::Number, |t| t.ty).name().to_ascii_uppercase()
+                    ret.map_or(default_ty(name), |t| t.ty)
+                        .name()
+                        .to_ascii_uppercase()
                 ),
             };
             let k = if kind == RoutineKind::Sub {
@@ -583,7 +585,7 @@ impl Checker<'_> {
                 }
                 StmtKind::Dim { name, dims, ty } => {
                     let ty = Some(ty.unwrap_or(TypeDecl {
-                        ty: Ty::Number,
+                        ty: default_ty(name),
                         span: name.span,
                     }));
                     self.declare_local(name, dims, ty, scope);
@@ -628,7 +630,9 @@ impl Checker<'_> {
         let slot = routine.next_slot;
         routine.add_local(Local {
             name: name.text.clone(),
-            ty: ty.map(|t| t.ty),
+            ty: ty
+                .map(|t| t.ty)
+                .or_else(|| name.text.ends_with('$').then_some(Ty::Str)),
             span: name.span,
             dims: d,
             slot,
@@ -954,5 +958,15 @@ pub(crate) fn for_each_block<'s>(kind: &'s StmtKind, mut f: impl FnMut(&'s [Stmt
         | StmtKind::Exit(_)
         | StmtKind::Retry
         | StmtKind::Include { .. } => {}
+    }
+}
+
+/// The type of a declared name without `AS`: a string when it ends in `$` (`who$`,
+/// `name$(…)`), else a number.
+fn default_ty(name: &Name) -> Ty {
+    if name.text.ends_with('$') {
+        Ty::Str
+    } else {
+        Ty::Number
     }
 }

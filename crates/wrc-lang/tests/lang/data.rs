@@ -111,6 +111,32 @@ ENDFUNCTION
 }
 
 #[test]
+fn a_name_that_ends_in_a_dollar_is_a_string_where_no_as_says_otherwise() {
+    let out = printed(
+        "\
+CALL greet(\"cell\")
+PRINT label$(3)
+END
+SUB greet(who$)
+  LOCAL text$ = \"hello \" + who$
+  DIM parts$[2]
+  parts$[1] = text$
+  PRINT parts$[1]
+ENDSUB
+FUNCTION label$(n)
+  RETURN \"slot \" + STR$(n)
+ENDFUNCTION
+",
+    );
+    assert_eq!(out, ["hello cell", "slot 3"]);
+    let e = errors("CALL greet(1)\nEND\nSUB greet(who$)\n  PRINT who$\nENDSUB\n");
+    assert_eq!(
+        e,
+        ["1:12 argument 1 of greet must be a string, got a number"]
+    );
+}
+
+#[test]
 fn a_function_in_an_expression_can_move_the_robot() {
     // The expression's values wait on the stack while the FUNCTION's motion runs.
     let r = run(&program(

@@ -400,3 +400,30 @@ fn a_client_lost_mid_move_is_in_the_trace_and_its_loss_replays_identically() {
         .any(|m| m.text().starts_with("EVT ERROR 208"));
     assert!(replayed, "the recording holds the loss's error");
 }
+
+#[test]
+fn a_programs_points_and_those_of_the_program_it_calls_go_before_their_uploads() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.path().join(name), text).unwrap();
+    write(
+        "main.wrl",
+        "HOME\nMOVEL ABOVE\nPRINT \"main at\", HERE()\nCALL PROGRAM \"other\"\n",
+    );
+    write(
+        "main.points.toml",
+        "[points]\nABOVE = { x = 250.0, y = 50.0, z = 20.0, yaw = 0.0 }\n",
+    );
+    write("other.wrl", "MOVEJ PARK\nPRINT \"other at\", HERE()\n");
+    write(
+        "other.points.toml",
+        "[points]\nPARK = { joints = [30.0, 60.0, -90.0, 10.0] }\n",
+    );
+    let program = dir.path().join("main.wrl");
+    let out = wrc(&["sim", program.to_str().unwrap()]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines[0], "main at POSE(250, 50, 20, 0)", "{stdout}");
+    assert!(lines[1].starts_with("other at POSE("), "{stdout}");
+    assert_eq!(lines[2], "INF 2");
+}

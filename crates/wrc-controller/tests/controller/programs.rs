@@ -614,3 +614,74 @@ PRINT \"end\", HERE()
     let (start, stop) = (moving[0], *moving.last().unwrap());
     assert!(!standstills(&pulses, start, stop).is_empty());
 }
+
+#[test]
+fn the_example_wafer_cycle_skips_empty_slots_and_gives_up_a_wafer_the_operator_skips() {
+    let scratch = tempfile::tempdir().unwrap();
+    let demo = std::fs::read_to_string(repo().join("config/stations.toml")).unwrap();
+    // LP1 lacks the wafers of slots 3 and 7; LP2 slot 10 is taken already.
+    let cell = demo
+        .replacen(
+            "wafers = \"11111 11111 11111 11111 11111\"",
+            "wafers = \"11011 10111 11111 11111 11111\"",
+            1,
+        )
+        .replacen(
+            "wafers = \"00000 00000 00000 00000 00000\"",
+            "wafers = \"00000 00001 00000 00000 00000\"",
+            1,
+        );
+    let stations = scratch.path().join("cell.toml");
+    std::fs::write(&stations, &cell).unwrap();
+    let mut host = VHost::start_with(SimCellFrom {
+        stations: Some(&stations),
+        world: None,
+    });
+    let library = std::fs::read_to_string(repo().join("examples/cell_lib.wrl")).unwrap();
+    assert!(upload(&mut host, 5, "cell_lib", &library).starts_with("ACK 5 "));
+    let program = std::fs::read_to_string(repo().join("examples/wafer_cycle.wrl")).unwrap();
+    ready_with(&mut host, &program);
+    assert_eq!(host.ask("9 RUN p"), "ACK 9");
+    // After the second wafer, someone takes the wafer of LP1 slot 5 away.
+    host.until("EVT PRINT wafer 2 of 22:");
+    let slot5 = {
+        let board = host.sim.board(0).unwrap();
+        let world = board.cell().unwrap().world();
+        match world.slot("LP1", 5).unwrap() {
+            wrc_board::wrc_cell::SlotContent::Wafer(tag) => tag,
+            other => panic!("{other:?}"),
+        }
+    };
+    edit_world(&host, |t| t.replacen(&format!("\"T{slot5}\""), "\"-\"", 1));
+    let alarm = host.until("EVT ALARM");
+    assert!(
+        alarm.starts_with("EVT ALARM 1001 p cell_lib:")
+            && alarm.ends_with(": no wafer on the hand from LP1 slot 5"),
+        "{alarm}"
+    );
+    host.until("EVT PROGRAM p WAITING");
+    assert_eq!(host.ask("10 CONTINUE skip"), "ACK 10");
+    assert_eq!(host.reply(), "INF 9", "{:?}", host.seen);
+    let out = printed(&host);
+    assert_eq!(out.last().unwrap(), "all 21 wafers are in LP2");
+    for line in [
+        "LP1 slot 3 holds no wafer: skipped",
+        "LP1 slot 7 holds no wafer: skipped",
+        "LP2 slot 10 is taken: LP1 slot 10 stays",
+        "wafer 21 of 22: LP1 slot 25 -> AL -> LP2 slot 25",
+    ] {
+        assert!(out.iter().any(|l| l == line), "{line}: {out:?}");
+    }
+    // The cell and the map agree: slot 5's wafer was skipped (the station was mapped
+    // again), slot 10's stayed.
+    assert_eq!(host.truth("LP1"), "0000000001000000000000000");
+    assert_eq!(host.truth("LP2"), "1101010111111111111111111");
+    let wafers = host.ask("11 WAFERS");
+    for station in ["LP1", "LP2", "AL"] {
+        assert_eq!(
+            crate::vhost::map_codes(&wafers, station),
+            host.truth(station),
+            "{station}: {wafers}"
+        );
+    }
+}

@@ -54,6 +54,17 @@ fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
     let dir = tempfile::tempdir().unwrap();
     let mut sim = demo(dir.path(), SimCellFrom::default());
     let mut host = sim.connect().unwrap();
+    // Its library first: the program compiles against it when it is stored.
+    let library = std::fs::read_to_string(repo().join("examples/cell_lib.wrl")).unwrap();
+    let mut upload = String::from("7 UPLOAD cell_lib\n");
+    for line in library.lines() {
+        upload.push_str(line);
+        upload.push('\n');
+    }
+    upload.push_str(".\n");
+    sim.send(&mut host, &upload).unwrap();
+    let ack = sim.next_line(&mut host, REPLY_NS).unwrap();
+    assert!(ack.starts_with("ACK 7 name=cell_lib "), "{ack}");
     let program = std::fs::read_to_string(repo().join("examples/wafer_cycle.wrl")).unwrap();
     let heard: Vec<String> = run_program(&mut sim, &mut host, "wafer_cycle", &program)
         .into_iter()

@@ -20,7 +20,7 @@ use std::collections::HashMap;
 
 use wrc_robot::{Posture, Robot};
 
-use crate::ast::{BinOp, ExitKind, RoutineKind, Stmt, UnOp};
+use crate::ast::{BinOp, ExitKind, RoutineKind, Stmt, StmtKind, UnOp};
 use crate::builtins::Builtin;
 use crate::bytecode::{Init, Variable};
 use crate::diagnostic::{Diagnostic, Span};
@@ -338,7 +338,7 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
             Some(r) => bodies[r as usize] = Some(out),
         }
     }
-    c.warn_unused();
+    c.warn_unused(units.first().is_some_and(|u| is_library(&u.stmts)));
 
     let errors = c.diags.iter().filter(|d| d.is_error()).count();
     if errors > errors_before {
@@ -458,4 +458,16 @@ impl Checker<'_> {
             Some(r) => self.routines[r as usize].program,
         }
     }
+}
+
+/// Whether a program is a library: nothing at its top level runs (only SUBs, FUNCTIONs,
+/// DIMs and INCLUDEs), so its routines are there for others to call.
+fn is_library(stmts: &[Stmt]) -> bool {
+    !stmts.is_empty()
+        && stmts.iter().all(|s| {
+            matches!(
+                s.kind,
+                StmtKind::Routine { .. } | StmtKind::Include { .. } | StmtKind::Dim { .. }
+            )
+        })
 }

@@ -852,8 +852,9 @@ impl Checker<'_> {
         }
     }
 
-    /// Warnings: unused variables, locals and routines.
-    pub(super) fn warn_unused(&mut self) {
+    /// Warnings: unused variables, locals and routines. Warn of what is never used; a SUB or FUNCTION never called only in the program's own
+    /// file (not an included library's), and not at all in a library.
+    pub(super) fn warn_unused(&mut self, library: bool) {
         let mut warnings = Vec::new();
         for v in &self.globals {
             if v.unit == 0
@@ -878,7 +879,7 @@ impl Checker<'_> {
             }
         }
         for r in &self.routines {
-            if r.unit == 0 && !r.called && !r.program {
+            if r.unit == 0 && !r.called && !r.program && !library && r.name.span.file == 0 {
                 warnings.push((
                     r.name.span,
                     format!("{} {} is never called", r.kind.word(), r.name.text),

@@ -542,7 +542,7 @@ mod tests {
     #[test]
     fn format_pads_and_rounds() {
         let f = |x: f64, p: &str| format(x, p).map(|t| t.as_str().to_string());
-        assert_eq!(f(3.14159, "0.00").unwrap(), "3.14");
+        assert_eq!(f(1.23456, "0.00").unwrap(), "1.23");
         assert_eq!(f(7.0, "000").unwrap(), "007");
         assert_eq!(f(2.5, "0").unwrap(), "3");
         assert_eq!(f(-2.5, "0").unwrap(), "-3");

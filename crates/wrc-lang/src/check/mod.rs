@@ -284,9 +284,9 @@ struct Checker<'a> {
     /// The type pre-pass: no diagnostics, no use tracking.
     quiet: bool,
     globals: Vec<Global>,
-    global_index: HashMap<(u16, String), u32>,
+    global_index: ByUnit,
     routines: Vec<Routine>,
-    routine_index: HashMap<(u16, String), u32>,
+    routine_index: ByUnit,
     /// Each unit's name and the routine of its main body (none for unit 0).
     unit_names: Vec<String>,
     unit_main: Vec<Option<u32>>,
@@ -307,9 +307,9 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
         diags,
         quiet: false,
         globals: Vec::new(),
-        global_index: HashMap::new(),
+        global_index: ByUnit::default(),
         routines: Vec::new(),
-        routine_index: HashMap::new(),
+        routine_index: ByUnit::default(),
         unit_names: units.iter().map(|u| u.name.clone()).collect(),
         unit_main: vec![None; units.len()],
         ctx: Ctx::default(),
@@ -401,7 +401,7 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
         .iter_mut()
         .filter(|s| s.ty.is_empty() && s.kind == "variable")
     {
-        if let Some(&g) = c.global_index.get(&(0, sym.name.to_ascii_uppercase())) {
+        if let Some(&g) = c.global_index.get(0, &sym.name.to_ascii_uppercase()) {
             sym.ty = c.globals[g as usize].ty.map_or("", Ty::name);
         }
     }
@@ -410,7 +410,7 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
         .filter(|s| s.ty.is_empty() && s.kind == "local")
     {
         let scope = sym.scope.clone().unwrap_or_default().to_ascii_uppercase();
-        if let Some(&r) = c.routine_index.get(&(0, scope)) {
+        if let Some(&r) = c.routine_index.get(0, &scope) {
             let r = &c.routines[r as usize];
             if let Some(&i) = r.local_index.get(&sym.name.to_ascii_uppercase()) {
                 sym.ty = r.locals[i].ty.map_or("", Ty::name);
@@ -470,4 +470,27 @@ fn is_library(stmts: &[Stmt]) -> bool {
                 StmtKind::Routine { .. } | StmtKind::Include { .. } | StmtKind::Dim { .. }
             )
         })
+}
+
+/// Names of each unit (upper case) to their index: looked up by `&str`, without making a
+/// key (the checker looks a name up at every use).
+#[derive(Debug, Default)]
+pub(crate) struct ByUnit(Vec<HashMap<String, u32>>);
+
+impl ByUnit {
+    pub(crate) fn get(&self, unit: u16, key: &str) -> Option<&u32> {
+        self.0.get(usize::from(unit)).and_then(|m| m.get(key))
+    }
+
+    pub(crate) fn contains_key(&self, unit: u16, key: &str) -> bool {
+        self.get(unit, key).is_some()
+    }
+
+    pub(crate) fn insert(&mut self, unit: u16, key: String, value: u32) {
+        let u = usize::from(unit);
+        if self.0.len() <= u {
+            self.0.resize_with(u + 1, HashMap::new);
+        }
+        self.0[u].insert(key, value);
+    }
 }

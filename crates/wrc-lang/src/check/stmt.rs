@@ -340,7 +340,7 @@ impl Checker<'_> {
     /// Whether `name` is a DIM of the main body's top level (declared in the first pass).
     fn is_top_level_dim(&self, name: &Name) -> bool {
         self.global_index
-            .get(&(self.ctx.unit, name.key.clone()))
+            .get(self.ctx.unit, &name.key)
             .is_some_and(|&g| self.globals[g as usize].first == name.span)
     }
 

@@ -182,14 +182,14 @@ impl Checker<'_> {
             taught: false,
             init: None,
         });
-        self.global_index.insert((unit, name.key.clone()), i);
+        self.global_index.insert(unit, name.key.clone(), i);
         i
     }
 
     /// The global `name` of the current unit, made if it does not exist yet.
     pub(super) fn global_slot(&mut self, name: &Name) -> u32 {
         let unit = self.ctx.unit;
-        match self.global_index.get(&(unit, name.key.clone())) {
+        match self.global_index.get(unit, &name.key) {
             Some(&i) => i,
             None => self.new_global(unit, name),
         }
@@ -246,15 +246,13 @@ impl Checker<'_> {
             }
         }
         self.global_index
-            .get(&(self.ctx.unit, name.key.clone()))
+            .get(self.ctx.unit, &name.key)
             .map(|&g| Sym::Global(g))
     }
 
     /// The SUB or FUNCTION `key` of the current unit.
     pub(super) fn routine_named(&self, key: &str) -> Option<u32> {
-        self.routine_index
-            .get(&(self.ctx.unit, key.to_string()))
-            .copied()
+        self.routine_index.get(self.ctx.unit, key).copied()
     }
 
     /// The constant dimensions of a DIM, each a whole number of 1 or more.
@@ -342,7 +340,7 @@ impl Checker<'_> {
                     key: key.clone(),
                     span: Span::line_start(0, 0),
                 };
-                if self.global_index.contains_key(&(u, key)) {
+                if self.global_index.contains_key(u, &key) {
                     continue; // the points file's reader refuses duplicates
                 }
                 let g = self.new_global(u, &n);
@@ -423,7 +421,7 @@ impl Checker<'_> {
 
     fn declare_global_dim(&mut self, name: &Name, dims: &[Expr], ty: Option<TypeDecl>) {
         let u = self.ctx.unit;
-        if let Some(&g) = self.global_index.get(&(u, name.key.clone())) {
+        if let Some(&g) = self.global_index.get(u, &name.key) {
             let first = self.globals[g as usize].first;
             let msg = if self.globals[g as usize].point {
                 format!(
@@ -478,7 +476,7 @@ impl Checker<'_> {
         body: &[Stmt],
     ) {
         let u = self.ctx.unit;
-        if let Some(&first) = self.routine_index.get(&(u, name.key.clone())) {
+        if let Some(&first) = self.routine_index.get(u, &name.key) {
             let at = self.routines[first as usize].name.span;
             let msg = format!(
                 "{} {} is defined twice (first at {}{})",
@@ -539,7 +537,7 @@ impl Checker<'_> {
                 hidden: false,
             });
         }
-        self.routine_index.insert((u, name.key.clone()), r);
+        self.routine_index.insert(u, name.key.clone(), r);
         self.routines.push(routine);
         if u == 0 {
             let detail = match kind {

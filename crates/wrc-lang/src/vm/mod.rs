@@ -662,7 +662,7 @@ impl Vm {
                 return Step::Done;
             };
             self.pc = pc + 1;
-            if instr == crate::bytecode::Instr::Rethrow {
+            if matches!(instr, crate::bytecode::Instr::Rethrow) {
                 if let Some(step) = self.rethrow(program) {
                     return step;
                 }

@@ -8,6 +8,7 @@ mod error_check;
 mod estop_input;
 mod ethernet;
 mod host_access;
+mod language_docs;
 mod motion;
 mod paths;
 mod pipeline;

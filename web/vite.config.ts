@@ -13,7 +13,10 @@ export default defineConfig({
   },
   server: {
     // `npm run dev` against a running `wrc ui` on :8080.
-    proxy: { '/ws': { target: 'ws://127.0.0.1:8080', ws: true } },
+    proxy: {
+      '/ws': { target: 'ws://127.0.0.1:8080', ws: true },
+      '/api': { target: 'http://127.0.0.1:8080' },
+    },
   },
   test: {
     include: ['src/**/*.test.ts'],

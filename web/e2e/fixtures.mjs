@@ -5,6 +5,7 @@
 //   a failed test (and printed, so that a CI log shows them).
 // - `pageErrors`: the page's uncaught errors and its requests to anywhere but `wrc ui` (which
 //   are refused); a failed test also gets the page's command log.
+// - `lonelyUi`: a `wrc ui` alone, its controller nowhere (the editor's compiler needs none).
 
 import { test as base, expect } from '@playwright/test';
 import { spawn } from 'node:child_process';
@@ -199,6 +200,55 @@ class Controller {
   }
 }
 
+/** A `wrc ui` with no controller behind it (its socket names nothing): the GUI and its compiler. */
+class LonelyUi {
+  output = '';
+  url = '';
+  #proc = null;
+  dir = mkdtempSync(join(tmpdir(), 'wrc-e2e-ui-'));
+
+  async start() {
+    if (!existsSync(WRC_BIN)) throw new Error(`no wrc binary at ${WRC_BIN} (cargo build -p wrc, or set WRC_BIN)`);
+    const port = await freeTcpPort();
+    const args = ['ui', '--controller', join(this.dir, 'no-controller.sock'), '--no-sim', '--ui-port', String(port)];
+    if (SERVE_DIR) args.push('--web-dir', SERVE_DIR);
+    console.log(`start ${WRC_BIN} ${args.join(' ')}`);
+    const proc = spawn(WRC_BIN, args, { stdio: ['ignore', 'pipe', 'pipe'] });
+    this.#proc = proc;
+    const want = new RegExp(`wrc ui: GUI on (http://127\\.0\\.0\\.1:${port}\\S*)`);
+    await new Promise((resolve, reject) => {
+      const timer = setTimeout(() => reject(new Error(`wrc ui did not print "wrc ui: GUI on" within 30 s: ${this.output}`)), 30_000);
+      proc.stdout.on('data', (d) => {
+        this.output += d.toString();
+        const m = want.exec(this.output);
+        if (m && !this.url) {
+          this.url = m[1];
+          clearTimeout(timer);
+          resolve();
+        }
+      });
+      proc.stderr.on('data', (d) => {
+        this.output += d.toString();
+      });
+      proc.on('exit', (code, signal) => {
+        clearTimeout(timer);
+        if (!this.url) reject(new Error(`wrc ui exited (${code ?? signal}): ${this.output}`));
+      });
+    });
+  }
+
+  async stop() {
+    const p = this.#proc;
+    this.#proc = null;
+    if (p && p.exitCode === null && p.signalCode === null) {
+      const exited = new Promise((r) => p.once('exit', r));
+      p.kill('SIGTERM');
+      if (!(await Promise.race([exited.then(() => true), sleep(5000).then(() => false)]))) p.kill('SIGKILL');
+    }
+    rmSync(this.dir, { recursive: true, force: true });
+  }
+}
+
 /** Attach `text` to the test and print it to stderr, under `title`. */
 async function report(testInfo, title, text) {
   if (!text.trim()) return;
@@ -227,6 +277,17 @@ export const test = base.extend({
     } finally {
       await wrc.stop();
       if (failed(testInfo)) await tell();
+    }
+  },
+
+  lonelyUi: async ({}, use, testInfo) => {
+    const ui = new LonelyUi();
+    try {
+      await ui.start();
+      await use(ui);
+    } finally {
+      await ui.stop();
+      if (failed(testInfo)) await report(testInfo, 'wrc ui output', ui.output.slice(-4000));
     }
   },
 

@@ -1,4 +1,5 @@
-// Playwright Test configuration of the GUI's end-to-end test (gui.spec.mjs): Debian's Chromium
+// Playwright Test configuration of the GUI's end-to-end tests (gui.spec.mjs: an operator's session;
+// editor.spec.mjs: the editor's compiler, debugger and points): Debian's Chromium
 // (never a downloaded browser), one worker, and a trace and a screenshot of a failed run.
 //
 //   npm run e2e                       (from web/; builds nothing: run `npm run build` and
@@ -21,7 +22,7 @@ import { join } from 'node:path';
 
 export default defineConfig({
   testDir: '.',
-  testMatch: 'gui.spec.mjs',
+  testMatch: '*.spec.mjs',
   // One controller, one page: the steps run in order, each on the state the last one left.
   workers: 1,
   fullyParallel: false,

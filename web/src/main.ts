@@ -14,6 +14,7 @@ import { mountWaferPanel } from './panels/wafer-panel';
 import { mountSimulator } from './view3d/simulator';
 import { mountPlots } from './plots/plots';
 import { mountEditor } from './editor/editor';
+import { mountAlarmBanner } from './panels/alarm-banner';
 import { traceSaveCard } from './trace/trace-save';
 import { mountTraceViewer } from './trace/trace-viewer';
 
@@ -59,6 +60,7 @@ function start(): void {
     state,
     homed,
     err,
+    mountAlarmBanner(bus),
     h('span', { class: 'spacer' }),
     h('span', { class: 'lock-label' }, 'Control: ', owner),
     lockBtn,

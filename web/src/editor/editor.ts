@@ -1,6 +1,10 @@
-// The Editor panel: a CodeMirror 6 editor for `.wrl` programs, compile (UPLOAD) with the
-// controller's diagnostics inline and in a problems list, run / pause / continue / abort, and a
-// console with the program's PRINT output and its end (INF or ABS, whose line is marked).
+// The Editor panel: a CodeMirror 6 editor for `.wrl` programs, checked while typing by `wrc
+// ui`'s compiler (no controller needed), with completion of the language and the program's own
+// names and go-to-definition (F12, Ctrl/Cmd-click); Compile & Save (UPLOAD) with the
+// controller's diagnostics; the debugger (debugger.ts: run, step, breakpoints, the current line,
+// the operator's prompt), the Debug pane (watch, variables) and the Points panel beside it; a
+// console with the program's PRINT output, its alarms and its end (INF or ABS, whose line is
+// marked).
 
 import { EditorState, StateEffect, StateField, type Extension } from '@codemirror/state';
 import {
@@ -18,18 +22,19 @@ import { defaultKeymap, history, historyKeymap, indentWithTab } from '@codemirro
 import { bracketMatching, indentOnInput } from '@codemirror/language';
 import { autocompletion, closeBrackets, completionKeymap } from '@codemirror/autocomplete';
 import { highlightSelectionMatches, searchKeymap } from '@codemirror/search';
-import { lintGutter, lintKeymap, setDiagnostics, type Diagnostic } from '@codemirror/lint';
+import { lintKeymap, setDiagnostics } from '@codemirror/lint';
 
 import type { Bus } from '../protocol/bus';
 import { h } from '../dom';
-import {
-  diagsFromEvents,
-  isProgramName,
-  parsePrograms,
-  parseProgramEvent,
-  programAbsLine,
-  type Diag,
-} from '../protocol/protocol';
+import { diagsFromEvents, isProgramName, parsePrograms, type Diag } from '../protocol/protocol';
+import { LiveCompiler, apiUrl, fetchLanguage, libraryFiles, type CompileRequest, type CompileResult } from './compile-client';
+import { findDefinition, routineAt, wordAt, wrlCompletionSource, type LanguageInfo, type SymbolInfo } from './completion';
+import { DebugPane } from './debug-pane';
+import { breakpointGutter, breakpointsEffects, debugLineField, toggleAt } from './debug-marks';
+import { ProgramDebugger } from './debugger';
+import type { ConsoleKind, EditorHost } from './host';
+import { PointsPanel } from './points-panel';
+import { charOffset, problemCounts, problemPlace, toCmDiagnostics, type Problem } from './problems';
 import { wrl } from './wrl-language';
 import fig7 from '../../../examples/fig7_ptp.wrl?raw';
 import fig8 from '../../../examples/fig8_line.wrl?raw';
@@ -71,34 +76,9 @@ function store(key: string, value: unknown): void {
   }
 }
 
-/**
- * CodeMirror diagnostics from the controller's: `line:col` (1-based, characters) to the end of
- * the word there (at least one character, so the range is visible).
- */
-export function toCmDiagnostics(doc: EditorState['doc'], diags: Diag[]): Diagnostic[] {
-  const out: Diagnostic[] = [];
-  for (const d of diags) {
-    const lineNo = Math.min(Math.max(d.line, 1), doc.lines);
-    const line = doc.line(lineNo);
-    let from = line.from + Math.max(d.col - 1, 0);
-    if (from > line.to) from = line.to;
-    const rest = line.text.slice(from - line.from);
-    const word = /^([A-Za-z0-9_.]+|"[^"]*"?|\S)/.exec(rest);
-    let to = from + (word ? word[0].length : 0);
-    if (to === from) {
-      // At the end of the line: mark the last character instead (or nothing on an empty line).
-      if (from > line.from) from -= 1;
-      to = Math.min(from + 1, line.to);
-    }
-    out.push({
-      from,
-      to,
-      severity: d.severity,
-      message: d.message,
-      source: `${d.file}:${d.line}:${d.col}`,
-    });
-  }
-  return out;
+/** The controller's UPLOAD diagnostics (`EVT DIAG`) as problems of the editor's text. */
+function uploadProblems(diags: readonly Diag[]): Problem[] {
+  return diags.map((d) => ({ ...d, file: null, source: `${d.file}:${d.line}:${d.col}` }));
 }
 
 // The line an ABS named, marked until the next run or edit of the program.
@@ -132,8 +112,10 @@ const darkTheme = EditorView.theme(
     '.cm-activeLine': { backgroundColor: '#17202a' },
     '.cm-activeLineGutter': { backgroundColor: '#17202a', color: '#c0c8d0' },
     '.cm-abs-line': { backgroundColor: 'rgba(255, 60, 60, 0.22)', outline: '1px solid rgba(255,80,80,0.6)' },
+    '.cm-debug-line': { backgroundColor: 'rgba(255, 204, 0, 0.22)', boxShadow: 'inset 3px 0 0 #ffcc00' },
     '.cm-tooltip': { backgroundColor: '#1b232c', color: '#e0e6ee', border: '1px solid #34404d' },
     '.cm-tooltip-autocomplete > ul > li[aria-selected]': { backgroundColor: '#264f78' },
+    '.cm-completionDetail': { color: '#8795a5', fontStyle: 'normal', marginLeft: '1em' },
     '.cm-diagnostic-error': { borderLeftColor: '#ff5370' },
     '.cm-diagnostic-warning': { borderLeftColor: '#ffb74d' },
   },
@@ -171,13 +153,9 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     h('option', { value: '' }, 'load example…'),
     ...EXAMPLES.map((e) => h('option', { value: e.name }, e.name)),
   );
-  const compileBtn = h('button', { class: 'btn primary', 'data-testid': 'editor-compile', title: 'UPLOAD: compile and store', onclick: () => void compile() }, 'Compile & Save');
-  const runBtn = h('button', { class: 'btn go', 'data-testid': 'editor-run', onclick: () => void run() }, '▶ Run');
-  const pauseBtn = h('button', { class: 'btn', 'data-testid': 'editor-pause', onclick: () => void simple('PAUSE') }, '❚❚ Pause');
-  const contBtn = h('button', { class: 'btn', 'data-testid': 'editor-continue', onclick: () => void simple('CONTINUE') }, 'Continue');
-  const abortBtn = h('button', { class: 'btn warn', 'data-testid': 'editor-abort', onclick: () => void simple('ABORT') }, '■ Abort');
+  const compileBtn = h('button', { class: 'btn primary', 'data-testid': 'editor-compile', title: 'UPLOAD: compile and store on the controller (Ctrl+S)', onclick: () => void compile() }, 'Compile & Save');
   const status = h('div', { class: 'editor-status', 'data-testid': 'editor-status' });
-  const programState = h('span', { class: 'program-state', 'data-testid': 'program-state' }, '');
+  const statusAction = h('button', { class: 'btn small', 'data-testid': 'editor-status-action', hidden: true }, '');
 
   const toolbar = h(
     'div',
@@ -188,65 +166,22 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     examples,
     h('span', { class: 'spacer' }),
     compileBtn,
-    runBtn,
-    pauseBtn,
-    contBtn,
-    abortBtn,
   );
 
-  // ---- editor ----
+  // ---- editor, side panes, problems and console ----
   const cmHost = h('div', { class: 'cm-host', 'data-testid': 'editor-cm' });
   const problems = h('div', { class: 'problems', 'data-testid': 'editor-problems' });
+  const checkState = h('span', { class: 'check-state', 'data-testid': 'check-state', 'data-state': 'idle' }, '');
   const consoleEl = h('div', { class: 'console', 'data-testid': 'console' });
   const clearConsole = h('button', { class: 'btn small', onclick: () => consoleEl.replaceChildren() }, 'Clear');
-  const bottom = h(
-    'div',
-    { class: 'editor-bottom' },
-    h('div', { class: 'pane' }, h('div', { class: 'pane-title' }, 'Problems'), problems),
-    h('div', { class: 'pane' }, h('div', { class: 'pane-title' }, 'Console ', clearConsole), consoleEl),
-  );
-  el.append(toolbar, h('div', { class: 'status-line' }, status, programState), cmHost, bottom);
-
-  let saveTimer: ReturnType<typeof setTimeout> | null = null;
-  const extensions: Extension[] = [
-    lineNumbers(),
-    highlightActiveLineGutter(),
-    highlightSpecialChars(),
-    history(),
-    drawSelection(),
-    indentOnInput(),
-    bracketMatching(),
-    closeBrackets(),
-    autocompletion({ activateOnTyping: false }),
-    highlightActiveLine(),
-    highlightSelectionMatches(),
-    keymap.of([
-      { key: 'Mod-s', run: () => (void compile(), true) },
-      { key: 'F5', run: () => (void run(), true) },
-      ...defaultKeymap,
-      ...historyKeymap,
-      ...searchKeymap,
-      ...completionKeymap,
-      ...lintKeymap,
-      indentWithTab,
-    ]),
-    wrl(),
-    lintGutter(),
-    absLineField,
-    darkTheme,
-    EditorView.updateListener.of((u) => {
-      if (!u.docChanged) return;
-      if (saveTimer) clearTimeout(saveTimer);
-      saveTimer = setTimeout(persist, 300);
-      updateEdited();
-    }),
-  ];
-  const view = new EditorView({
-    parent: cmHost,
-    state: EditorState.create({ doc: current.text, extensions }),
-  });
 
   // ---- state ----
+  let view!: EditorView;
+  let saveTimer: ReturnType<typeof setTimeout> | null = null;
+  let language: LanguageInfo | null = null;
+  let symbols: SymbolInfo[] = [];
+  let symbolFiles: string[] = [];
+
   function text(): string {
     return view.state.doc.toString();
   }
@@ -262,51 +197,238 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   function updateEdited(): void {
     el.setAttribute('data-edited', edited() ? '1' : '0');
   }
-  function setStatus(msg: string, kind: 'ok' | 'err' | 'info' = 'info'): void {
+  function setStatus(msg: string, kind: 'ok' | 'err' | 'info' = 'info', action?: { label: string; run: () => void }): void {
     status.textContent = msg;
     status.className = `editor-status ${kind}`;
+    statusAction.hidden = !action;
+    statusAction.textContent = action?.label ?? '';
+    statusAction.onclick = action ? () => action.run() : null;
   }
-  function say(textLine: string, kind: 'print' | 'info' | 'ok' | 'err' = 'info'): void {
+  function say(textLine: string, kind: ConsoleKind = 'info'): void {
     consoleEl.append(h('div', { class: `con-${kind}` }, textLine));
     while (consoleEl.childElementCount > 1000) consoleEl.firstElementChild?.remove();
     consoleEl.scrollTop = consoleEl.scrollHeight;
   }
   function markAbsLine(line: number | null): void {
+    if (line !== null && edited()) return; // the line would name another text
     view.dispatch({ effects: setAbsLine.of(line) });
     if (line !== null && line >= 1 && line <= view.state.doc.lines) {
       view.dispatch({ effects: EditorView.scrollIntoView(view.state.doc.line(line).from, { y: 'center' }) });
     }
   }
+  function jumpTo(line: number, col: number): void {
+    const ln = view.state.doc.line(Math.min(Math.max(line, 1), view.state.doc.lines));
+    const pos = ln.from + charOffset(ln.text, Math.max(col, 1));
+    view.dispatch({ selection: { anchor: pos }, scrollIntoView: true });
+    view.focus();
+  }
 
-  function showDiagnostics(diags: Diag[]): void {
-    view.dispatch(setDiagnostics(view.state, toCmDiagnostics(view.state.doc, diags)));
+  function showProblems(list: readonly Problem[]): void {
+    view.dispatch(setDiagnostics(view.state, toCmDiagnostics(view.state.doc, list)));
     problems.replaceChildren();
-    if (diags.length === 0) {
+    if (list.length === 0) {
       problems.append(h('div', { class: 'problem none' }, 'No problems.'));
       return;
     }
-    for (const d of diags) {
+    for (const d of list) {
       const row = h(
         'div',
         {
           class: `problem ${d.severity}`,
           'data-testid': 'problem',
           'data-line': String(d.line),
-          title: 'Go to this place',
+          'data-file': d.file ?? '',
+          title: d.file === null ? 'Go to this place' : `In ${d.file}`,
           onclick: () => {
-            const ln = view.state.doc.line(Math.min(Math.max(d.line, 1), view.state.doc.lines));
-            const pos = Math.min(ln.from + Math.max(d.col - 1, 0), ln.to);
-            view.dispatch({ selection: { anchor: pos }, scrollIntoView: true });
-            view.focus();
+            if (d.file === null) jumpTo(d.line, d.col);
+            else offerOpen(d.file, d.line, d.col, `The problem is in ${d.file}, line ${d.line}.`);
           },
         },
         h('span', { class: 'sev' }, d.severity),
-        h('span', { class: 'loc' }, `${d.line}:${d.col}`),
+        h('span', { class: 'loc' }, problemPlace(d)),
         h('span', { class: 'msg' }, d.message),
       );
       problems.append(row);
     }
   }
+
+  /** Say where something in another program is, offering to open it when this browser has its text. */
+  function offerOpen(file: string, line: number, col: number, message: string): void {
+    const t = saved[file];
+    setStatus(
+      message,
+      'info',
+      t === undefined
+        ? undefined
+        : {
+            label: `Open ${file}`,
+            run: () => {
+              if (openProgram(file, t)) jumpTo(line, col);
+            },
+          },
+    );
+  }
+
+  // ---- the compiler of wrc ui, while typing ----
+  function compileRequest(): CompileRequest {
+    const n = isProgramName(name()) ? name() : 'program';
+    return {
+      name: n,
+      source: text(),
+      files: libraryFiles(text(), saved, n),
+      points: points?.store.program === n ? points.store.toToml() : '',
+    };
+  }
+  function setCheck(state: 'checking' | 'ok' | 'errors' | 'offline', label: string, title = ''): void {
+    checkState.setAttribute('data-state', state);
+    checkState.textContent = label;
+    checkState.title = title;
+  }
+  const live = new LiveCompiler({
+    fetch: (url, init) => fetch(url, init),
+    url: apiUrl('compile', window.location),
+    onStart: () => setCheck('checking', 'checking…'),
+    onResult: (r: CompileResult, req) => {
+      if (req.source !== text()) return; // a newer compile follows
+      if (r.ok || r.symbols.length > 0) {
+        symbols = r.symbols;
+        symbolFiles = r.files;
+      }
+      const list: Problem[] = r.diagnostics.map((d) => ({ ...d }));
+      showProblems(list);
+      const counts = problemCounts(list);
+      if (r.ok) setCheck('ok', `compiles: ${r.instructions} instructions${counts ? `; ${counts}` : ''}`);
+      else setCheck('errors', counts || 'does not compile');
+      if (language === null) loadLanguage();
+    },
+    onError: (message) => setCheck('offline', 'cannot check', `wrc ui's compiler: ${message}`),
+  });
+  function recheck(): void {
+    // Checking from now on: what the state says is for the text as it is.
+    setCheck('checking', 'checking…');
+    live.schedule(compileRequest);
+  }
+  function loadLanguage(): void {
+    fetchLanguage((url, init) => fetch(url, init), apiUrl('language', window.location))
+      .then((l) => {
+        language = l;
+      })
+      .catch(() => undefined); // asked again after the next compile
+  }
+
+  // ---- go to definition ----
+  function goToDefinition(pos: number): boolean {
+    const line = view.state.doc.lineAt(pos);
+    const w = wordAt(line.text, pos - line.from);
+    if (!w) return false;
+    const routine = routineAt((n) => view.state.doc.line(n).text, line.number);
+    const s = findDefinition(symbols, w.word, routine);
+    if (!s) {
+      const upper = w.word.toUpperCase();
+      const builtin = language?.functions.find((f) => f.name === upper);
+      const statement = language?.statements.find((f) => f.keyword === upper);
+      const what = builtin ?? statement;
+      if (what) setStatus(`${upper} is part of the language: ${what.syntax} — ${what.summary}`, 'info');
+      else setStatus(`${w.word}: no definition known (the last check did not define it)`, 'info');
+      return true;
+    }
+    if (s.kind === 'point') {
+      points?.highlight(s.name);
+      setStatus(`${s.name} is a named point of ${name()}: see Points.`, 'info');
+      return true;
+    }
+    if (s.file === 0) {
+      jumpTo(s.line, s.col);
+      setStatus(`${s.name}: ${s.kind}${s.detail ? ` ${s.detail}` : ''}, line ${s.line}`, 'info');
+      return true;
+    }
+    const file = symbolFiles[s.file] ?? `file ${s.file}`;
+    offerOpen(file, s.line, s.col, `${s.name} is defined in ${file}, line ${s.line}.`);
+    return true;
+  }
+
+  // ---- CodeMirror ----
+  let dbg: ProgramDebugger | null = null;
+  let points: PointsPanel | null = null;
+  const toggled = (line: number, on: boolean) => void dbg?.toggled(line, on);
+  const extensions: Extension[] = [
+    breakpointGutter(toggled),
+    lineNumbers({ domEventHandlers: { mousedown: (v, block) => toggleAt(v, block, toggled) } }),
+    highlightActiveLineGutter(),
+    highlightSpecialChars(),
+    history(),
+    drawSelection(),
+    indentOnInput(),
+    bracketMatching(),
+    closeBrackets(),
+    autocompletion({ activateOnTyping: true }),
+    highlightActiveLine(),
+    highlightSelectionMatches(),
+    keymap.of([
+      { key: 'Mod-s', run: () => (void compile(), true) },
+      { key: 'F5', run: () => (void dbg?.act('run'), true) },
+      { key: 'F10', run: () => (void dbg?.act('stepOver'), true) },
+      { key: 'F11', run: () => (void dbg?.act('step'), true) },
+      { key: 'Shift-F11', run: () => (void dbg?.act('stepOut'), true) },
+      { key: 'F12', run: (v) => goToDefinition(v.state.selection.main.head) },
+      ...defaultKeymap,
+      ...historyKeymap,
+      ...searchKeymap,
+      ...completionKeymap,
+      ...lintKeymap,
+      indentWithTab,
+    ]),
+    wrl(wrlCompletionSource({ language: () => language, symbols: () => symbols })),
+    absLineField,
+    debugLineField,
+    darkTheme,
+    EditorView.domEventHandlers({
+      mousedown: (event, v) => {
+        if (event.button !== 0 || !(event.ctrlKey || event.metaKey)) return false;
+        const pos = v.posAtCoords({ x: event.clientX, y: event.clientY });
+        if (pos === null || !goToDefinition(pos)) return false;
+        event.preventDefault();
+        return true;
+      },
+    }),
+    EditorView.updateListener.of((u) => {
+      if (!u.docChanged) return;
+      if (saveTimer) clearTimeout(saveTimer);
+      saveTimer = setTimeout(persist, 300);
+      updateEdited();
+      recheck();
+    }),
+  ];
+  view = new EditorView({
+    parent: cmHost,
+    state: EditorState.create({ doc: current.text, extensions }),
+  });
+
+  const host: EditorHost = { bus, view: () => view, program: name, say, setStatus: (m, k) => setStatus(m, k) };
+  const debugPane = new DebugPane(host);
+  dbg = new ProgramDebugger(host, {
+    ensureStored: async () => !(edited() || !(name() in saved)) || compile(),
+    markAbsLine,
+    showDiagnostics: (diags) => showProblems(uploadProblems(diags)),
+    stateChanged: (v) => debugPane.update(v),
+  });
+  points = new PointsPanel(host, recheck);
+
+  const side = h('aside', { class: 'editor-side' }, debugPane.el, points.el);
+  const bottom = h(
+    'div',
+    { class: 'editor-bottom' },
+    h('div', { class: 'pane' }, h('div', { class: 'pane-title' }, h('span', {}, 'Problems'), checkState), problems),
+    h('div', { class: 'pane' }, h('div', { class: 'pane-title' }, 'Console ', clearConsole), consoleEl),
+  );
+  el.append(
+    toolbar,
+    dbg.toolbar,
+    h('div', { class: 'status-line' }, status, statusAction, dbg.position, dbg.programState),
+    dbg.prompt,
+    h('div', { class: 'editor-main' }, cmHost, side),
+    bottom,
+  );
 
   /** Upload the buffer; true when the controller stored it. */
   async function compile(): Promise<boolean> {
@@ -317,7 +439,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
       return false;
     }
     if (!bus.connected()) {
-      setStatus('Not connected to the controller.', 'err');
+      setStatus('Not connected to the controller: the program is checked here, but Compile & Save stores it there.', 'err');
       return false;
     }
     const body = text();
@@ -332,7 +454,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     }
     const diags = diagsFromEvents(r.events);
     // The editor may have changed while compiling: diagnostics refer to the uploaded text.
-    if (text() === body) showDiagnostics(diags);
+    if (text() === body) showProblems(uploadProblems(diags));
     if (r.first.kind === 'ACK') {
       const lines = r.first.fields.lines ?? '?';
       const warnings = Number(r.first.fields.warnings ?? '0');
@@ -350,56 +472,6 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
       setStatus(`NAK ${r.first.code} ${r.first.text}`, 'err');
     }
     return false;
-  }
-
-  async function run(): Promise<void> {
-    const n = name();
-    if (edited() || !(n in saved)) {
-      if (!(await compile())) return;
-    }
-    markAbsLine(null);
-    say(`> RUN ${n}`, 'info');
-    let r: Awaited<ReturnType<Bus['request']>>;
-    try {
-      r = await bus.request(`RUN ${n}`);
-    } catch (e) {
-      say(`RUN ${n}: ${e instanceof Error ? e.message : String(e)}`, 'err');
-      return;
-    }
-    const diags = diagsFromEvents(r.events);
-    if (diags.length > 0) showDiagnostics(diags);
-    if (r.first.kind === 'NAK') {
-      say(`NAK ${r.first.code} ${r.first.text}`, 'err');
-      setStatus(`RUN ${n} refused: ${r.first.code} ${r.first.text}`, 'err');
-      return;
-    }
-    setStatus(`${n}: running`, 'ok');
-    if (!r.final) return;
-    try {
-      const f = await r.final;
-      if (f.kind === 'INF') {
-        say(`INF program ${n} ended`, 'ok');
-        setStatus(`${n}: program ended`, 'ok');
-      } else {
-        say(`ABS ${f.code} ${f.text}`, 'err');
-        setStatus(`${n}: ended abnormally: ${f.code} ${f.text}`, 'err');
-        const line = programAbsLine(f.text);
-        if (line !== null && name() === n && !edited()) markAbsLine(line);
-      }
-    } catch (e) {
-      say(`RUN ${n}: ${e instanceof Error ? e.message : String(e)}`, 'err');
-    }
-  }
-
-  async function simple(verb: string): Promise<void> {
-    say(`> ${verb}`, 'info');
-    try {
-      const { first } = await bus.request(verb);
-      if (first.kind === 'ACK') say(`ACK ${verb}`, 'info');
-      else say(`NAK ${first.code} ${first.text}`, 'err');
-    } catch (e) {
-      say(`${verb}: ${e instanceof Error ? e.message : String(e)}`, 'err');
-    }
   }
 
   async function refreshPrograms(): Promise<void> {
@@ -421,13 +493,17 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
 
   function replaceText(t: string): void {
     view.dispatch({ changes: { from: 0, to: view.state.doc.length, insert: t } });
+    // Another program: its breakpoints are its own (none yet).
+    view.dispatch({ effects: breakpointsEffects(view.state, []) });
     view.dispatch(setDiagnostics(view.state, []));
     problems.replaceChildren();
     markAbsLine(null);
   }
 
-  function openProgram(n: string, t: string | undefined): void {
-    if (edited() && text().trim() !== '' && !confirm(`Discard the unsaved edits of ${name()}?`)) return;
+  /** Show program `n` (with `t`, or a note when this browser has no text of it); false when
+   * the operator kept the unsaved edits. */
+  function openProgram(n: string, t: string | undefined): boolean {
+    if (edited() && text().trim() !== '' && !confirm(`Discard the unsaved edits of ${name()}?`)) return false;
     nameInput.value = n;
     if (t !== undefined) replaceText(t);
     else {
@@ -439,6 +515,15 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     }
     persist();
     updateEdited();
+    nameChanged();
+    void dbg?.syncBreakpoints(true);
+    return true;
+  }
+
+  function nameChanged(): void {
+    points?.programChanged();
+    dbg?.refresh();
+    recheck();
   }
 
   programs.addEventListener('change', () => {
@@ -450,30 +535,29 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     examples.value = '';
     if (ex) openProgram(ex.name, ex.text);
   });
+  let nameTimer: ReturnType<typeof setTimeout> | null = null;
   nameInput.addEventListener('input', () => {
     nameInput.classList.toggle('invalid', !isProgramName(name()));
     persist();
     updateEdited();
+    // Its points and checks once the operator stops typing the name.
+    if (nameTimer) clearTimeout(nameTimer);
+    nameTimer = setTimeout(nameChanged, 300);
   });
 
   // ---- events ----
   bus.onEvent((evName, body) => {
     if (evName === 'PRINT') say(body, 'print');
-    else if (evName === 'PROGRAM') {
-      const p = parseProgramEvent(body);
-      if (!p) return;
-      say(`program ${p.name} ${p.state}`, 'info');
-      programState.textContent = p.state === 'ENDED' ? '' : `${p.name}: ${p.state}`;
-      programState.setAttribute('data-state', p.state);
-    }
   });
   bus.onConnection((up) => {
-    for (const b of [compileBtn, runBtn, pauseBtn, contBtn, abortBtn]) b.disabled = !up;
+    compileBtn.disabled = !up;
     if (up) void refreshPrograms();
   });
-  for (const b of [compileBtn, runBtn, pauseBtn, contBtn, abortBtn]) b.disabled = !bus.connected();
+  compileBtn.disabled = !bus.connected();
   if (bus.connected()) void refreshPrograms();
   updateEdited();
+  loadLanguage();
+  void live.now(compileRequest());
 
   return {
     view,

@@ -78,4 +78,54 @@ describe('wrl tokenizer', () => {
   it('does not take L as a posture outside MOVEP', () => {
     expect(styles('L = 3')).toEqual(['L:variableName', '=:compareOperator', '3:number']);
   });
+
+  it('reads the structured statements, declarations and names ending in $', () => {
+    expect(styles('TRY')).toEqual(['TRY:controlKeyword']);
+    expect(styles('CATCH 212')).toEqual(['CATCH:controlKeyword', '212:number']);
+    expect(styles('DIM slots[25] AS NUMBER')).toEqual([
+      'DIM:controlKeyword',
+      'slots:variableName.definition',
+      '[:squareBracket',
+      '25:number',
+      ']:squareBracket',
+      'AS:controlKeyword',
+      'NUMBER:typeName',
+    ]);
+    expect(styles('LOCAL k = n MOD 3')).toEqual([
+      'LOCAL:controlKeyword',
+      'k:variableName.definition',
+      '=:compareOperator',
+      'n:variableName',
+      'MOD:logicOperator',
+      '3:number',
+    ]);
+    expect(styles('FUNCTION twice(x)')).toEqual(['FUNCTION:controlKeyword', 'twice:variableName.definition', '(:paren', 'x:variableName', '):paren']);
+    expect(styles('CALL PROGRAM "other"')).toEqual(['CALL:controlKeyword', 'PROGRAM:controlKeyword', '"other":string']);
+    expect(styles('id$ = WAFER$("LP1", 1)')).toEqual([
+      'id$:variableName',
+      '=:compareOperator',
+      'WAFER$:variableName.standard',
+      '(:paren',
+      '"LP1":string',
+      ',:separator',
+      '1:number',
+      '):paren',
+    ]);
+  });
+
+  it('reads the new motion and cell statements with their options', () => {
+    expect(styles('MOVEL P SPEED 20 BLEND 5')).toEqual([
+      'MOVEL:keyword',
+      'P:variableName',
+      'SPEED:keyword',
+      '20:number',
+      'BLEND:keyword',
+      '5:number',
+    ]);
+    expect(styles('WAIT OPERATOR "ready?"')).toEqual(['WAIT:keyword', 'OPERATOR:keyword', '"ready?":string']);
+    expect(styles('GET "LP1", n, B')).toEqual(['GET:keyword', '"LP1":string', ',:separator', 'n:variableName', ',:separator', 'B:atom']);
+    expect(styles('SELECT CASE ERR')).toEqual(['SELECT:controlKeyword', 'CASE:controlKeyword', 'ERR:variableName.standard']);
+    expect(styles('DO')).toEqual(['DO:controlKeyword']);
+    expect(styles('LOOP UNTIL n > 3')).toEqual(['LOOP:controlKeyword', 'UNTIL:controlKeyword', 'n:variableName', '>:compareOperator', '3:number']);
+  });
 });

@@ -1,6 +1,6 @@
 // CodeMirror 6 language for the robot language `.wrl` (docs/language.md): a stream tokenizer
-// (one statement per line, `'` comments, `"…"` strings with `""`, case-insensitive keywords),
-// a dark highlight style and keyword completion.
+// (one statement per line, `'` comments, `"…"` strings with `""`, case-insensitive keywords,
+// names that may end in `$`), and a dark highlight style. Completion is completion.ts's.
 
 import {
   HighlightStyle,
@@ -10,32 +10,52 @@ import {
   syntaxHighlighting,
   type StreamParser,
 } from '@codemirror/language';
-import { completeFromList, type Completion } from '@codemirror/autocomplete';
+import type { CompletionSource } from '@codemirror/autocomplete';
 import { tags as t } from '@lezer/highlight';
 import type { Extension } from '@codemirror/state';
 
-/** Block and flow keywords. */
+/** Block, flow and declaration keywords. */
 export const CONTROL_KEYWORDS = [
   'IF', 'THEN', 'ELSEIF', 'ELSE', 'ENDIF', 'WHILE', 'ENDWHILE', 'FOR', 'TO', 'STEP', 'NEXT',
-  'SUB', 'ENDSUB', 'CALL', 'END',
+  'DO', 'LOOP', 'UNTIL', 'EXIT', 'SELECT', 'CASE', 'IS', 'ENDSELECT',
+  'SUB', 'ENDSUB', 'FUNCTION', 'ENDFUNCTION', 'RETURN', 'CALL', 'PROGRAM', 'END',
+  'TRY', 'CATCH', 'ENDTRY', 'RETRY', 'INCLUDE', 'DIM', 'LOCAL', 'AS',
 ] as const;
 
-/** Statement keywords (crates/wrc-lang/src/statements.rs) and `TIMEOUT`. */
+/** Statement keywords (crates/wrc-lang/src/statements.rs) and their option words. */
 export const STATEMENT_KEYWORDS = [
-  'HOME', 'MOVEJ', 'MOVEP', 'MOVEL', 'JOG', 'SPEED', 'DELAY', 'OUT', 'WAIT', 'PRINT', 'TIMEOUT', 'GET', 'PUT', 'SWAP', 'MAP',
+  'HOME', 'MOVEJ', 'MOVEP', 'MOVEL', 'ARC', 'APPRO', 'APPROS', 'DEPART', 'DEPARTS', 'JOG',
+  'SPEED', 'ACCEL', 'BLEND', 'DELAY', 'OUT', 'WAIT', 'OPERATOR', 'TIMEOUT', 'PRINT',
+  'GET', 'PUT', 'SWAP', 'MAP', 'RAISE', 'ALARM', 'RESET', 'TEACH',
 ] as const;
 
-/** Constructors and built-in functions. */
+/** Constructors and built-in functions (crates/wrc-lang/src/builtins.rs). */
 export const BUILTINS = [
-  'POSE', 'JOINTS', 'SIN', 'COS', 'ATAN2', 'SQRT', 'ABS', 'MIN', 'MAX', 'IN', 'HERE',
+  'POSE', 'JOINTS', 'SIN', 'COS', 'TAN', 'ASIN', 'ACOS', 'ATAN2', 'SQRT', 'ABS', 'MIN', 'MAX',
+  'ROUND', 'INT', 'SGN', 'STR$', 'FORMAT$', 'LEN', 'LEFT$', 'RIGHT$', 'MID$', 'VAL', 'UCASE$',
+  'LCASE$', 'INSTR', 'HERE', 'IN', 'TIMER', 'DIST', 'RELTOOL', 'INFRAME', 'TOFRAME', 'ERR',
+  'ERRMSG$', 'ERRLINE', 'OPERATOR$', 'SLOT', 'WAFER$', 'HAND$', 'SLOTS', 'PITCH', 'STATION',
+  'APPROACH',
 ] as const;
 
-const LOGIC = new Set(['AND', 'OR', 'NOT']);
+/** Type names after `AS`. */
+export const TYPE_NAMES = ['NUMBER', 'BOOLEAN', 'STRING', 'POSE', 'JOINTS'] as const;
+
+const LOGIC = new Set(['AND', 'OR', 'NOT', 'MOD']);
 const BOOLS = new Set(['TRUE', 'FALSE']);
-const POSTURES = new Set(['L', 'R', 'LEFT', 'RIGHT']);
+/** Elbow postures (`MOVEP p, L`) and blades (`GET "LP1", 3, B`). */
+const ATOMS: Record<string, Set<string>> = {
+  MOVEP: new Set(['L', 'R', 'LEFT', 'RIGHT']),
+  APPRO: new Set(['L', 'R', 'LEFT', 'RIGHT']),
+  GET: new Set(['A', 'B']),
+  PUT: new Set(['A', 'B']),
+};
 const CONTROL = new Set<string>(CONTROL_KEYWORDS);
 const STATEMENTS = new Set<string>(STATEMENT_KEYWORDS);
 const BUILTIN_SET = new Set<string>(BUILTINS);
+const TYPES = new Set<string>(TYPE_NAMES);
+/** Words after which a name is defined (`SUB name`, `DIM name`) or called (`CALL name`). */
+const DEFINES = new Set(['SUB', 'FUNCTION', 'DIM', 'LOCAL']);
 
 /** Tokenizer state: the line's first word (its statement) and what came just before. */
 export interface WrlState {
@@ -43,7 +63,8 @@ export interface WrlState {
   stmt: string;
   /** The previous token was a `.` (a field follows: `.X`, `.YAW`, `.J1`). */
   afterDot: boolean;
-  /** The previous word (upper case), for `SUB name` / `CALL name`. */
+  /** The previous word (upper case), for `SUB name` / `CALL name` / `AS type`; '' after
+   * anything but a word. */
   prevWord: string;
 }
 
@@ -60,6 +81,8 @@ export type WrlToken =
   | 'atom'
   | 'variableName.definition'
   | 'variableName.function'
+  | 'typeName'
+  | 'squareBracket'
   | 'propertyName'
   | 'variableName'
   | 'compareOperator'
@@ -102,7 +125,7 @@ export const wrlParser: StreamParser<WrlState> = {
     if (stream.match(/^(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?/)) {
       return 'number';
     }
-    const w = stream.match(/^[A-Za-z_][A-Za-z0-9_]*/);
+    const w = stream.match(/^[A-Za-z_][A-Za-z0-9_]*\$?/);
     if (w && typeof w !== 'boolean') {
       const word = w[0].toUpperCase();
       const prev = state.prevWord;
@@ -110,15 +133,18 @@ export const wrlParser: StreamParser<WrlState> = {
       if (first) state.stmt = word;
       state.prevWord = word;
       if (afterDot) return 'propertyName';
-      if (prev === 'SUB' || prev === 'CALL') return prev === 'SUB' ? 'variableName.definition' : 'variableName.function';
+      if (DEFINES.has(prev) && !CONTROL.has(word)) return 'variableName.definition';
+      if (prev === 'CALL' && word !== 'PROGRAM') return 'variableName.function';
+      if (prev === 'AS' && TYPES.has(word)) return 'typeName';
       if (CONTROL.has(word)) return 'controlKeyword';
       if (STATEMENTS.has(word)) return 'keyword';
       if (LOGIC.has(word)) return 'logicOperator';
       if (BOOLS.has(word)) return 'bool';
       if (BUILTIN_SET.has(word)) return 'variableName.standard';
-      if (state.stmt === 'MOVEP' && !first && POSTURES.has(word)) return 'atom';
+      if (!first && ATOMS[state.stmt]?.has(word)) return 'atom';
       return 'variableName';
     }
+    state.prevWord = '';
     if (stream.match(/^(?:<=|>=|<>|=|<|>)/)) {
       if (state.stmt === '') state.stmt = '=';
       return 'compareOperator';
@@ -134,6 +160,9 @@ export const wrlParser: StreamParser<WrlState> = {
       case '(':
       case ')':
         return 'paren';
+      case '[':
+      case ']':
+        return 'squareBracket';
       case ',':
         return 'separator';
       case '.':
@@ -180,23 +209,18 @@ export const wrlHighlightStyle = HighlightStyle.define([
   { tag: t.propertyName, color: '#80cbc4' },
   { tag: t.variableName, color: '#e0e6ee' },
   { tag: [t.compareOperator, t.arithmeticOperator], color: '#89ddff' },
-  { tag: [t.paren, t.separator, t.punctuation], color: '#a0aab4' },
+  { tag: t.typeName, color: '#80cbc4', fontStyle: 'italic' },
+  { tag: [t.paren, t.squareBracket, t.separator, t.punctuation], color: '#a0aab4' },
   { tag: t.invalid, color: '#ff5370', textDecoration: 'underline wavy' },
 ]);
 
-const completions: Completion[] = [
-  ...CONTROL_KEYWORDS.map((k) => ({ label: k, type: 'keyword' })),
-  ...STATEMENT_KEYWORDS.map((k) => ({ label: k, type: 'keyword' })),
-  ...BUILTINS.map((k) => ({ label: k, type: 'function' })),
-  ...['AND', 'OR', 'NOT', 'TRUE', 'FALSE'].map((k) => ({ label: k, type: 'constant' })),
-];
-
-/** The `.wrl` language with its highlighting and keyword completion. */
-export function wrl(): Extension {
+/**
+ * The `.wrl` language with its highlighting; `autocomplete` (the editor's source, which knows
+ * the program's names) is offered as the language's completion.
+ */
+export function wrl(autocomplete?: CompletionSource): Extension {
   return [
-    new LanguageSupport(wrlLanguage, [
-      wrlLanguage.data.of({ autocomplete: completeFromList(completions) }),
-    ]),
+    new LanguageSupport(wrlLanguage, autocomplete ? [wrlLanguage.data.of({ autocomplete })] : []),
     syntaxHighlighting(wrlHighlightStyle),
   ];
 }

@@ -124,7 +124,7 @@ export interface Bus {
    * Send one request (without an id: the bus adds one). Resolves with its first reply;
    * `final`, when the verb completes later (HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT,
    * SWAP, MAP) and the first reply is an ACK, resolves with its INF or ABS. Events that arrive
-   * between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`, `EVT WAFER`)
+   * between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`, `EVT WAFER`, `EVT VAR`, `EVT POINT`)
    * are collected in `events` (lines without `EVT `).
    */
   request(line: string): Promise<{ first: FirstReply; final: Promise<FinalReply> | null; events: string[] }>;

@@ -164,6 +164,26 @@ describe('Connection', () => {
     expect(conn.robot()?.axes.map((a) => a.name)).toEqual(['j1', 'j2']);
   });
 
+  it("gives VARS its EVT VAR lines and POINTS its EVT POINT lines, and every listener the points", async () => {
+    const s = up();
+    s.recv('ACK 1', 'ACK 2', 'ACK 3 in=0 out=0');
+    const heard: string[] = [];
+    conn.onEvent((name, body) => heard.push(`${name} ${body}`));
+    const vars = conn.request('VARS COUNT P'); // 4
+    const points = conn.request('POINTS demo'); // 5
+    s.recv(
+      'EVT VAR COUNT number 3',
+      'EVT POINT demo SAFE pose 250 0 10 0',
+      'EVT VAR P pose POSE(250, 0, 10, 0)',
+      'ACK 4 vars=2',
+      'ACK 5 points=1',
+    );
+    const [v, p] = await Promise.all([vars, points]);
+    expect(v.events).toEqual(['VAR COUNT number 3', 'VAR P pose POSE(250, 0, 10, 0)']);
+    expect(p.events).toEqual(['POINT demo SAFE pose 250 0 10 0']);
+    expect(heard).toContain('POINT demo SAFE pose 250 0 10 0');
+  });
+
   it('gives no final to a NAK, and ABS with code and text', async () => {
     const s = up();
     const a = conn.request('MOVJ 0 90 -90 10');

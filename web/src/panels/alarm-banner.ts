@@ -1,0 +1,36 @@
+// A running program's ALARM (`EVT ALARM`) in the header, whichever tab is open: code, program,
+// place and text in red until the operator dismisses it (the program itself goes on). The
+// Editor's console logs every alarm as well.
+
+import type { Bus } from '../protocol/bus';
+import { h, injectStyle } from '../dom';
+import { parseAlarm } from '../editor/program-events';
+
+const CSS = `
+.alarm-banner { display: flex; align-items: center; gap: 8px; max-width: 520px; padding: 4px 6px 4px 10px;
+  border-radius: 4px; background: #7a1010; color: #fff; font-weight: 700; box-shadow: 0 0 0 2px #ff4d4f inset; }
+.alarm-banner .alarm-text { overflow: hidden; text-overflow: ellipsis; white-space: nowrap; }
+.alarm-banner button { background: transparent; border: 1px solid #ffb3b3; color: #fff; border-radius: 3px; cursor: pointer; }
+`;
+
+/** The banner element (hidden until an alarm comes). */
+export function mountAlarmBanner(bus: Bus): HTMLElement {
+  injectStyle('wrc-alarm-banner', CSS);
+  const text = h('span', { class: 'alarm-text', 'data-testid': 'alarm-text' });
+  const banner = h(
+    'div',
+    { class: 'alarm-banner', 'data-testid': 'alarm', role: 'alert', hidden: true },
+    text,
+    h('button', { 'data-testid': 'alarm-dismiss', title: 'Dismiss', onclick: () => (banner.hidden = true) }, '✕'),
+  );
+  bus.onEvent((name, body) => {
+    if (name !== 'ALARM') return;
+    const a = parseAlarm(body);
+    if (!a) return;
+    const where = a.at ? ` ${a.at.file}:${a.at.line}` : '';
+    text.textContent = `ALARM ${a.code}${a.program ? ` ${a.program}` : ''}${where}: ${a.text}`;
+    banner.title = text.textContent;
+    banner.hidden = false;
+  });
+  return banner;
+}

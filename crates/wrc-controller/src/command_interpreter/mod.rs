@@ -320,7 +320,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.hold = motion::Hold::None;
         }
         if self.settle_state() {
-            self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+            // At rest the robot is where the board was commanded; a move that ended on its
+            // target keeps the target exactly (a program's HERE() does not turn into the
+            // pulses' rounding once the state settles).
+            let commanded = self.shared.commanded_pulses();
+            if self.robot.joints_to_pulses(&self.planned_end) != commanded {
+                self.planned_end = self.robot.pulses_to_joints(&commanded);
+            }
             for i in 0..MAX_WAITERS {
                 if let Some(w) = self.waiters[i].take() {
                     // The stop that ended the motions it waited for, or the alarm now.

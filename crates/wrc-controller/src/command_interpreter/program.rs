@@ -759,7 +759,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.ask_service(StoreRequest::Cell { query }, ProgramWait::Answer);
                 return false;
             }
-            R::Teach { point, joints } => {
+            R::Teach {
+                point,
+                joints,
+                program,
+            } => {
                 let Some(p) = self.program.as_ref() else {
                     return false;
                 };
@@ -768,8 +772,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 } else {
                     PointValue::Pose(self.robot.forward(&self.planned_end))
                 };
+                // A called program's TEACH goes to its own points file.
+                let owner = program
+                    .and_then(|n| ProgramName::new(n.as_str()))
+                    .unwrap_or(p.name);
                 let request = StoreRequest::TeachPoint {
-                    program: p.name,
+                    program: owner,
                     point: ProgramName::new(point.as_str()).unwrap_or(p.name),
                     value,
                 };

@@ -685,3 +685,44 @@ fn the_example_wafer_cycle_skips_empty_slots_and_gives_up_a_wafer_the_operator_s
         );
     }
 }
+
+#[test]
+fn here_stays_the_exact_target_once_the_robot_has_settled() {
+    let mut host = ready(
+        "MOVEL POSE(300, 0, 50, 0)\nPRINT HERE()\nDELAY 1\nPRINT HERE()\nMOVEP POSE(250, 100, 20, 30)\nDELAY 1\nPRINT HERE()\n",
+    );
+    assert_eq!(run(&mut host), "INF 9");
+    assert_eq!(
+        printed(&host),
+        [
+            "POSE(300, 0, 50, 0)",
+            "POSE(300, 0, 50, 0)",
+            "POSE(250, 100, 20, 30)"
+        ]
+    );
+}
+
+#[test]
+fn a_called_programs_teach_goes_to_its_own_points_file() {
+    let mut host = VHost::start();
+    assert!(host
+        .ask("4 POINT callee REST JOINTS 0 90 0 50")
+        .starts_with("ACK 4 "));
+    let callee = "MOVEJ JOINTS(10, 90, 0, 50)\nTEACH REST\nPRINT REST\n";
+    assert!(upload(&mut host, 5, "callee", callee).starts_with("ACK 5 "));
+    ready_with(&mut host, "CALL PROGRAM \"callee\"\nTEACH HOME_HERE\n");
+    assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
+    assert!(
+        host.seen
+            .iter()
+            .any(|l| l == "EVT POINT callee REST joints 10 90 0 50"),
+        "{:?}",
+        host.seen
+    );
+    assert_eq!(printed(&host), ["JOINTS(10, 90, 0, 50)"]);
+    // The caller's own TEACH goes to its file.
+    assert!(host.ask("6 POINTS p").starts_with("ACK 6 points=1"));
+    host.seen.clear();
+    assert_eq!(host.ask("7 POINTS callee"), "ACK 7 points=1");
+    assert_eq!(host.seen[0], "EVT POINT callee REST joints 10 90 0 50");
+}

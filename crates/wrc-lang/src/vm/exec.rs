@@ -623,8 +623,26 @@ impl Vm {
                     "a point's name is 1 to 32 characters",
                 ))?;
                 let joints = v.ty == Ty::Joints;
+                // The point is in the points file of the program whose code runs: the
+                // nearest called program on the call stack (a SUB is called only from its
+                // own program), else the program run.
+                let program_name = self
+                    .frames
+                    .iter()
+                    .rev()
+                    .find_map(|f| {
+                        program
+                            .routines
+                            .get(f.routine as usize)
+                            .and_then(|r| r.name.strip_prefix("PROGRAM "))
+                    })
+                    .and_then(InlineName::new);
                 return Ok(Flow::Yield(
-                    Request::Teach { point, joints },
+                    Request::Teach {
+                        point,
+                        joints,
+                        program: program_name,
+                    },
                     Awaiting::Value(v.ty),
                 ));
             }

@@ -265,6 +265,8 @@ pub enum Request {
         point: InlineName<32>,
         /// A point of joints (else a pose).
         joints: bool,
+        /// The called program (`CALL PROGRAM`) whose point it is; `None`: the program run.
+        program: Option<InlineName<32>>,
     },
 }
 

@@ -220,7 +220,7 @@ fn named_points_are_constants_the_compiler_checks_and_teach_stores_them() {
     let taught: Vec<_> = asked
         .iter()
         .filter_map(|r| match r {
-            Request::Teach { point, joints } => Some((point.as_str().to_string(), *joints)),
+            Request::Teach { point, joints, .. } => Some((point.as_str().to_string(), *joints)),
             _ => None,
         })
         .collect();

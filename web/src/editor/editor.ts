@@ -30,7 +30,7 @@ import { diagsFromEvents, isProgramName, parsePrograms, type Diag } from '../pro
 import { LiveCompiler, apiUrl, fetchLanguage, libraryFiles, type CompileRequest, type CompileResult } from './compile-client';
 import { findDefinition, routineAt, wordAt, wrlCompletionSource, type LanguageInfo, type SymbolInfo } from './completion';
 import { DebugPane } from './debug-pane';
-import { breakpointGutter, breakpointsEffects, debugLineField, toggleAt } from './debug-marks';
+import { breakpointGutter, breakpointLines, breakpointsEffects, debugLineField, toggleAt } from './debug-marks';
 import { ProgramDebugger } from './debugger';
 import type { ConsoleKind, EditorHost } from './host';
 import { PointsPanel } from './points-panel';
@@ -133,7 +133,8 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   el.replaceChildren();
 
   const saved: Record<string, string> = load(STORE_SAVED, {});
-  const current = load<{ name: string; text: string }>(STORE_CURRENT, { name: 'demo', text: DEFAULT_PROGRAM });
+  // The program in the editor, with its breakpoints, as the page left it.
+  const current = load<{ name: string; text: string; breaks?: number[] }>(STORE_CURRENT, { name: 'demo', text: DEFAULT_PROGRAM });
 
   // ---- toolbar ----
   const nameInput = h('input', {
@@ -189,7 +190,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     return nameInput.value.trim();
   }
   function persist(): void {
-    store(STORE_CURRENT, { name: name(), text: text() });
+    store(STORE_CURRENT, { name: name(), text: text(), breaks: breakpointLines(view.state) });
   }
   function edited(): boolean {
     return saved[name()] !== text();
@@ -350,7 +351,10 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   // ---- CodeMirror ----
   let dbg: ProgramDebugger | null = null;
   let points: PointsPanel | null = null;
-  const toggled = (line: number, on: boolean) => void dbg?.toggled(line, on);
+  const toggled = (line: number, on: boolean) => {
+    persist();
+    void dbg?.toggled(line, on);
+  };
   const extensions: Extension[] = [
     breakpointGutter(toggled),
     lineNumbers({ domEventHandlers: { mousedown: (v, block) => toggleAt(v, block, toggled) } }),
@@ -403,6 +407,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     parent: cmHost,
     state: EditorState.create({ doc: current.text, extensions }),
   });
+  if (Array.isArray(current.breaks)) view.dispatch({ effects: breakpointsEffects(view.state, current.breaks.filter(Number.isInteger)) });
 
   const host: EditorHost = { bus, view: () => view, program: name, say, setStatus: (m, k) => setStatus(m, k) };
   const debugPane = new DebugPane(host);

@@ -16,6 +16,33 @@ use wrc_controller::upload::{check, ProgramText};
 use wrc_protocol::{checksum, Code, Event, LineReader, ProgramName, ReplyBuf, ReplyTo};
 use wrc_robot::Robot;
 
+/// The store the upload compiles against: the examples' library `cell_lib`, a library `lib`
+/// (INCLUDE "lib"), a program `other` (CALL PROGRAM "other") and the upload's points file.
+struct Store;
+
+impl wrc_lang::Sources for Store {
+    fn program(&self, name: &str) -> Result<String, String> {
+        match name {
+            "cell_lib" => Ok(include_str!("../../../../examples/cell_lib.wrl").into()),
+            "lib" => Ok("SUB greet(who$)\n  PRINT \"hello\", who$\nENDSUB\n\
+                         FUNCTION twice(v)\n  RETURN v * 2\nENDFUNCTION\n"
+                .into()),
+            "other" => Ok("MOVEJ PARK\nPRINT twice(2)\nINCLUDE \"lib\"\n".into()),
+            _ => Err(format!("there is no {name}.wrl")),
+        }
+    }
+
+    fn points(&self, name: &str) -> Result<Option<String>, String> {
+        Ok(match name {
+            "fuzz" => Some(
+                "[points]\nABOVE = { x = 250.0, y = 50.0, z = 20.0, yaw = 0.0 }\n".into(),
+            ),
+            "other" => Some("[points]\nPARK = { joints = [30.0, 60.0, -90.0, 10.0] }\n".into()),
+            _ => None,
+        })
+    }
+}
+
 fuzz_target!(|stream: &[u8]| {
     let name = ProgramName::new("fuzz").expect("a program name");
     let to = ReplyTo {
@@ -69,7 +96,7 @@ fuzz_target!(|stream: &[u8]| {
         "the store's text is not what was sent"
     );
 
-    let verdict = check(&name, &source, &Robot::paper_default());
+    let verdict = check(&name, &source, &Robot::paper_default(), Some(&Store));
     for diag in &verdict.diagnostics {
         let line = out.event(to.checksum, &Event::Diag(diag));
         assert!(line.starts_with(b"EVT DIAG fuzz.wrl:"), "{line:?}");

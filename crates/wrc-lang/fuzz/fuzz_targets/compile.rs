@@ -1,6 +1,8 @@
 //! Fuzz the compiler: arbitrary bytes (as lossy UTF-8) → `compile` must not panic, whatever
 //! the input. A program that compiles must round-trip through its binary form and run in
-//! the VM for a bounded budget without panicking; its diagnostics must render.
+//! the VM for a bounded budget without panicking, its requests answered, or failed with a
+//! host's code (a TRY's handlers run), as the input's bytes choose; its diagnostics must
+//! render.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -41,11 +43,15 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let mut io = Io(data.first().copied().unwrap_or(0).into());
-    for _ in 0..100 {
+    for k in 0..100 {
         match vm.run(&back, 1000, &mut io) {
             Step::Budget => {}
-            Step::Yield(_) => vm.resume(Resume::Ok),
-            Step::Done | Step::Fault(_) => break,
+            Step::Yield(_) => match data.get(k).copied().unwrap_or(0) % 4 {
+                0 => vm.fail(212, "wafer not sensed"),
+                1 => vm.fail(131, "the slot is empty"),
+                _ => vm.resume(Resume::Ok),
+            },
+            Step::Done | Step::Fault(_) | Step::Break(_) => break,
         }
     }
 });

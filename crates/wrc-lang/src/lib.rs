@@ -272,19 +272,17 @@ pub fn compile_with(source: &str, file: &str, robot: &Robot, options: &CompileOp
     }
     let checked = check::check(&units, robot, &mut diags);
     let has_errors = diags.iter().any(Diagnostic::is_error);
-    let mut symbols = Vec::new();
-    let program = match checked {
-        Some(checked) if !has_errors => {
-            symbols = checked.symbols.clone();
+    let (program, symbols) = match checked {
+        Ok(checked) if !has_errors => {
+            let symbols = checked.symbols.clone();
             let axes = u8::try_from(robot.axis_count()).unwrap_or(u8::MAX);
             let names = files.iter().map(|f| f.name.clone()).collect();
-            Some(codegen::generate(checked, file, axes, names))
+            (Some(codegen::generate(checked, file, axes, names)), symbols)
         }
-        Some(checked) => {
-            symbols = checked.symbols;
-            None
-        }
-        None => None,
+        Ok(checked) => (None, checked.symbols),
+        // Names as far as they were understood: an editor completes them while the
+        // program is being written.
+        Err(known) => (None, known),
     };
     for d in &mut diags {
         if d.file_index > 0 {

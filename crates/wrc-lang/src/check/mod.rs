@@ -300,7 +300,14 @@ struct Checker<'a> {
 
 /// Check parsed programs (`units[0]` is the one compiled). Returns `None` when there are
 /// errors (all reported).
-pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) -> Option<Checked> {
+/// Check `units` (the program first): the typed program, or, when it has errors (reported in
+/// `diags`), the names it defines as far as they were understood (for an editor's
+/// completion while the program is being written).
+pub(crate) fn check(
+    units: &[Unit],
+    robot: &Robot,
+    diags: &mut Vec<Diagnostic>,
+) -> Result<Checked, Vec<Symbol>> {
     let errors_before = diags.iter().filter(|d| d.is_error()).count();
     let mut c = Checker {
         robot,
@@ -342,7 +349,7 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
 
     let errors = c.diags.iter().filter(|d| d.is_error()).count();
     if errors > errors_before {
-        return None;
+        return Err(c.take_symbols());
     }
     if c.dropped && errors == 0 {
         // Every dropped statement should have been reported; never compile without it.
@@ -350,7 +357,7 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
             Span::line_start(0, 1),
             "internal error: a statement could not be compiled and no reason was given (a bug in wrc-lang, please report it)",
         ));
-        return None;
+        return Err(c.take_symbols());
     }
     // One slot a variable, an array's elements in a row: its first slot named, the rest
     // hidden.
@@ -396,34 +403,43 @@ pub(crate) fn check(units: &[Unit], robot: &Robot, diags: &mut Vec<Diagnostic>) 
             span: r.name.span,
         })
         .collect();
-    let mut symbols = std::mem::take(&mut c.symbols);
-    for sym in symbols
-        .iter_mut()
-        .filter(|s| s.ty.is_empty() && s.kind == "variable")
-    {
-        if let Some(&g) = c.global_index.get(0, &sym.name.to_ascii_uppercase()) {
-            sym.ty = c.globals[g as usize].ty.map_or("", Ty::name);
-        }
-    }
-    for sym in symbols
-        .iter_mut()
-        .filter(|s| s.ty.is_empty() && s.kind == "local")
-    {
-        let scope = sym.scope.clone().unwrap_or_default().to_ascii_uppercase();
-        if let Some(&r) = c.routine_index.get(0, &scope) {
-            let r = &c.routines[r as usize];
-            if let Some(&i) = r.local_index.get(&sym.name.to_ascii_uppercase()) {
-                sym.ty = r.locals[i].ty.map_or("", Ty::name);
-            }
-        }
-    }
-    Some(Checked {
+    let symbols = c.take_symbols();
+    Ok(Checked {
         main,
         routines,
         globals,
         global_slots,
         symbols,
     })
+}
+
+impl Checker<'_> {
+    /// The symbols gathered, with the types inferred for variables and locals.
+    fn take_symbols(&mut self) -> Vec<Symbol> {
+        let c = self;
+        let mut symbols = std::mem::take(&mut c.symbols);
+        for sym in symbols
+            .iter_mut()
+            .filter(|s| s.ty.is_empty() && s.kind == "variable")
+        {
+            if let Some(&g) = c.global_index.get(0, &sym.name.to_ascii_uppercase()) {
+                sym.ty = c.globals[g as usize].ty.map_or("", Ty::name);
+            }
+        }
+        for sym in symbols
+            .iter_mut()
+            .filter(|s| s.ty.is_empty() && s.kind == "local")
+        {
+            let scope = sym.scope.clone().unwrap_or_default().to_ascii_uppercase();
+            if let Some(&r) = c.routine_index.get(0, &scope) {
+                let r = &c.routines[r as usize];
+                if let Some(&i) = r.local_index.get(&sym.name.to_ascii_uppercase()) {
+                    sym.ty = r.locals[i].ty.map_or("", Ty::name);
+                }
+            }
+        }
+        symbols
+    }
 }
 
 /// `a number`, `TRUE/FALSE`, … for messages.

@@ -407,3 +407,28 @@ ENDFUNCTION
     );
     assert_eq!(out, ["10"]);
 }
+
+#[test]
+fn a_program_with_errors_still_reports_the_names_it_defines() {
+    let c = compile(
+        "COUNT = 1\nlabel$ = \"x\"\nCALL tick(COUNT)\nPRINT nothere + 1\nEND\nSUB tick(n)\n  LOCAL k = n\n  PRINT k\nENDSUB\n",
+        "p.wrl",
+        &robot(),
+    );
+    assert!(c.program.is_none());
+    assert!(c.errors() > 0);
+    let kinds: Vec<(&str, &str, &str)> = c
+        .symbols
+        .iter()
+        .map(|s| (s.name.as_str(), s.kind, s.ty))
+        .collect();
+    for want in [
+        ("COUNT", "variable", "number"),
+        ("label$", "variable", "string"),
+        ("tick", "sub", ""),
+        ("n", "parameter", "number"),
+        ("k", "local", "number"),
+    ] {
+        assert!(kinds.contains(&want), "{want:?} in {kinds:?}");
+    }
+}

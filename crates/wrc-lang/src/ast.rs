@@ -254,9 +254,9 @@ pub(crate) enum StmtKind {
     },
     For {
         var: Name,
-        from: Expr,
-        to: Expr,
-        step: Option<Expr>,
+        from: Box<Expr>,
+        to: Box<Expr>,
+        step: Option<Box<Expr>>,
         body: Vec<Stmt>,
         /// Where `NEXT` is (the loop's increment and jump back point there).
         next: Span,

@@ -580,7 +580,8 @@ impl Gen {
                     items = list.len().min(255) as u8;
                 }
                 TArg::Target(g) => target = self.slot(*g),
-                TArg::Input { n, value } => {
+                TArg::Input(input) => {
+                    let (n, value) = &**input;
                     self.expr(n);
                     self.expr(value);
                 }

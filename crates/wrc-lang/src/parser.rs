@@ -1241,9 +1241,9 @@ impl Parser<'_, '_> {
             span: kw.span,
             kind: StmtKind::For {
                 var,
-                from,
-                to,
-                step,
+                from: Box::new(from),
+                to: Box::new(to),
+                step: step.map(Box::new),
                 body,
                 next,
             },

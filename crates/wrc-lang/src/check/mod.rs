@@ -97,12 +97,10 @@ pub(crate) enum TArg {
     Items(Vec<TExpr>),
     /// TEACH's point: its global slot.
     Target(u32),
-    Input {
-        n: TExpr,
-        value: TExpr,
-    },
+    /// `IN(n) = value` (boxed: two expressions in every argument would make each large).
+    Input(Box<(TExpr, TExpr)>),
     Keyword(Option<TExpr>),
-    Motion(TMotion),
+    Motion(Box<TMotion>),
 }
 
 /// One value test of a checked `CASE`.
@@ -160,17 +158,17 @@ pub(crate) enum TStmt {
         var: Place,
         limit: Place,
         step_slot: Place,
-        from: TExpr,
-        to: TExpr,
-        step: Option<TExpr>,
+        from: Box<TExpr>,
+        to: Box<TExpr>,
+        step: Option<Box<TExpr>>,
         body: Vec<TStmt>,
         span: Span,
     },
     Do {
         /// `(until, condition)` after DO.
-        pre: Option<(bool, TExpr)>,
+        pre: Option<(bool, Box<TExpr>)>,
         /// `(until, condition)` after LOOP.
-        post: Option<(bool, TExpr)>,
+        post: Option<(bool, Box<TExpr>)>,
         body: Vec<TStmt>,
         span: Span,
     },

@@ -201,7 +201,7 @@ impl Checker<'_> {
                 step,
                 body,
                 ..
-            } => self.for_stmt(s.span, var, from, to, step.as_ref(), body, out),
+            } => self.for_stmt(s.span, var, from, to, step.as_deref(), body, out),
             StmtKind::Do {
                 pre,
                 post,
@@ -227,8 +227,8 @@ impl Checker<'_> {
                 let post_t = cond(post, self);
                 if ok {
                     out.push(TStmt::Do {
-                        pre: pre_t,
-                        post: post_t,
+                        pre: pre_t.map(|(u, c)| (u, Box::new(c))),
+                        post: post_t.map(|(u, c)| (u, Box::new(c))),
                         body: b,
                         span: *end,
                     });
@@ -606,9 +606,9 @@ impl Checker<'_> {
                 var: place,
                 limit,
                 step_slot,
-                from,
-                to,
-                step: step_t,
+                from: Box::new(from),
+                to: Box::new(to),
+                step: step_t.map(Box::new),
                 body: b,
                 span,
             });
@@ -859,7 +859,7 @@ impl Checker<'_> {
                         self.typed_arg(def, n, ArgTy::Is(Ty::Number), ConstCheck::OutputBit, None);
                     let v = self.typed_arg(def, value, ArgTy::Level, ConstCheck::None, None);
                     match (n, v) {
-                        (Some(n), Some(value)) => Some(TArg::Input { n, value }),
+                        (Some(n), Some(value)) => Some(TArg::Input(Box::new((n, value)))),
                         _ => None,
                     }
                 }
@@ -869,7 +869,9 @@ impl Checker<'_> {
                         .typed_arg(def, e, *ty, *check, None)
                         .map(|t| TArg::Keyword(Some(t))),
                 },
-                (ArgSpec::Motion { .. }, Arg::Motion(m)) => self.motion(def, m).map(TArg::Motion),
+                (ArgSpec::Motion { .. }, Arg::Motion(m)) => {
+                    self.motion(def, m).map(|m| TArg::Motion(Box::new(m)))
+                }
                 _ => None,
             };
             match t {

@@ -1,20 +1,22 @@
 //! Measurements for `wrc bench`: straight lines (`wrc bench motion`) — random reachable lines
 //! of a robot, each planned and run to its end as the controller runs it, its duration
 //! compared with the lower bounds of [`crate::reference`], its limits and its accuracy
-//! checked from the output pulses — and stopping times and distances ([`stop`], `wrc bench
-//! stop`). Not used by the controller; this module allocates.
+//! checked from the output pulses — arcs, blended paths and PTP blends the same way
+//! ([`paths`]), and stopping times and distances ([`stop`], `wrc bench stop`). Not used by
+//! the controller; this module allocates.
 
+pub mod paths;
 pub mod stop;
+
+pub use paths::{PathDistance, PathProbe};
 
 use std::time::Instant;
 
 use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
-use crate::curve::Curve;
-use crate::error::{PathPlace, PlanError};
+use crate::error::PlanError;
 use crate::generator::{MoveEnd, Period, Status, VelocityGenerator};
 use crate::path::check_line;
-use crate::path_spec::PathSpec;
 use crate::reference::{line_bound, LineBound};
 use crate::settings::MotionSettings;
 
@@ -303,64 +305,6 @@ pub fn run_line(generator: &VelocityGenerator, case: &LineCase) -> Result<LineRu
         deviation_mm: deviation,
         exact_end,
     })
-}
-
-/// The geometry of a composite path, to measure how far the TCP is from it.
-#[derive(Debug, Clone)]
-pub struct PathProbe {
-    curve: Curve,
-    spec: PathSpec,
-}
-
-/// How far a TCP pose is from a path ([`PathProbe::distance`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PathDistance {
-    /// Distance from the nearest point of the path, in x, y and z [mm].
-    pub off_mm: f64,
-    /// Where that point is: a segment, or the blend after it.
-    pub place: PathPlace,
-    /// The path's parameter there, 0 to 1 (close to the fraction of its length).
-    pub u: f64,
-    /// In a blend: the pose's distance from that blend's corner point (the end of the
-    /// segment before it), in x, y and z [mm].
-    pub from_corner_mm: Option<f64>,
-}
-
-impl PathProbe {
-    /// The path of `spec` for `robot` (refused as the generator refuses it).
-    pub fn new(robot: &Robot, spec: &PathSpec) -> Result<PathProbe, PlanError> {
-        Ok(PathProbe {
-            curve: Curve::build(spec, robot.arm().wrist.is_some())?,
-            spec: *spec,
-        })
-    }
-
-    /// How far `p` is from the path.
-    pub fn distance(&self, p: &Pose) -> PathDistance {
-        let (off_mm, u) = self.curve.nearest(p);
-        let place = self.curve.place(u);
-        let from_corner_mm = place.blend.then(|| {
-            let c = self.spec.segments[place.segment - 1].to();
-            (p.x - c.x).hypot(p.y - c.y).hypot(p.z - c.z)
-        });
-        PathDistance {
-            off_mm,
-            place,
-            u,
-            from_corner_mm,
-        }
-    }
-
-    /// The pose at the path's parameter u in [0, 1] (close to the fraction of its length).
-    pub fn pose_at(&self, u: f64) -> Pose {
-        self.curve.pose_at(u)
-    }
-
-    /// The path's length along its parameter [mm] (the arc length on lines and arcs, close
-    /// to it on blends).
-    pub fn length_mm(&self) -> f64 {
-        self.curve.total()
-    }
 }
 
 /// Distance of `p` from the segment a–b, in x, y and z [mm].

@@ -65,15 +65,17 @@ pub(crate) const SAMPLE_MM: f64 = crate::path::SAMPLE_MM;
 /// Spacing of the samples of an arc's sweep [deg].
 pub(crate) const SAMPLE_ARC_DEG: f64 = 0.5;
 
-/// How many times as densely as a line a blend is sampled (every 1/16 mm): the third
-/// derivatives of its joints vary fast, and the table interpolates them linearly (at the
-/// line's spacing the jerk of J2 reached 1.009 times its limit in a blend of 20 mm at 1 ms,
-/// at a quarter of it 1.007, at this spacing 0.999).
+/// How many times as densely as a line a blend is sampled (every 1/16 mm), and at least
+/// [`MIN_BLEND_INTERVALS`] times however short: the third derivatives of its joints vary
+/// over a fraction of its length, and the derivative table interpolates them linearly. At
+/// the line's spacing the jerk of J2 reached 1.009 times its limit in a blend of 20 mm (at
+/// 1 ms, from the exact positions); in a hairpin blend of 2.4 mm sampled 72 times, 1.007.
 const BLEND_DENSITY: f64 = 8.0;
 
-/// Fewest sample intervals of a segment's piece, and of a blend.
+/// Fewest sample intervals of a segment's piece.
 const MIN_SEGMENT_INTERVALS: usize = 8;
-const MIN_BLEND_INTERVALS: usize = 32;
+/// Fewest sample intervals of a blend (see [`BLEND_DENSITY`]).
+const MIN_BLEND_INTERVALS: usize = 256;
 
 /// Most sample intervals of a whole path: 8 segments of up to 800 mm at 0.5 mm are 12,800,
 /// so a path that long is sampled at 0.8 mm; the table holds this many plus one point per
@@ -399,7 +401,7 @@ impl Curve {
             let (len, yaw, sweep_deg) = curve.piece_extent(k);
             total += len;
             if len > 0.0 {
-                // A blend's derivatives vary faster: sampled BLEND_DENSITY times as densely.
+                // A blend's derivatives vary faster: sampled more densely (BLEND_DENSITY).
                 let density = if k % 2 == 1 { BLEND_DENSITY } else { 1.0 };
                 let n = (density * len / SAMPLE_MM)
                     .max(density * yaw.abs() / crate::path::SAMPLE_DEG)
@@ -556,7 +558,7 @@ impl Curve {
     pub(crate) fn place(&self, u: f64) -> PathPlace {
         let k = self.piece_at(u);
         PathPlace {
-            segment: k / 2 + 1,
+            segment: (k / 2 + 1) as u8,
             blend: k % 2 == 1,
         }
     }

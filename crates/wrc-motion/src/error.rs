@@ -249,11 +249,12 @@ pub enum PathProblem {
     },
 }
 
-/// Where along a path: a segment, or the blend at the corner after it.
+/// Where along a path: a segment, or the blend at the corner after it. (Small on purpose:
+/// [`PlanError`] carries it and is sent in messages.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PathPlace {
-    /// The segment, from 1.
-    pub segment: usize,
+    /// The segment, from 1 (at most [`MAX_PATH_SEGMENTS`]).
+    pub segment: u8,
     /// In the blend at the corner after the segment, not on the segment itself.
     pub blend: bool,
 }

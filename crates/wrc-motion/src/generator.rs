@@ -35,6 +35,10 @@ const LINE_COUNTS: i64 = 1 << 40;
 /// [mm]: each gives the path a faster exit.
 pub const DEPART_ROOM_MM: [f64; 3] = [100.0, 30.0, 10.0];
 
+/// How far along a path its entries are compared ([`VelocityGenerator::plan_ptp_into`]):
+/// beyond the entry's acceleration from the slowest entry to the path's speed [mm].
+pub const ENTRY_HORIZON_MM: f64 = 150.0;
+
 /// The fractions of the nominal velocity at a via point tried by
 /// [`VelocityGenerator::plan_ptp_via`], fastest first.
 pub const VIA_SPEEDS: [f64; 3] = [1.0, 0.6, 0.3];
@@ -986,12 +990,26 @@ impl VelocityGenerator {
             if rule == EntryRule::Free {
                 last_ok = 0;
             }
-            // The line's time from this entry (its law run once on a copy).
+            // The line's time from this entry (its law run once on a copy); a path's to
+            // ENTRY_HORIZON_MM along it, where the entries no longer differ (running a
+            // path's law to its end for each would cost tens of milliseconds).
             let mut dry = profile;
-            let end_t = dry.run_to_end(&bounds, &derivs);
-            if !dry.completed() {
-                continue;
-            }
+            let end_t = match path {
+                Geometry::Line(_) => {
+                    let end_t = dry.run_to_end(&bounds, &derivs);
+                    if !dry.completed() {
+                        continue;
+                    }
+                    end_t
+                }
+                Geometry::Curve(_) => {
+                    let horizon = (ENTRY_HORIZON_MM / path.length_mm()).min(1.0);
+                    match dry.time_at(&bounds, &derivs, horizon) {
+                        Some((t, _)) => t,
+                        None => continue,
+                    }
+                }
+            };
             let total = ptp.duration() + end_t / line_scale;
             if best.as_ref().is_none_or(|b| total < b.0) {
                 best = Some((total, ptp, last_ok.saturating_sub(2), profile));
@@ -1026,12 +1044,13 @@ impl VelocityGenerator {
     /// its end moving.
     ///
     /// How fast it leaves: the path's law is planned with room past its end to brake along
-    /// the path's continuation (its last segment continued) — 100, 30 or 10 mm, each checked
-    /// like the path — so the path may end moving; every state of it keeps a verified brake
-    /// along the path, as a line's does. Each room gives an exit state; its PTP part is
-    /// checked every 2 ms (every joint in range), and of those that pass, and the path to
-    /// rest at its end followed by the PTP from there (two moves in one, the fallback), the
-    /// one that arrives soonest is taken: it never refuses what the two moves would do.
+    /// the path's continuation (its last segment continued) — 100, 30 or 10 mm
+    /// ([`DEPART_ROOM_MM`]), each checked like the path — so the path may end moving; every
+    /// state of it keeps a verified brake along the path, as a line's does. The rooms are
+    /// tried largest first (the fastest exit; each costs a run of the path's law to its end):
+    /// the first whose PTP part keeps every joint in range (checked every 2 ms) is taken,
+    /// unless the path to rest at its end and the PTP from there (two moves in one) arrive
+    /// sooner. When none passes, it is those two moves: it never refuses what they would do.
     ///
     /// From the path's start the whole move; from a point of the path (a RESUME after a HOLD
     /// on it) the rest of the path and the PTP; from anywhere else — at or past the path's end,
@@ -1063,41 +1082,24 @@ impl VelocityGenerator {
         };
         let target = self.robot.joints_to_pulses(to);
         let n = self.robot.axis_count();
-        let window = |to: f64| Window {
-            curve,
-            from,
-            to,
-            posture,
-        };
-        // The fallback: the path to rest at its end (checked: its refusal is the move's),
-        // then the PTP from there.
+        let here = self.robot.forward(&current);
+        let window = |to: f64| Window::new(curve, from, to, posture, &here);
+        // The path itself, checked (its refusal is the move's): also the fallback, the path
+        // to rest at its end and the PTP from there.
         let rest = Geometry::Curve(window(1.0));
-        let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
-        let bounds = self.bounds_of(&rest);
-        let end_pulses = self.robot.joints_to_pulses(&check.end_joints);
-        let rest_time = {
-            let table = &self.table;
-            let derivs = |u: f64| table.at(u);
-            let mut dry = LineProfile::start(&bounds, &derivs);
-            let end_t = dry.run_to_end(&bounds, &derivs);
-            if !dry.completed() {
-                let fraction_pct = 100.0 * dry.at(&bounds, &derivs, end_t);
-                return Err(PlanError::Untimed { fraction_pct });
-            }
-            end_t / line_scale + self.ptp_duration(&end_pulses, &target)
-        };
-        // The flowing candidates: (duration, room past the end [u], the PTP part, t_cut).
-        let mut best: Option<(f64, f64, JerkAxes, f64)> = None;
+        scan(&rest, &self.robot, &current, None)?;
+        // The exits, fastest first: the first whose PTP part passes is taken.
         let step = self.settings.period_s.min(0.002);
         for room in DEPART_ROOM_MM {
             let to_u = 1.0 + room / total;
             let geometry = Geometry::Curve(window(to_u));
             let cut = geometry.path_end();
-            let Ok((_, at_cut)) =
+            let Ok((check, at_cut)) =
                 scan_recording(&geometry, &self.robot, &current, Some(&mut self.table), cut)
             else {
                 continue;
             };
+            let bounds = self.bounds_of(&geometry);
             let table = &self.table;
             let derivs = |u: f64| table.at(u);
             let mut dry = LineProfile::start(&bounds, &derivs);
@@ -1115,47 +1117,61 @@ impl VelocityGenerator {
                 qv[i] = d[1] * v;
                 qa[i] = d[1] * a + d[2] * v * v;
             }
-            let rest = [0.0; MAX_AXES];
+            let zero = [0.0; MAX_AXES];
             let Some(ptp) = self.planner.between(
                 &self.robot,
                 (&at_cut, &qv, &qa),
-                (to, &rest, &rest),
+                (to, &zero, &zero),
                 (self.scale(), self.accel()),
             ) else {
                 continue;
             };
             let samples = (ptp.duration() / step).ceil() as u64;
-            let keeps = (0..=samples).all(|k| {
+            if !(0..=samples).all(|k| {
                 self.robot
                     .check_joints(&ptp.state(k as f64 * step).0)
                     .is_ok()
-            });
+            }) {
+                continue;
+            }
+            // Never slower than the path to rest and the PTP from there: the path at rest
+            // reaches its end no sooner than it leaves it moving, so only when this exit may
+            // be slower is the path's law run to rest to compare.
             let time = t_cut / line_scale + ptp.duration();
-            if keeps && best.as_ref().is_none_or(|b| time < b.0) {
-                best = Some((time, to_u, ptp, t_cut / line_scale));
-            }
-        }
-        match best {
-            Some((time, to_u, ptp, t_cut)) if time < rest_time => {
-                let geometry = Geometry::Curve(window(to_u));
-                let check = scan(&geometry, &self.robot, &current, Some(&mut self.table))?;
-                let then = Then::Flow { t_cut, ptp, target };
-                self.start_cartesian(geometry, &check, &current, line_scale, then)?;
-                // The path's own end is not where this move ends.
-                if let Active::Line { target: t, .. } = &mut self.active {
-                    *t = target;
-                }
-                Ok(true)
-            }
-            _ => {
+            let end_pulses = self.robot.joints_to_pulses(&at_cut);
+            if time > t_cut / line_scale + self.ptp_duration(&end_pulses, &target) {
                 let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
-                let then = Then::Ptp { target };
-                if self.start_cartesian(rest, &check, &current, line_scale, then)? {
-                    Ok(true)
-                } else {
-                    self.plan_ptp_pulses(&target).map(|info| info.periods > 0)
+                let bounds = self.bounds_of(&rest);
+                let table = &self.table;
+                let derivs = |u: f64| table.at(u);
+                let mut dry = LineProfile::start(&bounds, &derivs);
+                let end_t = dry.run_to_end(&bounds, &derivs);
+                let rest_pulses = self.robot.joints_to_pulses(&check.end_joints);
+                if end_t / line_scale + self.ptp_duration(&rest_pulses, &target) <= time {
+                    break;
                 }
+                // Back to this exit's table.
+                scan(&geometry, &self.robot, &current, Some(&mut self.table))?;
             }
+            let then = Then::Flow {
+                t_cut: t_cut / line_scale,
+                ptp,
+                target,
+            };
+            self.start_cartesian(geometry, &check, &current, line_scale, then)?;
+            // The path's own end is not where this move ends.
+            if let Active::Line { target: t, .. } = &mut self.active {
+                *t = target;
+            }
+            return Ok(true);
+        }
+        // No exit passes (or the first that does is slower): the path to rest at its end,
+        // then the PTP from there.
+        let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
+        if self.start_cartesian(rest, &check, &current, line_scale, Then::Ptp { target })? {
+            Ok(true)
+        } else {
+            self.plan_ptp_pulses(&target).map(|info| info.periods > 0)
         }
     }
 

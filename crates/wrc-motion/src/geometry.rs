@@ -18,12 +18,18 @@ use wrc_robot::{
     wrap180, IkCheck, JointJets, Joints, KinematicsError, Pose, PoseJet, Posture, Robot, MAX_AXES,
 };
 
-use crate::curve::{Curve, MAX_PIECES};
+use crate::curve::{Curve, MAX_PIECES, P4};
 use crate::error::{PathProblem, PlanError};
 use crate::path::{end_reachable, no_posture, scan, Derivs, LineAxes, LinePath, PathCheck};
 use crate::path_spec::PathSpec;
 
 /// A composite path seen over u in [`from`, `to`] of its parameter.
+///
+/// The robot stands at the window's start within [`START_TOL_MM`] or [`ON_PATH_TOL_MM`]
+/// (pulses round the joints, so a pose of the path is never quite where the robot is): that
+/// difference, `offset`, is added at v = 0 and faded out over the first [`FADE_MM`] of the
+/// window (a septic smoothstep, so the pose's first three derivatives stay continuous), and
+/// the motion starts exactly where the robot stands instead of jumping a few pulses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Window {
     pub curve: Curve,
@@ -33,9 +39,78 @@ pub(crate) struct Window {
     pub to: f64,
     /// Elbow posture kept along it.
     pub posture: Posture,
+    /// Where the robot stands less the path's pose at v = 0 [mm, mm, mm, deg].
+    offset: P4,
+    /// Over how much of v the offset fades out.
+    fade: f64,
+}
+
+/// Length over which a window's start offset fades out [mm] (at most half the window): the
+/// offset is hundredths of a millimetre, so its derivatives along the path stay far below
+/// the path's own.
+pub const FADE_MM: f64 = 10.0;
+
+/// The septic smoothstep 1 − S(x) on [0, 1] and its first three derivatives: 1 at 0, 0 at 1,
+/// its first three derivatives 0 at both ends.
+fn fade_out(x: f64) -> [f64; 4] {
+    if x >= 1.0 {
+        return [0.0; 4];
+    }
+    let x = x.max(0.0);
+    let (x2, x3) = (x * x, x * x * x);
+    let s = x2 * x2 * (35.0 - 84.0 * x + 70.0 * x2 - 20.0 * x3);
+    let d1 = x3 * (140.0 - 420.0 * x + 420.0 * x2 - 140.0 * x3);
+    let d2 = x2 * (420.0 - 1680.0 * x + 2100.0 * x2 - 840.0 * x3);
+    let d3 = x * (840.0 - 5040.0 * x + 8400.0 * x2 - 4200.0 * x3);
+    [1.0 - s, -d1, -d2, -d3]
 }
 
 impl Window {
+    /// The window over [`from`, `to`] of `curve`, starting where the robot stands at
+    /// `here` (near the path's pose at `from`).
+    pub(crate) fn new(curve: Curve, from: f64, to: f64, posture: Posture, here: &Pose) -> Window {
+        let at = curve.pose_at(from);
+        let offset = [
+            here.x - at.x,
+            here.y - at.y,
+            here.z - at.z,
+            wrap180(here.yaw - at.yaw),
+        ];
+        let length = curve.total() * (to - from);
+        let fade = if length > 0.0 {
+            (FADE_MM / length).min(0.5)
+        } else {
+            0.5
+        };
+        Window {
+            curve,
+            from,
+            to,
+            posture,
+            offset,
+            fade,
+        }
+    }
+
+    /// The pose at v and its derivatives with respect to v.
+    fn pose_jet(&self, v: f64) -> PoseJet {
+        let mut p = self.curve.pose_jet(self.u(v), self.to - self.from);
+        if v < self.fade && self.offset != [0.0; 4] {
+            let f = fade_out(v / self.fade);
+            for (jet, o) in [&mut p.x, &mut p.y, &mut p.z, &mut p.yaw]
+                .into_iter()
+                .zip(self.offset)
+            {
+                let mut k = 1.0;
+                for (m, d) in jet.d.iter_mut().enumerate() {
+                    *d += o * f[m] * k;
+                    k /= self.fade;
+                }
+            }
+        }
+        p
+    }
+
     /// The path's u at v.
     #[inline]
     pub(crate) fn u(&self, v: f64) -> f64 {
@@ -79,7 +154,7 @@ impl Geometry {
     pub(crate) fn pose_at(&self, v: f64) -> Pose {
         match self {
             Geometry::Line(l) => l.pose_at(v),
-            Geometry::Curve(w) => w.curve.pose_at(w.u(v)),
+            Geometry::Curve(w) => w.pose_jet(v).value(),
         }
     }
 
@@ -88,7 +163,7 @@ impl Geometry {
     pub(crate) fn pose_jet(&self, v: f64) -> PoseJet {
         match self {
             Geometry::Line(l) => l.pose_jet(v),
-            Geometry::Curve(w) => w.curve.pose_jet(w.u(v), w.to - w.from),
+            Geometry::Curve(w) => w.pose_jet(v),
         }
     }
 
@@ -142,8 +217,9 @@ impl Geometry {
         let pose = self.pose_jet(v);
         let jets = robot.inverse_jet(&pose, self.posture(), reference)?;
         let mut d = Derivs::of(&jets, axes);
-        if self.cartesian_channels() {
+        if let Geometry::Curve(w) = self {
             d.set_tcp(axes.n, &pose);
+            d.fine = w.curve.place(w.u(v).min(1.0)).blend;
         }
         Ok((d, jets))
     }
@@ -294,12 +370,8 @@ pub(crate) fn path_window(
         return Ok(None);
     }
     end_reachable(robot, current, &curve.pose_at(1.0), posture)?;
-    Ok(Some(Window {
-        curve,
-        from,
-        to: 1.0,
-        posture,
-    }))
+    let here = robot.forward(current);
+    Ok(Some(Window::new(curve, from, 1.0, posture, &here)))
 }
 
 /// Check a composite path ([`PathSpec`]) from the joints `start` as the velocity generator

@@ -64,11 +64,16 @@ use wrc_robot::Robot;
 /// Step of the timing law in plan time [s]: u⃛ is constant over each step.
 pub const STEP_S: f64 = 0.004;
 
-/// Points checked per step of the law and of its brakes on a composite path (every 1 ms of
-/// plan time): a blend may be shorter than a step (a tangent corner's is 2 mm, a 4 ms step at
-/// 350 mm/s 1.4 mm), and checked at the step's ends alone the jerk of J2 passed its limit by
-/// 1.5 % within one.
-pub(crate) const PATH_CHECKS: usize = 4;
+/// Points checked per step of the law and of its brakes where a step touches a blend of a
+/// composite path ([`Derivs::fine`]): every millisecond of plan time. A blend may be about
+/// as short as a step (a tangent corner's is 4 mm; a 4 ms step at 350 mm/s is 1.4 mm), and
+/// one a few millimetres long that turns z or the hand back (a hairpin) varies its joints'
+/// third derivatives within a millimetre: checked at the steps' ends alone, the jerk of a
+/// joint passed its limit by up to 8 % in one (at 1 ms, from the exact positions); checked
+/// twice per step, by 4 %; four times, not at all on the seeded random paths of
+/// `tests/motion/path.rs`. Lines and arcs vary slowly, as a line does: their steps are
+/// checked at their ends.
+pub(crate) const BLEND_CHECKS: usize = 4;
 
 /// Fraction of every limit the planner uses; the rest absorbs the interpolation of the
 /// derivative table and the variation of the bounds within a step.
@@ -197,10 +202,9 @@ pub(crate) struct Bounds {
     cn: f64,
     /// The acceleration override the acceleration and jerk bounds are scaled by (0, 1].
     accel: f64,
-    /// How many points of each step of the law and of its brakes are checked (the end, and
-    /// `sub − 1` evenly between): 1 on a straight line, whose derivatives vary slowly;
-    /// [`PATH_CHECKS`] on a composite path, whose blends may be shorter than a step.
-    sub: usize,
+    /// A composite path's: within its blends ([`Derivs::fine`]) the law and its brakes are
+    /// checked [`BLEND_CHECKS`] times per step, and closed-form brakes that often per check.
+    path: bool,
 }
 
 impl Bounds {
@@ -215,7 +219,7 @@ impl Bounds {
             cj: f64::INFINITY,
             cn: f64::INFINITY,
             accel: 1.0,
-            sub: 1,
+            path: false,
         };
         for k in 0..axes.n {
             let l = &robot.axes()[axes.idx[k]].limits;
@@ -242,7 +246,7 @@ impl Bounds {
         b.a[k] = line.max_accel_mm_s2 * LIMIT_MARGIN;
         b.j[k] = line.max_jerk_mm_s3 * LIMIT_MARGIN;
         b.cn = (line.max_accel_mm_s2 * LIMIT_MARGIN).sqrt();
-        b.sub = PATH_CHECKS;
+        b.path = true;
         b
     }
 
@@ -283,13 +287,14 @@ impl Bounds {
             cj: self.cj * f,
             cn: self.cn * f.sqrt(),
             accel: self.accel,
-            sub: self.sub,
+            path: self.path,
         }
     }
 
     /// Whether the states strictly inside a step of `dt` at jerk `j` from (u, v, a) keep
-    /// every limit, at `sub − 1` evenly spaced points (none on a straight line): the law
-    /// checks the end of each step itself.
+    /// every limit, at [`BLEND_CHECKS`] − 1 evenly spaced points where either end of the step
+    /// is in a blend (`fine`); elsewhere only the end of each step is checked, by the law
+    /// itself.
     #[inline]
     fn ok_within(
         &self,
@@ -297,9 +302,11 @@ impl Bounds {
         (u, v, a): (f64, f64, f64),
         j: f64,
         dt: f64,
+        fine: bool,
     ) -> bool {
-        (1..self.sub).all(|i| {
-            let (ui, vi, ai) = advance(u, v, a, j, dt * i as f64 / self.sub as f64);
+        let sub = if fine { BLEND_CHECKS } else { 1 };
+        (1..sub).all(|i| {
+            let (ui, vi, ai) = advance(u, v, a, j, dt * i as f64 / sub as f64);
             self.ok(&derivs(ui), vi.max(0.0), ai, j)
         })
     }
@@ -561,8 +568,9 @@ fn brake_stop(
         if vn < -1e-9 {
             return Err(Unsafe::Limit);
         }
+        let fine = d.fine;
         d = derivs(un);
-        if !check.ok(&d, vn, an, j) || !check.ok_within(derivs, (u, v, a), j, dt) {
+        if !check.ok(&d, vn, an, j) || !check.ok_within(derivs, (u, v, a), j, dt, fine || d.fine) {
             return Err(Unsafe::Limit);
         }
         (u, v, a) = (un, vn.max(0.0), an);
@@ -1103,9 +1111,10 @@ impl LineProfile {
                 return Err(Unsafe::Limit);
             }
             let (un, vn, an) = step_to(u, v, a, j, STEP_S);
+            let next = derivs(un);
             if vn < -1e-9
-                || !b.ok(&derivs(un), vn.max(0.0), an, j)
-                || !b.ok_within(derivs, (u, v, a), j, STEP_S)
+                || !b.ok(&next, vn.max(0.0), an, j)
+                || !b.ok_within(derivs, (u, v, a), j, STEP_S, d.fine || next.fine)
             {
                 return Err(Unsafe::Limit);
             }
@@ -1179,7 +1188,8 @@ fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d)
         return false;
     }
     brake.phases().all(|(start, len, jerk)| {
-        let steps = (len * b.sub as f64 / CHECK_S)
+        let per = if b.path { BLEND_CHECKS as f64 } else { 1.0 };
+        let steps = (len * per / CHECK_S)
             .ceil()
             .clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;
         (0..=steps).all(|i| {

@@ -113,6 +113,9 @@ pub(crate) struct Derivs {
     pub d3: [f64; CHANNELS],
     /// √(κ)·s′ [√mm per u]: κ·s′²·u̇² is the TCP's centripetal acceleration (0 on a line).
     pub dn: f64,
+    /// In a blend of a composite path, whose derivatives vary fast: the timing law checks
+    /// its steps more densely there.
+    pub fine: bool,
 }
 
 impl Derivs {
@@ -163,6 +166,8 @@ struct TablePiece {
     /// Index of its first point.
     offset: usize,
     intervals: usize,
+    /// A blend ([`Derivs::fine`]).
+    fine: bool,
 }
 
 /// The derivatives of a path's channels tabulated at evenly spaced v within each piece (one
@@ -225,6 +230,7 @@ impl DerivTable {
             d.d3[k] = p.d3[k] + f * (q.d3[k] - p.d3[k]);
         }
         d.dn = p.dn + f * (q.dn - p.dn);
+        d.fine = piece.fine;
         d
     }
 }
@@ -469,6 +475,7 @@ pub(crate) fn scan_recording(
     let (pieces, count) = path.pieces();
     let mut offset = 0;
     for (k, &(v0, v1, n)) in pieces[..count].iter().enumerate() {
+        let mut fine = false;
         for i in 0..=n {
             let u = if i == n {
                 v1
@@ -527,6 +534,8 @@ pub(crate) fn scan_recording(
             if u == record {
                 recorded = reference;
             }
+            // Inside the piece (its ends may belong to the neighbours).
+            fine |= i > 0 && i < n && row.fine;
             if let Some(t) = table.as_deref_mut() {
                 t.points[offset + i] = row;
             }
@@ -537,6 +546,7 @@ pub(crate) fn scan_recording(
                 v1,
                 offset,
                 intervals: n,
+                fine,
             };
         }
         offset += n + 1;

@@ -1,5 +1,6 @@
-//! Reference figures for a straight line, to measure the planner against: lower bounds on
-//! the duration of *any* motion along the line that keeps the same limits. Not used by the
+//! Reference figures for a straight line or a composite path, to measure the planner
+//! against: lower bounds on the duration of *any* motion along it that keeps the same
+//! limits ([`line_bound`], [`path_bound`]). Not used by the
 //! controller; this module allocates (it is for benchmarks and tests).
 //!
 //! - [`topp_va`]: the time-optimal path parameterisation with every joint's velocity and
@@ -21,7 +22,9 @@ use wrc_robot::{Joints, Pose, Robot};
 
 use crate::double_s::DoubleS;
 use crate::error::PlanError;
-use crate::path::{check_line, Derivs, LineAxes, LINE_AXES};
+use crate::geometry::{check_path, path_window, Geometry};
+use crate::path::{check_line, Derivs, LineAxes, CHANNELS};
+use crate::path_spec::PathSpec;
 use crate::settings::LineLimits;
 
 /// Grid intervals of the TOPP-RA reference.
@@ -77,7 +80,7 @@ pub fn line_bound(
         }
         grid.push(Derivs::of(&jets, &axes));
     }
-    let mut limits = [(0.0, 0.0); LINE_AXES];
+    let mut limits = [(0.0, 0.0); CHANNELS];
     for (k, l) in limits.iter_mut().enumerate().take(axes.n) {
         let a = &robot.axes()[axes.idx[k]].limits;
         *l = (a.max_velocity, a.max_acceleration);
@@ -87,7 +90,8 @@ pub fn line_bound(
     } else {
         (f64::INFINITY, f64::INFINITY)
     };
-    let topp_va_s = topp_va(&grid, axes.n, &limits, cv, ca);
+    let us: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).collect();
+    let topp_va_s = topp_va(&us, &grid, axes.n, &limits, (cv, ca, f64::INFINITY));
     let cartesian_jerk_s = if length > 0.0 {
         DoubleS::time_optimal(
             length,
@@ -99,16 +103,7 @@ pub fn line_bound(
     } else {
         0.0
     };
-    let mut joint_jerk_s = 0.0f64;
-    for (i, axis) in robot.axes().iter().enumerate() {
-        let d = (check.end_joints[i] - start[i]).abs();
-        if d > 0.0 {
-            let l = &axis.limits;
-            joint_jerk_s = joint_jerk_s.max(
-                DoubleS::time_optimal(d, l.max_velocity, l.max_acceleration, l.max_jerk).duration(),
-            );
-        }
-    }
+    let joint_jerk_s = joint_jerk_s(robot, start, &check.end_joints);
     Ok(LineBound {
         topp_va_s,
         cartesian_jerk_s,
@@ -116,12 +111,120 @@ pub fn line_bound(
     })
 }
 
-/// TOPP-RA on an even grid of u: `grid[k]` are the derivatives at u = k/n, `limits[i]` the
-/// velocity and acceleration limits of moving axis i, `cv`, `ca` the Cartesian ones in u
-/// units. Returns the duration [s].
-fn topp_va(grid: &[Derivs], n_axes: usize, limits: &[(f64, f64)], cv: f64, ca: f64) -> f64 {
+/// The lower bounds of the composite path `spec` from the joints `start` (its start; from a
+/// point of the path, the rest of it), at 100 % speed, with the same limits as the planner
+/// (docs/motion.md, "Arcs", "Blended paths"):
+///
+/// - TOPP-RA with every joint's velocity and acceleration limit, the TCP's speed and
+///   tangential acceleration along the path and its centripetal acceleration (no jerk
+///   limits), on a grid of the planner's samples of each piece, twice as dense (a blend
+///   as finely as the table holds it);
+/// - the TCP's one-dimensional jerk-limited time over the path's arc length;
+/// - each joint's one-dimensional jerk-limited time over its net travel.
+pub fn path_bound(
+    robot: &Robot,
+    line: &LineLimits,
+    start: &Joints,
+    spec: &PathSpec,
+) -> Result<LineBound, PlanError> {
+    let check = check_path(robot, start, spec)?;
+    let Some(window) = path_window(robot, start, spec)? else {
+        return Ok(LineBound {
+            topp_va_s: 0.0,
+            cartesian_jerk_s: 0.0,
+            joint_jerk_s: 0.0,
+        });
+    };
+    let path = Geometry::Curve(window);
+    let axes = LineAxes::of(robot);
+    let (pieces, count) = path.pieces();
+    let (mut us, mut grid) = (Vec::new(), Vec::new());
+    let mut reference = *start;
+    let mut arc_mm = 0.0;
+    let mut last: Option<(f64, f64)> = None;
+    for &(v0, v1, n) in &pieces[..count] {
+        let n = 2 * n;
+        for i in 0..=n {
+            let u = v0 + (v1 - v0) * (i as f64 / n as f64);
+            if last.is_some_and(|(lu, _)| u <= lu) {
+                continue;
+            }
+            let (row, jets) = path.row(robot, &axes, u, &reference)?;
+            for (q, j) in reference
+                .iter_mut()
+                .zip(&jets.joints)
+                .take(robot.axis_count())
+            {
+                *q = j.value();
+            }
+            // The TCP's speed along the path per unit of u: its arc length by trapezoids.
+            let speed = row.d1[axes.n];
+            if let Some((lu, ls)) = last {
+                arc_mm += 0.5 * (speed + ls) * (u - lu);
+            }
+            last = Some((u, speed));
+            us.push(u);
+            grid.push(row);
+        }
+    }
+    let mut limits = [(0.0, 0.0); CHANNELS];
+    for (k, l) in limits.iter_mut().enumerate().take(axes.n) {
+        let a = &robot.axes()[axes.idx[k]].limits;
+        *l = (a.max_velocity, a.max_acceleration);
+    }
+    limits[axes.n] = (line.max_speed_mm_s, line.max_accel_mm_s2);
+    let centripetal = line.max_accel_mm_s2.sqrt();
+    let topp_va_s = topp_va(
+        &us,
+        &grid,
+        axes.n + 1,
+        &limits,
+        (f64::INFINITY, f64::INFINITY, centripetal),
+    );
+    let cartesian_jerk_s = DoubleS::time_optimal(
+        arc_mm,
+        line.max_speed_mm_s,
+        line.max_accel_mm_s2,
+        line.max_jerk_mm_s3,
+    )
+    .duration();
+    Ok(LineBound {
+        topp_va_s,
+        cartesian_jerk_s,
+        joint_jerk_s: joint_jerk_s(robot, start, &check.end_joints),
+    })
+}
+
+/// The slowest joint's one-dimensional jerk-limited time over its net travel from `start`
+/// to `end` [s].
+fn joint_jerk_s(robot: &Robot, start: &Joints, end: &Joints) -> f64 {
+    let mut t = 0.0f64;
+    for (i, axis) in robot.axes().iter().enumerate() {
+        let d = (end[i] - start[i]).abs();
+        if d > 0.0 {
+            let l = &axis.limits;
+            t = t.max(
+                DoubleS::time_optimal(d, l.max_velocity, l.max_acceleration, l.max_jerk).duration(),
+            );
+        }
+    }
+    t
+}
+
+/// TOPP-RA on a grid of u: `grid[k]` are the derivatives at `us[k]` (increasing, from 0 to
+/// 1), `limits[i]` the velocity and acceleration limits of channel i (the moving axes, and
+/// a composite path's TCP), and `(cv, ca, cn)` a straight line's Cartesian speed and
+/// acceleration in u units and the bound of the centripetal channel ([`Derivs::dn`]).
+/// Returns the duration [s].
+fn topp_va(
+    us: &[f64],
+    grid: &[Derivs],
+    n_axes: usize,
+    limits: &[(f64, f64)],
+    (cv, ca, cn): (f64, f64, f64),
+) -> f64 {
     let n = grid.len() - 1;
-    let du = 1.0 / n as f64;
+    let du = |k: usize| us[k + 1] - us[k];
     // x = u̇²: the velocity limits bound x at each point.
     let x_vel: Vec<f64> = grid
         .iter()
@@ -132,6 +235,9 @@ fn topp_va(grid: &[Derivs], n_axes: usize, limits: &[(f64, f64)], cv: f64, ca: f
                 if d1 > 0.0 {
                     x = x.min((v / d1) * (v / d1));
                 }
+            }
+            if d.dn > 0.0 {
+                x = x.min((cn / d.dn) * (cn / d.dn));
             }
             x
         })
@@ -160,8 +266,8 @@ fn topp_va(grid: &[Derivs], n_axes: usize, limits: &[(f64, f64)], cv: f64, ca: f
             return false;
         }
         let (lo, hi) = accel(k, x);
-        let lo = lo.max(-x / (2.0 * du));
-        let hi = hi.min((next_max - x) / (2.0 * du));
+        let lo = lo.max(-x / (2.0 * du(k)));
+        let hi = hi.min((next_max - x) / (2.0 * du(k)));
         lo <= hi + 1e-12
     };
     // Backward pass: the largest controllable x at every point.
@@ -187,14 +293,14 @@ fn topp_va(grid: &[Derivs], n_axes: usize, limits: &[(f64, f64)], cv: f64, ca: f
     let mut x = vec![0.0; n + 1];
     for k in 0..n {
         let (_, hi) = accel(k, x[k]);
-        let next = (x[k] + 2.0 * du * hi).min(k_max[k + 1]).max(0.0);
+        let next = (x[k] + 2.0 * du(k) * hi).min(k_max[k + 1]).max(0.0);
         x[k + 1] = next;
     }
     (0..n)
         .map(|k| {
             let s = x[k].sqrt() + x[k + 1].sqrt();
             if s > 0.0 {
-                2.0 * du / s
+                2.0 * du(k) / s
             } else {
                 0.0
             }

@@ -1,8 +1,10 @@
-//! `wrc bench motion`: straight lines against the time-optimal lower bound. Random reachable
-//! lines of the configured robot (fixed seed, printed) are planned and run as the controller
-//! runs them; the bench prints their durations over the lower bound, the limits they used
-//! (from the output pulses), their accuracy and the planning time (wrc-motion measures; this
-//! module parses, prints and writes JSON).
+//! `wrc bench motion`: straight lines, arcs and blended paths against the time-optimal lower
+//! bound, and the PTP blends against the same moves at rest between them. Random reachable
+//! lines, arcs and paths of the configured robot (fixed seed, printed) are planned and run as
+//! the controller runs them; the bench prints their durations over the lower bound, the
+//! limits they used (from the output pulses), their accuracy (the TCP's distance from the
+//! path, a blend's from its corner) and the planning time (wrc-motion measures; this module
+//! parses, prints and writes JSON).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -10,6 +12,9 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
+use wrc_motion::bench::paths::{
+    random_joints, run_blend, run_path, Blend, BlendRun, PathCase, PathRun,
+};
 use wrc_motion::bench::{median_max, run_line, LineRun, Lines};
 use wrc_motion::{DoubleS, Profile};
 
@@ -23,6 +28,16 @@ pub struct MotionArgs {
     /// longest lines.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(0..=100_000))]
     long_lines: u32,
+    /// Random arcs to run (through a via point, up to 300° of sweep).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    arcs: u32,
+    /// Random paths of 2 to 5 lines and arcs, every corner blended, to run.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    paths: u32,
+    /// PTP blends to run of each kind (into a path, out of one, through a via point), on the
+    /// first of the random paths.
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    blends: u32,
     /// Seed of the random lines (the same seed gives the same lines on every machine).
     #[arg(long, default_value_t = 2026)]
     seed: u64,
@@ -93,9 +108,36 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let long: Vec<_> = (0..args.long_lines)
         .map(|_| lines.next_long_line(&robot, &mut count))
         .collect();
+    // Arcs and paths (their refusals counted apart), and the other ends of the blends.
+    let mut path_refused = std::collections::BTreeMap::<String, u32>::new();
+    let mut count_path = |e: &wrc_motion::PlanError| {
+        *path_refused.entry(refusal_kind(e)).or_default() += 1;
+    };
+    let arcs: Vec<_> = (0..args.arcs)
+        .map(|_| lines.next_arc(&robot, &mut count_path))
+        .collect();
+    let paths: Vec<_> = (0..args.paths)
+        .map(|_| lines.next_path(&robot, &mut count_path))
+        .collect();
+    let blends: Vec<_> = paths
+        .iter()
+        .take(args.blends as usize)
+        .map(|case| {
+            let mut other = || random_joints(&mut lines, &robot, case.posture);
+            (*case, other(), other(), other())
+        })
+        .collect();
     println!(
         "  candidates refused by the planner (an end out of reach, or a point of the line): {}",
         refused
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
+        "  arc and path candidates refused by the planner: {}",
+        path_refused
             .iter()
             .map(|(k, v)| format!("{k} {v}"))
             .collect::<Vec<_>>()
@@ -137,7 +179,40 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
                 worst.ratio()
             );
         }
-        report.push(json!({ "speed_pct": pct, "figures": figures, "long_lines": long_figures }));
+        let run_paths = |cases: &[PathCase]| -> anyhow::Result<Vec<PathRun>> {
+            cases
+                .iter()
+                .map(|case| {
+                    run_path(&generator, case).with_context(|| format!("planning {case:?}"))
+                })
+                .collect()
+        };
+        let arc_figures = (!arcs.is_empty())
+            .then(|| run_paths(&arcs).map(|r| summarise_paths(&r)))
+            .transpose()?;
+        if let Some(f) = &arc_figures {
+            print_path_figures(pct, "arcs", f);
+        }
+        let path_figures = (!paths.is_empty())
+            .then(|| run_paths(&paths).map(|r| summarise_paths(&r)))
+            .transpose()?;
+        if let Some(f) = &path_figures {
+            print_path_figures(pct, "blended paths", f);
+        }
+        let blend_figures = (!blends.is_empty())
+            .then(|| run_blends(&generator, &blends))
+            .transpose()?;
+        if let Some(f) = &blend_figures {
+            print_blend_figures(pct, f);
+        }
+        report.push(json!({
+            "speed_pct": pct,
+            "figures": figures,
+            "long_lines": long_figures,
+            "arcs": arc_figures,
+            "blended_paths": path_figures,
+            "ptp_blends": blend_figures,
+        }));
     }
     if let Some(path) = &args.json {
         let doc = json!({
@@ -146,6 +221,9 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             "lines": args.lines,
             "period_ms": settings.period_s * 1000.0,
             "refused_candidates": refused,
+            "arcs": args.arcs,
+            "paths": args.paths,
+            "refused_path_candidates": path_refused,
             "runs": report,
         });
         std::fs::write(path, serde_json::to_string_pretty(&doc)?)
@@ -158,7 +236,8 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
 fn refusal_kind(e: &wrc_motion::PlanError) -> String {
     use wrc_motion::{PathProblem, PlanError};
     match e {
-        PlanError::PathLeavesWorkspace { problem, .. } => match problem {
+        PlanError::PathLeavesWorkspace { problem, .. }
+        | PlanError::SegmentLeavesWorkspace { problem, .. } => match problem {
             PathProblem::JointLimit { axis, .. } => format!("{axis} beyond its limits on the line"),
             PathProblem::Stretched { .. } | PathProblem::Folded { .. } => {
                 "singularity on the line".into()
@@ -166,6 +245,10 @@ fn refusal_kind(e: &wrc_motion::PlanError) -> String {
             _ => "other path problem".into(),
         },
         PlanError::PostureChange => "posture change".into(),
+        PlanError::Arc { .. } => "arc on a line".into(),
+        PlanError::CornerTurnsBack { .. } => "corner turning back".into(),
+        PlanError::SharpCorner { .. } => "sharp corner".into(),
+        PlanError::Untimed { .. } => "untimed".into(),
         PlanError::Kinematics(_) => "end out of reach".into(),
         _ => "other".into(),
     }
@@ -310,4 +393,198 @@ fn print_figures(pct: f64, what: &str, f: &serde_json::Value) {
         f["exact_end"],
         f["lines"]
     );
+}
+
+/// Every figure of the arcs or the paths at one speed, as JSON.
+fn summarise_paths(runs: &[PathRun]) -> serde_json::Value {
+    let ratios: Vec<f64> = runs.iter().map(PathRun::ratio).collect();
+    let ratios_joints: Vec<f64> = runs
+        .iter()
+        .map(|r| r.duration_s / r.bound.with_joints_s())
+        .collect();
+    let ms = |f: fn(&PathRun) -> f64| runs.iter().map(|r| f(r) * 1e3).collect::<Vec<f64>>();
+    let per_10ms: Vec<f64> = runs
+        .iter()
+        .map(|r| r.periods_total_s * 1e3 / (r.duration_s / 0.010))
+        .collect();
+    let max_use = |k: usize, pulses: bool| {
+        runs.iter()
+            .map(|r| {
+                if pulses {
+                    r.limits.pulses[k]
+                } else {
+                    r.limits.exact[k]
+                }
+            })
+            .fold(0.0f64, f64::max)
+    };
+    let mm = |v: Vec<f64>| {
+        let (m, x) = median_max(&v);
+        json!({ "median": m, "max": x })
+    };
+    json!({
+        "runs": runs.len(),
+        "length_mm": mm(runs.iter().map(|r| r.length_mm).collect()),
+        "ratio_to_lower_bound": mm(ratios),
+        "ratio_to_lower_bound_with_joint_jerk": mm(ratios_joints),
+        "over_a_limit": runs.iter().filter(|r| !r.limits.within(1e-6)).count(),
+        "limit_use_exact": { "v": max_use(0, false), "a": max_use(1, false), "j": max_use(2, false) },
+        "limit_use_pulses": { "v": max_use(0, true), "a": max_use(1, true), "j": max_use(2, true) },
+        "max_deviation_mm": runs.iter().map(|r| r.deviation_mm).fold(0.0f64, f64::max),
+        "max_zone_use": runs.iter().map(|r| r.zone_use).fold(0.0f64, f64::max),
+        "exact_end": runs.iter().filter(|r| r.exact_end).count(),
+        "plan_ahead_ms": mm(ms(|r| r.plan_s)),
+        "start_ms": mm(ms(|r| r.start_s)),
+        "period_max_ms": mm(ms(|r| r.period_max_s)),
+        "law_ms_per_10ms_of_motion": mm(per_10ms),
+    })
+}
+
+fn print_path_figures(pct: f64, what: &str, f: &serde_json::Value) {
+    let g = |path: &[&str]| {
+        let mut v = f;
+        for p in path {
+            v = &v[*p];
+        }
+        v.as_f64().unwrap_or(f64::NAN)
+    };
+    println!(
+        "\nspeed {pct} %, {what}: {} runs, length median {:.0} mm, max {:.0} mm",
+        f["runs"],
+        g(&["length_mm", "median"]),
+        g(&["length_mm", "max"])
+    );
+    for (label, key) in [
+        (
+            "duration / lower bound (TOPP-RA v/a; TCP 1-D jerk)",
+            "ratio_to_lower_bound",
+        ),
+        (
+            "… with each joint's 1-D jerk-limited time too",
+            "ratio_to_lower_bound_with_joint_jerk",
+        ),
+        (
+            "start of a path (built, every point checked, derivative table) [ms]",
+            "start_ms",
+        ),
+        (
+            "timing law as it runs, per 10 ms of motion [ms]",
+            "law_ms_per_10ms_of_motion",
+        ),
+        ("the longest single period [ms]", "period_max_ms"),
+        ("the whole law run ahead (plan_path) [ms]", "plan_ahead_ms"),
+    ] {
+        println!(
+            "  {label}: median {:.3}  max {:.3}",
+            g(&[key, "median"]),
+            g(&[key, "max"])
+        );
+    }
+    for (label, key) in [
+        ("exact positions", "limit_use_exact"),
+        ("output pulses less rounding", "limit_use_pulses"),
+    ] {
+        println!(
+            "  limit use (v a j), {label}: {:.4} {:.4} {:.4}",
+            g(&[key, "v"]),
+            g(&[key, "a"]),
+            g(&[key, "j"])
+        );
+    }
+    println!(
+        "  over a limit: {}; TCP off the path (from the pulses): max {:.4} mm; in a blend, from its corner: max {:.3} of the zone; ends exactly on the end's pulses: {} of {}",
+        f["over_a_limit"],
+        g(&["max_deviation_mm"]),
+        g(&["max_zone_use"]),
+        f["exact_end"],
+        f["runs"]
+    );
+}
+
+/// The three PTP blends on each case, as JSON.
+fn run_blends(
+    generator: &wrc_motion::VelocityGenerator,
+    cases: &[(
+        PathCase,
+        wrc_robot::Joints,
+        wrc_robot::Joints,
+        wrc_robot::Joints,
+    )],
+) -> anyhow::Result<serde_json::Value> {
+    let mut out = serde_json::Map::new();
+    for kind in ["into_path", "out_of_path", "through_via"] {
+        let runs: Vec<BlendRun> = cases
+            .iter()
+            .map(|(case, a, b, c)| {
+                let blend = match kind {
+                    "into_path" => Blend::Into { from: *a },
+                    "out_of_path" => Blend::Depart { to: *b },
+                    _ => Blend::Via { via: *b, to: *c },
+                };
+                run_blend(generator, case, blend).with_context(|| format!("{kind} on {case:?}"))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let ratios: Vec<f64> = runs.iter().map(BlendRun::ratio).collect();
+        let plan_ms: Vec<f64> = runs.iter().map(|r| r.plan_s * 1e3).collect();
+        let (rm, rx) = median_max(&ratios);
+        let min = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let (pm, px) = median_max(&plan_ms);
+        // From the pulses: where a path stops and a PTP starts from rest (the fallback) the
+        // exact positions step by the pulses' rounding, which the exact figures would count.
+        let over = runs
+            .iter()
+            .filter(|r| r.limits.pulses.iter().any(|&x| x > 1.0 + 1e-6))
+            .count();
+        let max_use = |pulses: bool| {
+            runs.iter()
+                .flat_map(|r| {
+                    if pulses {
+                        r.limits.pulses
+                    } else {
+                        r.limits.exact
+                    }
+                })
+                .fold(0.0f64, f64::max)
+        };
+        out.insert(
+            kind.into(),
+            json!({
+                "runs": runs.len(),
+                "ratio_to_apart": { "median": rm, "max": rx, "min": min },
+                "faster": ratios.iter().filter(|&&r| r < 1.0).count(),
+                "plan_ms": { "median": pm, "max": px },
+                "over_a_limit": over,
+                "limit_use_pulses": max_use(true),
+                "limit_use_exact": max_use(false),
+                "exact_end": runs.iter().filter(|r| r.exact_end).count(),
+            }),
+        );
+    }
+    Ok(serde_json::Value::Object(out))
+}
+
+fn print_blend_figures(pct: f64, f: &serde_json::Value) {
+    println!("\nspeed {pct} %, PTP blends against the same moves at rest between them:");
+    for (label, key) in [
+        ("PTP into a path", "into_path"),
+        ("path into a PTP", "out_of_path"),
+        ("PTP through a via point", "through_via"),
+    ] {
+        let b = &f[key];
+        let g = |a: &str, c: &str| b[a][c].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "  {label}: {} runs, duration / apart median {:.3} min {:.3} max {:.3} ({} faster), planning median {:.3} max {:.3} ms, over a limit {} (most of a limit used, pulses {:.4}, exact {:.4}), exact ends {}",
+            b["runs"],
+            g("ratio_to_apart", "median"),
+            g("ratio_to_apart", "min"),
+            g("ratio_to_apart", "max"),
+            b["faster"],
+            g("plan_ms", "median"),
+            g("plan_ms", "max"),
+            b["over_a_limit"],
+            b["limit_use_pulses"].as_f64().unwrap_or(f64::NAN),
+            b["limit_use_exact"].as_f64().unwrap_or(f64::NAN),
+            b["exact_end"]
+        );
+    }
 }

@@ -200,7 +200,10 @@ fn ptp_blends_end_on_their_targets_and_accel_lowers_a_move() {
     let elsewhere = p(50.0, 300.0, 100.0, 90.0);
     let mut rig = Rig::new();
     let away = rig.go_to(&elsewhere);
-    let start = rig.robot.inverse(&spec.start, Posture::Right, None).unwrap();
+    let start = rig
+        .robot
+        .inverse(&spec.start, Posture::Right, None)
+        .unwrap();
     let end = rig.pulses(&check_path(&rig.robot, &start, &spec).unwrap().end_joints);
     // PTP into the path, then the path out into a PTP back, then a PTP through a via.
     rig.order(
@@ -215,7 +218,10 @@ fn ptp_blends_end_on_their_targets_and_accel_lowers_a_move() {
     let (outcome, _) = finish(&mut rig);
     assert_eq!(outcome, MoveOutcome::Completed);
     assert_eq!(rig.commanded()[..4], end[..4]);
-    let back = rig.robot.inverse(&spec.start, Posture::Right, None).unwrap();
+    let back = rig
+        .robot
+        .inverse(&spec.start, Posture::Right, None)
+        .unwrap();
     rig.order(5, MoveKind::Joints(back), 100.0);
     finish(&mut rig);
     rig.order(

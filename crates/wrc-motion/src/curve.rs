@@ -545,7 +545,7 @@ impl Curve {
 
     /// The piece that holds u (the later one where two meet; the last one beyond the end,
     /// which continues its segment).
-    fn piece_at(&self, u: f64) -> usize {
+    pub(crate) fn piece_at(&self, u: f64) -> usize {
         let sigma = u * self.total();
         let last = self.pieces() - 1;
         (1..=last)

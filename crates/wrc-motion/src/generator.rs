@@ -686,7 +686,7 @@ impl VelocityGenerator {
         let (robot, axes, line) = (&self.robot, &self.line_axes, &self.settings.line);
         match path {
             Geometry::Line(l) => Bounds::new(robot, axes, line, l.length_mm()),
-            Geometry::Curve(_) => Bounds::for_path(robot, axes, line),
+            Geometry::Curve(_) => Bounds::for_path(robot, axes, line, path.length_mm()),
         }
         .with_accel(self.accel())
     }

@@ -219,7 +219,11 @@ impl Geometry {
         let mut d = Derivs::of(&jets, axes);
         if let Geometry::Curve(w) = self {
             d.set_tcp(axes.n, &pose);
-            d.fine = w.curve.place(w.u(v).min(1.0)).blend;
+            let u = w.u(v);
+            let k = w.curve.piece_at(u.min(1.0));
+            d.fine = k % 2 == 1;
+            // The continuation past the path's end is a piece of its own.
+            d.piece = if u > 1.0 { MAX_PIECES as u8 } else { k as u8 };
         }
         Ok((d, jets))
     }

@@ -12,12 +12,20 @@
 //! ([`check_line`]; a line that leaves the workspace or a joint's range is refused with the
 //! axis, where and the pose), and under the default profile timed by a time-optimal
 //! jerk-limited path parameterisation whose every state is known to stop along the line
-//! within the limits (`line_profile.rs`). A PTP move to a pose goes to the joint solution
-//! it reaches soonest ([`ptp_target`]). A wafer transfer's blended approach
-//! ([`VelocityGenerator::plan_approach`]) flows into a station's straight line at speed:
-//! Ruckig's synchronised move to the line's entry state, kept behind the line's start until
-//! the hand is on the line (docs/motion.md, "Blended approach"). Not for the controller: [`reference`] (lower bounds
-//! of a line's duration, TOPP-RA) and [`bench`] (`wrc bench motion`), which allocate.
+//! within the limits (`line_profile.rs`). A composite path ([`PathSpec`]: lines and circular
+//! arcs, each corner rounded within its blend zone by a curve that keeps the curvature
+//! continuous) is checked ([`check_path`]) and timed the same way
+//! ([`VelocityGenerator::start_path`]). A PTP move to a pose goes to the joint solution it
+//! reaches soonest ([`ptp_target`]). PTP and Cartesian moves blend without stopping
+//! between them (docs/motion.md, "PTP blends"): a PTP into a path
+//! ([`VelocityGenerator::plan_ptp_into`]; a wafer transfer's approach,
+//! [`VelocityGenerator::plan_approach`], with a station's rule), a path into a PTP
+//! ([`VelocityGenerator::plan_depart`]) and a PTP through a via point
+//! ([`VelocityGenerator::plan_ptp_via`]), by Ruckig's synchronised moves to and from the
+//! path's moving states. An acceleration override ([`VelocityGenerator::set_accel_pct`])
+//! lowers a move's accelerations and jerks, never its stop. Not for the controller:
+//! [`reference`] (lower bounds of a line's or path's duration, TOPP-RA) and [`bench`]
+//! (`wrc bench motion`), which allocate.
 //!
 //! A controlled stop ([`VelocityGenerator::stop`]) brakes from the present state in the next
 //! period with the time-optimal jerk-limited brake ([`Brake1d`]): with the move's limits for
@@ -27,7 +35,7 @@
 //!
 //! Guarantees: the pulses emitted for a completed move sum exactly to the target; velocity,
 //! acceleration and jerk stay within every axis's limits (scaled by the speed override);
-//! straight lines keep the TCP on the segment; planning and every period run without heap
+//! straight lines and paths keep the TCP on them; planning and every period run without heap
 //! allocation, without I/O and without blocking, so they can run in a real-time task.
 //!
 //! ```

@@ -64,16 +64,23 @@ use wrc_robot::Robot;
 /// Step of the timing law in plan time [s]: u⃛ is constant over each step.
 pub const STEP_S: f64 = 0.004;
 
-/// Points checked per step of the law and of its brakes where a step touches a blend of a
-/// composite path ([`Derivs::fine`]): every millisecond of plan time. A blend may be about
-/// as short as a step (a tangent corner's is 4 mm; a 4 ms step at 350 mm/s is 1.4 mm), and
-/// one a few millimetres long that turns z or the hand back (a hairpin) varies its joints'
-/// third derivatives within a millimetre: checked at the steps' ends alone, the jerk of a
-/// joint passed its limit by up to 8 % in one (at 1 ms, from the exact positions); checked
-/// twice per step, by 4 %; four times, not at all on the seeded random paths of
-/// `tests/motion/path.rs`. Lines and arcs vary slowly, as a line does: their steps are
-/// checked at their ends.
+/// Fewest points checked per step of the law and of its brakes where a step touches a blend
+/// of a composite path or passes from one of its pieces into another ([`Derivs::fine`],
+/// [`Derivs::piece`]): every millisecond of plan time, and at most [`CHECK_MM`] apart. A
+/// blend may be shorter than a step (a 4 ms step at 500 mm/s is 2 mm; a corner blended
+/// within 0.5 mm is shorter than that): checked at the steps' ends alone, the law passed a
+/// hairpin of 0.3 mm at 440 mm/s, and a blend of a few millimetres that turns z or the hand
+/// back varies its joints' third derivatives within a millimetre (checked every 2 ms the
+/// jerk of a joint passed its limit by 4 % there; every millisecond, not at all on the
+/// seeded random paths of `tests/motion/path.rs`). Lines and arcs vary slowly, as a line
+/// does: steps within them are checked at their ends.
 pub(crate) const BLEND_CHECKS: usize = 4;
+
+/// Longest stretch of a step between two checks where [`BLEND_CHECKS`] applies [mm].
+pub(crate) const CHECK_MM: f64 = 0.1;
+
+/// Most points checked in one step.
+const MAX_CHECKS: usize = 64;
 
 /// Fraction of every limit the planner uses; the rest absorbs the interpolation of the
 /// derivative table and the variation of the bounds within a step.
@@ -202,9 +209,11 @@ pub(crate) struct Bounds {
     cn: f64,
     /// The acceleration override the acceleration and jerk bounds are scaled by (0, 1].
     accel: f64,
-    /// A composite path's: within its blends ([`Derivs::fine`]) the law and its brakes are
-    /// checked [`BLEND_CHECKS`] times per step, and closed-form brakes that often per check.
-    path: bool,
+    /// A composite path's length per unit of u [mm] (0 on a straight line): a step that
+    /// touches a blend or crosses from one piece into another ([`Derivs::fine`],
+    /// [`Derivs::piece`]) is checked every [`CHECK_MM`] of it, and closed-form brakes
+    /// [`BLEND_CHECKS`] times as often as on a line.
+    path_mm: f64,
 }
 
 impl Bounds {
@@ -219,7 +228,7 @@ impl Bounds {
             cj: f64::INFINITY,
             cn: f64::INFINITY,
             accel: 1.0,
-            path: false,
+            path_mm: 0.0,
         };
         for k in 0..axes.n {
             let l = &robot.axes()[axes.idx[k]].limits;
@@ -238,7 +247,12 @@ impl Bounds {
     /// The bounds of a composite path ([`crate::geometry::Geometry::Curve`]): every moving
     /// axis, then the TCP's speed, tangential acceleration and jerk along the path within
     /// the line limits, and its centripetal acceleration within the line acceleration limit.
-    pub(crate) fn for_path(robot: &Robot, axes: &LineAxes, line: &LineLimits) -> Self {
+    pub(crate) fn for_path(
+        robot: &Robot,
+        axes: &LineAxes,
+        line: &LineLimits,
+        length_mm: f64,
+    ) -> Self {
         let mut b = Bounds::new(robot, axes, line, 0.0);
         let k = axes.n;
         b.n = k + 1;
@@ -246,7 +260,7 @@ impl Bounds {
         b.a[k] = line.max_accel_mm_s2 * LIMIT_MARGIN;
         b.j[k] = line.max_jerk_mm_s3 * LIMIT_MARGIN;
         b.cn = (line.max_accel_mm_s2 * LIMIT_MARGIN).sqrt();
-        b.path = true;
+        b.path_mm = length_mm.max(1e-9);
         b
     }
 
@@ -287,14 +301,16 @@ impl Bounds {
             cj: self.cj * f,
             cn: self.cn * f.sqrt(),
             accel: self.accel,
-            path: self.path,
+            path_mm: self.path_mm,
         }
     }
 
-    /// Whether the states strictly inside a step of `dt` at jerk `j` from (u, v, a) keep
-    /// every limit, at [`BLEND_CHECKS`] − 1 evenly spaced points where either end of the step
-    /// is in a blend (`fine`); elsewhere only the end of each step is checked, by the law
-    /// itself.
+    /// Whether the states strictly inside a step of `dt` at jerk `j` from (u, v, a), whose
+    /// derivatives at its ends are `ends`, keep every limit. On a composite path, a step that
+    /// touches a blend or passes from one piece into another is checked every [`CHECK_MM`]
+    /// of its length (at least [`BLEND_CHECKS`] − 1 points, at most [`MAX_CHECKS`]); a piece
+    /// shorter than a step would otherwise pass unseen between its ends. Elsewhere, and on a
+    /// straight line, only the end of each step is checked, by the law itself.
     #[inline]
     fn ok_within(
         &self,
@@ -302,9 +318,14 @@ impl Bounds {
         (u, v, a): (f64, f64, f64),
         j: f64,
         dt: f64,
-        fine: bool,
+        ends: (&Derivs, &Derivs),
     ) -> bool {
-        let sub = if fine { BLEND_CHECKS } else { 1 };
+        if self.path_mm == 0.0 || !(ends.0.fine || ends.1.fine || ends.0.piece != ends.1.piece) {
+            return true;
+        }
+        let (un, ..) = advance(u, v, a, j, dt);
+        let mm = (un - u).abs() * self.path_mm;
+        let sub = ((mm / CHECK_MM).ceil() as usize).clamp(BLEND_CHECKS, MAX_CHECKS);
         (1..sub).all(|i| {
             let (ui, vi, ai) = advance(u, v, a, j, dt * i as f64 / sub as f64);
             self.ok(&derivs(ui), vi.max(0.0), ai, j)
@@ -568,9 +589,9 @@ fn brake_stop(
         if vn < -1e-9 {
             return Err(Unsafe::Limit);
         }
-        let fine = d.fine;
+        let start = d;
         d = derivs(un);
-        if !check.ok(&d, vn, an, j) || !check.ok_within(derivs, (u, v, a), j, dt, fine || d.fine) {
+        if !check.ok(&d, vn, an, j) || !check.ok_within(derivs, (u, v, a), j, dt, (&start, &d)) {
             return Err(Unsafe::Limit);
         }
         (u, v, a) = (un, vn.max(0.0), an);
@@ -1114,7 +1135,7 @@ impl LineProfile {
             let next = derivs(un);
             if vn < -1e-9
                 || !b.ok(&next, vn.max(0.0), an, j)
-                || !b.ok_within(derivs, (u, v, a), j, STEP_S, d.fine || next.fine)
+                || !b.ok_within(derivs, (u, v, a), j, STEP_S, (&d, &next))
             {
                 return Err(Unsafe::Limit);
             }
@@ -1188,7 +1209,11 @@ fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d)
         return false;
     }
     brake.phases().all(|(start, len, jerk)| {
-        let per = if b.path { BLEND_CHECKS as f64 } else { 1.0 };
+        let per = if b.path_mm > 0.0 {
+            BLEND_CHECKS as f64
+        } else {
+            1.0
+        };
         let steps = (len * per / CHECK_S)
             .ceil()
             .clamp(1.0, MAX_BRAKE_STEPS as f64) as usize;

@@ -116,6 +116,9 @@ pub(crate) struct Derivs {
     /// In a blend of a composite path, whose derivatives vary fast: the timing law checks
     /// its steps more densely there.
     pub fine: bool,
+    /// Which piece of a composite path (segment, blend, the continuation past its end): a
+    /// step whose ends are in different pieces is checked densely, lest it pass over one.
+    pub piece: u8,
 }
 
 impl Derivs {
@@ -231,6 +234,7 @@ impl DerivTable {
         }
         d.dn = p.dn + f * (q.dn - p.dn);
         d.fine = piece.fine;
+        d.piece = k as u8;
         d
     }
 }

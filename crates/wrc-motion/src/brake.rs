@@ -29,9 +29,9 @@
 /// Which limits a controlled stop ([`crate::VelocityGenerator::stop`]) brakes with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BrakeLimits {
-    /// STOP or HOLD: the limits the move was planned with, i.e. every axis's (and a line's
-    /// Cartesian) limits scaled by the move's speed override (velocity p, acceleration p²,
-    /// jerk p³).
+    /// STOP or HOLD: every axis's (and a line's or path's Cartesian) limits scaled by the
+    /// move's speed override (velocity p, acceleration p², jerk p³) — the limits the move was
+    /// planned with, without its acceleration override, which a stop never takes.
     Override,
     /// ESTOP, IEC 60204-1 stop category 1: every axis's full limits whatever the speed
     /// override (a straight line: its full joint and Cartesian limits).

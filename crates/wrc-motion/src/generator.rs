@@ -1,13 +1,17 @@
-//! The incremental velocity generator: plans a move (PTP, straight line, jog, a transfer's
-//! blended approach into a station's line) from the
-//! current commanded position and then yields, period by period, the integer pulse
-//! increment of every axis, with a speed override and a controlled stop (STOP/HOLD with the
-//! move's limits, ESTOP with every axis's full limits: [`BrakeLimits`]).
+//! The incremental velocity generator: plans a move (PTP, straight line, composite path,
+//! jog, and the blends between PTP and Cartesian moves: a PTP into a path — a transfer's
+//! approach into a station's line among them — a path into a PTP, a PTP through a via point)
+//! from the current commanded position and then yields, period by period, the integer pulse
+//! increment of every axis, with speed and acceleration overrides and a controlled stop
+//! (STOP/HOLD with the speed override's limits, ESTOP with every axis's full limits:
+//! [`BrakeLimits`]).
 //!
-//! Planning may take some tens of microseconds (a straight line is checked point by point)
-//! but, like every period, it does not allocate: the generator owns fixed-size arrays only,
-//! so all of it can run in the real-time Velocity Generator task. The commanded position is
-//! by definition the sum of the pulses emitted; no pulse is ever lost or invented.
+//! Planning takes from microseconds (a PTP) to milliseconds (a line or path is checked point
+//! by point; a blend into or out of a path runs the path's law for its candidates:
+//! docs/motion.md gives the costs) but, like every period, it does not allocate: the
+//! generator owns fixed-size arrays and a derivative table allocated with it, so all of it
+//! can run in the real-time Velocity Generator task. The commanded position is by definition
+//! the sum of the pulses emitted; no pulse is ever lost or invented.
 
 use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
@@ -2214,6 +2218,9 @@ mod tests {
             runs.push((info.duration_s, a, brake.len(), vg.joints()[0] - at));
         }
         let (full, slow) = (runs[0], runs[1]);
+        println!(
+            "PTP of 300°: ACCEL 100 % {full:?}, 25 % {slow:?} (s, deg/s², brake periods, deg)"
+        );
         assert!(
             slow.0 > full.0 * 1.2,
             "ACCEL 25 %: {} s, 100 %: {} s",
@@ -2301,10 +2308,17 @@ mod tests {
                 "ACCEL {pct}: braked over {travelled} of the line, the full brake {}",
                 brake(1.0)
             );
+            println!(
+                "ACCEL {pct} %: STOP at 40 % braked over {:.2} mm, the full limits' brake {:.2} mm, ACCEL's {:.2} mm",
+                travelled * 200.0,
+                brake(1.0) * 200.0,
+                brake(pct / 100.0) * 200.0
+            );
             if pct < 100.0 {
                 assert!(travelled < 0.5 * brake(pct / 100.0), "{travelled}");
             }
         }
+        println!("line of 200 mm: ACCEL 100 % and 25 %: {durations:?} s");
         assert!(durations[1] > durations[0] * 1.2, "{durations:?}");
     }
 }

@@ -25,6 +25,11 @@ pub(super) struct Ticket {
     /// sends it again after a HOLD: a PTP then continues on its joint-space line, a line on
     /// its line, to the same target.
     pub(super) resume: MoveKind,
+    /// The motion's own speed (a program's `SPEED` option) [%]; `None`: the operator's.
+    /// RESUME keeps it, below the override then in force.
+    pub(super) speed_pct: Option<f64>,
+    /// The motion's acceleration override [%]; RESUME keeps it.
+    pub(super) accel_pct: f64,
     /// The Pulse Generator reported it held (it was braking when HOLD came).
     pub(super) held: bool,
 }
@@ -95,6 +100,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         home: bool,
         resume: MoveKind,
     ) -> Option<u32> {
+        let speed_pct = self.next_move.speed_pct;
+        let accel_pct = self.next_move.accel_pct.unwrap_or(100.0);
         let slot = self.tickets.iter().position(Option::is_none)?;
         let ticket = self.next_ticket;
         self.next_ticket = self.next_ticket.wrapping_add(1).max(1);
@@ -104,6 +111,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             to,
             home,
             resume,
+            speed_pct,
+            accel_pct,
             held: false,
         });
         Some(ticket)
@@ -118,8 +127,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         end: Joints,
         home: bool,
     ) -> Option<u32> {
-        // A line is resumed as a line to its pose; every other motion as a PTP to the joint
-        // target admission checked (the one the Velocity Generator goes to).
+        // A line, a path or a blend is resumed as itself (the Velocity Generator finds where
+        // on it the arm stands); every other motion as a PTP to the joint target admission
+        // checked (the one the Velocity Generator goes to).
         let resume = match kind {
             MoveKind::Line(_)
             | MoveKind::Approach { .. }
@@ -292,19 +302,18 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let speed_pct = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
         // Ticket numbers grow (wrapping) in the order motions were accepted.
         let first = self.next_ticket;
-        let mut order: [Option<(u32, MoveKind)>; MAX_TICKETS] = [None; MAX_TICKETS];
-        for (slot, t) in order.iter_mut().zip(self.tickets.iter()) {
-            *slot = t.map(|t| (t.ticket, t.resume));
-        }
-        order
-            .sort_unstable_by_key(|o| o.map_or(u32::MAX, |(ticket, _)| ticket.wrapping_sub(first)));
-        for (ticket, kind) in order.into_iter().flatten() {
+        let mut order: [Option<Ticket>; MAX_TICKETS] = [None; MAX_TICKETS];
+        order.copy_from_slice(&self.tickets);
+        order.sort_unstable_by_key(|o| o.map_or(u32::MAX, |t| t.ticket.wrapping_sub(first)));
+        for t in order.into_iter().flatten() {
+            let ticket = t.ticket;
             let sent = self.io.orders.try_send(MoveOrder {
                 ticket,
                 epoch,
-                speed_pct,
-                accel_pct: 100.0,
-                kind,
+                // The motion's own speed and acceleration, below today's override.
+                speed_pct: t.speed_pct.map_or(speed_pct, |s| s.min(speed_pct)),
+                accel_pct: t.accel_pct,
+                kind: t.resume,
             });
             // The order queue holds MAX_TICKETS orders and the Velocity Generator dropped
             // the held ones, so there is room; should there not be, the motion ends openly.

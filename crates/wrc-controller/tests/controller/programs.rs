@@ -726,3 +726,40 @@ fn a_called_programs_teach_goes_to_its_own_points_file() {
     assert_eq!(host.ask("7 POINTS callee"), "ACK 7 points=1");
     assert_eq!(host.seen[0], "EVT POINT callee REST joints 10 90 0 50");
 }
+
+#[test]
+fn a_held_program_move_resumes_at_its_own_speed_and_acceleration() {
+    let config = wrc_config::Config::embedded_default();
+    let j1 = &config.robot.axes()[0];
+    let mut host = ready("MOVEJ JOINTS(150, 90, 0, 50) SPEED 20 ACCEL 25\nPRINT \"there\"\n");
+    assert_eq!(host.ask("9 RUN p"), "ACK 9");
+    host.wait_moving("the move under way", |j, _, _| j[0] > 20.0);
+    assert_eq!(host.ask("10 HOLD"), "ACK 10");
+    host.poll("HELD", |h| {
+        let s = h.status();
+        if s.contains("state=HELD") {
+            Ok(())
+        } else {
+            Err(s)
+        }
+    });
+    host.sim.record_pulses(true);
+    assert_eq!(host.ask("11 RESUME"), "ACK 11");
+    assert_eq!(host.reply(), "INF 9");
+    let pulses = host.sim.take_pulses();
+    // The fastest J1 went after RESUME, from period to period of the board.
+    let fastest = pulses
+        .windows(2)
+        .map(|w| {
+            let dt = (w[1].0 - w[0].0) as f64 * 1e-9;
+            (w[1].1[0] - w[0].1[0]).abs() as f64 / j1.pulses_per_unit / dt
+        })
+        .fold(0.0, f64::max);
+    let limit = j1.limits.max_velocity;
+    assert!(
+        fastest <= 0.2 * limit * 1.01 && fastest > 0.1 * limit,
+        "J1 at {fastest} deg/s after RESUME; SPEED 20 of {limit}"
+    );
+    let (j, _, _) = host.where_();
+    assert!((j[0] - 150.0).abs() < 0.01, "{j:?}");
+}

@@ -17,6 +17,8 @@
 //! * [`mapping`]: the slot codes of `MAP` (`0` absent, `1` present, `2` double, `X` cross).
 //! * [`wafer_map`]: where every wafer is, two-phase transfers, start-up reconciliation, the
 //!   file and the `WAFERS` line.
+//! * [`journal`]: the transfer journal that tells, after a power loss, what an interrupted
+//!   transfer did and which places became uncertain.
 //! * [`world`]: the simulated cell (wafers, pick and place by the hand, the vacuum and
 //!   mapping sensors) and [`Tracking`], which compares a wafer map with it.
 //!
@@ -56,6 +58,7 @@
 
 mod atomic;
 pub mod blade;
+pub mod journal;
 pub mod mapping;
 pub mod station;
 pub mod stations;

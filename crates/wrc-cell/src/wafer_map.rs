@@ -16,6 +16,14 @@
 //!   the committed state — and [`WaferMap::reconcile`] resolves a pending transfer at
 //!   start-up from the vacuum sensor: the only place a wafer can be in the middle of a
 //!   transfer is its source or the hand.
+//! * After a power loss the vacuum sensor cannot tell (the valve is off): the transfer
+//!   journal ([`crate::journal`]) judges the pending transfer, and
+//!   [`WaferMap::settle_interrupted`] commits it, aborts it, or leaves its wafer
+//!   *uncertain* at each place it may be in (on the blade: `W3?`; in the slot:
+//!   [`SlotState::Uncertain`]). Nothing assumed, nothing lost: an uncertain place keeps its
+//!   wafer id until a sensor ([`WaferMap::apply_mapping`] for a slot, [`WaferMap::sense_blade`]
+//!   for a blade) or an operator ([`WaferMap::confirm_at`], [`WaferMap::confirm_gone`],
+//!   [`WaferMap::confirm_empty`]) settles it, and GET and PUT refuse it until then.
 //!
 //! # Start-up
 //!
@@ -30,19 +38,23 @@
 //! Each slot of each station is [`SlotState::Unknown`] (never mapped: GET and PUT refuse it
 //! until `MAP <station>`), [`SlotState::Empty`], [`SlotState::Wafer`] or
 //! [`SlotState::Fault`] (the mapping saw a double or cross-slotted wafer there: GET and PUT
-//! refuse it until it is mapped clean).
+//! refuse it until it is mapped clean) or [`SlotState::Uncertain`] (perhaps a wafer,
+//! perhaps nothing, after an interrupted transfer: GET and PUT refuse it until it is mapped
+//! or confirmed).
 //!
-//! # File format (TOML, version 2)
+//! # File format (TOML, version 3)
 //!
 //! ```toml
 //! # wrc wafer map ...
-//! version = 2
+//! version = 3
 //! next_id = 27                 # the next new id; every id in the map is below it
 //! hand = "W3"                  # omitted when the hand (blade A) is empty
 //! hand_b = "W4"                # blade B of a dual-blade robot; omitted when empty
 //! hand_uncertain = true        # the wafer on blade A is uncertain (the board stopped
 //!                              # answering while it was there); omitted when false
 //! hand_b_uncertain = true      # the same for blade B
+//! note = "PUT LP2 1 (W1) was interrupted …"   # what left places uncertain; omitted when
+//!                              # nothing is
 //!
 //! [pending]                    # omitted when no transfer is in progress
 //! kind = "get"                 # "get" or "put"
@@ -53,22 +65,25 @@
 //!
 //! [[station]]
 //! name = "LP1"
-//! slots = ["W1", "W2", "-", "?", "double", "cross"]   # slot 1 first
+//! slots = ["W1", "W2", "-", "?", "double", "cross", "W9?"]   # slot 1 first
 //!
 //! # end of the wafer map
 //! ```
 //!
-//! Slot tokens: `W<n>` a wafer, `-` empty, `?` unknown, `double`, `cross`. The last line is
-//! [`END_LINE`]: a version 2 file without it was cut short and is refused (version 1, which
-//! had none, is still read and is written back as version 2).
+//! Slot tokens: `W<n>` a wafer, `-` empty, `?` unknown, `double`, `cross`, `W<n>?` perhaps
+//! that wafer (uncertain). The last line is [`END_LINE`]: a version 2 or 3 file without it
+//! was cut short and is refused (version 1, which had none, and version 2 are still read;
+//! the map is written back as version 3).
 //!
 //! # The `WAFERS` reply
 //!
 //! [`WaferMap::wafers_line`] gives one line: `hand=<tok> <STN>=<slots> … [pending=…]` (the
-//! hand's token is `W<n>?` while its wafer is uncertain: the board stopped answering), for
+//! hand's token is `W<n>?` while its wafer is uncertain: the board stopped answering, or a
+//! power loss switched its vacuum off), for
 //! example `hand=- LP1=W1..W25 LP2=-x25 AL=- PM1=? PM2=W26 pending=get:LP1.3:W3`. `<slots>`
 //! lists every slot from slot 1 up, comma-separated, with the tokens `W<n>` (a wafer), `-`
-//! (empty), `?` (unknown), `D` (double), `X` (cross-slotted), compressed two ways: three or
+//! (empty), `?` (unknown), `D` (double), `X` (cross-slotted), `W<n>?` (uncertain: perhaps
+//! that wafer, perhaps nothing), compressed two ways: three or
 //! more wafers with ids rising by one in successive slots as `W<a>..W<b>`, and a token
 //! repeated n ≥ 2 times as `<tok>x<n>` (a lower-case x: in the protocol `*` only ever starts a checksum). With D the number of digits of the largest id, the
 //! line is at most `7 + D` bytes for the hand (`hand=W<n>?`), `1 + len(name) + slots · (D + 2)` per station
@@ -84,16 +99,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_atomic;
 use crate::blade::{Blade, MAX_BLADES};
+use crate::journal::Maybe;
 use crate::mapping::SlotCode;
 use crate::station::{parse_station_name, same_name, StationName, MAX_SLOTS};
 use crate::stations::Stations;
 use crate::transfer::TransferKind;
 
-/// Version of the wafer map file format written by [`WaferMap::to_text`]. Version 2 ends
-/// with [`END_LINE`]; version 1 (no end line) is still read.
-pub const FORMAT_VERSION: u32 = 2;
+/// Version of the wafer map file format written by [`WaferMap::to_text`]. Version 3 adds
+/// uncertain slots (`W3?`) and the `note`; versions 2 and 3 end with [`END_LINE`]; versions 1
+/// (no end line) and 2 are still read.
+pub const FORMAT_VERSION: u32 = 3;
 
-/// The last line of a version 2 wafer map: a file that does not end with it was cut short.
+/// The last line of a version 2 or 3 wafer map: a file that does not end with it was cut
+/// short.
 /// TOML cannot tell: a file cut at the end of a line (a lost stretch of a disk, a partial
 /// copy) is often still valid TOML, with the pending transfer, the hand or whole stations
 /// missing, which the map would otherwise take as unknown and write back.
@@ -187,6 +205,10 @@ pub enum SlotState {
     Wafer(WaferId),
     /// A mapping fault: GET and PUT refuse it.
     Fault(SlotFault),
+    /// Perhaps this wafer, perhaps nothing: a transfer was interrupted (a power loss) and
+    /// nothing has proven either yet. GET and PUT refuse it until a `MAP` of the station, a
+    /// sensor or an operator settles it ([`WaferMap::settle_interrupted`]).
+    Uncertain(WaferId),
 }
 
 impl SlotState {
@@ -198,6 +220,7 @@ impl SlotState {
             SlotState::Empty => Some(SlotCode::Absent),
             SlotState::Wafer(_) => Some(SlotCode::Present),
             SlotState::Fault(fault) => Some(fault.code()),
+            SlotState::Uncertain(_) => None,
         }
     }
 }
@@ -281,6 +304,35 @@ impl Reconciled {
             Reconciled::Consistent | Reconciled::Committed(_) | Reconciled::Aborted(_)
         )
     }
+}
+
+/// What [`WaferMap::settle_interrupted`] did with the interrupted transfer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interrupted {
+    /// The wafer is certainly at the destination.
+    Committed(Transfer),
+    /// The wafer is certainly at the source.
+    Aborted(Transfer),
+    /// The wafer may be on the blade, in the slot (or gone): those places are uncertain.
+    Uncertain(Transfer),
+    /// The wafer is on neither (a sensor said so): it left the map.
+    Gone(Transfer),
+}
+
+/// What [`WaferMap::sense_blade`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sensed {
+    /// The blade holds this wafer, now certain.
+    Held(WaferId),
+    /// The blade holds a wafer the map did not have: this new id.
+    Unknown(WaferId),
+    /// The blade holds nothing; the wafer the map had on it may still be elsewhere.
+    NotHere(WaferId),
+    /// The blade holds nothing, and the wafer the map had on it is nowhere else: it left
+    /// the map.
+    Gone(WaferId),
+    /// The blade holds nothing, as the map said.
+    Empty,
 }
 
 /// What [`WaferMap::apply_mapping`] changed in a station, slot by slot.
@@ -397,6 +449,20 @@ pub enum WaferMapError {
         /// The place.
         location: Location,
     },
+    /// A place that is uncertain after an interrupted transfer: GET and PUT refuse it.
+    #[error("{}", uncertain_text(location, *wafer))]
+    Uncertain {
+        /// The place.
+        location: Location,
+        /// The wafer that may be there.
+        wafer: WaferId,
+    },
+    /// An operator named a wafer the map does not hold.
+    #[error("wafer {wafer} is not in the wafer map; WAFERS lists the wafers")]
+    NotInMap {
+        /// The wafer named.
+        wafer: WaferId,
+    },
     /// Every id up to `W4294967295` has been handed out.
     #[error(
         "all wafer ids up to W{} have been used; start a new wafer map",
@@ -466,6 +532,18 @@ pub enum WaferMapError {
     },
 }
 
+/// The text of [`WaferMapError::Uncertain`].
+fn uncertain_text(location: &Location, wafer: WaferId) -> String {
+    match location {
+        Location::Hand(_) => format!(
+            "wafer {wafer} on the {location} is uncertain after an interrupted transfer: SENSE the blade (or CONFIRM what it holds) first"
+        ),
+        Location::Slot { station, slot } => format!(
+            "{station} slot {slot} is uncertain after an interrupted transfer (perhaps {wafer}, perhaps empty): MAP {station} (or CONFIRM what it holds) first"
+        ),
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct MapStation {
     name: StationName,
@@ -487,6 +565,9 @@ pub struct WaferMap {
     uncertain: [bool; MAX_BLADES],
     /// The next new id; every id in the map is below it. Up to `u32::MAX + 1`.
     next_id: u64,
+    /// What left places uncertain (an interrupted transfer's judgement), kept while any
+    /// place is uncertain.
+    note: Option<String>,
 }
 
 impl Default for WaferMap {
@@ -499,6 +580,7 @@ impl Default for WaferMap {
             pending: None,
             uncertain: [false; MAX_BLADES],
             next_id: 1,
+            note: None,
         }
     }
 }
@@ -565,7 +647,7 @@ impl WaferMap {
         state: SlotState,
     ) -> Result<(), WaferMapError> {
         let location = Location::Slot { station, slot };
-        if let SlotState::Wafer(w) = state {
+        if let SlotState::Wafer(w) | SlotState::Uncertain(w) = state {
             return Err(WaferMapError::StationGone {
                 location,
                 what: format!("wafer {w}"),
@@ -665,7 +747,8 @@ impl WaferMap {
         self.iter().find(|&(_, w)| w == id).map(|(at, _)| at)
     }
 
-    /// Every wafer and where it is: station slots in order, then the hand.
+    /// Every wafer and where it is: station slots in order, then the hand. An uncertain
+    /// wafer ([`WaferMap::is_certain`]) is listed at each place it may be.
     pub fn iter(&self) -> impl Iterator<Item = (Location, WaferId)> + '_ {
         self.stations
             .iter()
@@ -674,7 +757,7 @@ impl WaferMap {
                     .iter()
                     .enumerate()
                     .filter_map(move |(i, state)| match state {
-                        SlotState::Wafer(w) => Some((
+                        SlotState::Wafer(w) | SlotState::Uncertain(w) => Some((
                             Location::Slot {
                                 station: s.name,
                                 slot: (i + 1) as u16,
@@ -691,9 +774,70 @@ impl WaferMap {
             )
     }
 
-    /// Number of wafers in the map.
+    /// Number of wafers in the map (an uncertain wafer once, however many places it may
+    /// be in).
     pub fn len(&self) -> usize {
-        self.iter().count()
+        let mut ids: Vec<WaferId> = self.iter().map(|(_, w)| w).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids.len()
+    }
+
+    /// Whether the wafer the map has at `location` is certain there (false for a place
+    /// that holds none).
+    pub fn is_certain(&self, location: &Location) -> bool {
+        match location {
+            Location::Hand(b) => self.hands[b.index()].is_some() && !self.uncertain[b.index()],
+            Location::Slot { station, slot } => {
+                matches!(self.slot(station.as_str(), *slot), Ok(SlotState::Wafer(_)))
+            }
+        }
+    }
+
+    /// Whether anything in the map is uncertain (a place that may or may not hold a wafer).
+    pub fn has_uncertain(&self) -> bool {
+        self.uncertain
+            .iter()
+            .zip(&self.hands)
+            .any(|(u, h)| *u && h.is_some())
+            || self.stations.iter().any(|s| {
+                s.slots
+                    .iter()
+                    .any(|st| matches!(st, SlotState::Uncertain(_)))
+            })
+    }
+
+    /// Every uncertain place and the wafer that may be there.
+    pub fn uncertain_places(&self) -> Vec<(Location, WaferId)> {
+        self.iter().filter(|(at, _)| !self.is_certain(at)).collect()
+    }
+
+    /// What left places uncertain (kept while any is), for the operator.
+    pub fn note(&self) -> Option<&str> {
+        self.note.as_deref()
+    }
+
+    /// Record what left places uncertain ([`WaferMap::note`]); a text is kept only while a
+    /// place is uncertain, and at most 400 bytes of it.
+    pub fn set_note(&mut self, text: &str) {
+        let mut end = text.len().min(400);
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        self.note = Some(text[..end].to_string());
+        self.tidy();
+    }
+
+    /// Forget the note once nothing is uncertain.
+    fn tidy(&mut self) {
+        for (u, h) in self.uncertain.iter_mut().zip(&self.hands) {
+            if h.is_none() {
+                *u = false;
+            }
+        }
+        if !self.has_uncertain() {
+            self.note = None;
+        }
     }
 
     /// Whether the map holds no wafer.
@@ -753,6 +897,9 @@ impl WaferMap {
                             fault,
                         })
                     }
+                    SlotState::Uncertain(wafer) => {
+                        return Err(WaferMapError::Uncertain { location, wafer })
+                    }
                 }
                 self.stations[si].slots[i] = SlotState::Wafer(id);
             }
@@ -811,21 +958,35 @@ impl WaferMap {
         let needed = codes
             .iter()
             .zip(&s.slots)
-            .filter(|(c, old)| **c == SlotCode::Present && !matches!(old, SlotState::Wafer(_)))
+            .filter(|(c, old)| {
+                **c == SlotCode::Present
+                    && !matches!(old, SlotState::Wafer(_) | SlotState::Uncertain(_))
+            })
             .count() as u64;
         if self.next_id + needed > MAX_NEXT_ID {
             return Err(WaferMapError::IdsExhausted);
         }
         let mut changes = MappingChanges::default();
         let mut slots = s.slots.clone();
+        // Uncertain wafers the scan found here (they are nowhere else), and those it did
+        // not (they may still be elsewhere).
+        let mut found = Vec::new();
+        let mut not_here = Vec::new();
         for (i, (state, code)) in slots.iter_mut().zip(codes).enumerate() {
             let slot = (i + 1) as u16;
             let old = *state;
+            if let SlotState::Uncertain(w) = old {
+                if *code == SlotCode::Present {
+                    found.push(w);
+                } else {
+                    not_here.push((slot, w));
+                }
+            }
             *state = match code {
                 SlotCode::Present => match old {
-                    SlotState::Wafer(w) => {
+                    SlotState::Wafer(w) | SlotState::Uncertain(w) => {
                         changes.kept.push((slot, w));
-                        old
+                        SlotState::Wafer(w)
                     }
                     _ => {
                         let w = WaferId(self.next_id as u32);
@@ -846,7 +1007,51 @@ impl WaferMap {
             }
         }
         self.stations[si].slots = slots;
+        for w in found {
+            self.forget_elsewhere(
+                w,
+                Location::Slot {
+                    station: self.stations[si].name,
+                    slot: 0,
+                },
+            );
+        }
+        // A wafer the scan did not find in its uncertain slot, and that may be nowhere
+        // else, leaves the map on the mapping sensor's word.
+        for (slot, w) in not_here {
+            if self.location_of(w).is_none() {
+                changes.removed.push((slot, w));
+            }
+        }
+        self.tidy();
         Ok(changes)
+    }
+
+    /// Wafer `w` is certain at `kept` (a slot of station `kept` with slot 0: every slot of
+    /// that station is spared): clear every other place it was uncertain in.
+    fn forget_elsewhere(&mut self, w: WaferId, kept: Location) {
+        for b in Blade::ALL {
+            let i = b.index();
+            if self.hands[i] == Some(w) && kept != Location::Hand(b) {
+                self.hands[i] = None;
+                self.uncertain[i] = false;
+            }
+        }
+        for s in &mut self.stations {
+            for (i, st) in s.slots.iter_mut().enumerate() {
+                let here = Location::Slot {
+                    station: s.name,
+                    slot: (i + 1) as u16,
+                };
+                let spared = match kept {
+                    Location::Slot { station, slot: 0 } => station == s.name,
+                    other => other == here,
+                };
+                if *st == SlotState::Uncertain(w) && !spared {
+                    *st = SlotState::Empty;
+                }
+            }
+        }
     }
 
     /// Check a transfer with the hand (blade A) against the map and build it with the wafer
@@ -889,7 +1094,22 @@ impl WaferMap {
                     fault,
                 })
             }
+            SlotState::Uncertain(wafer) => {
+                return Err(WaferMapError::Uncertain {
+                    location: Location::Slot {
+                        station: name,
+                        slot,
+                    },
+                    wafer,
+                })
+            }
             SlotState::Empty | SlotState::Wafer(_) => {}
+        }
+        if let (Some(wafer), true) = (self.hands[blade.index()], self.uncertain[blade.index()]) {
+            return Err(WaferMapError::Uncertain {
+                location: Location::Hand(blade),
+                wafer,
+            });
         }
         let wafer = match kind {
             TransferKind::Get => {
@@ -1030,6 +1250,224 @@ impl WaferMap {
         self.uncertain[blade.index()]
     }
 
+    /// Settle the pending transfer after it was interrupted, as the transfer journal
+    /// judged it ([`crate::journal::judge`]): its wafer is certainly, perhaps or not on its
+    /// blade and in its slot. A place that is `Perhaps` becomes uncertain (the wafer shows
+    /// there with a `?`, GET and PUT refuse it); `Yes` on one side makes the other `No`.
+    /// `No` on both sides takes the wafer out of the map: only a sensor reading can say
+    /// that (the judge gives it only then), and the result names the wafer.
+    pub fn settle_interrupted(
+        &mut self,
+        on_blade: Maybe,
+        in_slot: Maybe,
+    ) -> Result<Interrupted, WaferMapError> {
+        let t = self.pending.ok_or(WaferMapError::NoPendingTransfer)?;
+        let (si, i) = self.find(t.station.as_str(), t.slot)?;
+        let b = t.blade.index();
+        let (on_blade, in_slot) = match (on_blade, in_slot) {
+            (Maybe::Yes, _) => (Maybe::Yes, Maybe::No),
+            (_, Maybe::Yes) => (Maybe::No, Maybe::Yes),
+            other => other,
+        };
+        self.hands[b] = (on_blade != Maybe::No).then_some(t.wafer);
+        self.uncertain[b] = on_blade == Maybe::Perhaps;
+        self.stations[si].slots[i] = match in_slot {
+            Maybe::Yes => SlotState::Wafer(t.wafer),
+            Maybe::Perhaps => SlotState::Uncertain(t.wafer),
+            Maybe::No => SlotState::Empty,
+        };
+        self.pending = None;
+        self.tidy();
+        Ok(match (on_blade, in_slot) {
+            (Maybe::No, Maybe::No) => Interrupted::Gone(t),
+            (Maybe::Yes, _) | (_, Maybe::Yes) => {
+                let at_destination = match t.kind {
+                    TransferKind::Get => on_blade == Maybe::Yes,
+                    TransferKind::Put => in_slot == Maybe::Yes,
+                };
+                if at_destination {
+                    Interrupted::Committed(t)
+                } else {
+                    Interrupted::Aborted(t)
+                }
+            }
+            _ => Interrupted::Uncertain(t),
+        })
+    }
+
+    /// The vacuum sensor of `blade`, read with its valve on and the hand out of every
+    /// station (`SENSE`): a wafer sensed is certain on the blade (a wafer the map did not
+    /// have gets a new id), and wherever else the map had it uncertain is empty; none sensed
+    /// empties the blade, and a wafer that may then be nowhere else leaves the map on the
+    /// sensor's word. Refused while a transfer is pending.
+    pub fn sense_blade(&mut self, blade: Blade, sensed: bool) -> Result<Sensed, WaferMapError> {
+        self.refuse_if_pending()?;
+        let b = blade.index();
+        let result = match (self.hands[b], sensed) {
+            (Some(w), true) => {
+                self.uncertain[b] = false;
+                self.forget_elsewhere(w, Location::Hand(blade));
+                Sensed::Held(w)
+            }
+            (None, true) => {
+                let w = self.new_id()?;
+                self.hands[b] = Some(w);
+                self.uncertain[b] = false;
+                Sensed::Unknown(w)
+            }
+            (Some(w), false) => {
+                self.hands[b] = None;
+                self.uncertain[b] = false;
+                if self.location_of(w).is_none() {
+                    Sensed::Gone(w)
+                } else {
+                    Sensed::NotHere(w)
+                }
+            }
+            (None, false) => Sensed::Empty,
+        };
+        self.tidy();
+        Ok(result)
+    }
+
+    /// An operator's word: wafer `w` is at `location` (`CONFIRM W3 LP2 1`, `CONFIRM W3
+    /// HAND`). The place becomes certain with it, and every other place the map had it in
+    /// is empty. Refused while a transfer is pending, for a wafer the map does not hold, and
+    /// for a place that holds (or may hold) another wafer or a fault.
+    pub fn confirm_at(&mut self, w: WaferId, location: Location) -> Result<(), WaferMapError> {
+        self.refuse_if_pending()?;
+        if self.location_of(w).is_none() {
+            return Err(WaferMapError::NotInMap { wafer: w });
+        }
+        match location {
+            Location::Hand(b) => match self.hands[b.index()] {
+                Some(other) if other != w => {
+                    return Err(WaferMapError::HandOccupied { wafer: other })
+                }
+                _ => {
+                    self.hands[b.index()] = Some(w);
+                    self.uncertain[b.index()] = false;
+                }
+            },
+            Location::Slot { station, slot } => {
+                let (si, i) = self.find(station.as_str(), slot)?;
+                let name = self.stations[si].name;
+                match self.stations[si].slots[i] {
+                    SlotState::Wafer(other) | SlotState::Uncertain(other) if other != w => {
+                        return Err(WaferMapError::SlotOccupied {
+                            station: name,
+                            slot,
+                            wafer: other,
+                        })
+                    }
+                    SlotState::Fault(fault) => {
+                        return Err(WaferMapError::SlotFault {
+                            station: name,
+                            slot,
+                            fault,
+                        })
+                    }
+                    _ => self.stations[si].slots[i] = SlotState::Wafer(w),
+                }
+            }
+        }
+        let kept = match location {
+            Location::Slot { station, slot } => Location::Slot {
+                station: self.stations[self.station_index(station.as_str()).unwrap_or(0)].name,
+                slot,
+            },
+            hand => hand,
+        };
+        self.forget_elsewhere_exact(w, kept);
+        self.tidy();
+        Ok(())
+    }
+
+    /// An operator's word: wafer `w` is gone from the cell (`CONFIRM W3 GONE`): it leaves
+    /// the map from every place it was (or may have been) in; returns them.
+    pub fn confirm_gone(&mut self, w: WaferId) -> Result<Vec<Location>, WaferMapError> {
+        self.refuse_if_pending()?;
+        let places: Vec<Location> = self
+            .iter()
+            .filter(|(_, id)| *id == w)
+            .map(|(at, _)| at)
+            .collect();
+        if places.is_empty() {
+            return Err(WaferMapError::NotInMap { wafer: w });
+        }
+        for at in &places {
+            self.clear_place(at);
+        }
+        self.tidy();
+        Ok(places)
+    }
+
+    /// An operator's word: `location` is empty (`CONFIRM HAND EMPTY`, `CONFIRM LP2 1
+    /// EMPTY`). The wafer the map had (or perhaps had) there leaves it; one that may then
+    /// be nowhere else leaves the map, and is returned. An unknown slot becomes empty;
+    /// a faulty one is refused (MAP it).
+    pub fn confirm_empty(&mut self, location: Location) -> Result<Option<WaferId>, WaferMapError> {
+        self.refuse_if_pending()?;
+        let had = match location {
+            Location::Hand(b) => self.hands[b.index()],
+            Location::Slot { station, slot } => {
+                let (si, i) = self.find(station.as_str(), slot)?;
+                match self.stations[si].slots[i] {
+                    SlotState::Fault(fault) => {
+                        return Err(WaferMapError::SlotFault {
+                            station: self.stations[si].name,
+                            slot,
+                            fault,
+                        })
+                    }
+                    SlotState::Wafer(w) | SlotState::Uncertain(w) => Some(w),
+                    SlotState::Empty | SlotState::Unknown => None,
+                }
+            }
+        };
+        self.clear_place(&location);
+        self.tidy();
+        Ok(had.filter(|w| self.location_of(*w).is_none()))
+    }
+
+    /// Empty a place (a slot becomes empty, a blade holds nothing).
+    fn clear_place(&mut self, at: &Location) {
+        match at {
+            Location::Hand(b) => {
+                self.hands[b.index()] = None;
+                self.uncertain[b.index()] = false;
+            }
+            Location::Slot { station, slot } => {
+                if let Ok((si, i)) = self.find(station.as_str(), *slot) {
+                    self.stations[si].slots[i] = SlotState::Empty;
+                }
+            }
+        }
+    }
+
+    /// [`WaferMap::forget_elsewhere`] sparing exactly one place.
+    fn forget_elsewhere_exact(&mut self, w: WaferId, kept: Location) {
+        for b in Blade::ALL {
+            let i = b.index();
+            if self.hands[i] == Some(w) && kept != Location::Hand(b) {
+                self.hands[i] = None;
+                self.uncertain[i] = false;
+            }
+        }
+        for s in &mut self.stations {
+            for (i, st) in s.slots.iter_mut().enumerate() {
+                let here = Location::Slot {
+                    station: s.name,
+                    slot: (i + 1) as u16,
+                };
+                let mine = matches!(st, SlotState::Wafer(x) | SlotState::Uncertain(x) if *x == w);
+                if mine && here != kept {
+                    *st = SlotState::Empty;
+                }
+            }
+        }
+    }
+
     fn settle(&mut self, sensed: [bool; MAX_BLADES]) -> Reconciled {
         if let Some(t) = self.pending {
             let hand_has_wafer = sensed[t.blade.index()];
@@ -1085,8 +1523,13 @@ impl WaferMap {
         }
         let mut seen: Vec<(WaferId, Location)> = Vec::new();
         for (at, w) in self.iter() {
+            // An uncertain wafer may be listed at each place it may be in; a certain one is
+            // at one place only, and nowhere else even uncertain.
             if let Some((_, first)) = seen.iter().find(|(id, _)| *id == w) {
-                return bad(format!("wafer {w} is both at {first} and at {at}"));
+                if self.is_certain(first) || self.is_certain(&at) {
+                    return bad(format!("wafer {w} is both at {first} and at {at}"));
+                }
+                continue;
             }
             if u64::from(w.0) >= self.next_id {
                 return bad(format!(
@@ -1126,6 +1569,7 @@ impl WaferMap {
             hand_b: self.hands[1].map(|w| w.to_string()),
             hand_uncertain: self.uncertain[0],
             hand_b_uncertain: self.uncertain[1],
+            note: self.note.clone(),
             pending: self.pending.map(|t| RawPending {
                 kind: match t.kind {
                     TransferKind::Get => "get".into(),
@@ -1166,10 +1610,10 @@ impl WaferMap {
         // The version first, so a newer format is named as such rather than as unknown keys.
         let version: RawVersion = toml::from_str(text).map_err(toml_err)?;
         match version.version {
-            None => return Err(corrupt("it has no format version (version = 2)".into())),
+            None => return Err(corrupt("it has no format version (version = 3)".into())),
             // Version 1 had no end line.
             Some(1) => {}
-            Some(v) if v == i64::from(FORMAT_VERSION) => {
+            Some(v) if (2..=i64::from(FORMAT_VERSION)).contains(&v) => {
                 if text.trim_end().lines().next_back().map(str::trim) != Some(END_LINE) {
                     return Err(corrupt(format!(
                         "it does not end with the line `{END_LINE}`: it was cut short"
@@ -1190,6 +1634,7 @@ impl WaferMap {
             hands: [None; MAX_BLADES],
             dual: false,
             pending: None,
+            note: raw.note.clone(),
             uncertain: [raw.hand_uncertain, raw.hand_b_uncertain],
             next_id: u64::try_from(raw.next_id)
                 .ok()
@@ -1325,6 +1770,7 @@ fn line_token(state: SlotState) -> String {
         SlotState::Unknown => "?".into(),
         SlotState::Empty => "-".into(),
         SlotState::Wafer(w) => w.to_string(),
+        SlotState::Uncertain(w) => format!("{w}?"),
         SlotState::Fault(SlotFault::Double) => "D".into(),
         SlotState::Fault(SlotFault::Cross) => "X".into(),
     }
@@ -1393,7 +1839,10 @@ pub fn parse_slot_list(text: &str) -> Option<Vec<SlotState>> {
             "-" => SlotState::Empty,
             "D" => SlotState::Fault(SlotFault::Double),
             "X" => SlotState::Fault(SlotFault::Cross),
-            w => SlotState::Wafer(WaferId::parse(w)?),
+            w => match w.strip_suffix('?') {
+                Some(w) => SlotState::Uncertain(WaferId::parse(w)?),
+                None => SlotState::Wafer(WaferId::parse(w)?),
+            },
         };
         slots.extend(std::iter::repeat_n(state, times));
     }
@@ -1405,6 +1854,7 @@ fn file_token(state: SlotState) -> String {
         SlotState::Unknown => "?".into(),
         SlotState::Empty => "-".into(),
         SlotState::Wafer(w) => w.to_string(),
+        SlotState::Uncertain(w) => format!("{w}?"),
         SlotState::Fault(SlotFault::Double) => "double".into(),
         SlotState::Fault(SlotFault::Cross) => "cross".into(),
     }
@@ -1416,7 +1866,10 @@ fn parse_file_token(token: &str) -> Option<SlotState> {
         "-" => Some(SlotState::Empty),
         "double" => Some(SlotState::Fault(SlotFault::Double)),
         "cross" => Some(SlotState::Fault(SlotFault::Cross)),
-        other => WaferId::parse(other).map(SlotState::Wafer),
+        other => match other.strip_suffix('?') {
+            Some(w) => WaferId::parse(w).map(SlotState::Uncertain),
+            None => WaferId::parse(other).map(SlotState::Wafer),
+        },
     }
 }
 
@@ -1442,6 +1895,8 @@ struct RawMap {
     hand_uncertain: bool,
     #[serde(default, skip_serializing_if = "is_false")]
     hand_b_uncertain: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    note: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pending: Option<RawPending>,
     #[serde(default)]

@@ -683,7 +683,11 @@ impl Tracking {
             }
         }
         for b in Blade::ALL {
-            let hand_state = map.hand_of(b).map_or(SlotState::Empty, SlotState::Wafer);
+            let hand_state = match map.hand_of(b) {
+                None => SlotState::Empty,
+                Some(w) if map.is_uncertain(b) => SlotState::Uncertain(w),
+                Some(w) => SlotState::Wafer(w),
+            };
             let hand_content =
                 world.hands[b.index()].map_or(SlotContent::Empty, SlotContent::Wafer);
             self.compare(Location::Hand(b), hand_state, hand_content, &mut out);
@@ -702,7 +706,9 @@ impl Tracking {
             (SlotState::Empty | SlotState::Unknown, SlotContent::Empty)
             | (SlotState::Fault(SlotFault::Double), SlotContent::Double(..))
             | (SlotState::Fault(SlotFault::Cross), SlotContent::Cross(_)) => {}
-            (SlotState::Wafer(wafer), SlotContent::Wafer(tag)) => {
+            // An uncertain place may hold its wafer or nothing.
+            (SlotState::Uncertain(_), SlotContent::Empty) => {}
+            (SlotState::Wafer(wafer) | SlotState::Uncertain(wafer), SlotContent::Wafer(tag)) => {
                 let bound_tag = self.tag_of.get(&wafer).copied();
                 let bound_id = self.id_of.get(&tag).copied();
                 match (bound_tag, bound_id) {
@@ -726,6 +732,7 @@ impl Tracking {
                     SlotState::Unknown => "?".into(),
                     SlotState::Empty => "-".into(),
                     SlotState::Wafer(w) => w.to_string(),
+                    SlotState::Uncertain(w) => format!("{w}?"),
                     SlotState::Fault(SlotFault::Double) => "double".into(),
                     SlotState::Fault(SlotFault::Cross) => "cross".into(),
                 },

@@ -454,7 +454,7 @@ fn the_text_form_round_trips_and_names_its_version() {
     map.begin(t).unwrap();
     let text = map.to_text();
     assert!(
-        text.contains("version = 2") && text.contains("[pending]"),
+        text.contains("version = 3") && text.contains("[pending]"),
         "{text}"
     );
     assert_eq!(WaferMap::from_text(&text, "m.toml").unwrap(), map);
@@ -491,8 +491,8 @@ fn corrupt_files_are_errors_never_an_empty_map() {
     };
     bad("", "no format version");
     bad(
-        "version = 3\nwhatever = 1\n",
-        "format version 3; this wrc reads versions 1 to 2",
+        "version = 4\nwhatever = 1\n",
+        "format version 4; this wrc reads versions 1 to 3",
     );
     bad("version = \"one\"", "version");
     bad("version = 1\nnext_id = 1\n[[station]\n", "line 3");
@@ -576,13 +576,16 @@ fn a_map_cut_at_any_line_is_refused_and_a_version_1_map_is_still_read() {
         WaferMap::from_text(&format!("{text}\n  \n"), "wafers.toml").unwrap(),
         map
     );
-    // A file of an earlier wrc (version 1, no end line) is read, and written as version 2.
+    // A file of an earlier wrc (version 1, no end line; version 2) is read, and written as
+    // version 3.
     let old = text
-        .replace("version = 2", "version = 1")
+        .replace("version = 3", "version = 1")
         .replace(&format!("\n{END_LINE}\n"), "\n");
     let read = WaferMap::from_text(&old, "wafers.toml").unwrap();
     assert_eq!(read, map);
-    assert!(read.to_text().contains("version = 2"));
+    assert!(read.to_text().contains("version = 3"));
+    let two = text.replace("version = 3", "version = 2");
+    assert_eq!(WaferMap::from_text(&two, "wafers.toml").unwrap(), map);
 }
 
 #[test]
@@ -991,4 +994,217 @@ fn reconcile_reads_the_sensor_of_the_pending_transfers_blade() {
         map.reconcile([false, false]),
         Reconciled::HandWaferNotSensed(Blade::A, WaferId(3))
     );
+}
+
+/// `mapped()` with GET LP1 3 pending (or, with `put`, W3 on the hand and PUT LP2 1 pending).
+fn interrupted(put: bool) -> (WaferMap, Transfer) {
+    let mut map = mapped();
+    let get = map.prepare(TransferKind::Get, "LP1", 3).unwrap();
+    map.begin(get).unwrap();
+    if !put {
+        return (map, get);
+    }
+    map.commit().unwrap();
+    let t = map.prepare(TransferKind::Put, "LP2", 1).unwrap();
+    map.begin(t).unwrap();
+    (map, t)
+}
+
+#[test]
+fn an_interrupted_transfer_settles_as_judged_and_never_drops_an_id_unasked() {
+    use crate::journal::Maybe::*;
+    for put in [false, true] {
+        for (blade, slot) in [
+            (Yes, No),
+            (No, Yes),
+            (Perhaps, Perhaps),
+            (Perhaps, No),
+            (No, Perhaps),
+            (No, No),
+            (Yes, Perhaps),
+        ] {
+            let (mut map, t) = interrupted(put);
+            let r = map.settle_interrupted(blade, slot).unwrap();
+            map.verify().unwrap();
+            assert_eq!(map.pending(), None);
+            let on_blade = map.hand() == Some(WaferId(3));
+            let in_slot = map.slot(t.station.as_str(), t.slot).unwrap();
+            let case = format!("{t} {blade:?} {slot:?}: {}", map.wafers_line());
+            match (blade, slot) {
+                (Yes, _) => {
+                    assert!(on_blade && map.is_certain(&Location::HAND), "{case}");
+                    assert_eq!(in_slot, SlotState::Empty, "{case}");
+                    let want = if put {
+                        Interrupted::Aborted(t)
+                    } else {
+                        Interrupted::Committed(t)
+                    };
+                    assert_eq!(r, want, "{case}");
+                }
+                (No, Yes) => {
+                    assert!(!on_blade, "{case}");
+                    assert_eq!(in_slot, SlotState::Wafer(WaferId(3)), "{case}");
+                }
+                (No, No) => {
+                    assert_eq!(r, Interrupted::Gone(t), "{case}");
+                    assert_eq!(map.location_of(WaferId(3)), None, "{case}");
+                    assert_eq!(map.len(), 24);
+                }
+                _ => {
+                    assert_eq!(r, Interrupted::Uncertain(t), "{case}");
+                    assert!(map.has_uncertain(), "{case}");
+                    assert_eq!(on_blade, blade == Perhaps, "{case}");
+                    assert_eq!(map.is_uncertain(Blade::A), blade == Perhaps, "{case}");
+                    let want = if slot == Perhaps {
+                        SlotState::Uncertain(WaferId(3))
+                    } else {
+                        SlotState::Empty
+                    };
+                    assert_eq!(in_slot, want, "{case}");
+                    // Counted once, however many places it may be in.
+                    assert_eq!(map.len(), 25, "{case}");
+                }
+            }
+        }
+    }
+    // Without a pending transfer there is nothing to settle.
+    assert!(mapped().settle_interrupted(No, Yes).is_err());
+}
+
+#[test]
+fn uncertain_places_show_are_saved_and_are_refused_to_get_and_put() {
+    use crate::journal::Maybe::*;
+    let (mut map, _) = interrupted(true);
+    map.settle_interrupted(Perhaps, Perhaps).unwrap();
+    map.set_note("PUT LP2 1 (W3) was interrupted by a power loss");
+    assert_eq!(
+        map.wafers_line(),
+        "hand=W3? LP1=W1,W2,-,W4..W25 LP2=W3?,-x24 AL=- PM1=- PM2=- BF1=?x5"
+    );
+    let lp2 = map.wafers_lines()[2].clone();
+    assert_eq!(
+        parse_slot_list(lp2.strip_prefix("LP2=").unwrap()).unwrap()[0],
+        SlotState::Uncertain(WaferId(3))
+    );
+    let text = map.to_text();
+    assert!(
+        text.contains("\"W3?\"") && text.contains("note = "),
+        "{text}"
+    );
+    assert_eq!(WaferMap::from_text(&text, "m").unwrap(), map);
+    assert_eq!(map.uncertain_places().len(), 2);
+    // GET and PUT refuse the uncertain places, each with what to do.
+    let e = map.prepare(TransferKind::Get, "LP2", 1).unwrap_err();
+    assert!(e.to_string().contains("MAP LP2"), "{e}");
+    let e = map.prepare(TransferKind::Put, "LP2", 2).unwrap_err();
+    assert!(e.to_string().contains("SENSE"), "{e}");
+    assert!(matches!(e, WaferMapError::Uncertain { .. }));
+    // A certain wafer may not also be elsewhere, even uncertain.
+    let mut broken = map.clone();
+    broken.hands[0] = None;
+    broken.stations[0].slots[0] = SlotState::Uncertain(WaferId(2));
+    assert!(broken.verify().is_err());
+}
+
+#[test]
+fn a_mapping_settles_an_uncertain_slot_and_the_blade_with_it() {
+    use crate::journal::Maybe::*;
+    // Found in the slot: the blade that perhaps held it is empty.
+    let (mut map, _) = interrupted(true);
+    map.settle_interrupted(Perhaps, Perhaps).unwrap();
+    let mut scan = vec![SlotCode::Absent; 25];
+    scan[0] = SlotCode::Present;
+    let c = map.apply_mapping("LP2", &scan).unwrap();
+    assert_eq!(c.kept, [(1, WaferId(3))]);
+    assert_eq!(map.hand(), None);
+    assert!(!map.has_uncertain() && map.note().is_none());
+    map.verify().unwrap();
+    // Not in the slot: it may still be on the blade.
+    let (mut map, _) = interrupted(true);
+    map.settle_interrupted(Perhaps, Perhaps).unwrap();
+    map.set_note("x");
+    let c = map.apply_mapping("LP2", &[SlotCode::Absent; 25]).unwrap();
+    assert!(c.removed.is_empty());
+    assert_eq!(map.hand(), Some(WaferId(3)));
+    assert!(map.is_uncertain(Blade::A) && map.note().is_some());
+    // Not in the slot, and nowhere else: it leaves the map, reported.
+    let (mut map, _) = interrupted(true);
+    map.settle_interrupted(No, Perhaps).unwrap();
+    let c = map.apply_mapping("LP2", &[SlotCode::Absent; 25]).unwrap();
+    assert_eq!(c.removed, [(1, WaferId(3))]);
+    assert_eq!(map.len(), 24);
+}
+
+#[test]
+fn a_blade_is_settled_by_its_sensor_and_a_place_by_an_operators_word() {
+    use crate::journal::Maybe::*;
+    let uncertain = || {
+        let (mut map, _) = interrupted(true);
+        map.settle_interrupted(Perhaps, Perhaps).unwrap();
+        map
+    };
+    // The sensor sees it: certain on the blade, the slot empty.
+    let mut map = uncertain();
+    assert_eq!(
+        map.sense_blade(Blade::A, true).unwrap(),
+        Sensed::Held(WaferId(3))
+    );
+    assert_eq!(map.slot("LP2", 1).unwrap(), SlotState::Empty);
+    assert!(!map.has_uncertain());
+    // It does not: the blade is empty, the slot still perhaps holds it.
+    let mut map = uncertain();
+    assert_eq!(
+        map.sense_blade(Blade::A, false).unwrap(),
+        Sensed::NotHere(WaferId(3))
+    );
+    assert_eq!(
+        map.slot("LP2", 1).unwrap(),
+        SlotState::Uncertain(WaferId(3))
+    );
+    // And then not in the slot either (MAP): gone.
+    let c = map.apply_mapping("LP2", &[SlotCode::Absent; 25]).unwrap();
+    assert_eq!(c.removed, [(1, WaferId(3))]);
+    // A blade that holds a wafer nobody knew gets a new id.
+    let mut map = mapped();
+    assert_eq!(
+        map.sense_blade(Blade::A, true).unwrap(),
+        Sensed::Unknown(WaferId(26))
+    );
+    assert_eq!(
+        map.sense_blade(Blade::A, false).unwrap(),
+        Sensed::Gone(WaferId(26))
+    );
+    assert_eq!(map.sense_blade(Blade::A, false).unwrap(), Sensed::Empty);
+
+    // CONFIRM W3 LP2 1: there, and not on the blade.
+    let mut map = uncertain();
+    map.confirm_at(WaferId(3), at("lp2", 1)).unwrap();
+    assert_eq!(map.slot("LP2", 1).unwrap(), SlotState::Wafer(WaferId(3)));
+    assert_eq!(map.hand(), None);
+    map.verify().unwrap();
+    // CONFIRM W3 HAND.
+    let mut map = uncertain();
+    map.confirm_at(WaferId(3), Location::HAND).unwrap();
+    assert!(map.is_certain(&Location::HAND));
+    assert_eq!(map.slot("LP2", 1).unwrap(), SlotState::Empty);
+    // CONFIRM W3 GONE: out of the map from both places.
+    let mut map = uncertain();
+    assert_eq!(map.confirm_gone(WaferId(3)).unwrap().len(), 2);
+    assert_eq!(map.len(), 24);
+    assert!(!map.has_uncertain());
+    // CONFIRM HAND EMPTY, then CONFIRM LP2 1 EMPTY: the second one drops the wafer.
+    let mut map = uncertain();
+    assert_eq!(map.confirm_empty(Location::HAND).unwrap(), None);
+    assert_eq!(map.confirm_empty(at("LP2", 1)).unwrap(), Some(WaferId(3)));
+    assert_eq!(map.len(), 24);
+    // Refusals change nothing: another wafer's place, a wafer not in the map.
+    let mut map = uncertain();
+    let before = map.clone();
+    assert!(map.confirm_at(WaferId(3), at("LP1", 1)).is_err());
+    assert!(matches!(
+        map.confirm_at(WaferId(99), at("LP2", 2)),
+        Err(WaferMapError::NotInMap { .. })
+    ));
+    assert!(map.confirm_gone(WaferId(99)).is_err());
+    assert_eq!(map, before);
 }

@@ -52,6 +52,14 @@ pub type StationName = InlineName<16>;
 /// Most slots a station may have.
 pub const MAX_SLOTS: u16 = 50;
 
+/// How far past the approach pose (and past the seat) the hand counts as inside a station
+/// ([`Station::hand_inside`]) [mm].
+pub const INSIDE_MARGIN_MM: f64 = 1.0;
+
+/// How far off a station's line the hand still counts as in front of it (a 300 mm wafer's
+/// radius) [mm].
+pub const INSIDE_HALF_WIDTH_MM: f64 = 150.0;
+
 /// Highest digital input number an interlock may name.
 pub const MAX_INPUT: u8 = 31;
 
@@ -451,6 +459,40 @@ impl Station {
             y: seated.y - self.approach_mm * s,
             ..seated
         })
+    }
+
+    /// Where `pose` is relative to the station's line: `(along, lateral)` [mm], `along` the
+    /// distance past the seat in the hand's direction (0 at the seat, `-approach_mm` at the
+    /// approach pose), `lateral` the distance off the line.
+    pub fn line_offset(&self, pose: &Pose) -> (f64, f64) {
+        let (s, c) = self.pose.yaw.to_radians().sin_cos();
+        let (dx, dy) = (pose.x - self.pose.x, pose.y - self.pose.y);
+        (dx * c + dy * s, (dx * s - dy * c).abs())
+    }
+
+    /// Whether the hand at `pose` is inside the station: past its approach pose (by more
+    /// than [`INSIDE_MARGIN_MM`]), not beyond the seat (by more than [`INSIDE_MARGIN_MM`]),
+    /// and in front of it (within a wafer's radius, [`INSIDE_HALF_WIDTH_MM`], of its line).
+    /// There the hand may only move along the line and vertically within its slot: anything
+    /// sideways hits the station.
+    pub fn hand_inside(&self, pose: &Pose) -> bool {
+        let (along, lateral) = self.line_offset(pose);
+        along > -(self.approach_mm - INSIDE_MARGIN_MM)
+            && along <= INSIDE_MARGIN_MM
+            && lateral <= INSIDE_HALF_WIDTH_MM
+    }
+
+    /// Where a hand inside the station at `pose` goes straight out to: the approach pose's
+    /// x and y, the station's yaw, at the hand's height `pose.z` (it stays clear of the
+    /// slots above and below it on the way).
+    pub fn retract_pose(&self, pose: &Pose) -> Pose {
+        let (s, c) = self.pose.yaw.to_radians().sin_cos();
+        Pose {
+            x: self.pose.x - self.approach_mm * c,
+            y: self.pose.y - self.approach_mm * s,
+            z: pose.z,
+            yaw: self.pose.yaw,
+        }
     }
 
     /// The elbow postures a transfer may use here: the station's own, or both.

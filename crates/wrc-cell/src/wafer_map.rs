@@ -1245,6 +1245,26 @@ impl WaferMap {
         true
     }
 
+    /// A GET committed when the power failed, its hand perhaps still in the slot: the
+    /// wafer on `blade` may have fallen back into the (empty) slot at `location`. Both
+    /// become uncertain. False (nothing changed) unless the blade holds a wafer and the
+    /// slot is empty.
+    pub fn doubt_back_in_slot(&mut self, blade: Blade, location: Location) -> bool {
+        let (Some(w), Location::Slot { station, slot }) = (self.hands[blade.index()], location)
+        else {
+            return false;
+        };
+        let Ok((si, i)) = self.find(station.as_str(), slot) else {
+            return false;
+        };
+        if self.stations[si].slots[i] != SlotState::Empty {
+            return false;
+        }
+        self.stations[si].slots[i] = SlotState::Uncertain(w);
+        self.uncertain[blade.index()] = true;
+        true
+    }
+
     /// Whether the wafer on `blade` is uncertain ([`WaferMap::mark_uncertain`]).
     pub fn is_uncertain(&self, blade: Blade) -> bool {
         self.uncertain[blade.index()]

@@ -16,8 +16,8 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 use wrc_cell::{
-    Blade, Reconciled, SlotCode, SlotState, Station, StationError, Stations, Step, Transfer,
-    TransferKind, WaferMap, WaferMapError, MAX_BLADES,
+    Blade, SlotCode, SlotState, Station, StationError, Stations, Step, Transfer, TransferKind,
+    WaferMap, WaferMapError, MAX_BLADES,
 };
 use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
@@ -26,6 +26,10 @@ use wrc_robot::{Joints, Robot};
 use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::shared::{RobotState, Shared};
+
+mod recovery;
+
+pub use recovery::RETRACT_SPEED_PCT;
 
 /// The job steps of a transfer ([`wrc_cell::plan`]'s), with its move to the approach pose
 /// made a joint move to the solution from which the straight line into the station keeps
@@ -122,6 +126,13 @@ pub struct CellService {
     /// I/O Monitor readings that cover `[hand] vacuum_settle_ms` (see
     /// [`CellService::with_io_period`]).
     settle_samples: u64,
+    /// The transfer journal (`journal.wrcj` next to the wafer map), open for appending.
+    journal: Option<wrc_cell::journal::JournalFile>,
+    journal_path: PathBuf,
+    /// The journal of the job under way.
+    jjob: Option<recovery::JobJournal>,
+    /// The hand may be inside a station (found at start-up): the retract that takes it out.
+    inside: Option<crate::messages::cell_job::RetractPlan>,
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
@@ -177,8 +188,7 @@ impl CellService {
         wafers.set_dual(hand.blade_b.is_some());
         wafers.adopt_stations(&stations)?;
         wafers.save_atomic(wafers_path)?;
-        let reconciled = wafers.pending().is_none();
-        Ok(CellService {
+        let mut cell = CellService {
             stations,
             stations_path: stations_path.to_path_buf(),
             wafers,
@@ -190,13 +200,20 @@ impl CellService {
             links: None,
             buf: ReplyBuf::new(),
             busy: None,
-            reconciled,
+            // Settled at the first poll with the inputs read ([`CellService::recover`]).
+            reconciled: false,
             swap_put: None,
             blend: false,
             settle_at_reset: SettleAtReset::No,
             settle_ended: SettleEnded::No,
             settle_samples: settle_samples(&hand, DEFAULT_IO_PERIOD_S),
-        })
+            journal: None,
+            journal_path: wafers_path.with_file_name("journal.wrcj"),
+            jjob: None,
+            inside: None,
+        };
+        cell.open_journal();
+        Ok(cell)
     }
 
     /// The I/O Monitor's period [s] (Table 1: 0.1 s unless the configuration says
@@ -379,6 +396,7 @@ impl CellService {
                     SlotCode::Double => 2.0,
                     _ => 3.0,
                 },
+                SlotState::Uncertain(_) => -2.0,
             }),
             CellInfo::SlotWafer => match slot_state()? {
                 SlotState::Wafer(w) => text(&w.to_string()),
@@ -489,6 +507,9 @@ impl CellService {
                 Code::TransferBusy,
                 "a transfer or mapping is in progress".to_string(),
             ));
+        }
+        if let Some(refusal) = self.inside_refusal() {
+            return Err(refusal);
         }
         if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
             return Err((
@@ -658,6 +679,13 @@ impl CellService {
                 format!("cannot save the wafer map: {e}; nothing moved"),
             ));
         }
+        // The journal is on disk before anything moves too.
+        if let Err(e) = self.journal_open(&job, transfer, put) {
+            let _ = self.wafers.abort();
+            self.swap_put = None;
+            let _ = self.save();
+            return Err((Code::Internal, format!("{e}; nothing moved")));
+        }
         self.broadcast_map();
         Ok(job)
     }
@@ -665,6 +693,9 @@ impl CellService {
     /// What the Command Interpreter reports.
     pub fn on_event(&mut self, event: CellEvent) {
         match event {
+            CellEvent::Step { index, done, at } => self.journal_step(index, done, at),
+            CellEvent::Sensed { blade, sensed } => self.sensed_blade(blade, sensed),
+            CellEvent::Retracted(out) => self.retracted(out),
             CellEvent::Commit => {
                 if self.wafers.commit().is_ok() {
                     // A SWAP's PUT half is pending, on disk, before it moves.
@@ -672,6 +703,7 @@ impl CellService {
                         if let Err(e) = self.wafers.begin(put) {
                             tracing::warn!("wrc: SWAP: the wafer map refused its PUT half: {e}");
                         }
+                        self.journal_swap_half();
                     }
                     self.persist();
                 }
@@ -684,7 +716,7 @@ impl CellService {
             } => {
                 self.busy = None;
                 self.swap_put = None;
-                if kind == JobKind::Map {
+                if matches!(kind, JobKind::Map | JobKind::Sense) {
                     return;
                 }
                 if code == Some(Code::BoardLost) {
@@ -699,13 +731,15 @@ impl CellService {
                     // The wafer was on a blade (a PUT not yet released, or after a GET).
                     let _ = self.wafers.abort();
                     self.doubt_unsensed(sensed);
+                    self.journal_close(wrc_cell::journal::Closed::Settled);
                     return self.persist();
                 }
                 if self.wafers.pending().is_none() {
-                    return;
+                    return self.journal_close(wrc_cell::journal::Closed::Committed);
                 }
                 if !started {
                     let _ = self.wafers.abort();
+                    self.journal_close(wrc_cell::journal::Closed::Aborted);
                     self.persist();
                 } else {
                     // Settled by the vacuum sensor, exactly as at start-up, once the arm
@@ -852,6 +886,7 @@ impl CellService {
                 self.settle_ended = SettleEnded::No;
                 let r = self.wafers.reconcile(self.sensed());
                 tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
+                self.journal_close(wrc_cell::journal::Closed::Settled);
                 self.persist();
             }
             _ => {}
@@ -872,29 +907,28 @@ impl CellService {
             }
             _ => {}
         }
-        if !self.reconciled && self.shared.io_ready.load(Ordering::Acquire) {
-            let sensed = self.sensed();
-            let r = self.wafers.reconcile(sensed);
-            self.reconciled = true;
-            match r {
-                Reconciled::Committed(t) => {
-                    tracing::warn!("wrc: a transfer was under way at the last stop: {t} had happened (the vacuum sensor says so); committed")
-                }
-                Reconciled::Aborted(t) => {
-                    tracing::warn!("wrc: a transfer was under way at the last stop: {t} had not happened (the vacuum sensor says so); the wafer stays at its source")
-                }
-                Reconciled::HandWaferNotSensed(b, w) => {
-                    tracing::warn!("wrc: the wafer map has {w} on the {} but its vacuum sensor senses none; it stays in the map{}: find it, then place or remove it", wrc_cell::Location::Hand(b), if self.wafers.is_uncertain(b) { ", uncertain" } else { "" })
-                }
-                _ => {}
-            }
-            self.persist();
+        if !self.reconciled
+            && self.shared.io_ready.load(Ordering::Acquire)
+            && !self.shared.board_dead.load(Ordering::Acquire)
+        {
+            self.recover();
         }
+        // A blade whose wafer is uncertain is not watched (its vacuum is off, nothing to
+        // sense), but everything moves at the careful speed while it is.
         let holding = Blade::ALL
             .into_iter()
-            .filter(|b| self.wafers.hand_of(*b).is_some())
+            .filter(|b| self.wafers.hand_of(*b).is_some() && !self.wafers.is_uncertain(*b))
             .fold(0u8, |m, b| m | 1 << b.index());
         self.shared.hand_wafers.store(holding, Ordering::Release);
+        let careful = Blade::ALL
+            .into_iter()
+            .any(|b| self.wafers.hand_of(b).is_some() && self.wafers.is_uncertain(b));
+        let pct = if careful {
+            self.careful_speed_pct().round() as u32
+        } else {
+            0
+        };
+        self.shared.careful_pct.store(pct, Ordering::Release);
     }
 }
 
@@ -919,6 +953,7 @@ fn map_error_code(e: &WaferMapError) -> Code {
         WaferMapError::HandOccupied { .. } => Code::HandFull,
         WaferMapError::HandEmpty => Code::HandEmpty,
         WaferMapError::TransferPending { .. } => Code::TransferBusy,
+        WaferMapError::Uncertain { .. } => Code::PlaceUncertain,
         _ => Code::Internal,
     }
 }

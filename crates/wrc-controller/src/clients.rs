@@ -808,7 +808,10 @@ fn route<'b>(
         | Command::Get { .. }
         | Command::Put { .. }
         | Command::Swap { .. }
-        | Command::Map(_) => {
+        | Command::Map(_)
+        | Command::Recovery
+        | Command::Sense(_)
+        | Command::Confirm(_) => {
             let from = slot.source;
             let request = match request.command {
                 Command::Run { name, step } => StoreRequest::Run {
@@ -836,6 +839,9 @@ fn route<'b>(
                 Command::Stn => StoreRequest::Stn { from, to },
                 Command::Teach(name) => StoreRequest::Teach { from, to, name },
                 Command::Wafers => StoreRequest::Wafers { from, to },
+                Command::Recovery => StoreRequest::Recovery { from, to },
+                Command::Sense(blade) => StoreRequest::Sense { from, to, blade },
+                Command::Confirm(arg) => StoreRequest::Confirm { from, to, arg },
                 Command::Get {
                     station,
                     slot,

@@ -134,6 +134,11 @@ impl Service {
     pub fn step(&mut self) {
         self.record();
         self.apply_cell_events();
+        // The start-up recovery runs as soon as the inputs are read, before a request can
+        // act on a map it has not settled.
+        if let Some(cell) = self.cell.as_mut() {
+            cell.poll();
+        }
         while let Ok(request) = self.links.requests.try_recv() {
             self.apply_cell_events();
             self.handle(request);
@@ -311,6 +316,18 @@ impl Service {
             },
             StoreRequest::Wafers { from, to } => match self.cell.as_mut() {
                 Some(cell) => cell.wafers(from, to),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Recovery { from, to } => match self.cell.as_mut() {
+                Some(cell) => cell.recovery(from, to),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Sense { from, to, blade } => match self.cell.as_mut() {
+                Some(cell) => cell.sense(from, to, blade),
+                None => self.no_cell(from, to),
+            },
+            StoreRequest::Confirm { from, to, arg } => match self.cell.as_mut() {
+                Some(cell) => cell.confirm(from, to, arg),
                 None => self.no_cell(from, to),
             },
             StoreRequest::Job {

@@ -75,9 +75,12 @@ pub struct Shared {
     /// watches it every period): the board is not answering. Cleared when every heartbeat
     /// advances again; the controller stays in ERROR until a RESET re-attaches.
     pub board_dead: AtomicBool,
-    /// The blades the wafer map has a wafer on (bit 0: A, the hand; bit 1: B), set by the
-    /// cell service.
+    /// The blades the wafer map has a wafer on for certain (bit 0: A, the hand; bit 1: B),
+    /// set by the cell service: their vacuum sensors are watched while the arm moves.
     pub hand_wafers: AtomicU8,
+    /// The speed [%] a motion may have while a blade perhaps holds a wafer its vacuum does
+    /// not clamp (after a power loss), set by the cell service; 0: no limit.
+    pub careful_pct: AtomicU32,
     /// The ticket of the last move whose pulses the Pulse Generator sent from a state
     /// committed to enter a station (a blended approach past its commit point, or a line):
     /// until it names a blended approach, a stop still ends behind its approach pose
@@ -121,6 +124,7 @@ impl Default for Shared {
             io_samples: AtomicU64::new(0),
             board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
+            careful_pct: AtomicU32::new(0),
             entry_committed: AtomicU32::new(0),
             stop_notify: OnceLock::new(),
             stop_line: OnceLock::new(),

@@ -196,7 +196,7 @@ pub(crate) const BUILTINS: &[BuiltinDef] = &[
     def!(ErrMsg, "ERRMSG$", [], 0, Str, Vm, true, "ERRMSG$", "the text of the error being handled"),
     def!(ErrLine, "ERRLINE", [], 0, Number, Vm, true, "ERRLINE", "the source line of the error being handled"),
     def!(Operator, "OPERATOR$", [], 0, Str, Vm, true, "OPERATOR$", "the word the operator answered the last WAIT OPERATOR with (CONTINUE word), or \"\""),
-    def!(Slot, "SLOT", [ST, N], 0, Number, Host, false, "SLOT(station, n)", "the wafer map's state of a slot: 0 empty, 1 a wafer, 2 a double wafer, 3 a cross-slotted one, -1 not mapped"),
+    def!(Slot, "SLOT", [ST, N], 0, Number, Host, false, "SLOT(station, n)", "the wafer map's state of a slot: 0 empty, 1 a wafer, 2 a double wafer, 3 a cross-slotted one, -1 not mapped, -2 uncertain (after a transfer a power loss interrupted)"),
     def!(Wafer, "WAFER$", [ST, N], 0, Str, Host, false, "WAFER$(station, n)", "the id of the wafer in a slot (\"W3\"), or \"\""),
     def!(Hand, "HAND$", [Param::Blade], 1, Str, Host, false, "HAND$([A|B])", "the id of the wafer on the hand (or blade A or B), or \"\""),
     def!(Slots, "SLOTS", [ST], 0, Number, Host, false, "SLOTS(station)", "the station's number of slots"),

@@ -113,6 +113,12 @@ pub enum Code {
     SlotUnknown = 137,
     /// 138: a wafer transfer or mapping is in progress.
     TransferBusy = 138,
+    /// 139: the place (a slot or a blade) is uncertain after an interrupted transfer: MAP
+    /// the station, SENSE the blade or CONFIRM it first.
+    PlaceUncertain = 139,
+    /// 140: the hand may be inside a station (after an interrupted transfer): RETRACT or
+    /// HOME first.
+    HandInside = 140,
 
     // 2xx alarm: an action ended abnormally (ABS) or the controller stopped (EVT ERROR).
     /// 200: the motion was stopped by `STOP`.
@@ -149,6 +155,10 @@ pub enum Code {
     /// 215: the program ended on an error it raised itself (`RAISE` with a code of its
     /// own, 1000 and up) that no TRY caught; the text names the code.
     ProgramAlarm = 215,
+    /// 216: at start-up the transfer journal showed a transfer (or mapping) interrupted by a
+    /// power loss: the wafer map has uncertain places, or the hand may be inside a station
+    /// (`RECOVERY` says which).
+    TransferInterrupted = 216,
 
     // 3xx fatal: the controller cannot go on.
     /// 300: the motion board stopped answering.
@@ -195,6 +205,8 @@ impl Code {
         Code::SlotNotUsable,
         Code::SlotUnknown,
         Code::TransferBusy,
+        Code::PlaceUncertain,
+        Code::HandInside,
         Code::Stopped,
         Code::EmergencyStop,
         Code::EstopInput,
@@ -211,6 +223,7 @@ impl Code {
         Code::WaferLost,
         Code::InterlockOpened,
         Code::ProgramAlarm,
+        Code::TransferInterrupted,
         Code::BoardLost,
         Code::Internal,
     ];
@@ -272,6 +285,10 @@ impl Code {
             Code::SlotNotUsable => "the slot is not mapped or holds a faulty wafer; MAP it",
             Code::SlotUnknown => "no such slot",
             Code::TransferBusy => "a transfer or mapping is in progress",
+            Code::PlaceUncertain => {
+                "the place is uncertain after an interrupted transfer; MAP, SENSE or CONFIRM it"
+            }
+            Code::HandInside => "the hand may be inside a station; RETRACT or HOME first",
             Code::Stopped => "stopped by STOP",
             Code::EmergencyStop => "emergency stop",
             Code::EstopInput => "emergency-stop input opened",
@@ -288,6 +305,9 @@ impl Code {
             Code::WaferLost => "wafer lost",
             Code::InterlockOpened => "station interlock opened",
             Code::ProgramAlarm => "the program raised an alarm",
+            Code::TransferInterrupted => {
+                "a transfer was interrupted by a power loss; RECOVERY says what is uncertain"
+            }
             Code::BoardLost => "motion board lost",
             Code::Internal => "internal error",
         }
@@ -358,6 +378,8 @@ mod tests {
             (Code::SlotNotUsable, 136),
             (Code::SlotUnknown, 137),
             (Code::TransferBusy, 138),
+            (Code::PlaceUncertain, 139),
+            (Code::HandInside, 140),
             (Code::Stopped, 200),
             (Code::EmergencyStop, 201),
             (Code::EstopInput, 202),
@@ -374,6 +396,7 @@ mod tests {
             (Code::WaferLost, 213),
             (Code::InterlockOpened, 214),
             (Code::ProgramAlarm, 215),
+            (Code::TransferInterrupted, 216),
             (Code::BoardLost, 300),
             (Code::Internal, 301),
         ];

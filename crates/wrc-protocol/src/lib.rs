@@ -70,9 +70,9 @@ pub use reply::{
     StatusBody, WhereBody, REPLY_CAPACITY,
 };
 pub use request::{
-    checksum, ArgumentCount, Arity, AuthToken, AxisArg, BreakArg, Command, ParseError, Parser,
-    PointAction, ProgramName, Rejected, Request, SourceLine, StationName, StepKind, Token, VarName,
-    VarNames, MAX_ID_DIGITS, MAX_VAR_NAMES, OUTPUT_COUNT,
+    checksum, ArgumentCount, Arity, AuthToken, AxisArg, BreakArg, Command, ConfirmArg, ParseError,
+    Parser, Place, PointAction, ProgramName, Rejected, Request, SourceLine, StationName, StepKind,
+    Token, VarName, VarNames, MAX_ID_DIGITS, MAX_VAR_NAMES, OUTPUT_COUNT,
 };
 pub use sim_stream::{DecodeError, EncodeError, SimFrame};
 pub use state::State;

@@ -417,6 +417,10 @@ pub enum Event<'a> {
     /// point, in the reply to `POINTS` (requester) and when one changes (every
     /// connection); the body after `POINT`.
     Point(&'a str),
+    /// `EVT RECOVERY <what> …`: one line of the recovery after an interrupted transfer, in
+    /// the reply to `RECOVERY` (requester) and when the wafer map learns something during
+    /// the recovery (every connection); the body after `RECOVERY`.
+    Recovery(&'a str),
     /// `EVT PRINT <text>`: a running program's `PRINT` output (line breaks become spaces).
     Print(&'a str),
     /// `EVT DIAG <diagnostic>`: one compiler warning or error, as
@@ -497,6 +501,7 @@ impl Event<'_> {
             Event::Alarm { .. } => "ALARM",
             Event::Var(_) => "VAR",
             Event::Point(_) => "POINT",
+            Event::Recovery(_) => "RECOVERY",
             Event::Print(_) => "PRINT",
             Event::Diag(_) => "DIAG",
             Event::Axis(_) => "AXIS",
@@ -550,7 +555,8 @@ impl Display for Event<'_> {
             | Event::Station(text)
             | Event::Wafer(text)
             | Event::Var(text)
-            | Event::Point(text) => write_one_line(f, text),
+            | Event::Point(text)
+            | Event::Recovery(text) => write_one_line(f, text),
         }
     }
 }
@@ -707,7 +713,7 @@ mod tests {
         let help = out.ack(ID7, HelpBody).to_vec();
         assert!(text(&help).starts_with("ACK 7 verbs=STATUS,WHERE,HOME,MOVJ,"));
         assert!(text(&help).ends_with(
-            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP,AUTH,BREAK,STEP,VARS,POINTS,POINT\n"
+            ",UPLOAD,PROGRAMS,RUN,PAUSE,CONTINUE,ABORT,DELETE,ROBOT,TASKS,TRACE,STN,TEACH,WAFERS,GET,PUT,MAP,SWAP,AUTH,BREAK,STEP,VARS,POINTS,POINT,RECOVERY,RETRACT,SENSE,CONFIRM\n"
         ));
     }
 

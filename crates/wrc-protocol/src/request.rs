@@ -198,6 +198,47 @@ pub enum Command {
         /// What to do with it.
         action: PointAction,
     },
+    /// `RECOVERY`.
+    Recovery,
+    /// `RETRACT`.
+    Retract,
+    /// `SENSE [A|B]`: blade A when none is named.
+    Sense(Blade),
+    /// `CONFIRM …`: an operator's word on an uncertain place.
+    Confirm(ConfirmArg),
+}
+
+/// A place `CONFIRM` names: a blade or a station slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Place {
+    /// `HAND [A|B]`.
+    Hand(Blade),
+    /// `<station> <slot>`.
+    Slot {
+        /// The station.
+        station: StationName,
+        /// The slot, from 1.
+        slot: u16,
+    },
+}
+
+/// What `CONFIRM` says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConfirmArg {
+    /// `<wafer> <place>`: the wafer (its number, `W3` → 3) is there.
+    At {
+        /// The wafer's number.
+        wafer: u32,
+        /// Where it is.
+        place: Place,
+    },
+    /// `<wafer> GONE`: the wafer is no longer in the cell.
+    Gone {
+        /// The wafer's number.
+        wafer: u32,
+    },
+    /// `<place> EMPTY`: the place holds no wafer.
+    Empty(Place),
 }
 
 /// A line of the running program's source: of the program itself (`file` `None`), or of
@@ -348,6 +389,10 @@ impl Command {
             Command::Vars(_) => Verb::Vars,
             Command::Points(_) => Verb::Points,
             Command::Point { .. } => Verb::Point,
+            Command::Recovery => Verb::Recovery,
+            Command::Retract => Verb::Retract,
+            Command::Sense(_) => Verb::Sense,
+            Command::Confirm(_) => Verb::Confirm,
         }
     }
 }
@@ -640,6 +685,9 @@ pub enum ParseError {
     /// A POINT whose action is none of the four.
     #[error("POINT {0}: give <x> <y> <z> <yaw>, JOINTS and one value per axis, HERE or DELETE")]
     BadPointAction(Token),
+    /// A CONFIRM that is none of its five forms.
+    #[error("CONFIRM {0}: give <wafer> <station> <slot>, <wafer> HAND [A|B], <wafer> GONE, HAND [A|B] EMPTY or <station> <slot> EMPTY")]
+    BadConfirm(Token),
 }
 
 impl ParseError {
@@ -671,7 +719,8 @@ impl ParseError {
             | ParseError::BadVarName(_)
             | ParseError::BadRunOption(_)
             | ParseError::BadAnswer(_)
-            | ParseError::BadPointAction(_) => Code::BadArgument,
+            | ParseError::BadPointAction(_)
+            | ParseError::BadConfirm(_) => Code::BadArgument,
             ParseError::OutputUnknown(_) => Code::OutputUnknown,
             ParseError::SlotNumber(_) => Code::SlotUnknown,
             ParseError::ChecksumFormat(_) | ParseError::ChecksumMismatch { .. } => {
@@ -1039,6 +1088,18 @@ impl Parser {
             }
             Verb::Points => program_name(args).map(Command::Points),
             Verb::Point => self.point(args),
+            Verb::Recovery => simple(Command::Recovery),
+            Verb::Retract => simple(Command::Retract),
+            Verb::Sense => {
+                args.between(0, 1)?;
+                match args.words.first() {
+                    None => Ok(Command::Sense(Blade::A)),
+                    Some(w) => Blade::parse(as_str(w))
+                        .map(Command::Sense)
+                        .ok_or_else(|| ParseError::BadBlade(Token::new(w))),
+                }
+            }
+            Verb::Confirm => confirm(args).map(Command::Confirm),
         }
     }
 
@@ -1126,6 +1187,56 @@ fn station_and_slot(args: &Args<'_>) -> Result<(StationName, u16), ParseError> {
     match u16::try_from(slot) {
         Ok(n) if n >= 1 => Ok((station, n)),
         _ => Err(ParseError::SlotNumber(slot)),
+    }
+}
+
+/// `CONFIRM`'s five forms (see [`ConfirmArg`]).
+fn confirm(args: &Args<'_>) -> Result<ConfirmArg, ParseError> {
+    args.between(2, 3)?;
+    let w = args.words;
+    let bad = || ParseError::BadConfirm(Token::new(w[0]));
+    let is = |word: &[u8], what: &[u8]| word.eq_ignore_ascii_case(what);
+    let wafer = |word: &[u8]| -> Option<u32> {
+        let text = as_str(word);
+        let digits = text.strip_prefix(['W', 'w'])?;
+        if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        digits.parse().ok()
+    };
+    let blade = |word: Option<&&[u8]>| -> Result<Blade, ParseError> {
+        match word {
+            None => Ok(Blade::A),
+            Some(b) => Blade::parse(as_str(b)).ok_or_else(|| ParseError::BadBlade(Token::new(b))),
+        }
+    };
+    let slot = |station: &[u8], slot: &[u8]| -> Result<Place, ParseError> {
+        let station = StationName::new(as_str(station))
+            .ok_or_else(|| ParseError::BadStationName(Token::new(station)))?;
+        let n = whole(slot)?;
+        match u16::try_from(n) {
+            Ok(slot) if slot >= 1 => Ok(Place::Slot { station, slot }),
+            _ => Err(ParseError::SlotNumber(n)),
+        }
+    };
+    match (wafer(w[0]), w) {
+        (Some(n), [_, g]) if is(g, b"GONE") => Ok(ConfirmArg::Gone { wafer: n }),
+        (Some(n), [_, h, rest @ ..]) if is(h, b"HAND") && rest.len() <= 1 => Ok(ConfirmArg::At {
+            wafer: n,
+            place: Place::Hand(blade(rest.first())?),
+        }),
+        (Some(n), [_, station, s]) if !is(station, b"GONE") => Ok(ConfirmArg::At {
+            wafer: n,
+            place: slot(station, s)?,
+        }),
+        (None, [h, e]) if is(h, b"HAND") && is(e, b"EMPTY") => {
+            Ok(ConfirmArg::Empty(Place::Hand(Blade::A)))
+        }
+        (None, [h, b, e]) if is(h, b"HAND") && is(e, b"EMPTY") => {
+            Ok(ConfirmArg::Empty(Place::Hand(blade(Some(b))?)))
+        }
+        (None, [station, s, e]) if is(e, b"EMPTY") => Ok(ConfirmArg::Empty(slot(station, s)?)),
+        _ => Err(bad()),
     }
 }
 
@@ -1337,6 +1448,84 @@ mod tests {
         assert_eq!(err("SWAP LP1 3 B").error.code(), Code::ArgumentCount);
         assert_eq!(err("SWAP LP1 0").error.code(), Code::SlotUnknown);
         assert_eq!(ok("SWAP PM1 1").command.verb(), Verb::Swap);
+    }
+
+    #[test]
+    fn recovery_retract_sense_and_the_five_forms_of_confirm() {
+        let lp2 = StationName::new("LP2").unwrap();
+        let slot = Place::Slot {
+            station: lp2,
+            slot: 1,
+        };
+        let cases = [
+            ("RECOVERY", Command::Recovery),
+            ("retract", Command::Retract),
+            ("SENSE", Command::Sense(Blade::A)),
+            ("SENSE b", Command::Sense(Blade::B)),
+            (
+                "CONFIRM W3 LP2 1",
+                Command::Confirm(ConfirmArg::At {
+                    wafer: 3,
+                    place: slot,
+                }),
+            ),
+            (
+                "confirm w3 hand",
+                Command::Confirm(ConfirmArg::At {
+                    wafer: 3,
+                    place: Place::Hand(Blade::A),
+                }),
+            ),
+            (
+                "CONFIRM W3 HAND B",
+                Command::Confirm(ConfirmArg::At {
+                    wafer: 3,
+                    place: Place::Hand(Blade::B),
+                }),
+            ),
+            (
+                "CONFIRM W12 GONE",
+                Command::Confirm(ConfirmArg::Gone { wafer: 12 }),
+            ),
+            (
+                "CONFIRM HAND EMPTY",
+                Command::Confirm(ConfirmArg::Empty(Place::Hand(Blade::A))),
+            ),
+            (
+                "CONFIRM HAND B EMPTY",
+                Command::Confirm(ConfirmArg::Empty(Place::Hand(Blade::B))),
+            ),
+            (
+                "CONFIRM LP2 1 EMPTY",
+                Command::Confirm(ConfirmArg::Empty(slot)),
+            ),
+        ];
+        for (line, command) in cases {
+            assert_eq!(ok(line).command, command, "{line}");
+        }
+        for bad in [
+            "CONFIRM W3",
+            "CONFIRM HAND",
+            "CONFIRM W3 HAND C",
+            "CONFIRM W3 LP2 0",
+            "CONFIRM LP2 1",
+            "CONFIRM W3 GONE NOW",
+            "CONFIRM X3 LP2 1",
+            "SENSE C",
+            "SENSE A B",
+        ] {
+            let e = err(bad);
+            assert!(
+                matches!(
+                    e.error.code(),
+                    Code::BadArgument | Code::ArgumentCount | Code::SlotUnknown
+                ),
+                "{bad}: {:?}",
+                e.error
+            );
+        }
+        let e = err("CONFIRM LP2 1");
+        assert!(e.error.to_string().contains("EMPTY"), "{}", e.error);
     }
 
     #[test]

@@ -96,6 +96,14 @@ pub enum Verb {
     Points,
     /// `POINT`: set, teach or delete one named point of a stored program.
     Point,
+    /// `RECOVERY`: what an interrupted transfer left uncertain, and where the hand is.
+    Recovery,
+    /// `RETRACT`: take the hand straight out of the station it may be inside.
+    Retract,
+    /// `SENSE`: read a blade's vacuum sensor with its valve on.
+    Sense,
+    /// `CONFIRM`: an operator's word on an uncertain place.
+    Confirm,
 }
 
 /// What a verb does, which decides who may send it (docs/protocol.md "Connections").
@@ -183,6 +191,10 @@ impl Verb {
         Verb::Vars,
         Verb::Points,
         Verb::Point,
+        Verb::Recovery,
+        Verb::Retract,
+        Verb::Sense,
+        Verb::Confirm,
     ];
 
     /// The verb's table entry.
@@ -376,6 +388,34 @@ impl Verb {
                 "POINT",
                 "<program> <name> <x> <y> <z> <yaw> | JOINTS <j1> ... | HERE | DELETE",
                 "set, teach or delete a named point of a stored program",
+                false,
+                Access::Control,
+            ),
+            Verb::Recovery => v(
+                "RECOVERY",
+                "",
+                "what an interrupted transfer left uncertain, where the hand is, what to do next",
+                false,
+                Access::Read,
+            ),
+            Verb::Retract => v(
+                "RETRACT",
+                "",
+                "take the hand straight out of the station it may be inside, to its approach pose",
+                true,
+                Access::Control,
+            ),
+            Verb::Sense => v(
+                "SENSE",
+                "[A|B]",
+                "switch a blade's vacuum on and read its sensor: the wafer map learns what it holds",
+                true,
+                Access::Control,
+            ),
+            Verb::Confirm => v(
+                "CONFIRM",
+                "<wafer> <station> <slot> | <wafer> HAND [A|B] | <wafer> GONE | HAND [A|B] EMPTY | <station> <slot> EMPTY",
+                "an operator's word on an uncertain place: where a wafer is, that it is gone, that a place is empty",
                 false,
                 Access::Control,
             ),

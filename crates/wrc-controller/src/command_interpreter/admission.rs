@@ -40,6 +40,7 @@ pub(super) fn is_motion(command: &Command) -> bool {
     matches!(
         command,
         Command::Home
+            | Command::Retract
             | Command::MovJ { .. }
             | Command::MovP { .. }
             | Command::MovL { .. }
@@ -83,7 +84,7 @@ pub(super) fn admit(command: &Command, s: &Situation) -> Result<(), Refused> {
         RobotState::Idle | RobotState::Moving => {}
         _ => return refuse(Code::Busy, "the robot is not ready for a motion"),
     }
-    if !matches!(command, Command::Home) && !s.homed {
+    if !matches!(command, Command::Home | Command::Retract) && !s.homed {
         return refuse(Code::NotHomed, "the robot is not homed; send HOME first");
     }
     Ok(())

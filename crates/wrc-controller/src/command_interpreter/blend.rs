@@ -110,7 +110,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         if pending.is_none() && !joining && !matches!(motion, Motion::Arc { .. }) {
             return None;
         }
-        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let operator = self.speed_limit();
         let accel = options
             .accel_pct
             .or_else(|| self.program.as_ref().map(|p| p.accel_pct))
@@ -307,7 +307,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let start = self
             .robot
             .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
-        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let operator = self.speed_limit();
         let path_pct = p.path_pct.unwrap_or(operator).min(operator);
         let check = |robot: &wrc_robot::Robot, from: &Joints, path: &PathSpec| {
             wrc_motion::check_path(robot, from, path).map_err(|e| {

@@ -27,6 +27,10 @@ use crate::shared::{RobotState, StopKind};
 /// How long the board may take to clear its mapping latch or to apply an output [ns].
 const BOARD_ACK_NS: u64 = 1_000_000_000;
 
+/// How long the transfer journal may take to make a step's beginning durable [ns]: far
+/// longer than a disk's sync, short enough that a broken disk stops a transfer quickly.
+const JOURNAL_ACK_NS: u64 = 2_000_000_000;
+
 /// Cycles the vacuum sensor may read "no wafer" during a motion before the wafer counts as
 /// lost (2 × the Command Interpreter's period: a single glitch is no loss).
 const LOST_CYCLES: u32 = 2;
@@ -48,6 +52,10 @@ pub(super) enum JobWait {
     Vacuum { expect: bool, deadline: u64 },
     /// The board to clear its mapping latch.
     MapClear { deadline: u64 },
+    /// The transfer journal to make step `step`'s beginning durable.
+    Journal { step: u8, deadline: u64 },
+    /// A `SENSE`: the sensor to settle, until the deadline.
+    Sense { deadline: u64 },
 }
 
 /// The job the Command Interpreter is carrying out.
@@ -70,6 +78,10 @@ pub(super) struct RunningJob {
     /// Until the Pulse Generator reports the approach committed to enter, an interlock
     /// that opens stops the robot, and the stop ends behind the approach pose.
     guard: Option<(u8, u32)>,
+    /// The step whose beginning the transfer journal has made durable (it may start).
+    journaled: Option<u8>,
+    /// A `SENSE`: its blade's sensor saw a wafer.
+    sensed: bool,
 }
 
 /// The bit of `blade` in a blade mask.
@@ -136,6 +148,20 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         match offer {
             JobOffer::Start(job) => self.start_job(job),
             JobOffer::Refused(r) => self.program_job_refused(r.code, r.text()),
+            JobOffer::Recovery { retract, alarm } => {
+                self.retract = retract;
+                if alarm && self.shared.state() != RobotState::Estop {
+                    let code = Code::TransferInterrupted;
+                    self.shared
+                        .error_code
+                        .store(u32::from(code.number()), Ordering::Release);
+                    self.set_state(RobotState::Error);
+                    self.event(&wrc_protocol::Event::Error {
+                        code,
+                        text: code.text(),
+                    });
+                }
+            }
         }
     }
 
@@ -227,6 +253,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             saved_speed: None,
             dropped: 0,
             guard: None,
+            journaled: None,
+            sensed: false,
         });
     }
 
@@ -343,6 +371,50 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         return;
                     }
                 }
+                JobWait::Journal { step, deadline } => {
+                    match self.journal_ack(step) {
+                        Some(true) => {
+                            if let Some(r) = self.job.as_mut() {
+                                r.journaled = Some(step);
+                                r.wait = JobWait::Nothing;
+                            }
+                        }
+                        Some(false) => {
+                            return self.job_fault(
+                                Code::Internal,
+                                "the transfer journal could not be written; the transfer stopped",
+                            )
+                        }
+                        None if self.now_ns >= deadline => return self.job_fault(
+                            Code::Internal,
+                            "the transfer journal was not written within 2 s; the transfer stopped",
+                        ),
+                        None => return,
+                    }
+                }
+                JobWait::Sense { deadline } => {
+                    if self.now_ns < deadline {
+                        return;
+                    }
+                    let sensed = self.vacuum_sensed_of(j.blade);
+                    let _ = self.io.store.cell_events.try_send(CellEvent::Sensed {
+                        blade: j.blade,
+                        sensed,
+                    });
+                    if let Some(r) = self.job.as_mut() {
+                        r.sensed = sensed;
+                        r.wait = JobWait::Nothing;
+                    }
+                    if sensed {
+                        self.job_advance();
+                    } else {
+                        // Nothing to hold: the valve goes off again.
+                        let output = self.blade_signals(j.blade).vacuum_output;
+                        let wait = self.job_output(output, false);
+                        self.job_wait(wait);
+                    }
+                    continue;
+                }
                 JobWait::MapClear { deadline } => {
                     let cleared =
                         self.board.read_mapping(&mut self.scan).is_ok() && self.scan.cleared;
@@ -364,8 +436,54 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             if j.next >= j.job.len {
                 return self.end_job(None);
             }
-            self.job_step(j.job.steps[j.next]);
+            let step = j.job.steps[j.next];
+            // A journaled job: every step's beginning goes to the journal, and one that
+            // moves the hand or switches the vacuum starts only once it is on disk.
+            if j.job.kind.journaled() {
+                let index = j.next as u8;
+                if j.journaled != Some(index) {
+                    if !self.journal_record(index, false) {
+                        return self.job_fault(
+                            Code::Internal,
+                            "the transfer journal's queue is full; the transfer stopped",
+                        );
+                    }
+                    if step.physical() {
+                        let deadline = self.now_ns.saturating_add(JOURNAL_ACK_NS);
+                        return self.job_wait(JobWait::Journal {
+                            step: index,
+                            deadline,
+                        });
+                    }
+                    if let Some(r) = self.job.as_mut() {
+                        r.journaled = Some(index);
+                    }
+                }
+            }
+            self.job_step(step);
         }
+    }
+
+    /// Tell the cell service that step `index` of the running job begins or has ended, with
+    /// the hand where the board was commanded; `false` when its queue is full.
+    fn journal_record(&mut self, index: u8, done: bool) -> bool {
+        let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        let at = self.robot.forward(&joints);
+        self.io
+            .store
+            .cell_events
+            .try_send(CellEvent::Step { index, done, at })
+            .is_ok()
+    }
+
+    /// The journal's answer for step `step`, if it has come (older answers are dropped).
+    fn journal_ack(&mut self, step: u8) -> Option<bool> {
+        while let Ok(ack) = self.io.store.journaled.try_recv() {
+            if ack.step == step {
+                return Some(ack.ok);
+            }
+        }
+        None
     }
 
     /// Outside a job: while the wafer map has a wafer on a blade and the robot moves, that
@@ -395,8 +513,15 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// The current step is done: on to the next.
+    /// The current step is done: on to the next (journaled as done first).
     fn job_advance(&mut self) {
+        if let Some(j) = self.job {
+            if j.job.kind.journaled() {
+                // A full queue loses this record only: the journal then shows the step
+                // begun, not done, which is judged the more cautious way.
+                let _ = self.journal_record(j.next as u8, true);
+            }
+        }
         if let Some(r) = self.job.as_mut() {
             r.wait = JobWait::Nothing;
             r.next += 1;
@@ -485,6 +610,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.job_wait(wait);
             }
             JobStep::MapRead => self.job_map_read(),
+            JobStep::Sense => {
+                let deadline = self
+                    .now_ns
+                    .saturating_add((self.hand.vacuum_settle_s * 1e9) as u64);
+                self.job_wait(JobWait::Sense { deadline });
+            }
             JobStep::UseBlade(blade) => {
                 if let Some(r) = self.job.as_mut() {
                     r.blade = blade;
@@ -664,6 +795,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         Ok(())
                     }
                     JobKind::Swap => write!(body, "W{} W{}", j.job.wafer, j.job.wafer_put),
+                    JobKind::Sense => body.write_str(if j.sensed { "wafer" } else { "none" }),
                     _ => write!(body, "W{}", j.job.wafer),
                 };
                 self.buf.inf(j.job.to, body.as_str())

@@ -153,6 +153,11 @@ pub struct CommandInterpreter<B: MotionBoard> {
     /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
     /// hand moved outside a job.
     hand_dropped: u32,
+    /// The hand may be inside a station (found at start-up by the cell service): HOME and
+    /// RETRACT take it straight out first.
+    retract: Option<crate::messages::cell_job::RetractPlan>,
+    /// The ticket of the retract under way.
+    retract_ticket: Option<u32>,
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
@@ -190,6 +195,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             job: None,
             scan: wrc_board::MappingScan::default(),
             hand_dropped: 0,
+            retract: None,
+            retract_ticket: None,
         }
     }
 

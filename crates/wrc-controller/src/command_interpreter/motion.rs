@@ -3,11 +3,13 @@
 //! Pulse Generator reports a move's end once the arm stands still on the board, a stopped or
 //! held one too; WAIT is answered then.
 
+use std::fmt::Write as _;
 use std::sync::atomic::Ordering;
 
 use wrc_board::MotionBoard;
 use wrc_protocol::{Code, Event, ReplyTo};
 use wrc_robot::Joints;
+use wrc_rt::FixedText;
 
 use super::{deliver, CommandInterpreter, MAX_TICKETS};
 use crate::messages::{MoveDone, MoveKind, MoveOrder, MoveOutcome, SourceId};
@@ -145,7 +147,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
             return None;
         };
-        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let operator = self.speed_limit();
         let order = MoveOrder {
             ticket,
             epoch: self.shared.stop_epoch.load(Ordering::Acquire),
@@ -174,6 +176,104 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         Some(ticket)
     }
 
+    /// The speed override a motion may use now [%]: the operator's, below the careful
+    /// speed while a blade perhaps holds an unclamped wafer (after a power loss).
+    pub(super) fn speed_limit(&self) -> f64 {
+        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        match self.shared.careful_pct.load(Ordering::Acquire) {
+            0 => operator,
+            careful => operator.min(f64::from(careful)),
+        }
+    }
+
+    /// `HOME`: a hand left inside a station (the cell service found it at start-up) is
+    /// first taken straight out to the station's approach pose, slowly; then every axis
+    /// goes home by PTP (at the station's speed when a blade may hold a wafer).
+    pub(super) fn home(&mut self, from: SourceId, to: ReplyTo) {
+        let home = self.robot.home();
+        let mut speed = None;
+        if let Some(plan) = self.retract {
+            if let Err(text) = self.start_retract(SourceId::NONE, ReplyTo::default(), &plan) {
+                return self.nak(from, to, Code::HandInside, text.as_str());
+            }
+            speed = plan.careful.then_some(plan.speed_pct);
+        }
+        self.next_move.speed_pct = speed;
+        self.motion(from, to, MoveKind::Joints(home), home, true);
+        self.next_move = super::program::NextMove::default();
+    }
+
+    /// `RETRACT`: take a hand left inside a station straight out to its approach pose.
+    pub(super) fn retract_request(&mut self, from: SourceId, to: ReplyTo) {
+        let Some(plan) = self.retract else {
+            return self.nak(
+                from,
+                to,
+                Code::BadArgument,
+                "the hand is not inside a station: nothing to retract",
+            );
+        };
+        if let Err(text) = self.start_retract(from, to, &plan) {
+            self.nak(from, to, Code::HandInside, text.as_str());
+        }
+    }
+
+    /// Queue the retract of `plan` (its reply to `from`); the reason when the hand is not on
+    /// the station's line any more (it was jogged) or the line is refused.
+    fn start_retract(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        plan: &crate::messages::cell_job::RetractPlan,
+    ) -> Result<(), FixedText<240>> {
+        let mut text = FixedText::<240>::new();
+        let start = self
+            .robot
+            .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
+        let here = self.robot.forward(&start);
+        // Along the line out: the hand must be on it (within a millimetre and a degree).
+        let (s, c) = plan.to.yaw.to_radians().sin_cos();
+        let (dx, dy) = (here.x - plan.to.x, here.y - plan.to.y);
+        let lateral = (dx * s - dy * c).abs();
+        let turned = wrc_robot::wrap180(here.yaw - plan.to.yaw).abs();
+        if lateral > 1.0 || turned > 1.0 {
+            let _ = write!(
+                text,
+                "the hand is in {} but {lateral:.1} mm and {turned:.1} deg off its line: move it out by hand (JOG), then HOME",
+                plan.station
+            );
+            return Err(text);
+        }
+        let target = wrc_robot::Pose {
+            z: here.z,
+            ..plan.to
+        };
+        let end = match wrc_motion::check_line(&self.robot, &start, &target) {
+            Ok((_, check)) => check.end_joints,
+            Err(e) => {
+                let _ = write!(
+                    text,
+                    "the straight line out of {} is refused: {e}",
+                    plan.station
+                );
+                return Err(text);
+            }
+        };
+        self.next_move.speed_pct = Some(plan.speed_pct);
+        let ticket = self.motion(from, to, MoveKind::Line(target), end, false);
+        self.next_move = super::program::NextMove::default();
+        match ticket {
+            Some(t) => {
+                self.retract_ticket = Some(t);
+                Ok(())
+            }
+            None => {
+                let _ = text.write_str("the retract could not be queued");
+                Err(text)
+            }
+        }
+    }
+
     pub(super) fn handle_done(&mut self, done: MoveDone) {
         let Some(i) = self
             .tickets
@@ -192,6 +292,18 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let Some(t) = self.tickets[i].take() else {
             return;
         };
+        if self.retract_ticket == Some(t.ticket) {
+            self.retract_ticket = None;
+            let out = done.outcome == MoveOutcome::Completed;
+            if out {
+                self.retract = None;
+            }
+            let _ = self
+                .io
+                .store
+                .cell_events
+                .try_send(crate::messages::cell_job::CellEvent::Retracted(out));
+        }
         if t.from == SourceId::PROGRAM {
             if t.home && done.outcome == MoveOutcome::Completed {
                 self.shared.homed.store(true, Ordering::Release);
@@ -299,7 +411,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             return self.nak(from, to, Code::NotHeld, text);
         }
         let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
-        let speed_pct = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let speed_pct = self.speed_limit();
         // Ticket numbers grow (wrapping) in the order motions were accepted.
         let first = self.next_ticket;
         let mut order: [Option<Ticket>; MAX_TICKETS] = [None; MAX_TICKETS];

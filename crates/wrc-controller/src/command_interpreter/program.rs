@@ -622,7 +622,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// [`NextMove`].
     fn program_motion(&mut self, motion: Motion, options: MoveOptions) -> Option<Command> {
         let p = self.program.as_ref()?;
-        let operator = f64::from(self.shared.speed_pct.load(Ordering::Acquire));
+        let operator = self.speed_limit();
         let mut speed = options.speed_pct.map(|s| s.min(operator));
         if p.stepping {
             speed = Some(speed.unwrap_or(operator).min(STEP_SPEED_PCT));

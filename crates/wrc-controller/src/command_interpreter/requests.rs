@@ -113,10 +113,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self.buf.ack(to, body);
                 deliver(&self.io.out, from, line);
             }
-            Command::Home => {
-                let home = self.robot.home();
-                self.motion(from, to, MoveKind::Joints(home), home, true);
-            }
+            Command::Home => self.home(from, to),
+            Command::Retract => self.retract_request(from, to),
             Command::MovJ { joints, .. } => match self.robot.check_joints(&joints) {
                 Ok(()) => {
                     self.motion(from, to, MoveKind::Joints(joints), joints, false);

@@ -9,6 +9,12 @@
 //! [`CellEvent::Commit`] the moment the vacuum sensor has confirmed the wafer's new place,
 //! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
 //! from the vacuum sensor, as at start-up) and saves.
+//!
+//! The transfer journal (`wrc_cell::journal`) goes the same way: the Command Interpreter
+//! reports every step of a GET, PUT or SWAP as it begins and ends ([`CellEvent::Step`]), the
+//! service appends it to the journal and makes it durable, and a step that moves the hand or
+//! switches the vacuum starts only once the service has answered [`JournalAck`] for its
+//! beginning: after a power loss the journal bounds what the robot did.
 
 use wrc_cell::{Blade, Step, MAX_BLADES};
 use wrc_protocol::{Code, ReplyTo, StationName};
@@ -32,6 +38,9 @@ pub enum JobKind {
     Map,
     /// `SWAP <station> <slot>`: a GET with the empty blade, then a PUT with the other.
     Swap,
+    /// `SENSE [A|B]`: the blade's vacuum on, its sensor read (the valve stays on for a wafer
+    /// sensed, goes off otherwise).
+    Sense,
 }
 
 impl JobKind {
@@ -42,7 +51,13 @@ impl JobKind {
             JobKind::Put => "PUT",
             JobKind::Map => "MAP",
             JobKind::Swap => "SWAP",
+            JobKind::Sense => "SENSE",
         }
+    }
+
+    /// Whether its steps are journaled (it moves a wafer).
+    pub fn journaled(self) -> bool {
+        matches!(self, JobKind::Get | JobKind::Put | JobKind::Swap)
     }
 }
 
@@ -62,6 +77,9 @@ pub enum JobStep {
     MapRead,
     /// The following vacuum steps switch and read this blade's valve and sensor.
     UseBlade(Blade),
+    /// Wait the vacuum sensor's settling time, read the job's blade's sensor and report it
+    /// ([`CellEvent::Sensed`]); switch the valve off again when it senses nothing.
+    Sense,
     /// A blended approach (docs/motion.md): the move to the approach pose `via` flowing
     /// into the straight line in to `to` at the station's `speed_pct`, with the station's
     /// interlock checked when it starts and watched until it is committed to enter. Made by
@@ -77,6 +95,19 @@ pub enum JobStep {
         /// The station's interlock input, if it has one.
         interlock: Option<u8>,
     },
+}
+
+impl JobStep {
+    /// Whether it moves the hand or switches the vacuum: in a journaled job it starts only
+    /// once its beginning is on disk ([`JournalAck`]).
+    pub fn physical(&self) -> bool {
+        matches!(
+            self,
+            JobStep::Transfer(Step::Line(_) | Step::Z(_) | Step::Vacuum(_) | Step::Ptp(..))
+                | JobStep::Joints(_)
+                | JobStep::Approach { .. }
+        )
+    }
 }
 
 /// A job the cell service hands to the Command Interpreter.
@@ -181,11 +212,65 @@ pub enum JobOffer {
     Start(CellJob),
     /// The running program's statement was refused: end the program with this.
     Refused(JobRefusal),
+    /// What the start-up (or a board that answers again) found: where the hand must be
+    /// taken out of a station before anything else moves it (`None`: nowhere), and whether
+    /// to raise alarm 216 (a transfer a power loss interrupted).
+    Recovery {
+        /// The retract HOME and RETRACT make first.
+        retract: Option<RetractPlan>,
+        /// Raise alarm 216.
+        alarm: bool,
+    },
+}
+
+/// The hand may be inside a station: take it straight out along the station's line to the
+/// approach pose at its height, slowly, before any other motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RetractPlan {
+    /// The station.
+    pub station: StationName,
+    /// The approach pose at the hand's height (the line's end, outside).
+    pub to: wrc_robot::Pose,
+    /// The speed of the retract and, when a blade may hold a wafer, of the HOME after it
+    /// [%].
+    pub speed_pct: f64,
+    /// A blade may hold a wafer: HOME moves at `speed_pct` too.
+    pub careful: bool,
+}
+
+/// The service's answer to a step's beginning ([`CellEvent::Step`]): journaled, or not
+/// (the transfer stops).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JournalAck {
+    /// The step.
+    pub step: u8,
+    /// Whether the record is on disk.
+    pub ok: bool,
 }
 
 /// From the Command Interpreter to the cell service.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CellEvent {
+    /// Step `index` of the running job begins (`done` false) or has ended, with the hand at
+    /// `at` (the commanded pose): for the transfer journal.
+    Step {
+        /// The step's index.
+        index: u8,
+        /// Ended (else begins).
+        done: bool,
+        /// Where the hand is.
+        at: wrc_robot::Pose,
+    },
+    /// A `SENSE`: what the blade's vacuum sensor read with the valve on.
+    Sensed {
+        /// The blade.
+        blade: Blade,
+        /// A wafer sensed.
+        sensed: bool,
+    },
+    /// The retract of a [`RetractPlan`] ended: the hand is outside (`true`), or it was
+    /// stopped.
+    Retracted(bool),
     /// The vacuum sensor confirmed the pending transfer's wafer at its destination.
     Commit,
     /// The job ended. `started`: it was accepted (ACK) and steps ran; `code`: `None` when

@@ -426,6 +426,31 @@ pub enum StoreRequest {
         /// GET/PUT: the blade (A for MAP and SWAP).
         blade: wrc_cell::Blade,
     },
+    /// `RECOVERY`: what an interrupted transfer left uncertain.
+    Recovery {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the replies go.
+        to: ReplyTo,
+    },
+    /// `SENSE [A|B]`: read a blade's vacuum sensor with its valve on.
+    Sense {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+        /// The blade.
+        blade: wrc_cell::Blade,
+    },
+    /// `CONFIRM …`: an operator's word on an uncertain place.
+    Confirm {
+        /// The requesting connection.
+        from: SourceId,
+        /// Where the reply goes.
+        to: ReplyTo,
+        /// What is confirmed.
+        arg: wrc_protocol::ConfirmArg,
+    },
     /// `RUN <name> [STEP]`: compile the stored text and hand it to the Command Interpreter.
     Run {
         /// The requesting connection.
@@ -530,7 +555,16 @@ pub struct StoreLinks {
     pub cell_events: Arc<MessageQueue<crate::messages::cell_job::CellEvent>>,
     /// Answers to the running program's questions, for the Command Interpreter.
     pub answers: Arc<MessageQueue<ProgramAnswer>>,
+    /// The transfer journal's answers to the steps' beginnings, for the Command Interpreter.
+    pub journaled: Arc<MessageQueue<crate::messages::cell_job::JournalAck>>,
 }
+
+/// Room in the queue of wafer-job events: a job's every step begins and ends, twice its
+/// [`cell_job::MAX_JOB_STEPS`], with room to spare for a slow disk.
+const CELL_EVENTS: usize = 256;
+
+/// Room in the queue of the journal's answers: one per step.
+const JOURNAL_ACKS: usize = 64;
 
 impl StoreLinks {
     /// Queues of sensible sizes.
@@ -540,8 +574,9 @@ impl StoreLinks {
             starts: Arc::new(MessageQueue::new(4)),
             retired: Arc::new(MessageQueue::new(16)),
             jobs: Arc::new(MessageQueue::new(4)),
-            cell_events: Arc::new(MessageQueue::new(64)),
+            cell_events: Arc::new(MessageQueue::new(CELL_EVENTS)),
             answers: Arc::new(MessageQueue::new(4)),
+            journaled: Arc::new(MessageQueue::new(JOURNAL_ACKS)),
         }
     }
 }
@@ -556,8 +591,9 @@ impl StoreLinks {
             starts: Arc::new(MessageQueue::with_notify(4, interpreter.clone())),
             retired: Arc::new(MessageQueue::new(16)),
             jobs: Arc::new(MessageQueue::with_notify(4, interpreter.clone())),
-            cell_events: Arc::new(MessageQueue::with_notify(64, service)),
-            answers: Arc::new(MessageQueue::with_notify(4, interpreter)),
+            cell_events: Arc::new(MessageQueue::with_notify(CELL_EVENTS, service)),
+            answers: Arc::new(MessageQueue::with_notify(4, interpreter.clone())),
+            journaled: Arc::new(MessageQueue::with_notify(JOURNAL_ACKS, interpreter)),
         }
     }
 }

@@ -12,7 +12,7 @@ use wrc_cell::TransferKind;
 use wrc_config::Config;
 use wrc_controller::cell_service::transfer_steps;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
-use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer};
+use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JournalAck};
 use wrc_controller::messages::{
     MoveDone, MoveOrder, MoveOutcome, OutLine, ProgramStart, SourceId, StoreLinks,
 };
@@ -62,6 +62,11 @@ struct Rig {
     motions: usize,
     /// Heap calls (allocations and frees) inside the Command Interpreter's cycles.
     heap_calls: u64,
+    /// The wafer-job events the Command Interpreter sent, but for the journal's steps
+    /// (which the rig answers as the cell service does).
+    cell_events: Vec<CellEvent>,
+    /// Steps the journal was told about.
+    journaled: usize,
 }
 
 impl Rig {
@@ -112,6 +117,8 @@ impl Rig {
             lines: Vec::with_capacity(256),
             motions: 0,
             heap_calls: 0,
+            cell_events: Vec::new(),
+            journaled: 0,
         }
     }
 
@@ -132,6 +139,22 @@ impl Rig {
                     ticket: order.ticket,
                     outcome: MoveOutcome::Completed,
                 });
+            }
+            // The cell service's part: the journal's steps answered, the rest kept.
+            while let Ok(event) = self.links.cell_events.try_recv() {
+                match event {
+                    CellEvent::Step { index, done, .. } => {
+                        self.journaled += 1;
+                        if !done {
+                            let ack = JournalAck {
+                                step: index,
+                                ok: true,
+                            };
+                            let _ = self.links.journaled.try_send(ack);
+                        }
+                    }
+                    other => self.cell_events.push(other),
+                }
             }
             if self.board_periods {
                 // The I/O Monitor's part: apply the outputs; then the board's period.
@@ -239,17 +262,20 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
         let replies: Vec<&String> = lines.iter().filter(|l| !l.starts_with("EVT")).collect();
         assert_eq!(replies, ["ACK 7", "INF 7 W1"], "{lines:?}");
         assert_eq!(rig.motions, motions, "blend {blend}: {lines:?}");
-        let events = &rig.links.cell_events;
-        assert_eq!(events.try_recv().ok(), Some(CellEvent::Commit));
         assert_eq!(
-            events.try_recv().ok(),
-            Some(CellEvent::Ended {
-                kind: JobKind::Get,
-                started: true,
-                code: None,
-                sensed: [true, false],
-            })
+            rig.cell_events,
+            [
+                CellEvent::Commit,
+                CellEvent::Ended {
+                    kind: JobKind::Get,
+                    started: true,
+                    code: None,
+                    sensed: [true, false],
+                }
+            ]
         );
+        // Every step began and ended in the journal.
+        assert_eq!(rig.journaled, 2 * job.len, "blend {blend}");
         assert_eq!(
             rig.shared.speed_pct.load(Ordering::Acquire),
             100,

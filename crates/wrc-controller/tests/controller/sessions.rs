@@ -589,10 +589,12 @@ fn every_verb_is_carried_out_by_someone() {
             "VARS" => "VARS N",
             "POINTS" => "POINTS p",
             "POINT" => "POINT p SAFE 300 0 50 0",
+            "SENSE" => "SENSE B",
+            "CONFIRM" => "CONFIRM HAND EMPTY",
             "STATUS" | "WHERE" | "HOME" | "STOP" | "ESTOP" | "HOLD" | "RESUME" | "RESET" | "IO"
             | "WAIT" | "CONTROL" | "RELEASE" | "HELP" | "SUBSCRIBE" | "UNSUBSCRIBE"
             | "PROGRAMS" | "PAUSE" | "CONTINUE" | "ABORT" | "ROBOT" | "TASKS" | "STN"
-            | "WAFERS" => verb,
+            | "WAFERS" | "RECOVERY" | "RETRACT" => verb,
             _ => return None,
         })
     }

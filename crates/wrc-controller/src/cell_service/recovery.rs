@@ -1,0 +1,663 @@
+//! The cell service's half of the recovery after a power loss: it keeps the transfer
+//! journal (`wrc_cell::journal`) of every GET, PUT and SWAP — the steps the Command
+//! Interpreter reports, each made durable before a step that moves the hand or switches the
+//! vacuum starts — and, at start-up (or when a board answers again), judges an interrupted
+//! transfer from the journal and the vacuum sensors: committed, aborted, or its wafer
+//! uncertain at each place it may be in. It finds whether the hand is inside a station
+//! (from the encoders' pose) and tells the Command Interpreter to retract it before any
+//! other motion; it answers `RECOVERY`, carries out `SENSE` and records an operator's
+//! `CONFIRM`, each logged. No wafer leaves the map without a sensor reading or an
+//! operator's word.
+
+use std::fmt::Write as _;
+use std::sync::atomic::Ordering;
+
+use wrc_cell::journal::{
+    judge, read_journal, Act, Closed, Evidence, JournalFile, Judgement, Maybe, Record,
+};
+use wrc_cell::{Blade, Location, Sensed, Transfer, TransferKind, WaferId};
+use wrc_protocol::{Code, ConfirmArg, Event, Place, ReplyTo, StationName};
+use wrc_robot::Pose;
+
+use super::CellService;
+use crate::messages::cell_job::{CellJob, JobKind, JobOffer, JobStep, JournalAck, RetractPlan};
+use crate::messages::SourceId;
+
+/// The speed of a retract out of a station [%]: slow, whatever the station allows.
+pub const RETRACT_SPEED_PCT: f64 = 20.0;
+
+/// The journal of the job under way: what each step does and where it goes.
+#[derive(Debug, Clone)]
+pub(super) struct JobJournal {
+    acts: Vec<Act>,
+    targets: Vec<Option<Pose>>,
+    /// A SWAP's PUT half, recorded when its GET half commits.
+    swap_put: Option<Transfer>,
+}
+
+/// What each step of a transfer job does, for the journal, and where a motion goes.
+fn journal_plan(
+    steps: &[JobStep],
+    first: TransferKind,
+    robot: &wrc_robot::Robot,
+) -> (Vec<Act>, Vec<Option<Pose>>) {
+    use wrc_cell::Step;
+    let mut kind = first;
+    let mut committed = false;
+    let mut blades = 0;
+    let mut acts = Vec::with_capacity(steps.len());
+    let mut targets = Vec::with_capacity(steps.len());
+    for step in steps {
+        let (act, to) = match step {
+            JobStep::UseBlade(b) => {
+                blades += 1;
+                if blades > 1 {
+                    // A SWAP's second half.
+                    kind = TransferKind::Put;
+                    committed = false;
+                }
+                (Act::Blade(*b), None)
+            }
+            JobStep::Transfer(t) => match t {
+                Step::RequireInput(_) => (Act::Interlock, None),
+                Step::Speed(_) | Step::RestoreSpeed => (Act::Speed, None),
+                Step::Ptp(p, _) => (Act::Approach, Some(*p)),
+                Step::Line(p) if committed => (Act::Out, Some(*p)),
+                Step::Line(p) => (Act::In, Some(*p)),
+                Step::Vacuum(true) => (Act::VacuumOn, None),
+                Step::Vacuum(false) => (Act::VacuumOff, None),
+                Step::Z(p) if kind == TransferKind::Get => (Act::Lift, Some(*p)),
+                Step::Z(p) => (Act::Lower, Some(*p)),
+                Step::CheckVacuum { expect: true } => (Act::CheckWafer, None),
+                Step::CheckVacuum { expect: false } => (Act::CheckNoWafer, None),
+                Step::CommitMap => {
+                    committed = true;
+                    (Act::Commit, None)
+                }
+            },
+            JobStep::Joints(j) => (Act::Approach, Some(robot.forward(j))),
+            JobStep::Approach { to, .. } => (Act::Enter, Some(*to)),
+            JobStep::MapClear | JobStep::MapSensor(_) | JobStep::MapRead | JobStep::Sense => {
+                (Act::Scan, None)
+            }
+        };
+        acts.push(act);
+        targets.push(to);
+    }
+    (acts, targets)
+}
+
+impl CellService {
+    /// The journal file next to the wafer map.
+    pub(super) fn open_journal(&mut self) {
+        match JournalFile::open(&self.journal_path) {
+            Ok(f) => self.journal = Some(f),
+            Err(e) => {
+                tracing::error!(
+                    "wrc: cannot open the transfer journal {}: {e}; GET, PUT and SWAP are refused until it can be written",
+                    self.journal_path.display()
+                );
+            }
+        }
+    }
+
+    /// Before a GET, PUT or SWAP moves (its pending transfer saved): start the journal
+    /// with the job. `Err` with the reason when it cannot be written (the caller aborts).
+    pub(super) fn journal_open(
+        &mut self,
+        job: &CellJob,
+        transfer: Transfer,
+        swap_put: Option<Transfer>,
+    ) -> Result<(), String> {
+        let (acts, targets) = journal_plan(job.steps(), transfer.kind, &self.robot);
+        let record = Record::Open {
+            transfer: Some(transfer),
+            station: transfer.station,
+            plan: acts.clone(),
+        };
+        let Some(file) = self.journal.as_mut() else {
+            return Err(format!(
+                "the transfer journal {} cannot be opened",
+                self.journal_path.display()
+            ));
+        };
+        file.restart(&record).map_err(|e| {
+            format!(
+                "cannot write the transfer journal {}: {e}",
+                self.journal_path.display()
+            )
+        })?;
+        self.jjob = Some(JobJournal {
+            acts,
+            targets,
+            swap_put,
+        });
+        Ok(())
+    }
+
+    fn journal_append(&mut self, record: &Record) -> bool {
+        let Some(file) = self.journal.as_mut() else {
+            return false;
+        };
+        match file.append(record) {
+            Ok(()) => true,
+            Err(e) => {
+                tracing::error!(
+                    "wrc: cannot write the transfer journal {}: {e}",
+                    self.journal_path.display()
+                );
+                false
+            }
+        }
+    }
+
+    /// A step of the running job began or ended: journal it; answer a beginning that must
+    /// be durable before the step starts.
+    pub(super) fn journal_step(&mut self, index: u8, done: bool, at: Pose) {
+        let Some(jj) = self.jjob.as_ref() else {
+            return;
+        };
+        let i = usize::from(index);
+        let Some(&act) = jj.acts.get(i) else {
+            return;
+        };
+        let to = jj.targets.get(i).copied().flatten();
+        let record = if done {
+            Record::Done {
+                step: index,
+                act,
+                at,
+            }
+        } else {
+            Record::Begin {
+                step: index,
+                act,
+                to,
+                at,
+            }
+        };
+        let ok = self.journal_append(&record);
+        let physical = act.moves() || matches!(act, Act::VacuumOn | Act::VacuumOff);
+        if !done && physical {
+            if let Some(links) = &self.links {
+                let _ = links.journaled.try_send(JournalAck { step: index, ok });
+            }
+        }
+    }
+
+    /// A SWAP's GET half committed and its PUT half begins.
+    pub(super) fn journal_swap_half(&mut self) {
+        if let Some(put) = self.jjob.as_mut().and_then(|j| j.swap_put.take()) {
+            self.journal_append(&Record::Transfer(put));
+        }
+    }
+
+    /// The job is settled: close the journal.
+    pub(super) fn journal_close(&mut self, how: Closed) {
+        if self.jjob.take().is_some() {
+            self.journal_append(&Record::Close(how));
+        }
+    }
+
+    /// What the vacuum valve and sensor of `blade` say now.
+    fn evidence(&self, blade: Blade) -> Evidence {
+        let signals = self.hand.blade(blade.index());
+        let outputs = self.shared.outputs[0].load(Ordering::Acquire);
+        let inputs = self.shared.inputs[0].load(Ordering::Acquire);
+        Evidence {
+            valve_on: signals.is_some_and(|s| outputs & (1u32 << (s.vacuum_output & 31)) != 0),
+            sensed: signals.is_some_and(|s| inputs & (1u32 << (s.vacuum_input & 31)) != 0),
+        }
+    }
+
+    /// Where the hand is (the board's commanded position).
+    fn hand_pose(&self) -> Pose {
+        let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        self.robot.forward(&joints)
+    }
+
+    /// The speed a hand that may hold an unclamped wafer moves at [%]: the slowest
+    /// station's, at most [`RETRACT_SPEED_PCT`].
+    pub(super) fn careful_speed_pct(&self) -> f64 {
+        self.stations
+            .iter()
+            .map(|s| s.speed_pct)
+            .fold(RETRACT_SPEED_PCT, f64::min)
+            .max(1.0)
+    }
+
+    /// The station the hand is inside at `pose`, if any.
+    fn inside_station(&self, pose: &Pose) -> Option<&wrc_cell::Station> {
+        self.stations.iter().find(|s| s.hand_inside(pose))
+    }
+
+    /// At start-up, or when a board answers again, once the inputs are read: settle a
+    /// transfer left pending by the journal and the sensors, doubt every wafer on a blade
+    /// whose vacuum is off, find a hand left inside a station, and tell the Command
+    /// Interpreter and every connection.
+    pub(super) fn recover(&mut self) {
+        let journal = match read_journal(&self.journal_path) {
+            Ok(j) => j,
+            Err(e) => {
+                tracing::error!(
+                    "wrc: cannot read the transfer journal {}: {e}; an interrupted transfer is judged without it",
+                    self.journal_path.display()
+                );
+                Default::default()
+            }
+        };
+        if let Some(line) = journal.torn_at {
+            tracing::warn!("wrc: the transfer journal ends in a record a power cut left half written (line {line}); it is judged up to the record before");
+        }
+        let mut notes: Vec<String> = Vec::new();
+        let pending = self.wafers.pending().copied();
+        let blade = pending.map_or(Blade::A, |t| t.blade);
+        let j = judge(&journal.records, self.evidence(blade));
+        if let Some(t) = pending {
+            let ev = self.evidence(t.blade);
+            let (on_blade, in_slot, text) = if j.open() && j.transfer == Some(t) {
+                (j.on_blade, j.in_slot, j.text.clone())
+            } else if !j.open() {
+                // The journal never opened it: no step had begun, nothing moved.
+                let on_blade = match (t.kind, ev.valve_on, ev.sensed) {
+                    (TransferKind::Get, ..) => Maybe::No,
+                    (TransferKind::Put, true, true) => Maybe::Yes,
+                    (TransferKind::Put, true, false) => Maybe::No,
+                    (TransferKind::Put, false, _) => Maybe::Perhaps,
+                };
+                let in_slot = if t.kind == TransferKind::Get {
+                    Maybe::Yes
+                } else {
+                    Maybe::No
+                };
+                (
+                    on_blade,
+                    in_slot,
+                    format!("{t} was pending but had not begun: nothing moved"),
+                )
+            } else {
+                (
+                    Maybe::Perhaps,
+                    Maybe::Perhaps,
+                    format!(
+                        "{t} was pending but the journal holds another job ({}); its wafer is uncertain",
+                        j.text
+                    ),
+                )
+            };
+            match self.wafers.settle_interrupted(on_blade, in_slot) {
+                Ok(wrc_cell::Interrupted::Committed(t)) => {
+                    tracing::warn!("wrc: {text}: committed ({t})");
+                    self.journal_append(&Record::Close(Closed::Committed));
+                }
+                Ok(wrc_cell::Interrupted::Aborted(t)) => {
+                    tracing::warn!("wrc: {text}: the wafer stays at its source ({t})");
+                    self.journal_append(&Record::Close(Closed::Aborted));
+                }
+                Ok(wrc_cell::Interrupted::Uncertain(t)) => {
+                    tracing::warn!("wrc: {text}: wafer {} is uncertain", t.wafer);
+                    notes.push(text);
+                    self.journal_append(&Record::Close(Closed::Uncertain));
+                }
+                Ok(wrc_cell::Interrupted::Gone(t)) => {
+                    tracing::warn!("wrc: {text}: wafer {} is on neither its blade nor in its slot, as the sensor says; it left the wafer map", t.wafer);
+                    notes.push(format!("{text}; {} left the wafer map", t.wafer));
+                    self.journal_append(&Record::Close(Closed::Uncertain));
+                }
+                Err(e) => tracing::error!("wrc: cannot settle the pending transfer: {e}"),
+            }
+        } else if j.open() {
+            // The map had committed it but the journal was not closed yet: a GET whose hand
+            // had not left the slot when the vacuum went off may have set its wafer back.
+            if let Some(t) = j.transfer {
+                let back = t.kind == TransferKind::Get
+                    && self.wafers.hand_of(t.blade) == Some(t.wafer)
+                    && j.in_slot == Maybe::Perhaps
+                    && self.wafers.doubt_back_in_slot(t.blade, t.slot_location());
+                if back {
+                    tracing::warn!("wrc: {}", j.text);
+                    notes.push(j.text.clone());
+                }
+            }
+            tracing::info!(
+                "wrc: the transfer journal's last job had not closed: {}",
+                j.text
+            );
+            self.journal_append(&Record::Close(Closed::Settled));
+        }
+        // A wafer on a blade whose vacuum is off (a power loss switched it off), or that
+        // its sensor does not see: perhaps still there, perhaps fallen.
+        for b in Blade::ALL {
+            let Some(w) = self.wafers.hand_of(b) else {
+                continue;
+            };
+            let ev = self.evidence(b);
+            if self.wafers.is_uncertain(b) {
+                // Uncertain since the board stopped answering (or the last start-up): its
+                // sensor, read with the valve on, settles it now.
+                if ev.valve_on && ev.sensed {
+                    if let Ok(Sensed::Held(w)) = self.wafers.sense_blade(b, true) {
+                        tracing::info!(
+                            "wrc: wafer {w} on the {} is sensed again: certain",
+                            Location::Hand(b)
+                        );
+                    }
+                }
+                continue;
+            }
+            let why = if !ev.valve_on {
+                "its vacuum was off at start-up (a power loss switches it off): the wafer may have stayed on the blade or fallen"
+            } else if !ev.sensed {
+                "its vacuum sensor senses none"
+            } else {
+                continue;
+            };
+            self.wafers.mark_blade_uncertain(b);
+            let at = Location::Hand(b);
+            tracing::warn!("wrc: wafer {w} on the {at} is uncertain: {why}");
+            notes.push(format!("{w} on the {at}: {why}"));
+        }
+        self.reconciled = true;
+        self.find_inside(j.open().then_some(&j));
+        if !notes.is_empty() {
+            self.wafers.set_note(&notes.join("; "));
+        }
+        let alarm = self.wafers.has_uncertain() || self.inside.is_some();
+        // Nothing to tell when nothing is uncertain and the hand is outside.
+        let links = self.links.as_ref().filter(|_| alarm);
+        if let Some(links) = links {
+            let _ = links.jobs.try_send(JobOffer::Recovery {
+                retract: self.inside,
+                alarm,
+            });
+        }
+        self.persist();
+        if alarm {
+            let lines = self.recovery_lines();
+            for l in &lines {
+                self.event(SourceId::BROADCAST, false, &Event::Recovery(l));
+            }
+        }
+    }
+
+    /// Whether the hand is inside a station now (the encoders' pose); the retract that
+    /// takes it out, slowly, and carefully when a blade may hold a wafer.
+    fn find_inside(&mut self, journal: Option<&Judgement>) {
+        let pose = self.hand_pose();
+        let careful = Blade::ALL.into_iter().any(|b| self.wafers.is_uncertain(b))
+            || Blade::ALL
+                .into_iter()
+                .any(|b| self.wafers.hand_of(b).is_some());
+        self.inside = self.inside_station(&pose).map(|s| RetractPlan {
+            station: s.name,
+            to: s.retract_pose(&pose),
+            speed_pct: s.speed_pct.min(RETRACT_SPEED_PCT),
+            careful,
+        });
+        match (&self.inside, journal) {
+            (Some(plan), _) => tracing::warn!(
+                "wrc: the hand is inside {} (x={:.3} y={:.3} z={:.3}): HOME (or RETRACT) takes it straight out to the approach pose first, at {} %",
+                plan.station,
+                pose.x,
+                pose.y,
+                pose.z,
+                plan.speed_pct
+            ),
+            (None, Some(j)) if j.inside => tracing::info!(
+                "wrc: the journal had the hand inside {}, but it stands outside every station now",
+                j.station.map(|s| s.to_string()).unwrap_or_default()
+            ),
+            _ => {}
+        }
+    }
+
+    /// The lines of `RECOVERY` (and of the broadcast after a recovery).
+    fn recovery_lines(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        if let Some(note) = self.wafers.note() {
+            lines.push(format!("note {note}"));
+        }
+        let pose = self.hand_pose();
+        let mut hand = String::new();
+        let _ = write!(
+            hand,
+            "hand x={:.3} y={:.3} z={:.3} yaw={:.3}",
+            pose.x, pose.y, pose.z, pose.yaw
+        );
+        match &self.inside {
+            Some(plan) => {
+                let _ = write!(hand, " inside={}", plan.station);
+            }
+            None => hand.push_str(" inside=-"),
+        }
+        lines.push(hand);
+        for (at, w) in self.wafers.uncertain_places() {
+            lines.push(format!("uncertain {at} {w}"));
+        }
+        let mut next = Vec::new();
+        if let Some(plan) = &self.inside {
+            next.push(format!("RETRACT (or HOME) out of {}", plan.station));
+        }
+        let mut stations: Vec<StationName> = Vec::new();
+        let mut blades: Vec<Blade> = Vec::new();
+        for (at, _) in self.wafers.uncertain_places() {
+            match at {
+                Location::Slot { station, .. } if !stations.contains(&station) => {
+                    stations.push(station)
+                }
+                Location::Hand(b) if !blades.contains(&b) => blades.push(b),
+                _ => {}
+            }
+        }
+        for b in blades {
+            next.push(if b == Blade::A {
+                "SENSE".to_string()
+            } else {
+                "SENSE B".to_string()
+            });
+        }
+        for s in stations {
+            next.push(format!("MAP {s}"));
+        }
+        if !next.is_empty() {
+            next.push("or CONFIRM what an operator sees".into());
+            lines.push(format!("next {}", next.join(", ")));
+        }
+        lines
+    }
+
+    /// `RECOVERY`.
+    pub fn recovery(&mut self, from: SourceId, to: ReplyTo) {
+        let lines = self.recovery_lines();
+        for l in &lines {
+            self.event(from, to.checksum, &Event::Recovery(l));
+        }
+        let inside = self
+            .inside
+            .map_or("-".to_string(), |p| p.station.to_string());
+        let body = format!(
+            "uncertain={} inside={inside}",
+            self.wafers.uncertain_places().len()
+        );
+        self.ack(from, to, &body);
+    }
+
+    /// Whether the hand may be inside a station: anything else that moves it is refused.
+    pub(super) fn inside_refusal(&self) -> Option<(Code, String)> {
+        self.inside.map(|p| {
+            (
+                Code::HandInside,
+                format!(
+                    "the hand may be inside {} after an interrupted transfer: RETRACT or HOME first",
+                    p.station
+                ),
+            )
+        })
+    }
+
+    /// The Command Interpreter took the hand out of the station (or was stopped).
+    pub(super) fn retracted(&mut self, out: bool) {
+        if !out {
+            return;
+        }
+        if let Some(plan) = self.inside.take() {
+            tracing::info!("wrc: the hand is out of {} (RETRACT)", plan.station);
+            let text = format!("retracted out of {}", plan.station);
+            self.event(SourceId::BROADCAST, false, &Event::Recovery(&text));
+        }
+    }
+
+    /// `SENSE [A|B]`: the blade's vacuum on and its sensor read, by the Command
+    /// Interpreter; the map learns the result ([`CellService::sensed_blade`]).
+    pub fn sense(&mut self, from: SourceId, to: ReplyTo, blade: Blade) {
+        if let Some((code, text)) = self
+            .state_refusal(from, true)
+            .or_else(|| self.inside_refusal())
+        {
+            return self.nak(from, to, code, &text);
+        }
+        if blade == Blade::B && self.hand.blade_b.is_none() {
+            let text = "this robot has one hand; SENSE B needs a dual-blade robot";
+            return self.nak(from, to, Code::NotAvailable, text);
+        }
+        if self.busy.is_some() || self.wafers.pending().is_some() || !self.reconciled {
+            let text = "a transfer or mapping is in progress";
+            return self.nak(from, to, Code::TransferBusy, text);
+        }
+        let Some(station) = self.stations.iter().next().map(|s| s.name) else {
+            return self.nak(from, to, Code::NotAvailable, "the cell has no stations");
+        };
+        let mut job = CellJob::new(from, to, JobKind::Sense, station);
+        job.push(JobStep::UseBlade(blade));
+        job.push(JobStep::Transfer(wrc_cell::Step::Vacuum(true)));
+        job.push(JobStep::Sense);
+        let sent = self
+            .links
+            .as_ref()
+            .is_some_and(|l| l.jobs.try_send(JobOffer::Start(job)).is_ok());
+        if sent {
+            self.busy = Some(JobKind::Sense);
+        } else {
+            self.nak(
+                from,
+                to,
+                Code::Busy,
+                "the controller is busy; repeat the request",
+            );
+        }
+    }
+
+    /// The blade's vacuum sensor, read with its valve on (`SENSE`): settle the blade.
+    pub(super) fn sensed_blade(&mut self, blade: Blade, sensed: bool) {
+        let at = Location::Hand(blade);
+        let text = match self.wafers.sense_blade(blade, sensed) {
+            Ok(Sensed::Held(w)) => format!("SENSE: {w} is on the {at} (vacuum sensor)"),
+            Ok(Sensed::Unknown(w)) => format!(
+                "SENSE: the {at} holds a wafer the map did not have; it is {w} now (vacuum sensor)"
+            ),
+            Ok(Sensed::NotHere(w)) => format!(
+                "SENSE: {w} is not on the {at} (vacuum sensor); it may still be in its slot: MAP the station"
+            ),
+            Ok(Sensed::Gone(w)) => format!(
+                "SENSE: {w} is not on the {at} (vacuum sensor) and was nowhere else: it left the wafer map"
+            ),
+            Ok(Sensed::Empty) => format!("SENSE: the {at} is empty (vacuum sensor)"),
+            Err(e) => format!("SENSE: the wafer map refused the reading: {e}"),
+        };
+        tracing::warn!("wrc: {text}");
+        self.event(SourceId::BROADCAST, false, &Event::Recovery(&text));
+        self.persist();
+    }
+
+    /// `CONFIRM …`: an operator's word, logged.
+    pub fn confirm(&mut self, from: SourceId, to: ReplyTo, arg: ConfirmArg) {
+        let owner = self.shared.owner.load(Ordering::Acquire);
+        if owner != SourceId::NONE.0 && owner != from.0 {
+            return self.nak(
+                from,
+                to,
+                Code::ControlHeld,
+                "control is held by another source",
+            );
+        }
+        if self.busy.is_some() || self.wafers.pending().is_some() {
+            let text = "a transfer or mapping is in progress";
+            return self.nak(from, to, Code::TransferBusy, text);
+        }
+        let place = |p: Place| match p {
+            Place::Hand(b) => Location::Hand(b),
+            Place::Slot { station, slot } => Location::Slot { station, slot },
+        };
+        let result = match arg {
+            ConfirmArg::At { wafer, place: p } => {
+                let w = WaferId(wafer);
+                let at = place(p);
+                self.check_place(&at)
+                    .and_then(|()| self.wafers.confirm_at(w, at).map_err(|e| e.to_string()))
+                    .map(|()| format!("{w} is at {at}"))
+            }
+            ConfirmArg::Gone { wafer } => {
+                let w = WaferId(wafer);
+                self.wafers
+                    .confirm_gone(w)
+                    .map_err(|e| e.to_string())
+                    .map(|places| {
+                        let list: Vec<String> = places.iter().map(|p| p.to_string()).collect();
+                        format!(
+                            "{w} is gone (it was at {}); it left the wafer map",
+                            list.join(" or ")
+                        )
+                    })
+            }
+            ConfirmArg::Empty(p) => {
+                let at = place(p);
+                self.check_place(&at)
+                    .and_then(|()| self.wafers.confirm_empty(at).map_err(|e| e.to_string()))
+                    .map(|gone| match gone {
+                        Some(w) => format!("{at} is empty; {w}, last there, left the wafer map"),
+                        None => format!("{at} is empty"),
+                    })
+            }
+        };
+        match result {
+            Ok(text) => {
+                tracing::warn!("wrc: CONFIRM by {}: {text}", who(from));
+                self.persist();
+                let line = format!("confirmed {text}");
+                self.event(SourceId::BROADCAST, false, &Event::Recovery(&line));
+                self.ack(from, to, &text);
+            }
+            Err(text) => self.nak(from, to, Code::BadArgument, &text),
+        }
+    }
+
+    /// A place a CONFIRM names must exist (a blade B on a dual-blade robot only).
+    fn check_place(&self, at: &Location) -> Result<(), String> {
+        match at {
+            Location::Hand(Blade::B) if self.hand.blade_b.is_none() => {
+                Err("this robot has one hand: there is no blade B".into())
+            }
+            Location::Slot { station, slot } => {
+                let s = self
+                    .stations
+                    .get(station.as_str())
+                    .ok_or_else(|| format!("no station named {station}; STN lists them"))?;
+                if *slot == 0 || *slot > s.slots {
+                    return Err(format!("{station} has slots 1 to {}", s.slots));
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Who confirmed, for the log.
+fn who(from: SourceId) -> &'static str {
+    match from.kind() {
+        SourceId::TCP => "a host",
+        SourceId::GUI => "the GUI",
+        SourceId::PENDANT => "the pendant",
+        _ => "the controller",
+    }
+}

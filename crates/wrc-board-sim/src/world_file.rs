@@ -124,11 +124,16 @@ pub fn describe_event(event: &WorldEvent) -> String {
             "FAULT: the hand rose through the wafer in {station} slot {slot} with the vacuum \
              off; the wafer stays"
         ),
+        WorldEvent::SideCollision { station } => format!(
+            "FAULT: side collision at {station}: inside the station the hand moved sideways \
+             off its line or turned, and hit the station's side"
+        ),
     }
 }
 
 /// The world as a few lines of text: one per station with its slot codes in groups of five
-/// (`LP1 11111 11111 …`), then the hand, the lost wafers and the fault count.
+/// (`LP1 11111 11111 …`), then the hand, the lost wafers and the fault count, and the side
+/// collisions among them if there were any.
 pub fn summary(world: &World, stations: &Stations) -> String {
     let mut out = String::new();
     for s in stations.iter() {
@@ -155,6 +160,12 @@ pub fn summary(world: &World, stations: &Stations) -> String {
         out.push_str(&format!("lost {}\n", lost.join(" ")));
     }
     out.push_str(&format!("faults {}\n", world.faults()));
+    if let Some(station) = world.last_side_collision() {
+        out.push_str(&format!(
+            "side collisions {} (the latest at {station})\n",
+            world.side_collisions()
+        ));
+    }
     out
 }
 
@@ -286,6 +297,28 @@ mod tests {
         assert_eq!(lines[5], "BF1 00000");
         assert_eq!(&lines[6..], ["hand - (vacuum off)", "lost -", "faults 0"]);
         assert!(text.is_ascii());
+        // A hand that turns inside PM2 hits its side.
+        let mut world = World::new(&stations);
+        let seat = stations.get("PM2").unwrap().seated_pose(1, false).unwrap();
+        world.step(seat, false);
+        let event = world.step(
+            wrc_robot::Pose {
+                yaw: seat.yaw + 10.0,
+                ..seat
+            },
+            false,
+        );
+        let event = event.unwrap();
+        assert_eq!(
+            describe_event(&event),
+            "FAULT: side collision at PM2: inside the station the hand moved sideways off its \
+             line or turned, and hit the station's side"
+        );
+        let text = summary(&world, &stations);
+        assert!(
+            text.ends_with("faults 1\nside collisions 1 (the latest at PM2)\n"),
+            "{text}"
+        );
         assert_eq!(
             World::new(&stations).map_station("LP1").unwrap()[0],
             SlotCode::Present

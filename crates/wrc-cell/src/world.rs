@@ -22,10 +22,34 @@
 //! * The vacuum sensor ([`World::vacuum_sensor`]) is on when a wafer is on the hand and the
 //!   vacuum is on (no delay here; the board adds its own).
 //! * The mapping sensor ([`World::map_station`]) reports each slot's [`SlotCode`].
+//! * **Side collision**: inside a station the hand may only move along the station's line
+//!   — in, out, and up or down within the slot; moving sideways or turning hits the
+//!   cassette (or the slit valve, the aligner's posts). With u = (cos yaw, sin yaw) of the
+//!   station's taught yaw (the direction into it) and d = the hand's x, y minus the taught
+//!   x, y, let *along* = d·u and *lateral* = |d × u| \[mm\]. The hand is **inside** the
+//!   station when
+//!   - along > −(approach_mm − [`ENTRY_MARGIN_MM`]): past the approach pose, which is
+//!     outside by definition (station.rs), by more than the margin;
+//!   - along ≤ [`BEYOND_SEAT_MM`]: not behind the seat (the back of a cassette);
+//!   - lateral ≤ [`STATION_HALF_WIDTH_MM`], a wafer's radius: farther sideways the hand is
+//!     not in front of that station at all.
+//!
+//!   Heights are not looked at: a station's inside reaches from the floor to the ceiling.
+//!   A step in which the hand is inside a station with lateral > [`SIDE_TOLERANCE_MM`] or
+//!   its yaw more than [`SIDE_TOLERANCE_DEG`] off the station's is a
+//!   [`WorldEvent::SideCollision`] (a fault), reported once per entry: not again while the
+//!   hand stays inside that station, again after it has been outside. The hand and the
+//!   wafers stay where they are (the model records the crash; it does not model damage).
+//!   The controller's straight lines in and out stay within hundredths of a millimetre of
+//!   the line and keep the yaw; its PTP moves end at approach poses, outside. A step that
+//!   releases a wafer reports that release; a side collision in it is reported at the
+//!   next step (the hand cannot leave a station within one board period).
 //! * A dual-blade robot's blade B is a second hand with its own pose (the board gives it
-//!   its height) and vacuum: [`World::step_blade`]. Each blade picks and releases as above;
-//!   the blades do not collide with each other or with the wafers next to the slot they
-//!   serve (a cell engineer keeps them apart when teaching).
+//!   its height) and vacuum: [`World::step_blade`]. Each blade picks, releases and collides
+//!   with a station's sides as above (both blades are at the same x, y and yaw, so a
+//!   dual-blade hand that enters out of line reports a collision for each); the blades do
+//!   not collide with each other or with the wafers next to the slot they serve (a cell
+//!   engineer keeps them apart when teaching).
 //!
 //! # Identity: comparing the controller's map with the world
 //!
@@ -55,6 +79,26 @@ pub const SEAT_TOLERANCE_MM: f64 = 2.0;
 
 /// How far the hand's yaw may be from a station's taught yaw to count as seated \[deg\].
 pub const SEAT_TOLERANCE_DEG: f64 = 1.0;
+
+/// How far sideways from a station's line the hand may be while inside the station \[mm\]
+/// (see the module docs): far more than the controller's straight lines ever stray (they
+/// stay within hundredths of a millimetre), far less than a cassette's clearance.
+pub const SIDE_TOLERANCE_MM: f64 = 2.0;
+
+/// How far the hand's yaw may be from a station's taught yaw while inside the station
+/// \[deg\] (see the module docs).
+pub const SIDE_TOLERANCE_DEG: f64 = 2.0;
+
+/// How much less than `approach_mm` in front of the seat the inside of a station begins
+/// \[mm\]: the approach pose itself, and a hand within this of it, is outside.
+pub const ENTRY_MARGIN_MM: f64 = 1.0;
+
+/// How far beyond the seat (along the station's direction) a hand still counts as inside
+/// \[mm\].
+pub const BEYOND_SEAT_MM: f64 = 5.0;
+
+/// How far sideways from a station's line its inside reaches \[mm\]: a 300 mm wafer's radius.
+pub const STATION_HALF_WIDTH_MM: f64 = 150.0;
 
 /// Version of the world's text form.
 const WORLD_VERSION: i64 = 1;
@@ -134,6 +178,12 @@ pub enum WorldEvent {
         /// The slot.
         slot: u16,
     },
+    /// Fault: inside the station the hand moved sideways off its line or turned (see the
+    /// module docs): it hit the station's side. Nothing moved.
+    SideCollision {
+        /// The station.
+        station: StationName,
+    },
 }
 
 impl WorldEvent {
@@ -175,6 +225,27 @@ pub enum WorldError {
 struct WorldStation {
     station: Station,
     slots: Vec<SlotContent>,
+    /// Per blade: it hit this station's side since it last entered it (and is still inside).
+    side_hit: [bool; MAX_BLADES],
+}
+
+impl WorldStation {
+    /// Where `pose` is relative to the station's line: `None` outside the station, else
+    /// whether it is off the line (sideways or turned beyond the tolerances).
+    fn inside(&self, pose: &Pose) -> Option<bool> {
+        let p = &self.station.pose;
+        let (uy, ux) = p.yaw.to_radians().sin_cos();
+        let (dx, dy) = (pose.x - p.x, pose.y - p.y);
+        let along = dx * ux + dy * uy;
+        let lateral = (dx * uy - dy * ux).abs();
+        let entry = -(self.station.approach_mm - ENTRY_MARGIN_MM);
+        if !(along > entry && along <= BEYOND_SEAT_MM && lateral <= STATION_HALF_WIDTH_MM) {
+            return None;
+        }
+        let turned = wrap180(pose.yaw - p.yaw).abs();
+        // A NaN yaw is off the line too.
+        Some(lateral > SIDE_TOLERANCE_MM || turned.is_nan() || turned > SIDE_TOLERANCE_DEG)
+    }
 }
 
 /// The simulated cell. See the module docs for the model.
@@ -188,6 +259,9 @@ pub struct World {
     lost: Vec<u32>,
     faults: u32,
     next_tag: u32,
+    /// Side collisions so far, and the station of the latest.
+    side_collisions: u32,
+    last_side_collision: Option<StationName>,
 }
 
 impl World {
@@ -225,6 +299,7 @@ impl World {
                 WorldStation {
                     station: s.clone(),
                     slots,
+                    side_hit: [false; MAX_BLADES],
                 }
             })
             .collect();
@@ -236,6 +311,8 @@ impl World {
             lost: Vec::new(),
             faults: 0,
             next_tag,
+            side_collisions: 0,
+            last_side_collision: None,
         }
     }
 
@@ -271,6 +348,9 @@ impl World {
             self.hands[b] = None;
             return Some(self.release(tag, &pose));
         }
+        if let Some(event) = self.sides(b, &pose) {
+            return Some(event);
+        }
         let prev_z = prev_z?;
         if pose.z.is_nan() || pose.z <= prev_z {
             return None;
@@ -305,6 +385,27 @@ impl World {
             }
         }
         None
+    }
+
+    /// Blade `b` at `pose` against every station's sides: forget the hits of the stations
+    /// it is no longer inside, and report a new one (see the module docs).
+    fn sides(&mut self, b: usize, pose: &Pose) -> Option<WorldEvent> {
+        let mut event = None;
+        for w in &mut self.stations {
+            match w.inside(pose) {
+                None => w.side_hit[b] = false,
+                Some(true) if !w.side_hit[b] && event.is_none() => {
+                    w.side_hit[b] = true;
+                    event = Some(w.station.name);
+                }
+                Some(_) => {}
+            }
+        }
+        let station = event?;
+        self.faults = self.faults.saturating_add(1);
+        self.side_collisions = self.side_collisions.saturating_add(1);
+        self.last_side_collision = Some(station);
+        Some(WorldEvent::SideCollision { station })
     }
 
     /// The wafer `tag` leaves the hand at `pose`.
@@ -395,6 +496,17 @@ impl World {
         self.faults
     }
 
+    /// Side collisions so far ([`WorldEvent::SideCollision`], also counted in
+    /// [`World::faults`]).
+    pub fn side_collisions(&self) -> u32 {
+        self.side_collisions
+    }
+
+    /// The station of the latest [`WorldEvent::SideCollision`], if there was one.
+    pub fn last_side_collision(&self) -> Option<StationName> {
+        self.last_side_collision
+    }
+
     /// Every tag still in the cell (slots and hand, not the lost ones), sorted.
     pub fn tags(&self) -> Vec<u32> {
         let mut tags: Vec<u32> = self
@@ -427,12 +539,19 @@ impl World {
             last_z_b: self.last_z[1],
             lost: self.lost.iter().map(|&t| i64::from(t)).collect(),
             faults: i64::from(self.faults),
+            side_collisions: i64::from(self.side_collisions),
+            last_side_collision: self.last_side_collision.map(|n| n.to_string()),
             station: self
                 .stations
                 .iter()
                 .map(|w| RawWorldStation {
                     name: w.station.name.to_string(),
                     slots: w.slots.iter().map(|c| content_token(*c)).collect(),
+                    side_hit: Blade::ALL
+                        .iter()
+                        .filter(|b| w.side_hit[b.index()])
+                        .map(|b| b.as_str().to_string())
+                        .collect(),
                 })
                 .collect(),
         };
@@ -475,6 +594,15 @@ impl World {
                 *c = parse_content_token(token)
                     .ok_or_else(|| corrupt(format!("{token:?} is not a slot content")))?;
             }
+            for blade in &r.side_hit {
+                let b = Blade::parse(blade).ok_or_else(|| {
+                    corrupt(format!(
+                        "station {}: side_hit {blade:?} is not a blade (A or B)",
+                        r.name
+                    ))
+                })?;
+                w.side_hit[b.index()] = true;
+            }
         }
         world.hands = [
             raw.hand.map(|h| tag(h, "hand")).transpose()?,
@@ -488,6 +616,19 @@ impl World {
             .map(|&t| tag(t, "lost"))
             .collect::<Result<_, _>>()?;
         world.faults = u32::try_from(raw.faults).map_err(|_| corrupt("faults".into()))?;
+        world.side_collisions = u32::try_from(raw.side_collisions)
+            .map_err(|_| corrupt(format!("side_collisions {}", raw.side_collisions)))?;
+        world.last_side_collision = match &raw.last_side_collision {
+            Some(name) => Some(
+                world
+                    .station_index(name)
+                    .map(|i| world.stations[i].station.name)
+                    .map_err(|_| {
+                        corrupt(format!("last_side_collision {name:?} is not a station"))
+                    })?,
+            ),
+            None => None,
+        };
         world.next_tag = tag(raw.next_tag, "next_tag")?;
         let mut all = world.tags();
         all.extend(&world.lost);
@@ -552,8 +693,16 @@ struct RawWorld {
     lost: Vec<i64>,
     #[serde(default)]
     faults: i64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    side_collisions: i64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    last_side_collision: Option<String>,
     #[serde(default)]
     station: Vec<RawWorldStation>,
+}
+
+fn is_zero(n: &i64) -> bool {
+    *n == 0
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -561,6 +710,9 @@ struct RawWorld {
 struct RawWorldStation {
     name: String,
     slots: Vec<String>,
+    /// The blades (`A`, `B`) that hit its side since they entered it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    side_hit: Vec<String>,
 }
 
 /// A difference between the controller's wafer map and the world, found by

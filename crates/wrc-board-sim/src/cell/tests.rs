@@ -90,6 +90,43 @@ impl Rig {
         }
     }
 
+    /// Plan a straight TCP line to `pose` (as the controller moves inside a station), one
+    /// millimetre or a tenth of a degree at most a period.
+    fn plan_line(&mut self, pose: Pose) {
+        let robot = self.robot().clone();
+        let mut joints = robot.pulses_to_joints(&self.end);
+        let from = robot.forward(&joints);
+        let distance = (pose.x - from.x)
+            .hypot(pose.y - from.y)
+            .hypot(pose.z - from.z)
+            .max(10.0 * (pose.yaw - from.yaw).abs());
+        let n = distance.ceil().max(1.0) as u32;
+        for i in 1..=n {
+            let u = f64::from(i) / f64::from(n);
+            let at = Pose {
+                x: from.x + u * (pose.x - from.x),
+                y: from.y + u * (pose.y - from.y),
+                z: from.z + u * (pose.z - from.z),
+                yaw: from.yaw + u * (pose.yaw - from.yaw),
+            };
+            joints = robot.inverse(&at, Posture::Right, Some(&joints)).unwrap();
+            let target = robot.joints_to_pulses(&joints);
+            let mut inc = [0i64; MAX_AXES];
+            for ((i, e), t) in inc.iter_mut().zip(&mut self.end).zip(&target) {
+                *i = t - *e;
+                assert!(i.abs() <= STEP, "{i} pulses in a period");
+                *e = *t;
+            }
+            self.plan.push_back(inc);
+        }
+    }
+
+    /// [`Rig::plan_line`] and [`Rig::finish`].
+    fn line(&mut self, pose: Pose) {
+        self.plan_line(pose);
+        self.finish();
+    }
+
     /// One board period, with the next planned increment pushed first (a zero period at
     /// rest, as a host streams: a moving axis that finds its FIFO empty is braked).
     fn step(&mut self) {
@@ -162,8 +199,10 @@ fn the_hand_pose_follows_the_encoders() {
         "{home:?}"
     );
     assert!(home.y.abs() < 1e-6 && home.yaw.abs() < 1e-6 && home.z == 0.0);
-    let target = rig.station("LP1").seated_pose(4, false).unwrap();
-    rig.go(target);
+    let lp1 = rig.station("LP1");
+    let target = lp1.seated_pose(4, false).unwrap();
+    rig.go(lp1.approach_pose(4, false).unwrap());
+    rig.line(target);
     let pose = rig.sim.cell().unwrap().pose();
     assert!(
         (pose.x - target.x).hypot(pose.y - target.y) < 0.01 && (pose.z - target.z).abs() < 0.01,
@@ -177,7 +216,7 @@ fn a_get_takes_the_wafer_and_the_vacuum_sensor_follows_after_its_delay() {
     let lp1 = rig.station("LP1");
     let valve = 1 << rig.config.hand.vacuum_output;
     rig.go(lp1.approach_pose(1, false).unwrap());
-    rig.go(lp1.seated_pose(1, false).unwrap());
+    rig.line(lp1.seated_pose(1, false).unwrap());
     rig.host.write_outputs(0, valve);
     for _ in 0..3 * rig.delay_periods {
         rig.step();
@@ -230,7 +269,7 @@ fn a_get_takes_the_wafer_and_the_vacuum_sensor_follows_after_its_delay() {
     assert!(rig.vacuum_sensed());
 
     // Out of the station and the valve off in free space: the wafer falls.
-    rig.go(lp1.approach_pose(1, true).unwrap());
+    rig.line(lp1.approach_pose(1, true).unwrap());
     assert_eq!(rig.world().hand(), Some(1));
     rig.host.write_outputs(0, 0);
     rig.step();

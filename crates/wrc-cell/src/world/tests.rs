@@ -652,3 +652,315 @@ fn blade_b_picks_and_places_on_its_own() {
     );
     assert_eq!(world.hand_of(Blade::B), None);
 }
+
+// ---- side collisions ----------------------------------------------------------------
+
+/// `from` + `u`·(`to` − `from`) in x, y, z and yaw.
+fn lerp(from: Pose, to: Pose, u: f64) -> Pose {
+    Pose {
+        x: from.x + u * (to.x - from.x),
+        y: from.y + u * (to.y - from.y),
+        z: from.z + u * (to.z - from.z),
+        yaw: from.yaw + u * (to.yaw - from.yaw),
+    }
+}
+
+/// Step blade A from `from` to `to` in `n` equal steps with `vacuum`; every event.
+fn sweep(world: &mut World, from: Pose, to: Pose, n: u32, vacuum: bool) -> Vec<WorldEvent> {
+    (1..=n)
+        .filter_map(|i| world.step(lerp(from, to, f64::from(i) / f64::from(n)), vacuum))
+        .collect()
+}
+
+/// `pose` moved `along` into the station and `side` to its left (of the hand direction
+/// `yaw`) [mm].
+fn offset(pose: Pose, yaw: f64, along: f64, side: f64) -> Pose {
+    let (s, c) = yaw.to_radians().sin_cos();
+    Pose {
+        x: pose.x + along * c - side * s,
+        y: pose.y + along * s + side * c,
+        ..pose
+    }
+}
+
+fn side(station: &str) -> WorldEvent {
+    WorldEvent::SideCollision {
+        station: name(station),
+    }
+}
+
+/// Every transfer's straight lines of the demo cell, in 1 mm steps, with both blades and
+/// with the vacuum as a GET has it: in, the stroke, out; nothing hits a side.
+#[test]
+fn straight_lines_in_and_out_never_hit_a_side() {
+    let stations = demo();
+    for s in &stations {
+        for slot in [1, s.slots] {
+            let mut world = World::new(&stations);
+            let (out_low, in_low) = (
+                s.approach_pose(slot, false).unwrap(),
+                s.seated_pose(slot, false).unwrap(),
+            );
+            let (out_high, in_high) = (
+                s.approach_pose(slot, true).unwrap(),
+                s.seated_pose(slot, true).unwrap(),
+            );
+            let n = s.approach_mm.ceil() as u32;
+            let mut events = Vec::new();
+            world.step(out_low, false);
+            world.step_blade(Blade::B, out_low, false);
+            for i in 1..=n {
+                let p = lerp(out_low, in_low, f64::from(i) / f64::from(n));
+                events.extend(world.step(p, true));
+                events.extend(world.step_blade(Blade::B, p, false));
+            }
+            events.extend(sweep(&mut world, in_low, in_high, 20, true));
+            events.extend(sweep(&mut world, in_high, out_high, n, true));
+            assert!(
+                events
+                    .iter()
+                    .all(|e| !matches!(e, WorldEvent::SideCollision { .. })),
+                "{} slot {slot}: {events:?}",
+                s.name
+            );
+            assert_eq!(world.faults(), 0, "{} slot {slot}: {events:?}", s.name);
+            assert_eq!(world.last_side_collision(), None);
+        }
+    }
+}
+
+/// A PTP that swings the arm about the shoulder from the seat (or from halfway in) moves
+/// the hand sideways through the cassette's side: one collision, at the station it was in;
+/// one that goes on to another station's approach pose hits more on its way.
+#[test]
+fn a_ptp_sweep_from_inside_hits_the_side() {
+    let stations = demo();
+    let robot = wrc_robot::Robot::paper_default();
+    let lp1 = stations.get("LP1").unwrap();
+    let seat = lp1.seated_pose(4, false).unwrap();
+    let halfway = offset(seat, lp1.pose.yaw, -0.5 * lp1.approach_mm, 0.0);
+    let posture = wrc_robot::Posture::Right;
+    // Joint-interpolated from `a` to `b` in 200 steps: the events.
+    let ptp = |world: &mut World, a: wrc_robot::Joints, b: wrc_robot::Joints| {
+        let mut events = Vec::new();
+        for i in 1..=200 {
+            let u = f64::from(i) / 200.0;
+            let mut j = a;
+            for (k, q) in j.iter_mut().enumerate() {
+                *q = a[k] + u * (b[k] - a[k]);
+            }
+            events.extend(world.step(robot.forward(&j), false));
+        }
+        events
+    };
+    for from in [seat, halfway] {
+        // The shoulder turns 15 degrees: the hand swings sideways, still in front of LP1.
+        let mut world = World::new(&stations);
+        let a = robot.inverse(&from, posture, None).unwrap();
+        let mut b = a;
+        b[0] += 15.0;
+        world.step(from, false);
+        assert_eq!(ptp(&mut world, a, b), [side("LP1")], "from {from:?}");
+        assert_eq!((world.faults(), world.side_collisions()), (1, 1));
+        assert_eq!(world.last_side_collision(), Some(name("LP1")));
+        assert_eq!(world.tags().len(), 25, "nothing moved");
+
+        // Straight to the aligner's approach pose: out through LP1's side, then through
+        // LP2's and into the aligner's front while still turning.
+        let mut world = World::new(&stations);
+        let al = stations.get("AL").unwrap().approach_pose(1, false).unwrap();
+        let b = robot.inverse(&al, posture, Some(&a)).unwrap();
+        world.step(from, false);
+        let events = ptp(&mut world, a, b);
+        assert_eq!(events.first(), Some(&side("LP1")), "from {from:?}");
+        assert_eq!(events.iter().filter(|e| **e == side("LP1")).count(), 1);
+        assert!(events.contains(&side("AL")), "{events:?}");
+    }
+}
+
+#[test]
+fn moving_sideways_inside_hits_the_side_once_per_entry() {
+    let stations = demo();
+    let lp1 = stations.get("LP1").unwrap();
+    let yaw = lp1.pose.yaw;
+    let seat = lp1.seated_pose(2, false).unwrap();
+    let mut world = World::new(&stations);
+    world.step(seat, false);
+    // 1.9 mm sideways is within the tolerance; 2.1 mm is not.
+    assert_eq!(world.step(offset(seat, yaw, 0.0, 1.9), false), None);
+    assert_eq!(world.step(offset(seat, yaw, -100.0, -1.9), false), None);
+    assert_eq!(
+        world.step(offset(seat, yaw, -100.0, -2.1), false),
+        Some(side("LP1"))
+    );
+    // Still inside: not reported again, wherever it goes in there.
+    for s in [-2.1, -50.0, 0.0, 20.0] {
+        assert_eq!(world.step(offset(seat, yaw, -100.0, s), false), None);
+    }
+    // Out behind the approach pose and in again out of line: a new collision.
+    world.step(offset(seat, yaw, -lp1.approach_mm, 0.0), false);
+    assert_eq!(
+        world.step(offset(seat, yaw, -lp1.approach_mm + 2.0, 5.0), false),
+        Some(side("LP1"))
+    );
+    assert_eq!((world.faults(), world.side_collisions()), (2, 2));
+    // The text form keeps the hit (and the counts): read back, the hand is still known to
+    // be in the side, and no new collision is reported.
+    let back = World::from_text(&world.to_text(), &stations).unwrap();
+    assert_eq!(back, world);
+    let mut back = back;
+    assert_eq!(
+        back.step(offset(seat, yaw, -lp1.approach_mm + 2.0, 9.0), false),
+        None
+    );
+}
+
+#[test]
+fn turning_inside_hits_the_side() {
+    let stations = demo();
+    let pm2 = stations.get("PM2").unwrap();
+    let seat = pm2.seated_pose(1, true).unwrap();
+    let mut world = World::new(&stations);
+    world.step(seat, false);
+    let turned = |deg: f64| Pose {
+        yaw: seat.yaw + deg,
+        ..seat
+    };
+    assert_eq!(world.step(turned(1.9), false), None);
+    assert_eq!(world.step(turned(-1.9), false), None);
+    assert_eq!(world.step(turned(2.5), false), Some(side("PM2")));
+    assert_eq!(world.step(turned(90.0), false), None, "once per entry");
+    // Turning around in the wrap-around of ±180° is turning too.
+    let mut world = World::new(&stations);
+    let al = stations.get("AL").unwrap();
+    let mid = offset(al.pose, al.pose.yaw, -50.0, 0.0);
+    world.step(mid, false);
+    assert_eq!(
+        world.step(
+            Pose {
+                yaw: mid.yaw - 360.0 + 1.0,
+                ..mid
+            },
+            false
+        ),
+        None,
+        "the same yaw a turn apart"
+    );
+    assert_eq!(
+        world.step(
+            Pose {
+                yaw: mid.yaw + 180.0,
+                ..mid
+            },
+            false
+        ),
+        Some(side("AL"))
+    );
+    assert_eq!(world.faults(), 1);
+}
+
+/// Sideways motion and turning where the hand is outside every station: at LP1's approach
+/// pose and within the entry margin of it, behind it, beside LP1 and beyond its back. (Near
+/// the robot's base the stations' insides reach close to one another: these stay clear of
+/// the neighbours' too.)
+#[test]
+fn moving_sideways_or_turning_outside_a_station_is_no_collision() {
+    let stations = demo();
+    let lp1 = stations.get("LP1").unwrap();
+    let yaw = lp1.pose.yaw;
+    let seat = lp1.seated_pose(1, false).unwrap();
+    let mut world = World::new(&stations);
+    let mut events = Vec::new();
+    for along in [-lp1.approach_mm, -lp1.approach_mm + 0.9] {
+        let p = offset(seat, yaw, along, 0.0);
+        events.extend(world.step(p, false));
+        events.extend(sweep(
+            &mut world,
+            p,
+            Pose {
+                yaw: yaw + 90.0,
+                ..p
+            },
+            30,
+            false,
+        ));
+        events.extend(sweep(
+            &mut world,
+            offset(p, yaw, 0.0, -40.0),
+            offset(p, yaw, 0.0, 40.0),
+            40,
+            false,
+        ));
+    }
+    let behind = offset(seat, yaw, -lp1.approach_mm - 10.0, 0.0);
+    events.extend(sweep(
+        &mut world,
+        offset(behind, yaw, 0.0, -30.0),
+        offset(behind, yaw, 0.0, 30.0),
+        30,
+        false,
+    ));
+    for (along, from, to) in [(0.0, 151.0, 180.0), (6.0, -40.0, 40.0)] {
+        let a = offset(seat, yaw, along, from);
+        events.extend(world.step(a, false));
+        events.extend(sweep(
+            &mut world,
+            a,
+            offset(seat, yaw, along, to),
+            20,
+            false,
+        ));
+    }
+    assert_eq!(events, [], "{}", world.to_text());
+    assert_eq!(world.faults(), 0);
+}
+
+/// The vacuum goes off in the period the hand first swings sideways inside: the release is
+/// reported in that step, the collision at the next.
+#[test]
+fn a_release_and_a_side_collision_in_one_step_are_both_reported() {
+    let stations = demo();
+    let lp1 = stations.get("LP1").unwrap();
+    let mut world = World::new(&stations);
+    world.step(seated(&stations, "LP1", 1, false), true);
+    world.step(seated(&stations, "LP1", 1, true), true);
+    let out = offset(seated(&stations, "LP1", 1, true), lp1.pose.yaw, -100.0, 0.0);
+    world.step(out, true);
+    let off = offset(out, lp1.pose.yaw, 0.0, 10.0);
+    assert_eq!(world.step(off, false), Some(WorldEvent::Lost { tag: 1 }));
+    assert_eq!(world.step(off, false), Some(side("LP1")));
+    assert_eq!(world.faults(), 2);
+}
+
+#[test]
+fn the_text_form_checks_the_side_collision_state() {
+    let stations = demo();
+    let mut world = World::new(&stations);
+    let seat = seated(&stations, "PM1", 1, false);
+    world.step(seat, false);
+    world.step(
+        Pose {
+            x: seat.x + 5.0,
+            ..seat
+        },
+        false,
+    );
+    let text = world.to_text();
+    assert!(text.contains("side_hit = [\"A\"]"), "{text}");
+    assert!(text.contains("last_side_collision = \"PM1\""), "{text}");
+    assert_eq!(World::from_text(&text, &stations).unwrap(), world);
+    let bad = |t: &str| World::from_text(t, &stations).unwrap_err().to_string();
+    assert!(bad(&text.replace("[\"A\"]", "[\"C\"]")).contains("\"C\" is not a blade"));
+    let other = text.replace(
+        "last_side_collision = \"PM1\"",
+        "last_side_collision = \"PM9\"",
+    );
+    assert!(
+        bad(&other).contains("\"PM9\" is not a station"),
+        "{}",
+        bad(&other)
+    );
+    // A world without any (the text of earlier builds) reads as none.
+    let clean = World::new(&stations);
+    assert!(!clean.to_text().contains("side"));
+}

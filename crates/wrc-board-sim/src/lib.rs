@@ -12,6 +12,24 @@
 //! host asks, steps the cell with the new encoder positions and the outputs, drives the
 //! hand's vacuum sensor from it and publishes the mapping latch.
 //!
+//! # Starting on a DPRAM
+//!
+//! A board starts in one of three ways (docs/dpram.md, "Board start-up"):
+//!
+//! | start | call | axes | outputs | epoch |
+//! |---|---|---|---|---|
+//! | first start | [`SimBoard::new`], or [`SimBoard::take_over`] of a new file | at home | off | 1 |
+//! | restart by supervision | [`SimBoard::take_over`] of a wrc DPRAM | where the encoders were | as latched | old + 1 |
+//! | power-up after a power loss | [`SimBoard::power_up`] | where the encoders were | off | old + 1 |
+//!
+//! A restart by supervision is a board processor that restarts under powered drives: the
+//! valves stay as the host last set them (the vacuum holds its wafer). A power-up is the
+//! whole cell coming back after a power cut: the encoders are absolute (the arm is where it
+//! physically stopped), but every valve closed when the power went (the vacuum let go of its
+//! wafer, and the simulated cell drops it at the arm's pose at its first step). Old contents
+//! that cannot be used (another layout version, another axis count or board, garbage) make
+//! a power-up a first start, and [`PowerUp`] says why.
+//!
 //! The driver side (the DPRAM layout, the driver the controller links) is `wrc-board`; this
 //! crate is the other side of the DPRAM, so the controller's real-time build does not link
 //! it.
@@ -175,6 +193,68 @@ pub enum SimError {
     Settings(String),
 }
 
+/// How a board powered up ([`SimBoard::power_up`]).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum PowerUp {
+    /// On the DPRAM of a board that ran before: the axes at its encoders, every output off,
+    /// a new epoch.
+    Resumed {
+        /// The new epoch (the old one + 1).
+        epoch: u32,
+    },
+    /// There was no board before (a new or zeroed DPRAM): a first start, the axes at home.
+    Fresh,
+    /// The old contents could not be used: a first start, the axes at home.
+    Replaced(Unusable),
+}
+
+/// Why a power-up could not use the old DPRAM's encoders.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Unusable {
+    /// Not a wrc DPRAM of this layout version (or one that was still initialising).
+    #[error("the old DPRAM cannot be read: {0}")]
+    Layout(LayoutError),
+    /// A file too short to hold the layout.
+    #[error("the old DPRAM file is {len} bytes, the layout needs {need}", need = layout::LAYOUT_SIZE)]
+    Truncated {
+        /// Its length [byte].
+        len: u64,
+    },
+    /// A wrc DPRAM of another board.
+    #[error("the old DPRAM was board {found}'s, this is board {expected}")]
+    BoardId {
+        /// The board id it holds.
+        found: u32,
+        /// This board's id.
+        expected: u32,
+    },
+    /// A wrc DPRAM with another number of axes.
+    #[error("the old DPRAM had {found} axes, this board drives {expected}")]
+    AxisCount {
+        /// Its axis count.
+        found: u32,
+        /// This board's.
+        expected: u32,
+    },
+}
+
+impl std::fmt::Display for PowerUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PowerUp::Resumed { epoch } => write!(
+                f,
+                "powered up where the encoders stood, every output off (epoch {epoch})"
+            ),
+            PowerUp::Fresh => f.write_str("no board ran here before: a first start, axes at home"),
+            PowerUp::Replaced(why) => {
+                write!(f, "{why}: a first start instead, axes at home")
+            }
+        }
+    }
+}
+
 /// Where a stop the host asked for through the stop word stands on the board.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum OwnStop {
@@ -269,6 +349,49 @@ impl SimBoard {
                 Ok(board)
             }
             None => SimBoard::new(map, settings, epoch),
+        }
+    }
+
+    /// Power up on `map` after a power loss (see the crate docs): when it holds a wrc
+    /// DPRAM of this layout, board id and axis count, the axes start where its encoders
+    /// stood (absolute encoders) with every output off and the next epoch; otherwise the
+    /// board starts as a first start, overwriting what was there, and [`PowerUp`] says why.
+    /// Fails only on unusable `settings`.
+    pub fn power_up(map: Mapping, settings: &SimSettings) -> Result<(SimBoard, PowerUp), SimError> {
+        let (map, found) = survey(map, settings);
+        match found {
+            Ok(OldBoard { epoch, encoders }) => {
+                let mut powered = settings.clone();
+                for (a, encoder) in powered.axes.iter_mut().zip(encoders) {
+                    a.initial = encoder;
+                }
+                // Every output off: `new` zeroes the DPRAM, the latched outputs with it.
+                let board = SimBoard::new(map, &powered, epoch)?;
+                Ok((board, PowerUp::Resumed { epoch }))
+            }
+            Err(how) => Ok((SimBoard::new(map, settings, 1)?, how)),
+        }
+    }
+
+    /// [`SimBoard::power_up`] on the DPRAM file at `path` (created when missing). A regular
+    /// file too short for the layout is garbage and is replaced; anything but a regular file
+    /// (a device) is refused.
+    pub fn power_up_file(
+        path: &Path,
+        settings: &SimSettings,
+    ) -> Result<(SimBoard, PowerUp), SimError> {
+        match Mapping::create(path) {
+            Ok(map) => SimBoard::power_up(map, settings),
+            Err(OpenError::Truncated { len, .. }) => {
+                std::fs::remove_file(path).map_err(|error| OpenError::Io {
+                    path: path.to_path_buf(),
+                    what: "cannot remove the truncated file",
+                    error,
+                })?;
+                let (board, _) = SimBoard::power_up(Mapping::create(path)?, settings)?;
+                Ok((board, PowerUp::Replaced(Unusable::Truncated { len })))
+            }
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -840,6 +963,73 @@ fn brake_limits(dpram: &Dpram, channel: usize, axis: &ServoAxis, level: f64) -> 
         s.stop_jerk_pps3
     };
     (accel * level * level, jerk * level.powi(3))
+}
+
+/// What [`SimBoard::power_up_file`] will do with the DPRAM file at `path`, found without
+/// changing it: [`PowerUp::Resumed`] with the epoch it will take, [`PowerUp::Fresh`] for a
+/// missing, empty or zeroed file, or [`PowerUp::Replaced`] with why the old contents are
+/// unusable. A path that cannot be opened at all is reported as it will fail.
+pub fn power_up_outlook(path: &Path, settings: &SimSettings) -> Result<PowerUp, SimError> {
+    let map = match Mapping::open(path) {
+        Ok(map) => map,
+        Err(OpenError::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(PowerUp::Fresh)
+        }
+        Err(OpenError::Truncated { len: 0, .. }) => return Ok(PowerUp::Fresh),
+        Err(OpenError::Truncated { len, .. }) => {
+            return Ok(PowerUp::Replaced(Unusable::Truncated { len }))
+        }
+        Err(e) => return Err(e.into()),
+    };
+    Ok(match survey(map, settings).1 {
+        Ok(old) => PowerUp::Resumed { epoch: old.epoch },
+        Err(how) => how,
+    })
+}
+
+/// What a power-up takes over from the board that ran before.
+struct OldBoard {
+    /// The epoch the powered-up board takes (the old one + 1).
+    epoch: u32,
+    /// The old board's encoders [pulse], channel order.
+    encoders: [i64; AXES_PER_BOARD],
+}
+
+/// Read the DPRAM in `map` for a power-up with `settings` (nothing is written): the next
+/// epoch and the encoders [pulse, channel order] of a board of the same layout, id and axis
+/// count, or what the power-up is instead.
+fn survey(map: Mapping, settings: &SimSettings) -> (Mapping, Result<OldBoard, PowerUp>) {
+    let expected_axes = settings.axes.len() as u32;
+    match Dpram::attach(map) {
+        Ok(old) => {
+            let h = *old.header();
+            let found = if h.board_id != settings.board_id {
+                Err(PowerUp::Replaced(Unusable::BoardId {
+                    found: h.board_id,
+                    expected: settings.board_id,
+                }))
+            } else if h.axis_count != expected_axes {
+                Err(PowerUp::Replaced(Unusable::AxisCount {
+                    found: h.axis_count,
+                    expected: expected_axes,
+                }))
+            } else {
+                let mut encoders = [0i64; AXES_PER_BOARD];
+                for (channel, e) in encoders.iter_mut().enumerate() {
+                    // One word, written whole by the board: no torn value even when it died
+                    // in the middle of publishing its record.
+                    *e = old.load64(layout::axis_base(channel) + axis::ENCODER) as i64;
+                }
+                Ok(OldBoard {
+                    epoch: h.epoch.wrapping_add(1),
+                    encoders,
+                })
+            };
+            (old.into_mapping(), found)
+        }
+        Err((map, LayoutError::NotReady)) if all_zero_header(&map) => (map, Err(PowerUp::Fresh)),
+        Err((map, problem)) => (map, Err(PowerUp::Replaced(Unusable::Layout(problem)))),
+    }
 }
 
 fn all_zero_header(map: &Mapping) -> bool {

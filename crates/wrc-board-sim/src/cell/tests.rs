@@ -8,7 +8,7 @@ use wrc_cell::{parse_slot_codes, SlotContent, Station, DEMO_NAME, DEMO_TOML};
 use wrc_robot::{Posture, MAX_AXES};
 
 use super::*;
-use crate::{SimBoard, SimSettings};
+use crate::{PowerUp, SimBoard, SimError, SimSettings};
 use wrc_board::board::{Feedback, MappingScan, MotionBoard};
 use wrc_board::driver::{DpramBoard, Expect, Mapping};
 use wrc_board::fault::Fault;
@@ -22,6 +22,9 @@ const STEP: i64 = 1_500;
 struct Rig {
     sim: SimBoard,
     host: DpramBoard,
+    /// The DPRAM both sides share (a power-up starts on it again).
+    map: Mapping,
+    settings: SimSettings,
     config: Config,
     plan: VecDeque<[i64; MAX_AXES]>,
     /// Pulses at the end of the plan, robot axis order (= channel order here).
@@ -40,7 +43,7 @@ fn rig_with(stations: Stations, world: Option<World>) -> Rig {
         cell = cell.with_world(world);
     }
     sim.attach_cell(cell).unwrap();
-    let host = DpramBoard::attach(map, Expect::default()).unwrap();
+    let host = DpramBoard::attach(map.share(), Expect::default()).unwrap();
     let mut end = [0i64; MAX_AXES];
     for (e, s) in end.iter_mut().zip(&settings.axes) {
         *e = s.initial;
@@ -48,10 +51,12 @@ fn rig_with(stations: Stations, world: Option<World>) -> Rig {
     Rig {
         sim,
         host,
+        map,
         config,
         plan: VecDeque::new(),
         end,
         delay_periods: settings.io.vacuum[0].delay_periods,
+        settings,
     }
 }
 
@@ -450,4 +455,134 @@ fn without_a_cell_the_mapping_words_stay_zero() {
     let mut f = Feedback::default();
     host.read_feedback(&mut f).unwrap();
     assert_eq!(f.boards[0].inputs & 1, 1);
+}
+
+impl Rig {
+    /// The board's encoders [pulse], channel order.
+    fn encoders(&self) -> Vec<i64> {
+        (0..self.settings.axes.len())
+            .map(|c| self.sim.axis(c).unwrap().encoder())
+            .collect()
+    }
+
+    /// The board starts again on its DPRAM with `start` (the cell and its world carried
+    /// over, as `wrc board-sim --world` reads them back), and the host attaches again.
+    fn start_again<T>(
+        &mut self,
+        start: impl FnOnce(Mapping, &SimSettings) -> Result<T, SimError>,
+        board: impl FnOnce(T) -> (SimBoard, Option<PowerUp>),
+    ) -> Option<PowerUp> {
+        let cell = self.sim.take_cell().unwrap();
+        let (mut sim, how) = board(start(self.map.share(), &self.settings).unwrap());
+        sim.attach_cell(cell).unwrap();
+        self.sim = sim;
+        self.host = DpramBoard::attach(self.map.share(), Expect::default()).unwrap();
+        how
+    }
+
+    /// A restart by supervision ([`SimBoard::take_over`]).
+    fn restart(&mut self) {
+        self.start_again(SimBoard::take_over, |b| (b, None));
+    }
+
+    /// A power-up after a power loss ([`SimBoard::power_up`]).
+    fn power_up(&mut self) -> PowerUp {
+        self.start_again(SimBoard::power_up, |(b, how)| (b, Some(how)))
+            .unwrap()
+    }
+
+    fn outputs(&self) -> (u32, u32) {
+        let d = self.sim.dpram();
+        (
+            d.load(wrc_board::layout::io::OUTPUTS),
+            d.load(wrc_board::layout::io::OUTPUTS_APPLIED),
+        )
+    }
+}
+
+/// A power-up after a power loss: the arm is where its encoders stood, every output is off,
+/// and the wafer the vacuum held is released at the arm's pose in the first period: placed
+/// when the hand is seated within a stroke above its slot's support, lost anywhere else. A
+/// restart by supervision, before it, keeps the valve open and the wafer on the hand.
+#[test]
+fn a_power_up_keeps_the_encoders_clears_the_outputs_and_releases_the_held_wafer() {
+    for (halfway_out, expected) in [
+        (
+            false,
+            WorldEvent::Placed {
+                station: wrc_cell::parse_station_name("LP1").unwrap(),
+                slot: 1,
+                tag: 1,
+            },
+        ),
+        (true, WorldEvent::Lost { tag: 1 }),
+    ] {
+        let mut rig = rig();
+        let lp1 = rig.station("LP1");
+        let valve = 1 << rig.config.hand.vacuum_output;
+        // A GET's first half: in under the wafer, vacuum on, lift it.
+        rig.go(lp1.approach_pose(1, false).unwrap());
+        rig.line(lp1.seated_pose(1, false).unwrap());
+        rig.host.write_outputs(0, valve);
+        rig.line(lp1.seated_pose(1, true).unwrap());
+        if halfway_out {
+            let seat = lp1.seated_pose(1, true).unwrap();
+            let out = lp1.approach_pose(1, true).unwrap();
+            rig.line(Pose {
+                x: 0.5 * (seat.x + out.x),
+                y: 0.5 * (seat.y + out.y),
+                ..seat
+            });
+        }
+        for _ in 0..rig.delay_periods {
+            rig.step();
+        }
+        assert!(rig.vacuum_sensed());
+        assert_eq!(rig.world().hand(), Some(1));
+        assert_eq!(rig.world().faults(), 0, "{}", rig.world().to_text());
+        let _ = rig.sim.take_cell_event();
+        let encoders = rig.encoders();
+        assert_ne!(encoders[0], rig.settings.axes[0].initial, "not at home");
+        let pose = rig.sim.cell().unwrap().pose();
+
+        // A restart by supervision keeps the encoders and the latched valve: the wafer
+        // stays on the hand and the sensor holds.
+        rig.restart();
+        assert_eq!(rig.sim.dpram().header().epoch, 2);
+        assert_eq!(rig.outputs().0, valve);
+        rig.step();
+        assert_eq!(rig.encoders(), encoders);
+        assert_eq!(rig.world().hand(), Some(1));
+        assert!(rig.vacuum_sensed());
+        assert_eq!(rig.sim.take_cell_event(), None);
+
+        // A power-up: the encoders again, but every output off and the wafer let go.
+        let how = rig.power_up();
+        assert_eq!(how, PowerUp::Resumed { epoch: 3 });
+        assert_eq!(rig.sim.dpram().header().epoch, 3);
+        assert_eq!(rig.encoders(), encoders);
+        assert_eq!(rig.outputs(), (0, 0));
+        let mut f = Feedback::default();
+        rig.host.read_feedback(&mut f).unwrap();
+        for (c, e) in encoders.iter().enumerate() {
+            assert_eq!((f.axes[c].encoder, f.axes[c].commanded), (*e, *e));
+        }
+        rig.sim.step();
+        assert_eq!(rig.sim.take_cell_event(), Some(expected));
+        assert_eq!(rig.outputs(), (0, 0));
+        assert_eq!(rig.world().hand(), None);
+        assert!(!rig.vacuum_sensed());
+        let at = rig.sim.cell().unwrap().pose();
+        assert!(
+            (at.x - pose.x).abs() < 1e-9 && (at.y - pose.y).abs() < 1e-9 && at.z == pose.z,
+            "{at:?} vs {pose:?}"
+        );
+        if halfway_out {
+            assert_eq!(rig.world().lost(), [1]);
+            assert_eq!(rig.world().faults(), 1);
+        } else {
+            assert_eq!(rig.world().slot("LP1", 1).unwrap(), SlotContent::Wafer(1));
+            assert_eq!(rig.world().faults(), 0);
+        }
+    }
 }

@@ -402,7 +402,7 @@ fn reference(
             steps.extend(plan(TransferKind::Put, &at(blade.other()), slot)?);
             steps
         }
-        JobKind::Map => bail!("MAP is not a transfer: {line}"),
+        JobKind::Map | JobKind::Sense => bail!("not a transfer: {line}"),
     };
     match kind {
         JobKind::Get => hands[blade.index()] = true,
@@ -411,7 +411,7 @@ fn reference(
             hands[blade.index()] = true;
             hands[blade.other().index()] = false;
         }
-        JobKind::Map => {}
+        JobKind::Map | JobKind::Sense => {}
     }
     let global = config.motion.speed_pct;
     let mut speed = global;

@@ -20,6 +20,17 @@
 //! same virtual times, two runs make the same calls in the same order: the same pulses reach
 //! the board and the same replies the clients. Benchmark timestamps (`Shared::now_ns`) stay
 //! on the host's clock: they measure this process, not the robot.
+//!
+//! # A power cut
+//!
+//! [`Simulation::power_cycle`] plays a power loss at the current virtual instant and the
+//! power coming back: the controller and the boards die without a word (nothing is saved
+//! that a power cut would not have saved: the state directory keeps what is on disk at that
+//! instant), then a new controller starts in the same state directory with the same
+//! configuration, its boards powering up where their absolute encoders stood with every
+//! output off (`SimBoard::power_up`, as `wrc up` starts them), the simulated cell going on
+//! from its world as it was: at its first step the hand's wafer, which the vacuum no longer
+//! holds, drops where the arm is. The clients' connections are gone with the controller.
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
@@ -35,7 +46,7 @@ use wrc_board::driver::Mapping;
 use wrc_board::wrc_cell::{Stations, World};
 use wrc_board::{DpramBoard, Expect, MultiBoard};
 use wrc_board_sim::cell::SimCell;
-use wrc_board_sim::{SimBoard, SimSettings};
+use wrc_board_sim::{PowerUp, SimBoard, SimSettings};
 use wrc_config::Config;
 use wrc_rt::virtual_time::{Pace, VirtualRuntime};
 use wrc_rt::{CycleContext, Notify, RealtimeMode, TaskSpec};
@@ -46,6 +57,10 @@ use crate::shared::Shared;
 
 /// Where virtual time starts [ns] (one second, so that no time a task computes is 0).
 pub const START_NS: u64 = 1_000_000_000;
+
+/// How long the power stays off in [`Simulation::power_cycle`] [ns, virtual]: the new
+/// controller's clock starts this much after the instant of the cut.
+pub const POWER_OFF_NS: u64 = 1_000_000_000;
 
 /// The paper priority of the simulated boards: above every task (hardware does not wait).
 const BOARD_PRIORITY: u8 = 1;
@@ -76,6 +91,10 @@ pub struct Simulation {
     wall_start: Instant,
     /// The Pulse Generator does nothing before this virtual time [ns].
     stall: Arc<std::sync::atomic::AtomicU64>,
+    /// What it was started with, to start again after a power cut.
+    config: Config,
+    options: Options,
+    pace: Pace,
     /// The TCP address actually bound (with the real port when 0 was asked).
     pub tcp: Option<SocketAddr>,
     /// The local GUI socket.
@@ -107,6 +126,21 @@ struct BoardLife {
     map: Mapping,
     settings: SimSettings,
     alive: Arc<std::sync::atomic::AtomicBool>,
+}
+
+/// A simulated board about to run: its DPRAM, its settings and the board on it.
+struct PoweredBoard {
+    map: Mapping,
+    settings: SimSettings,
+    sim: SimBoard,
+}
+
+/// What a [`Simulation`] starts from: the virtual time, the pace and the pulse log (those of
+/// the simulation that ran before a power cut).
+struct Continued {
+    start_ns: u64,
+    pace: Pace,
+    pulse_log: PulseLog,
 }
 
 /// A task that steps one simulated board (while it is alive).
@@ -154,24 +188,43 @@ impl Simulation {
         cell: Option<SimCell>,
     ) -> Result<Simulation, StartError> {
         let mut boards = Vec::with_capacity(config.boards.len());
-        let mut maps = Vec::with_capacity(config.boards.len());
-        let mut board_lives = Vec::with_capacity(config.boards.len());
         let mut cell = cell;
         for board in &config.boards {
             let map = Mapping::anonymous()?;
-            let shared_map = map.share();
             let settings = SimSettings::from_config(config, board);
-            board_lives.push(BoardLife {
-                map: map.share(),
-                settings: settings.clone(),
-                alive: Arc::new(std::sync::atomic::AtomicBool::new(true)),
-            });
-            let mut sim = SimBoard::new(map, &settings, 1)?;
+            let mut sim = SimBoard::new(map.share(), &settings, 1)?;
             if let Some(c) = cell.take() {
                 sim.attach_cell(c)?;
             }
-            maps.push((board.id, board.axes.len(), shared_map));
-            boards.push(Arc::new(Mutex::new(sim)));
+            boards.push(PoweredBoard { map, settings, sim });
+        }
+        let from = Continued {
+            start_ns: START_NS,
+            pace: Pace::Unpaced,
+            pulse_log: PulseLog::default(),
+        };
+        Simulation::run_on(config, options, boards, from)
+    }
+
+    /// The controller of `config` with `options` on `powered` (board 0 carrying the
+    /// simulated cell, if any), its clock starting at `from.start_ns`.
+    fn run_on(
+        config: &Config,
+        options: &Options,
+        powered: Vec<PoweredBoard>,
+        from: Continued,
+    ) -> Result<Simulation, StartError> {
+        let mut boards = Vec::with_capacity(powered.len());
+        let mut maps = Vec::with_capacity(powered.len());
+        let mut board_lives = Vec::with_capacity(powered.len());
+        for (board, p) in config.boards.iter().zip(powered) {
+            maps.push((board.id, board.axes.len(), p.map.share()));
+            board_lives.push(BoardLife {
+                map: p.map,
+                settings: p.settings,
+                alive: Arc::new(std::sync::atomic::AtomicBool::new(true)),
+            });
+            boards.push(Arc::new(Mutex::new(p.sim)));
         }
         let open = || -> Result<MultiBoard<DpramBoard>, StartError> {
             let mut opened = Vec::with_capacity(maps.len());
@@ -192,8 +245,10 @@ impl Simulation {
             Ok(MultiBoard::new(opened, &map)?)
         };
         let stall = Arc::new(std::sync::atomic::AtomicU64::new(0));
-        let mut host = VirtualHost(VirtualRuntime::new(START_NS), stall.clone());
-        let pulse_log = PulseLog::default();
+        let mut runtime = VirtualRuntime::new(from.start_ns);
+        runtime.set_pace(from.pace);
+        let mut host = VirtualHost(runtime, stall.clone());
+        let pulse_log = from.pulse_log;
         for ((board, sim), life) in config.boards.iter().zip(&boards).zip(&board_lives) {
             let period_us = u64::from(lock(sim).period_us());
             host.0.add(
@@ -260,9 +315,79 @@ impl Simulation {
             service,
             wall_start: Instant::now(),
             stall,
+            config: config.clone(),
+            options: options.clone(),
+            pace: from.pace,
             tcp: parts.tcp,
             socket: options.socket.clone(),
         })
+    }
+
+    /// A power cut now, and the power back [`POWER_OFF_NS`] later (see the module docs):
+    /// the controller and its boards are dropped without any shutdown (a motion in flight
+    /// stops where it is: the arm stays where its encoders stand); a new controller starts
+    /// in the same state directory with the same configuration, on boards that power up at
+    /// those encoder counts with every output off and a new epoch, the simulated cell going
+    /// on from its world as it is now (its wafers where they are; a wafer on the hand is
+    /// released where the arm is at the first board period: placed if the hand is seated
+    /// within a stroke above a support, otherwise lost). The new clock starts at the cut's
+    /// virtual instant plus [`POWER_OFF_NS`] (nothing moves while the power is off), the
+    /// pace and the pulse recording go on; [`Simulation::virtual_s`] counts from the new
+    /// start. Clients connect again.
+    pub fn power_cycle(self) -> Result<Simulation, StartError> {
+        let Simulation {
+            runtime,
+            shared,
+            ethernet,
+            boards,
+            board_lives,
+            pulse_log,
+            service,
+            stall,
+            config,
+            options,
+            pace,
+            ..
+        } = self;
+        let start_ns = runtime.now_ns().saturating_add(POWER_OFF_NS);
+        // The cell's ground truth as it is at the cut; its sensor state (the mapping latch)
+        // was in the board's memory and goes with the power.
+        let cell = boards.first().and_then(|b| lock(b).take_cell());
+        // Everything dies at once: the tasks with their queues and sockets (the clients see
+        // their connections end), the boards. Nothing here writes a file on its way out.
+        drop((runtime, shared, ethernet, boards, service, stall));
+        let mut powered = Vec::with_capacity(board_lives.len());
+        for life in board_lives {
+            let (sim, how) = SimBoard::power_up(life.map.share(), &life.settings)?;
+            if !matches!(how, PowerUp::Resumed { .. }) {
+                // Cannot happen on the DPRAM the same board ran on; never start at home
+                // silently.
+                return Err(StartError::SimCell(format!(
+                    "board {} lost its encoders in the power cut: {how}",
+                    life.settings.board_id
+                )));
+            }
+            powered.push(PoweredBoard {
+                map: life.map,
+                settings: life.settings,
+                sim,
+            });
+        }
+        if let (Some(old), Some(first), Some(board)) =
+            (cell, powered.first_mut(), config.boards.first())
+        {
+            let fresh = SimCell::new(&config, board, old.stations().clone())
+                .map_err(|e| StartError::SimCell(e.to_string()))?;
+            first
+                .sim
+                .attach_cell(fresh.with_world(old.world().clone()))?;
+        }
+        let from = Continued {
+            start_ns,
+            pace,
+            pulse_log,
+        };
+        Simulation::run_on(&config, &options, powered, from)
     }
 
     /// The controller of `config` with its state in `dir` (programs, wafer map, traces,
@@ -328,6 +453,7 @@ impl Simulation {
 
     /// Run as fast as the CPU allows, or no faster than a multiple of real time.
     pub fn set_pace(&mut self, pace: Pace) {
+        self.pace = pace;
         self.runtime.set_pace(pace);
     }
 

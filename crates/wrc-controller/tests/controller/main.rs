@@ -12,6 +12,7 @@ mod language_docs;
 mod motion;
 mod paths;
 mod pipeline;
+mod power_cycle;
 mod programs;
 mod sessions;
 mod stall;

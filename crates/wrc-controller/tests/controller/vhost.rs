@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use wrc_board::wrc_cell::{parse_slot_list, slot_codes_string, SlotCode};
+use wrc_board::wrc_cell::{parse_slot_list, slot_codes_string, SlotCode, World};
 use wrc_board::Fault;
 use wrc_config::Config;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
@@ -233,5 +233,41 @@ impl VHost {
     pub fn hand_empty(&self) -> bool {
         let board = self.sim.board(0).unwrap();
         board.cell().unwrap().world().hand().is_none()
+    }
+
+    /// A copy of the simulated cell's ground truth as it is now.
+    pub fn world(&self) -> World {
+        let board = self.sim.board(0).unwrap();
+        board.cell().unwrap().world().clone()
+    }
+
+    /// Board 0's encoders now, channel order [pulse].
+    pub fn encoders(&self) -> Vec<i64> {
+        let board = self.sim.board(0).unwrap();
+        (0..4)
+            .filter_map(|c| board.axis(c))
+            .map(|a| a.encoder())
+            .collect()
+    }
+
+    /// A power cut now and the power back ([`Simulation::power_cycle`]): a new controller
+    /// in the same state directory, on boards powered up where the arm stood; this host
+    /// connects to it again (the lines seen so far are kept).
+    pub fn power_cycle(self) -> VHost {
+        let VHost {
+            sim,
+            client,
+            seen,
+            _dir,
+        } = self;
+        let mut sim = sim.power_cycle().unwrap();
+        drop(client);
+        let client = sim.connect().unwrap();
+        VHost {
+            sim,
+            client,
+            seen,
+            _dir,
+        }
     }
 }

@@ -15,7 +15,7 @@ use wrc_board::{DpramBoard, Expect, Fault, Feedback, MappingScan, MotionBoard};
 use wrc_board_sim::cell::SimCell;
 use wrc_board_sim::runner::{self, MonotonicClock};
 use wrc_board_sim::world_file::{self, Change, Origin, WorldSaver};
-use wrc_board_sim::{SimBoard, SimSettings};
+use wrc_board_sim::{PowerUp, SimBoard, SimSettings};
 use wrc_config::{BoardConfig, Config};
 
 /// Arguments of `wrc board-sim`.
@@ -106,6 +106,15 @@ struct RunArgs {
     /// and at SIGINT/SIGTERM. Needs --stations.
     #[arg(long, value_name = "FILE")]
     world: Option<PathBuf>,
+    /// Power up after a power loss: on the DPRAM of a board that ran before, the axes start
+    /// where its encoders stood (absolute encoders) and every output is off (the vacuum has
+    /// let go: the simulated cell drops the hand's wafer where the arm is). A DPRAM file
+    /// that cannot be used (another layout version, axis count or board, garbage) is
+    /// replaced by a first start at home, said in the log. Without it an existing wrc
+    /// DPRAM is taken over as a restart (encoders and latched outputs kept) and anything
+    /// else is refused.
+    #[arg(long)]
+    power_up: bool,
 }
 
 /// Run `wrc board-sim`.
@@ -168,7 +177,21 @@ fn run_board(args: RunArgs) -> anyhow::Result<ExitCode> {
         (Some(stations), world) => Some(load_cell(&config, &board, stations, world.as_deref())?),
     };
     let settings = SimSettings::from_config(&config, &board);
-    let mut sim = SimBoard::create(&board.dpram, &settings)?;
+    let mut sim = if args.power_up {
+        let (sim, how) = SimBoard::power_up_file(&board.dpram, &settings)?;
+        let line = format!(
+            "wrc board-sim: power-up on {}: {how}",
+            board.dpram.display()
+        );
+        if matches!(how, PowerUp::Replaced(_)) {
+            tracing::warn!("{line}");
+        } else {
+            tracing::info!("{line}");
+        }
+        sim
+    } else {
+        SimBoard::create(&board.dpram, &settings)?
+    };
     for fault in faults {
         sim.apply_fault(fault);
     }

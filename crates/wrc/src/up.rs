@@ -7,8 +7,13 @@
 //! process from the same binary:
 //!
 //! - **`wrc board-sim`**, one per simulated board, before the controller (the controller maps
-//!   its DPRAM). Started, then waited for until its DPRAM is valid (10 s at most, its log
-//!   quoted if it exits). It dies with `wrc up` even on `kill -9` (`PR_SET_PDEATHSIG`), as a
+//!   its DPRAM). It powers up (`--power-up`) on the DPRAM file `STATE_DIR/boardN.dpram` the
+//!   previous run left, as a board comes back after a power loss: the arm where its absolute
+//!   encoders stood, every output off (the simulated cell drops a wafer the vacuum held where
+//!   the arm is); an unusable file (another layout version or axis count, garbage) is
+//!   replaced by a first start at home, and `wrc up` says which before it starts the board.
+//!   Started, then waited for until its DPRAM is up with its new epoch (10 s at most, its
+//!   log quoted if it exits). It dies with `wrc up` even on `kill -9` (`PR_SET_PDEATHSIG`), as a
 //!   board loses power with its host. A board process that dies is reaped at once (SIGCHLD)
 //!   and logged; the controller notices on its own (the board's heartbeat stands: error 300,
 //!   docs/protocol.md). It is **restarted only with `--restart-boards`**, and then at most
@@ -136,7 +141,8 @@ pub(crate) fn fifo_allowed() -> bool {
 /// configured host-watchdog limit; `realtime` steps it at SCHED_FIFO (`--realtime`);
 /// `cell` = (stations file, world file) makes it simulate the wafer cell, and then waits
 /// until the board is up so a refusal (an unusable world file, stations out of reach) is
-/// reported here with the board's own words.
+/// reported here with the board's own words. The board takes `dpram` over as it finds it
+/// (a new file: a first start; a wrc DPRAM: a restart, encoders and outputs kept).
 pub(crate) fn spawn_board(
     config: Option<&Path>,
     id: u32,
@@ -146,64 +152,109 @@ pub(crate) fn spawn_board(
     realtime: bool,
     cell: Option<(&Path, &Path)>,
 ) -> anyhow::Result<Child> {
-    let exe =
-        std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
-    let mut cmd = Command::new(exe);
-    cmd.args(["--log-level", crate::cli::log_level().as_str(), "board-sim"])
-        .arg("--dpram")
-        .arg(dpram)
-        .arg("--board-id")
-        .arg(id.to_string());
-    if let Some(c) = config {
-        cmd.arg("--config").arg(c);
+    BoardCommand {
+        config,
+        id,
+        dpram,
+        log,
+        watchdog_periods,
+        realtime,
+        cell,
+        power_up: None,
     }
-    if let Some(p) = watchdog_periods {
-        cmd.arg("--watchdog-periods").arg(p.to_string());
-    }
-    if realtime {
-        cmd.arg("--realtime");
-    }
-    if let Some((stations, world)) = cell {
-        cmd.arg("--stations")
-            .arg(stations)
-            .arg("--world")
-            .arg(world);
-    }
-    let log_path = log;
-    let log =
-        std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
-    cmd.stdin(Stdio::null())
-        .stdout(log.try_clone()?)
-        .stderr(log);
-    // SAFETY: runs in the child between fork and exec and only calls an async-signal-safe
-    // function (prctl).
-    unsafe {
-        cmd.pre_exec(|| {
-            // The simulated board dies with the controller, even on kill -9.
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-            Ok(())
-        });
-    }
-    let mut child = cmd
-        .spawn()
-        .context("cannot start the simulated board (wrc board-sim)")?;
-    if cell.is_some() {
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while Instant::now() < deadline {
-            if let Ok(Some(status)) = child.try_wait() {
-                let said = std::fs::read_to_string(log_path).unwrap_or_default();
-                bail!(
-                    "the simulated board {id} did not start ({status}): {}",
-                    said.trim()
-                );
-            }
-            if wrc_board::DpramBoard::open(dpram, wrc_board::Expect::default()).is_ok() {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(10));
+    .spawn()
+}
+
+/// The arguments of one `wrc board-sim` that [`BoardCommand::spawn`] starts (see
+/// [`spawn_board`]).
+struct BoardCommand<'a> {
+    config: Option<&'a Path>,
+    id: u32,
+    dpram: &'a Path,
+    log: &'a Path,
+    watchdog_periods: Option<u32>,
+    realtime: bool,
+    cell: Option<(&'a Path, &'a Path)>,
+    /// `Some(epoch)`: `--power-up`, the board powers up after a power loss (encoders kept,
+    /// outputs off) with this epoch in its header ([`wrc_board_sim::power_up_outlook`]).
+    power_up: Option<u32>,
+}
+
+impl BoardCommand<'_> {
+    /// Start it. With a cell, or powering up, wait until the board is up: a refusal is then
+    /// reported here with the board's words, and the controller, which starts next, never
+    /// attaches to the DPRAM a power-up is about to initialise again (the file the previous
+    /// run left is valid until the new board has read its encoders).
+    fn spawn(&self) -> anyhow::Result<Child> {
+        let exe =
+            std::env::current_exe().context("cannot find the wrc executable to start board-sim")?;
+        let mut cmd = Command::new(exe);
+        cmd.args(["--log-level", crate::cli::log_level().as_str(), "board-sim"])
+            .arg("--dpram")
+            .arg(self.dpram)
+            .arg("--board-id")
+            .arg(self.id.to_string());
+        if let Some(c) = self.config {
+            cmd.arg("--config").arg(c);
         }
+        if let Some(p) = self.watchdog_periods {
+            cmd.arg("--watchdog-periods").arg(p.to_string());
+        }
+        if self.realtime {
+            cmd.arg("--realtime");
+        }
+        if self.power_up.is_some() {
+            cmd.arg("--power-up");
+        }
+        if let Some((stations, world)) = self.cell {
+            cmd.arg("--stations")
+                .arg(stations)
+                .arg("--world")
+                .arg(world);
+        }
+        let log = std::fs::File::create(self.log)
+            .with_context(|| format!("cannot create {}", self.log.display()))?;
+        cmd.stdin(Stdio::null())
+            .stdout(log.try_clone()?)
+            .stderr(log);
+        // SAFETY: runs in the child between fork and exec and only calls an
+        // async-signal-safe function (prctl).
+        unsafe {
+            cmd.pre_exec(|| {
+                // The simulated board dies with the controller, even on kill -9.
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+                Ok(())
+            });
+        }
+        let mut child = cmd
+            .spawn()
+            .context("cannot start the simulated board (wrc board-sim)")?;
+        if self.cell.is_some() || self.power_up.is_some() {
+            let up = || match wrc_board::DpramBoard::open(self.dpram, wrc_board::Expect::default())
+            {
+                Ok(board) => self.power_up.is_none_or(|e| {
+                    board.header().epoch == e && board.header().board_id == self.id
+                }),
+                Err(_) => false,
+            };
+            let deadline = Instant::now() + Duration::from_secs(10);
+            while Instant::now() < deadline {
+                if let Ok(Some(status)) = child.try_wait() {
+                    let said = std::fs::read_to_string(self.log).unwrap_or_default();
+                    bail!(
+                        "the simulated board {} did not start ({status}): {}",
+                        self.id,
+                        said.trim()
+                    );
+                }
+                if up() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+        Ok(child)
     }
-    Ok(child)
 }
 
 /// A simulated board's process under `wrc up`, and what starts it again.
@@ -217,9 +268,13 @@ struct BoardProcess {
     /// board steps at SCHED_FIFO with its configured watchdog.
     watchdog: Option<u32>,
     cell: Option<(PathBuf, PathBuf)>,
+    /// `Some(epoch)`: the next start is the power-up of `wrc up` (`--power-up`), to this
+    /// epoch; restarts by supervision take the DPRAM over as it is.
+    power_up: Option<u32>,
 }
 
 impl BoardProcess {
+    /// Start board `id`'s `wrc board-sim` as a power-up to `epoch` (see [`run`]).
     fn spawn(
         config: Option<&Path>,
         id: u32,
@@ -227,6 +282,7 @@ impl BoardProcess {
         log: PathBuf,
         watchdog: Option<u32>,
         cell: Option<(PathBuf, PathBuf)>,
+        epoch: u32,
     ) -> anyhow::Result<BoardProcess> {
         let mut board = BoardProcess {
             id,
@@ -236,26 +292,31 @@ impl BoardProcess {
             log,
             watchdog,
             cell,
+            power_up: Some(epoch),
         };
         board.start(config)?;
         Ok(board)
     }
 
-    /// Start (or start again) its `wrc board-sim`.
+    /// Start (or start again) its `wrc board-sim`: the first time as a power-up on the
+    /// DPRAM file a previous run left (see [`run`]), then as restarts by supervision.
     fn start(&mut self, config: Option<&Path>) -> anyhow::Result<()> {
         let cell = self.cell.as_ref().map(|(s, w)| (s.as_path(), w.as_path()));
         // Without a lenient watchdog the controller runs real-time, and watches the board's
         // heartbeat as closely: the board steps at SCHED_FIFO like the DSP it stands for.
         let realtime = self.watchdog.is_none();
-        let child = spawn_board(
+        let child = BoardCommand {
             config,
-            self.id,
-            &self.dpram,
-            &self.log,
-            self.watchdog,
+            id: self.id,
+            dpram: &self.dpram,
+            log: &self.log,
+            watchdog_periods: self.watchdog,
             realtime,
             cell,
-        )?;
+            power_up: self.power_up,
+        }
+        .spawn()?;
+        self.power_up = None;
         self.child = Some(child);
         self.started = Instant::now();
         Ok(())
@@ -535,7 +596,24 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
         for b in &config.boards {
             let dpram = args.state_dir.join(format!("board{}.dpram", b.id));
             let log = args.state_dir.join(format!("board{}.log", b.id));
-            let _ = std::fs::remove_file(&dpram);
+            // The board powers up on the DPRAM file the previous run left: the arm where its
+            // absolute encoders stood when the power went (or `wrc up` stopped), every
+            // output off; an unusable file is replaced by a first start at home.
+            let settings = wrc_board_sim::SimSettings::from_config(&config, b);
+            let epoch = match wrc_board_sim::power_up_outlook(&dpram, &settings) {
+                Ok(how) => {
+                    println!("wrc: board {}: {}: {how}", b.id, dpram.display());
+                    match how {
+                        wrc_board_sim::PowerUp::Resumed { epoch } => epoch,
+                        _ => 1,
+                    }
+                }
+                // The board says it again, in its words, when it refuses to start.
+                Err(e) => {
+                    println!("wrc: board {}: {e}", b.id);
+                    1
+                }
+            };
             let watchdog = lenient.map(|p| p.max(b.watchdog_periods));
             if let Some(p) = watchdog.filter(|&p| p != b.watchdog_periods) {
                 println!(
@@ -552,6 +630,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<ExitCode> {
                 log,
                 watchdog,
                 cell,
+                epoch,
             ) {
                 Ok(board) => boards_run.push(board),
                 Err(e) => {

@@ -491,9 +491,20 @@ impl JournalFile {
 
     /// Append `record` and make it durable before returning (`fdatasync`).
     pub fn append(&mut self, record: &Record) -> io::Result<()> {
+        self.write(record)?;
+        self.sync()
+    }
+
+    /// Append `record` without waiting for the disk: durable only after [`JournalFile::sync`]
+    /// (several records, one sync).
+    pub fn write(&mut self, record: &Record) -> io::Result<()> {
         self.seq += 1;
         self.file
-            .write_all(journal_line(self.seq, record).as_bytes())?;
+            .write_all(journal_line(self.seq, record).as_bytes())
+    }
+
+    /// Make every record written so far durable (`fdatasync`).
+    pub fn sync(&mut self) -> io::Result<()> {
         self.file.sync_data()
     }
 }

@@ -133,6 +133,15 @@ pub struct CellService {
     jjob: Option<recovery::JobJournal>,
     /// The hand may be inside a station (found at start-up): the retract that takes it out.
     inside: Option<crate::messages::cell_job::RetractPlan>,
+    /// Journal syncs (each makes the records written before it durable), their total and
+    /// longest time [s].
+    journal_writes: (u64, f64, f64),
+    /// Records written and not yet synced.
+    journal_unsynced: bool,
+    /// A write failed since the last sync.
+    journal_failed: bool,
+    /// Steps whose beginnings wait for the next sync to be answered.
+    journal_acks: Vec<u8>,
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
@@ -211,6 +220,10 @@ impl CellService {
             journal_path: wafers_path.with_file_name("journal.wrcj"),
             jjob: None,
             inside: None,
+            journal_writes: (0, 0.0, 0.0),
+            journal_unsynced: false,
+            journal_failed: false,
+            journal_acks: Vec::new(),
         };
         cell.open_journal();
         Ok(cell)

@@ -157,6 +157,8 @@ impl Service {
             while let Ok(event) = self.links.cell_events.try_recv() {
                 cell.on_event(event);
             }
+            // The journal's records of those events on disk, with one sync.
+            cell.sync_journal();
         }
     }
 

@@ -81,6 +81,13 @@ pub struct Shared {
     /// The speed [%] a motion may have while a blade perhaps holds a wafer its vacuum does
     /// not clamp (after a power loss), set by the cell service; 0: no limit.
     pub careful_pct: AtomicU32,
+    /// What the transfer journal cost the Command Interpreter: steps that waited for their
+    /// beginning to be on disk, the total and the longest wait [ns].
+    pub journal_waits: AtomicU64,
+    /// See [`Shared::journal_waits`].
+    pub journal_wait_ns: AtomicU64,
+    /// See [`Shared::journal_waits`].
+    pub journal_wait_max_ns: AtomicU64,
     /// The ticket of the last move whose pulses the Pulse Generator sent from a state
     /// committed to enter a station (a blended approach past its commit point, or a line):
     /// until it names a blended approach, a stop still ends behind its approach pose
@@ -125,6 +132,9 @@ impl Default for Shared {
             board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
             careful_pct: AtomicU32::new(0),
+            journal_waits: AtomicU64::new(0),
+            journal_wait_ns: AtomicU64::new(0),
+            journal_wait_max_ns: AtomicU64::new(0),
             entry_committed: AtomicU32::new(0),
             stop_notify: OnceLock::new(),
             stop_line: OnceLock::new(),

@@ -283,7 +283,7 @@ fn drive(
     sequence: Sequence,
     wafers: u16,
     trace_dir: &Path,
-) -> anyhow::Result<(TraceFile, Vec<(u32, String)>)> {
+) -> anyhow::Result<(TraceFile, Vec<(u32, String)>, JournalCost)> {
     let (setup, timed) = sequence.requests(wafers);
     let mut id = 0;
     let motion = |session: &mut dyn Session, line: &str, id: u32| -> anyhow::Result<()> {
@@ -308,13 +308,15 @@ fn drive(
         sent.push((id, line.clone()));
     }
     id += 1;
+    let journal = JournalCost::parse(&session.ask(id, "RECOVERY")?);
+    id += 1;
     let name = format!("bench-{}", sequence.key());
     let reply = session.ask(id, &format!("TRACE SAVE {name}"))?;
     if !reply.starts_with("ACK") {
         bail!("TRACE SAVE was refused: {reply}");
     }
     let trace = TraceFile::load(&trace_dir.join(format!("{name}.wrctrace")))?;
-    Ok((trace, sent))
+    Ok((trace, sent, journal))
 }
 
 /// One transfer as measured.
@@ -336,6 +338,40 @@ struct Figures {
     wafers: u16,
     total_s: f64,
     transfers: Vec<Measured>,
+    /// What the transfer journal cost (the controller's `RECOVERY` reply after the run).
+    journal: JournalCost,
+}
+
+/// The Command Interpreter's waits for a step's beginning to be on disk, over a run.
+#[derive(Debug, Clone, Copy, Default)]
+struct JournalCost {
+    waits: u64,
+    total_s: f64,
+    max_s: f64,
+    /// The journal's syncs (fdatasync, each making the records written before it durable),
+    /// their total and longest time.
+    writes: u64,
+    write_s: f64,
+    write_max_s: f64,
+}
+
+impl JournalCost {
+    /// Read from a `RECOVERY` reply (`… journal_waits=N journal_wait_ms=X journal_wait_max_ms=Y`).
+    fn parse(reply: &str) -> JournalCost {
+        let field = |k: &str| {
+            wrc_protocol::reply_field(reply, k)
+                .and_then(|v| v.parse::<f64>().ok())
+                .unwrap_or(0.0)
+        };
+        JournalCost {
+            waits: field("journal_waits") as u64,
+            total_s: field("journal_wait_ms") * 1e-3,
+            max_s: field("journal_wait_max_ms") * 1e-3,
+            writes: field("journal_syncs") as u64,
+            write_s: field("journal_sync_ms") * 1e-3,
+            write_max_s: field("journal_sync_max_ms") * 1e-3,
+        }
+    }
 }
 
 impl Figures {
@@ -539,6 +575,7 @@ fn analyse(
         wafers,
         total_s: last.saturating_sub(first) as f64 / 1e9,
         transfers,
+        journal: JournalCost::default(),
     })
 }
 
@@ -612,7 +649,7 @@ fn run_sequence(
     let dir = crate::sim::state_dir(None)?;
     let stations = Stations::embedded_demo();
     let text = long_trace(config)?;
-    let (trace, sent) = if real_time {
+    let (trace, sent, journal) = if real_time {
         let path = dir.path.join("bench.toml");
         std::fs::write(&path, &text)?;
         let mut session = RealTime::start(&dir.path, &path)?;
@@ -630,7 +667,9 @@ fn run_sequence(
         let mut session = Virtual { sim, client };
         drive(&mut session, sequence, wafers, &dir.path.join("traces"))?
     };
-    analyse(config, &stations, sequence, wafers, &trace, &sent)
+    let mut figures = analyse(config, &stations, sequence, wafers, &trace, &sent)?;
+    figures.journal = journal;
+    Ok(figures)
 }
 
 /// Run `wrc bench cell`.
@@ -724,6 +763,23 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
          commanded change; 1st motion: the slowest request → first moving period; optimal: \
          docs/throughput.md)"
     );
+    for f in &all {
+        let busy = f.sum(|m| m.seconds);
+        let n = f.transfers.len().max(1) as f64;
+        println!(
+            "journal {:<16} {} steps waited for their record on disk: {:.1} ms in all, {:.2} ms per transfer ({:.3} % of its time), the longest {:.2} ms; {} syncs (fdatasync) of its records took {:.1} ms, {:.2} ms each, the longest {:.2} ms",
+            f.sequence.key(),
+            f.journal.waits,
+            f.journal.total_s * 1e3,
+            f.journal.total_s * 1e3 / n,
+            100.0 * f.journal.total_s / busy,
+            f.journal.max_s * 1e3,
+            f.journal.writes,
+            f.journal.write_s * 1e3,
+            f.journal.write_s * 1e3 / (f.journal.writes.max(1) as f64),
+            f.journal.write_max_s * 1e3
+        );
+    }
     if let Some(path) = &args.json {
         let v: Vec<_> = all
             .iter()
@@ -736,6 +792,13 @@ pub fn run(args: CellArgs) -> anyhow::Result<ExitCode> {
                     "get_s": f.mean(JobKind::Get, |m| m.seconds),
                     "put_s": f.mean(JobKind::Put, |m| m.seconds),
                     "swap_s": f.swap_s(),
+                    "journal_waits": f.journal.waits,
+                    "journal_wait_s": f.journal.total_s,
+                    "journal_wait_max_s": f.journal.max_s,
+                    "journal_share": f.journal.total_s / f.sum(|m| m.seconds),
+                    "journal_syncs": f.journal.writes,
+                    "journal_sync_s": f.journal.write_s,
+                    "journal_sync_max_s": f.journal.write_max_s,
                     "transfers": f.transfers.iter().map(|m| json!({
                         "request": m.line,
                         "seconds": m.seconds,

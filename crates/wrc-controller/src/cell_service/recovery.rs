@@ -139,7 +139,14 @@ impl CellService {
         let Some(file) = self.journal.as_mut() else {
             return false;
         };
-        match file.append(record) {
+        // Measured only (for RECOVERY's figures): nothing depends on how long it took.
+        let started = std::time::Instant::now();
+        let written = file.append(record);
+        let took = started.elapsed().as_secs_f64();
+        self.journal_writes.0 += 1;
+        self.journal_writes.1 += took;
+        self.journal_writes.2 = self.journal_writes.2.max(took);
+        match written {
             Ok(()) => true,
             Err(e) => {
                 tracing::error!(
@@ -176,11 +183,43 @@ impl CellService {
                 at,
             }
         };
-        let ok = self.journal_append(&record);
+        // Written now, made durable with the others queued behind it by one sync
+        // ([`CellService::sync_journal`]) before the step is answered.
+        let written = match self.journal.as_mut() {
+            Some(file) => file.write(&record).is_ok(),
+            None => false,
+        };
+        self.journal_unsynced = true;
+        self.journal_failed |= !written;
         let physical = act.moves() || matches!(act, Act::VacuumOn | Act::VacuumOff);
         if !done && physical {
+            self.journal_acks.push(index);
+        }
+    }
+
+    /// Make the records written since the last sync durable (one fdatasync for all the
+    /// steps the Command Interpreter reported since), then answer the beginnings that wait.
+    pub fn sync_journal(&mut self) {
+        if !self.journal_unsynced {
+            return;
+        }
+        self.journal_unsynced = false;
+        let started = std::time::Instant::now();
+        let synced = self.journal.as_mut().is_some_and(|f| f.sync().is_ok());
+        let took = started.elapsed().as_secs_f64();
+        self.journal_writes.0 += 1;
+        self.journal_writes.1 += took;
+        self.journal_writes.2 = self.journal_writes.2.max(took);
+        let ok = synced && !std::mem::take(&mut self.journal_failed);
+        if !ok {
+            tracing::error!(
+                "wrc: cannot write the transfer journal {}: the transfer stops",
+                self.journal_path.display()
+            );
+        }
+        for step in std::mem::take(&mut self.journal_acks) {
             if let Some(links) = &self.links {
-                let _ = links.journaled.try_send(JournalAck { step: index, ok });
+                let _ = links.journaled.try_send(JournalAck { step, ok });
             }
         }
     }
@@ -475,9 +514,18 @@ impl CellService {
         let inside = self
             .inside
             .map_or("-".to_string(), |p| p.station.to_string());
+        // What the journal has cost the transfers so far (the Command Interpreter's waits
+        // for a step's beginning to be on disk).
+        let s = &self.shared;
+        let waits = s.journal_waits.load(Ordering::Relaxed);
+        let total = s.journal_wait_ns.load(Ordering::Relaxed) as f64 * 1e-6;
+        let max = s.journal_wait_max_ns.load(Ordering::Relaxed) as f64 * 1e-6;
+        let (writes, write_s, write_max_s) = self.journal_writes;
         let body = format!(
-            "uncertain={} inside={inside}",
-            self.wafers.uncertain_places().len()
+            "uncertain={} inside={inside} journal_waits={waits} journal_wait_ms={total:.3} journal_wait_max_ms={max:.3} journal_syncs={writes} journal_sync_ms={:.3} journal_sync_max_ms={:.3}",
+            self.wafers.uncertain_places().len(),
+            write_s * 1e3,
+            write_max_s * 1e3
         );
         self.ack(from, to, &body);
     }

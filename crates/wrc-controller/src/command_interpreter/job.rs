@@ -52,8 +52,8 @@ pub(super) enum JobWait {
     Vacuum { expect: bool, deadline: u64 },
     /// The board to clear its mapping latch.
     MapClear { deadline: u64 },
-    /// The transfer journal to make step `step`'s beginning durable.
-    Journal { step: u8, deadline: u64 },
+    /// The transfer journal to make step `step`'s beginning durable (asked at `since`).
+    Journal { step: u8, since: u64, deadline: u64 },
     /// A `SENSE`: the sensor to settle, until the deadline.
     Sense { deadline: u64 },
 }
@@ -371,9 +371,18 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         return;
                     }
                 }
-                JobWait::Journal { step, deadline } => {
+                JobWait::Journal {
+                    step,
+                    since,
+                    deadline,
+                } => {
                     match self.journal_ack(step) {
                         Some(true) => {
+                            let waited = self.now_ns.saturating_sub(since);
+                            let s = &self.shared;
+                            s.journal_waits.fetch_add(1, Ordering::Relaxed);
+                            s.journal_wait_ns.fetch_add(waited, Ordering::Relaxed);
+                            s.journal_wait_max_ns.fetch_max(waited, Ordering::Relaxed);
                             if let Some(r) = self.job.as_mut() {
                                 r.journaled = Some(step);
                                 r.wait = JobWait::Nothing;
@@ -452,6 +461,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                         let deadline = self.now_ns.saturating_add(JOURNAL_ACK_NS);
                         return self.job_wait(JobWait::Journal {
                             step: index,
+                            since: self.now_ns,
                             deadline,
                         });
                     }

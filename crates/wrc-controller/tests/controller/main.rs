@@ -14,6 +14,7 @@ mod paths;
 mod pipeline;
 mod power_cycle;
 mod programs;
+mod recovery;
 mod sessions;
 mod stall;
 mod stop_end;

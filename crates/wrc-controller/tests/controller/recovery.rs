@@ -1,0 +1,328 @@
+//! Recovery after a power loss, on the whole controller under virtual time: a GET and a PUT
+//! cut by a power loss after every record of their transfer journal and in the middle of
+//! each of their motions; after the restart the wafer map never claims a wafer the cell
+//! does not hold where it says, never forgets a wafer the cell still holds, and the
+//! recovery (RESET, HOME — which first retracts a hand left inside a station — SENSE, MAP)
+//! never moves the hand sideways inside a station and ends with the map equal to the cell.
+
+use std::path::PathBuf;
+
+use wrc_board::wrc_cell::journal::{read_journal, Record};
+use wrc_board::wrc_cell::{parse_slot_list, SlotCode, SlotState, World};
+use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
+use wrc_protocol::reply_field;
+
+use crate::vhost::{demo, truth_codes, LINE_NS};
+
+/// One board period [ns].
+const PERIOD_NS: u64 = 10_000_000;
+
+/// A controller in a state directory of its own, and one host on it.
+struct Cell {
+    sim: Simulation,
+    client: SimClient,
+    dir: tempfile::TempDir,
+    seen: Vec<String>,
+}
+
+impl Cell {
+    fn start() -> Cell {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sim = demo(dir.path(), SimCellFrom::default());
+        let client = sim.connect().unwrap();
+        Cell {
+            sim,
+            client,
+            dir,
+            seen: Vec::new(),
+        }
+    }
+
+    fn journal_path(&self) -> PathBuf {
+        self.dir.path().join("journal.wrcj")
+    }
+
+    /// Records in the transfer journal now.
+    fn records(&self) -> Vec<Record> {
+        read_journal(&self.journal_path()).unwrap().records
+    }
+
+    fn line(&mut self) -> String {
+        let l = self
+            .sim
+            .next_line(&mut self.client, LINE_NS)
+            .unwrap_or_else(|e| panic!("{e}; seen: {:?}", self.seen));
+        self.seen.push(l.clone());
+        l
+    }
+
+    fn ask(&mut self, line: &str) -> String {
+        self.sim
+            .send(&mut self.client, &format!("{line}\n"))
+            .unwrap();
+        loop {
+            let l = self.line();
+            if !l.starts_with("EVT") {
+                return l;
+            }
+        }
+    }
+
+    /// Send a motion or job with `id`: its ACK, then its final reply.
+    fn motion(&mut self, id: u32, line: &str) -> String {
+        let ack = self.ask(&format!("{id} {line}"));
+        assert_eq!(ack, format!("ACK {id}"), "{line}: {:?}", self.seen);
+        loop {
+            let l = self.line();
+            if !l.starts_with("EVT") {
+                return l;
+            }
+        }
+    }
+
+    fn world(&self) -> World {
+        let board = self.sim.board(0).unwrap();
+        board.cell().unwrap().world().clone()
+    }
+
+    fn power_cycle(self) -> Cell {
+        let Cell {
+            sim, client, dir, ..
+        } = self;
+        drop(client);
+        let mut sim = sim.power_cycle().unwrap();
+        let client = sim.connect().unwrap();
+        Cell {
+            sim,
+            client,
+            dir,
+            seen: Vec::new(),
+        }
+    }
+}
+
+/// The map's slots of `station` from a `WAFERS` reply.
+fn map_slots(wafers: &str, station: &str) -> Vec<SlotState> {
+    let list = reply_field(wafers, station).unwrap_or_else(|| panic!("no {station} in {wafers}"));
+    parse_slot_list(list).unwrap_or_else(|| panic!("{station}: {wafers}"))
+}
+
+/// The places of the map that claim something certain agree with the cell, and every wafer
+/// the cell holds is in the map where it is (certain or uncertain). Returns the number of
+/// uncertain places.
+fn check_claims(wafers: &str, world: &World, when: &str) -> usize {
+    let mut uncertain = 0;
+    for station in ["LP1", "LP2", "AL"] {
+        let truth = world.map_station(station).unwrap();
+        for (i, (state, real)) in map_slots(wafers, station).iter().zip(&truth).enumerate() {
+            let slot = i + 1;
+            let ok = match state {
+                SlotState::Wafer(_) => *real == SlotCode::Present,
+                SlotState::Empty => *real == SlotCode::Absent,
+                SlotState::Uncertain(_) => {
+                    uncertain += 1;
+                    true
+                }
+                SlotState::Unknown => true,
+                SlotState::Fault(f) => *real == f.code(),
+            };
+            assert!(
+                ok,
+                "{when}: the map claims {state:?} in {station}.{slot}, the cell has {real:?}\n{wafers}\n{}",
+                world.to_text()
+            );
+            // Never forgets a wafer the cell holds.
+            if *real == SlotCode::Present {
+                assert!(
+                    matches!(state, SlotState::Wafer(_) | SlotState::Uncertain(_)),
+                    "{when}: the cell holds a wafer in {station}.{slot}, the map says {state:?}\n{wafers}"
+                );
+            }
+        }
+    }
+    let hand = reply_field(wafers, "hand").unwrap();
+    match (hand, world.hand()) {
+        ("-", None) => {}
+        (h, _) if h.ends_with('?') => uncertain += 1,
+        (h, Some(_)) if h != "-" => {}
+        (h, real) => panic!("{when}: the map's hand {h}, the cell's {real:?}\n{wafers}"),
+    }
+    uncertain
+}
+
+/// A homed controller in control with LP1, LP2 and AL mapped.
+fn mapped() -> Cell {
+    let mut cell = Cell::start();
+    assert!(cell.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(cell.motion(2, "HOME"), "INF 2");
+    for (id, s) in [(3, "LP1"), (4, "LP2"), (5, "AL")] {
+        assert!(cell
+            .motion(id, &format!("MAP {s}"))
+            .starts_with(&format!("INF {id}")));
+    }
+    cell
+}
+
+/// Where a transfer is cut: after the journal holds `records` records, and `then_ns` more.
+#[derive(Debug, Clone, Copy)]
+struct Cut {
+    records: usize,
+    then_ns: u64,
+}
+
+/// Run `cell`'s transfer (already asked for) until `cut`, period by period.
+fn run_to(cell: &mut Cell, cut: Cut) {
+    for _ in 0..6_000 {
+        if cell.records().len() >= cut.records {
+            cell.sim.run_for_ns(cut.then_ns);
+            return;
+        }
+        cell.sim.run_for_ns(PERIOD_NS);
+    }
+    panic!("the journal never held {} records", cut.records);
+}
+
+/// The cuts of one transfer: after each record, and in the middle of each motion (from a
+/// reference run: the virtual time from a step's BEGIN to its DONE).
+fn cuts(put: bool) -> Vec<Cut> {
+    let mut cell = mapped();
+    if put {
+        assert_eq!(cell.motion(6, "GET LP1 1"), "INF 6 W1");
+    }
+    let line = if put { "PUT LP2 1" } else { "GET LP1 1" };
+    assert_eq!(cell.ask(&format!("7 {line}")), "ACK 7");
+    let mut times: Vec<(usize, u64)> = Vec::new();
+    let mut seen = 0;
+    for _ in 0..6_000 {
+        let n = cell.records().len();
+        if n > seen {
+            times.push((n, cell.sim.now_ns()));
+            seen = n;
+        }
+        if matches!(cell.records().last(), Some(Record::Close(_))) {
+            break;
+        }
+        cell.sim.run_for_ns(PERIOD_NS);
+    }
+    let records = cell.records();
+    assert!(
+        matches!(records.last(), Some(Record::Close(_))),
+        "{records:?}"
+    );
+    let mut out: Vec<Cut> = (1..records.len())
+        .map(|r| Cut {
+            records: r,
+            then_ns: 0,
+        })
+        .collect();
+    // Mid-motion: from a BEGIN of a moving step to the next record.
+    for (i, r) in records.iter().enumerate() {
+        if let Record::Begin { act, .. } = r {
+            if !act.moves() {
+                continue;
+            }
+            let at = |k: usize| times.iter().find(|(n, _)| *n > k).map(|(_, t)| *t);
+            if let (Some(begin), Some(next)) = (at(i), at(i + 1)) {
+                if next > begin + 2 * PERIOD_NS {
+                    out.push(Cut {
+                        records: i + 1,
+                        then_ns: (next - begin) / 2,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Cut a transfer at `cut`, restart, check the claims, recover, check the map equals the
+/// cell; returns what RECOVERY said.
+fn cut_and_recover(put: bool, cut: Cut) -> String {
+    let mut cell = mapped();
+    if put {
+        assert_eq!(cell.motion(6, "GET LP1 1"), "INF 6 W1");
+    }
+    let line = if put { "PUT LP2 1" } else { "GET LP1 1" };
+    assert_eq!(cell.ask(&format!("7 {line}")), "ACK 7");
+    run_to(&mut cell, cut);
+    let when = format!("{line} cut at {cut:?}");
+    let mut cell = cell.power_cycle();
+    // Let the start-up settle (the inputs read, the journal judged).
+    cell.sim.run_for_ns(500_000_000);
+    let wafers = cell.ask("WAFERS");
+    let world = cell.world();
+    let uncertain = check_claims(&wafers, &world, &when);
+    cell.seen.clear();
+    let recovery = cell.ask("10 RECOVERY");
+    let said = format!("{:?} {recovery}", cell.seen);
+    assert!(recovery.starts_with("ACK 10 uncertain="), "{when}: {said}");
+    if uncertain > 0 {
+        let status = cell.ask("STATUS");
+        assert!(status.contains("err=216"), "{when}: {status}");
+    }
+    // The recovery an operator does: RESET, HOME, SENSE, MAP what is uncertain.
+    assert!(cell.ask("11 CONTROL").starts_with("ACK 11"));
+    let _ = cell.ask("12 RESET");
+    let (faults, sides) = (cell.world().faults(), cell.world().side_collisions());
+    let home = cell.motion(13, "HOME");
+    assert_eq!(home, "INF 13", "{when}: {said} {:?}", cell.seen);
+    let world = cell.world();
+    assert_eq!(
+        world.side_collisions(),
+        sides,
+        "{when}: HOME hit a station's side ({:?})",
+        world.last_side_collision()
+    );
+    assert_eq!(world.faults(), faults, "{when}: {}", world.to_text());
+    let sense = cell.motion(14, "SENSE");
+    assert!(
+        sense == "INF 14 wafer" || sense == "INF 14 none",
+        "{when}: {sense}"
+    );
+    for (id, s) in [(15, "LP1"), (16, "LP2")] {
+        let r = cell.motion(id, &format!("MAP {s}"));
+        assert!(r.starts_with(&format!("INF {id}")), "{when}: {r}");
+    }
+    let wafers = cell.ask("WAFERS");
+    let world = cell.world();
+    assert_eq!(check_claims(&wafers, &world, &when), 0, "{when}: {wafers}");
+    for s in ["LP1", "LP2"] {
+        let codes: String = map_slots(&wafers, s)
+            .iter()
+            .map(|st| st.code().map_or('?', SlotCode::as_char))
+            .collect();
+        assert_eq!(codes, truth_codes(&cell.sim, s), "{when}: {s}");
+    }
+    let recovery = cell.ask("17 RECOVERY");
+    assert!(
+        recovery.starts_with("ACK 17 uncertain=0 inside=-"),
+        "{when}: {recovery}"
+    );
+    said
+}
+
+#[test]
+fn a_get_cut_by_a_power_loss_anywhere_is_recovered_without_a_wrong_claim() {
+    let cuts = cuts(false);
+    assert!(cuts.len() > 12, "{cuts:?}");
+    let mut inside = 0;
+    for cut in cuts {
+        let said = cut_and_recover(false, cut);
+        inside += usize::from(said.contains(" inside=LP"));
+    }
+    // The hand was left inside the station (and HOME took it out first) in several.
+    assert!(inside >= 4, "{inside} cuts left the hand inside");
+}
+
+#[test]
+fn a_put_cut_by_a_power_loss_anywhere_is_recovered_without_a_wrong_claim() {
+    let cuts = cuts(true);
+    assert!(cuts.len() > 12, "{cuts:?}");
+    let mut inside = 0;
+    for cut in cuts {
+        let said = cut_and_recover(true, cut);
+        inside += usize::from(said.contains(" inside=LP"));
+    }
+    // The hand was left inside the station (and HOME took it out first) in several.
+    assert!(inside >= 4, "{inside} cuts left the hand inside");
+}

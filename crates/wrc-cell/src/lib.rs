@@ -71,13 +71,13 @@ pub use blade::{Blade, MAX_BLADES};
 pub use mapping::{parse_slot_codes, slot_codes_string, SlotCode, SlotCodesError};
 pub use station::{
     parse_station_name, PoseKind, Station, StationError, StationKind, StationName, StationSim,
-    INSIDE_HALF_WIDTH_MM, INSIDE_MARGIN_MM, MAX_INPUT, MAX_SLOTS,
+    INSIDE_BEYOND_SEAT_MM, INSIDE_ENTRY_MARGIN_MM, INSIDE_HALF_WIDTH_MM, MAX_INPUT, MAX_SLOTS,
 };
 pub use stations::{stn_line, Stations, StationsError, DEMO_NAME, DEMO_TOML};
 pub use transfer::{plan, plan_get, plan_put, Step, TransferKind};
 pub use wafer_map::{
-    parse_slot_list, Interrupted, Location, MappingChanges, Reconciled, Sensed, SlotFault, SlotState,
-    Transfer, WaferId, WaferMap, WaferMapError, END_LINE, FORMAT_VERSION,
+    parse_slot_list, Interrupted, Location, MappingChanges, Reconciled, Sensed, SlotFault,
+    SlotState, Transfer, WaferId, WaferMap, WaferMapError, END_LINE, FORMAT_VERSION,
 };
 pub use world::{
     Mismatch, SlotContent, Tracking, World, WorldError, WorldEvent, SEAT_TOLERANCE_DEG,

@@ -52,9 +52,16 @@ pub type StationName = InlineName<16>;
 /// Most slots a station may have.
 pub const MAX_SLOTS: u16 = 50;
 
-/// How far past the approach pose (and past the seat) the hand counts as inside a station
-/// ([`Station::hand_inside`]) [mm].
-pub const INSIDE_MARGIN_MM: f64 = 1.0;
+/// How far past the approach pose the hand still counts as outside a station
+/// ([`Station::hand_inside`]) [mm]: the clearance in front of its opening. A joint move that
+/// leaves or reaches an approach pose may cross its line by a few millimetres (up to 10 mm
+/// measured in the demo cell's flows) before it turns away; inside the opening only straight
+/// moves along the line are safe.
+pub const INSIDE_ENTRY_MARGIN_MM: f64 = 15.0;
+
+/// How far beyond the seat, along the station's direction, the hand still counts as inside
+/// [mm] (the back of a cassette).
+pub const INSIDE_BEYOND_SEAT_MM: f64 = 5.0;
 
 /// How far off a station's line the hand still counts as in front of it (a 300 mm wafer's
 /// radius) [mm].
@@ -470,15 +477,16 @@ impl Station {
         (dx * c + dy * s, (dx * s - dy * c).abs())
     }
 
-    /// Whether the hand at `pose` is inside the station: past its approach pose (by more
-    /// than [`INSIDE_MARGIN_MM`]), not beyond the seat (by more than [`INSIDE_MARGIN_MM`]),
-    /// and in front of it (within a wafer's radius, [`INSIDE_HALF_WIDTH_MM`], of its line).
-    /// There the hand may only move along the line and vertically within its slot: anything
-    /// sideways hits the station.
+    /// Whether the hand at `pose` is inside the station: past its approach pose by more
+    /// than [`INSIDE_ENTRY_MARGIN_MM`], not beyond the seat by more than
+    /// [`INSIDE_BEYOND_SEAT_MM`], and in front of it (within a wafer's radius,
+    /// [`INSIDE_HALF_WIDTH_MM`], of its line). Heights are not looked at. There the hand may
+    /// only move along the line and vertically within its slot: anything sideways hits the
+    /// station (the simulated cell reports it, `WorldEvent::SideCollision`).
     pub fn hand_inside(&self, pose: &Pose) -> bool {
         let (along, lateral) = self.line_offset(pose);
-        along > -(self.approach_mm - INSIDE_MARGIN_MM)
-            && along <= INSIDE_MARGIN_MM
+        along > -(self.approach_mm - INSIDE_ENTRY_MARGIN_MM)
+            && along <= INSIDE_BEYOND_SEAT_MM
             && lateral <= INSIDE_HALF_WIDTH_MM
     }
 

@@ -27,9 +27,12 @@
 //!   cassette (or the slit valve, the aligner's posts). With u = (cos yaw, sin yaw) of the
 //!   station's taught yaw (the direction into it) and d = the hand's x, y minus the taught
 //!   x, y, let *along* = d·u and *lateral* = |d × u| \[mm\]. The hand is **inside** the
-//!   station when
+//!   station ([`Station::hand_inside`], the same test the controller uses to find a hand it
+//!   must take straight out) when
 //!   - along > −(approach_mm − [`ENTRY_MARGIN_MM`]): past the approach pose, which is
-//!     outside by definition (station.rs), by more than the margin;
+//!     outside by definition (station.rs), by more than the margin, the clearance in front
+//!     of the opening (a joint move that leaves or reaches an approach pose may cross its
+//!     line by a few millimetres before it turns away);
 //!   - along ≤ [`BEYOND_SEAT_MM`]: not behind the seat (the back of a cassette);
 //!   - lateral ≤ [`STATION_HALF_WIDTH_MM`], a wafer's radius: farther sideways the hand is
 //!     not in front of that station at all.
@@ -91,14 +94,14 @@ pub const SIDE_TOLERANCE_DEG: f64 = 2.0;
 
 /// How much less than `approach_mm` in front of the seat the inside of a station begins
 /// \[mm\]: the approach pose itself, and a hand within this of it, is outside.
-pub const ENTRY_MARGIN_MM: f64 = 1.0;
+pub const ENTRY_MARGIN_MM: f64 = crate::station::INSIDE_ENTRY_MARGIN_MM;
 
 /// How far beyond the seat (along the station's direction) a hand still counts as inside
 /// \[mm\].
-pub const BEYOND_SEAT_MM: f64 = 5.0;
+pub const BEYOND_SEAT_MM: f64 = crate::station::INSIDE_BEYOND_SEAT_MM;
 
 /// How far sideways from a station's line its inside reaches \[mm\]: a 300 mm wafer's radius.
-pub const STATION_HALF_WIDTH_MM: f64 = 150.0;
+pub const STATION_HALF_WIDTH_MM: f64 = crate::station::INSIDE_HALF_WIDTH_MM;
 
 /// Version of the world's text form.
 const WORLD_VERSION: i64 = 1;
@@ -234,14 +237,10 @@ impl WorldStation {
     /// whether it is off the line (sideways or turned beyond the tolerances).
     fn inside(&self, pose: &Pose) -> Option<bool> {
         let p = &self.station.pose;
-        let (uy, ux) = p.yaw.to_radians().sin_cos();
-        let (dx, dy) = (pose.x - p.x, pose.y - p.y);
-        let along = dx * ux + dy * uy;
-        let lateral = (dx * uy - dy * ux).abs();
-        let entry = -(self.station.approach_mm - ENTRY_MARGIN_MM);
-        if !(along > entry && along <= BEYOND_SEAT_MM && lateral <= STATION_HALF_WIDTH_MM) {
+        if !self.station.hand_inside(pose) {
             return None;
         }
+        let (_, lateral) = self.station.line_offset(pose);
         let turned = wrap180(pose.yaw - p.yaw).abs();
         // A NaN yaw is off the line too.
         Some(lateral > SIDE_TOLERANCE_MM || turned.is_nan() || turned > SIDE_TOLERANCE_DEG)

@@ -800,7 +800,10 @@ fn moving_sideways_inside_hits_the_side_once_per_entry() {
     // Out behind the approach pose and in again out of line: a new collision.
     world.step(offset(seat, yaw, -lp1.approach_mm, 0.0), false);
     assert_eq!(
-        world.step(offset(seat, yaw, -lp1.approach_mm + 2.0, 5.0), false),
+        world.step(
+            offset(seat, yaw, -lp1.approach_mm + ENTRY_MARGIN_MM + 2.0, 5.0),
+            false
+        ),
         Some(side("LP1"))
     );
     assert_eq!((world.faults(), world.side_collisions()), (2, 2));
@@ -810,7 +813,10 @@ fn moving_sideways_inside_hits_the_side_once_per_entry() {
     assert_eq!(back, world);
     let mut back = back;
     assert_eq!(
-        back.step(offset(seat, yaw, -lp1.approach_mm + 2.0, 9.0), false),
+        back.step(
+            offset(seat, yaw, -lp1.approach_mm + ENTRY_MARGIN_MM + 2.0, 9.0),
+            false
+        ),
         None
     );
 }

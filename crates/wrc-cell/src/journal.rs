@@ -85,6 +85,9 @@ pub enum Act {
     Blade(Blade),
     /// A step of a mapping scan (`SCAN`).
     Scan,
+    /// Before the transfer (or mapping) starts: the straight line out of a station the hand
+    /// stood inside (a fault, a program or an operator left it there) (`LEAVE`).
+    Leave,
 }
 
 impl Act {
@@ -107,6 +110,7 @@ impl Act {
             Act::Blade(Blade::A) => "BLADE.A",
             Act::Blade(Blade::B) => "BLADE.B",
             Act::Scan => "SCAN",
+            Act::Leave => "LEAVE",
         }
     }
 
@@ -128,6 +132,9 @@ impl Act {
             Act::Speed => "the station's speed",
             Act::Blade(_) => "the choice of blade",
             Act::Scan => "the mapping scan",
+            Act::Leave => {
+                "the straight line out of the station the hand stood in, before the transfer"
+            }
         }
     }
 
@@ -135,7 +142,14 @@ impl Act {
     pub fn moves(self) -> bool {
         matches!(
             self,
-            Act::Approach | Act::Enter | Act::In | Act::Lift | Act::Lower | Act::Out | Act::Scan
+            Act::Approach
+                | Act::Enter
+                | Act::In
+                | Act::Lift
+                | Act::Lower
+                | Act::Out
+                | Act::Scan
+                | Act::Leave
         )
     }
 
@@ -158,6 +172,7 @@ impl Act {
             "BLADE.A" => Act::Blade(Blade::A),
             "BLADE.B" => Act::Blade(Blade::B),
             "SCAN" => Act::Scan,
+            "LEAVE" => Act::Leave,
             _ => return None,
         })
     }
@@ -634,7 +649,9 @@ pub fn judge(records: &[Record], evidence: Evidence) -> Judgement {
     let last_entry = job.iter().rposition(
         |r| matches!(r, Record::Begin { act, .. } if matches!(act, Act::In | Act::Enter)),
     );
-    j.inside = entered && left.is_none_or(|out| last_entry.is_some_and(|e| e > out));
+    // Or it began to leave a station it stood in before the transfer and had not left it.
+    let leaving = matches!(j.last, Some((_, Act::Leave, false)));
+    j.inside = leaving || (entered && left.is_none_or(|out| last_entry.is_some_and(|e| e > out)));
     let where_ = match j.last {
         Some((step, act, true)) => format!("after step {} ({})", step + 1, act.describe()),
         Some((step, act, false)) => format!("during step {} ({})", step + 1, act.describe()),

@@ -142,6 +142,10 @@ pub struct CellService {
     journal_failed: bool,
     /// Steps whose beginnings wait for the next sync to be answered.
     journal_acks: Vec<u8>,
+    /// Where the hand stood still when [`CellService::watch_rest`] last looked.
+    rest_pose: Option<wrc_robot::Pose>,
+    /// The Command Interpreter holds a retract plan `watch_rest` sent (not a power loss's).
+    rest_plan: bool,
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
@@ -224,6 +228,8 @@ impl CellService {
             journal_unsynced: false,
             journal_failed: false,
             journal_acks: Vec::new(),
+            rest_pose: None,
+            rest_plan: false,
         };
         cell.open_journal();
         Ok(cell)
@@ -551,9 +557,15 @@ impl CellService {
         job.station_index = index as u32;
         if kind == JobKind::Map {
             job.slot = station.slots;
-            let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
-            for step in map_steps(&station, &self.robot, &from)? {
-                job.push(step);
+            let here = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+            let (out, from) = self.leave_station(&here)?;
+            for step in out
+                .into_iter()
+                .chain(map_steps(&station, &self.robot, &from)?)
+            {
+                if !job.push(step) {
+                    return Err((Code::Internal, "the mapping has too many steps".into()));
+                }
             }
             return Ok(job);
         }
@@ -640,10 +652,13 @@ impl CellService {
                 ));
             }
         }
-        let from = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        let here = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+        // Out of a station the hand stands in first, straight along its line.
+        let (out, from) = self.leave_station(&here)?;
         let refused = |e: wrc_cell::StationError| (station_code(&e), format!("{e}; nothing moved"));
         let offset = |b: Blade| self.hand.z_offset_mm(b.index());
         let mut steps = vec![JobStep::UseBlade(blade)];
+        steps.extend(out);
         let (first, approach) = transfer_steps(
             tkind,
             &station.for_blade(offset(blade)),
@@ -926,6 +941,7 @@ impl CellService {
         {
             self.recover();
         }
+        self.watch_rest();
         // A blade whose wafer is uncertain is not watched (its vacuum is off, nothing to
         // sense), but everything moves at the careful speed while it is.
         let holding = Blade::ALL

@@ -277,13 +277,17 @@ impl Session for RealTime {
     }
 }
 
+/// What a run of transfers leaves: its trace, the timed requests (id, line), and what the
+/// transfer journal cost.
+type Driven = (TraceFile, Vec<(u32, String)>, JournalCost);
+
 /// Run the set-up and the timed transfers of `sequence`; the trace of the run.
 fn drive(
     session: &mut dyn Session,
     sequence: Sequence,
     wafers: u16,
     trace_dir: &Path,
-) -> anyhow::Result<(TraceFile, Vec<(u32, String)>, JournalCost)> {
+) -> anyhow::Result<Driven> {
     let (setup, timed) = sequence.requests(wafers);
     let mut id = 0;
     let motion = |session: &mut dyn Session, line: &str, id: u32| -> anyhow::Result<()> {

@@ -254,6 +254,42 @@ fn drive_to(host: &mut DpramBoard, robot: &wrc_robot::Robot, pose: Pose) {
     assert_eq!(f.axes[0].alarm, 0);
 }
 
+/// Push a straight-line move of the hand to `pose` (right elbow), in steps of at most a
+/// millimetre, as the controller moves inside a station (a joint move there swings the hand
+/// through the station's side), and wait until the axes have arrived and settled.
+fn drive_straight_to(host: &mut DpramBoard, robot: &wrc_robot::Robot, pose: Pose) {
+    let f = until(host, false, |f| f.axes[0].fifo_level == 0);
+    let mut end = [0i64; 16];
+    for (e, a) in end.iter_mut().zip(&f.axes[..4]) {
+        *e = a.commanded;
+    }
+    let from = robot.forward(&robot.pulses_to_joints(&end));
+    let length =
+        ((pose.x - from.x).powi(2) + (pose.y - from.y).powi(2) + (pose.z - from.z).powi(2)).sqrt();
+    let steps = length.ceil().max(1.0) as usize;
+    let mut joints = robot.pulses_to_joints(&end);
+    for k in 1..=steps {
+        let t = k as f64 / steps as f64;
+        let at = Pose {
+            x: from.x + (pose.x - from.x) * t,
+            y: from.y + (pose.y - from.y) * t,
+            z: from.z + (pose.z - from.z) * t,
+            yaw: from.yaw + (pose.yaw - from.yaw) * t,
+        };
+        joints = robot.inverse(&at, Posture::Right, Some(&joints)).unwrap();
+        let target = robot.joints_to_pulses(&joints);
+        let mut inc = [0i64; 16];
+        for ((i, e), t) in inc.iter_mut().zip(end.iter_mut()).zip(&target) {
+            *i = t - *e;
+            *e = *t;
+        }
+        wait_until("room in the board's FIFO", || {
+            host.push(&inc).map_err(|e| e.to_string())
+        });
+    }
+    drive_to(host, robot, pose);
+}
+
 #[test]
 fn the_simulated_cell_keeps_its_world_file_as_the_ground_truth() {
     let dir = tempfile::tempdir().unwrap();
@@ -288,7 +324,7 @@ fn the_simulated_cell_keeps_its_world_file_as_the_ground_truth() {
         &config.robot,
         lp1.approach_pose(1, false).unwrap(),
     );
-    drive_to(&mut host, &config.robot, lp1.seated_pose(1, false).unwrap());
+    drive_straight_to(&mut host, &config.robot, lp1.seated_pose(1, false).unwrap());
     host.write_outputs(0, valve);
     drive_to(&mut host, &config.robot, lp1.seated_pose(1, true).unwrap());
     until(&mut host, false, |f| {

@@ -210,6 +210,46 @@ fn a_get_interrupted_at_each_record_after_a_power_loss() {
     }
 }
 
+/// A GET that first leaves the station the hand stood in (a fault left it there): the
+/// straight line out before the approach.
+const GET_AFTER_LEAVE: [Act; 10] = [
+    Act::Speed,
+    Act::Leave,
+    Act::Speed,
+    Act::Enter,
+    Act::VacuumOn,
+    Act::Lift,
+    Act::CheckWafer,
+    Act::Commit,
+    Act::Out,
+    Act::Speed,
+];
+
+#[test]
+fn a_get_that_first_left_a_station_is_judged_by_its_own_line_out_only() {
+    use Maybe::*;
+    let t = transfer(TransferKind::Get);
+    let want = [
+        (2, No, Yes, false),          // DONE SPEED
+        (3, No, Yes, true),           // BEGIN LEAVE: still in the station it stood in
+        (4, No, Yes, false),          // DONE LEAVE: out
+        (7, No, Yes, true),           // BEGIN ENTER
+        (12, Perhaps, Perhaps, true), // DONE LIFT
+        (14, Perhaps, Perhaps, true), // DONE CHECK1: the earlier line out is not this one
+        (17, Perhaps, Perhaps, true), // BEGIN OUT
+        (18, Perhaps, No, false),     // DONE OUT
+    ];
+    for (n, blade, slot, inside) in want {
+        assert_eq!(
+            verdict(t, &GET_AFTER_LEAVE, n, VALVE_OFF),
+            (blade, slot, inside),
+            "{n} records"
+        );
+    }
+    assert_eq!(Act::parse(Act::Leave.word()), Some(Act::Leave));
+    assert!(Act::Leave.moves());
+}
+
 #[test]
 fn a_get_interrupted_with_the_valve_kept_on_is_settled_by_the_sensor() {
     use Maybe::*;

@@ -20,7 +20,10 @@ use wrc_protocol::{Code, ConfirmArg, Event, Place, ReplyTo, StationName};
 use wrc_robot::Pose;
 
 use super::CellService;
-use crate::messages::cell_job::{CellJob, JobKind, JobOffer, JobStep, JournalAck, RetractPlan};
+use crate::messages::cell_job::{
+    CellJob, JobKind, JobOffer, JobStep, JournalAck, RetractPlan, IN_STATION_DEG, IN_STATION_MM,
+    ON_LINE_DEG, ON_LINE_MM,
+};
 use crate::messages::SourceId;
 
 /// The speed of a retract out of a station [%]: slow, whatever the station allows.
@@ -44,6 +47,9 @@ fn journal_plan(
     use wrc_cell::Step;
     let mut kind = first;
     let mut committed = false;
+    // A line before the first move to an approach pose takes a hand that stood inside a
+    // station out of it ([`CellService::leave_station`]).
+    let mut approached = false;
     let mut blades = 0;
     let mut acts = Vec::with_capacity(steps.len());
     let mut targets = Vec::with_capacity(steps.len());
@@ -61,7 +67,11 @@ fn journal_plan(
             JobStep::Transfer(t) => match t {
                 Step::RequireInput(_) => (Act::Interlock, None),
                 Step::Speed(_) | Step::RestoreSpeed => (Act::Speed, None),
-                Step::Ptp(p, _) => (Act::Approach, Some(*p)),
+                Step::Ptp(p, _) => {
+                    approached = true;
+                    (Act::Approach, Some(*p))
+                }
+                Step::Line(p) if !approached => (Act::Leave, Some(*p)),
                 Step::Line(p) if committed => (Act::Out, Some(*p)),
                 Step::Line(p) => (Act::In, Some(*p)),
                 Step::Vacuum(true) => (Act::VacuumOn, None),
@@ -75,8 +85,14 @@ fn journal_plan(
                     (Act::Commit, None)
                 }
             },
-            JobStep::Joints(j) => (Act::Approach, Some(robot.forward(j))),
-            JobStep::Approach { to, .. } => (Act::Enter, Some(*to)),
+            JobStep::Joints(j) => {
+                approached = true;
+                (Act::Approach, Some(robot.forward(j)))
+            }
+            JobStep::Approach { to, .. } => {
+                approached = true;
+                (Act::Enter, Some(*to))
+            }
             JobStep::MapClear | JobStep::MapSensor(_) | JobStep::MapRead | JobStep::Sense => {
                 (Act::Scan, None)
             }
@@ -265,9 +281,140 @@ impl CellService {
             .max(1.0)
     }
 
-    /// The station the hand is inside at `pose`, if any.
+    /// The station the hand is inside at `pose`, if any: in front of it past its approach
+    /// pose ([`wrc_cell::Station::hand_inside`]) and within [`IN_STATION_MM`] and
+    /// [`IN_STATION_DEG`] of its line; farther off the line the hand stands in the open
+    /// space before the station.
     fn inside_station(&self, pose: &Pose) -> Option<&wrc_cell::Station> {
-        self.stations.iter().find(|s| s.hand_inside(pose))
+        self.stations.iter().find(|s| {
+            let (_, lateral) = s.line_offset(pose);
+            let turned = wrc_robot::wrap180(pose.yaw - s.pose.yaw).abs();
+            s.hand_inside(pose) && lateral <= IN_STATION_MM && turned <= IN_STATION_DEG
+        })
+    }
+
+    /// The retract out of the station the hand stands inside at `pose` (`None`: outside
+    /// every station), and why the hand cannot be taken straight out if it cannot: it
+    /// stands off the station's line by more than [`ON_LINE_MM`] or [`ON_LINE_DEG`] (the
+    /// Command Interpreter refuses HOME and RETRACT then, with the same reason).
+    fn retract_from(&self, pose: &Pose) -> Option<(RetractPlan, Option<String>)> {
+        let s = self.inside_station(pose)?;
+        let (_, lateral) = s.line_offset(pose);
+        let turned = wrc_robot::wrap180(pose.yaw - s.pose.yaw).abs();
+        let off = (!(lateral <= ON_LINE_MM && turned <= ON_LINE_DEG)).then(|| {
+            format!(
+                "the hand stands in {} {lateral:.1} mm and {turned:.1} deg off its line: a straight move out would scrape it; move it out by hand (JOG) first",
+                s.name
+            )
+        });
+        let careful = Blade::ALL
+            .into_iter()
+            .any(|b| self.wafers.hand_of(b).is_some());
+        let plan = RetractPlan {
+            station: s.name,
+            to: s.retract_pose(pose),
+            depth_mm: s.approach_mm,
+            speed_pct: s.speed_pct.min(RETRACT_SPEED_PCT),
+            careful,
+        };
+        Some((plan, off))
+    }
+
+    /// A job's way out of the station the hand stands inside at `from` (a transfer or a MAP
+    /// that failed there, a program or an operator that moved it in): straight out along
+    /// the station's line to its approach pose at the hand's height, slowly, before the
+    /// job's first joint move, which would otherwise swing the hand sideways through the
+    /// station's side. The steps and the joints where they end; none when the hand stands
+    /// outside every station; a refusal (140) when it stands off the line.
+    pub(super) fn leave_station(
+        &self,
+        from: &wrc_robot::Joints,
+    ) -> Result<(Vec<JobStep>, wrc_robot::Joints), (Code, String)> {
+        let pose = self.robot.forward(from);
+        let plan = match self.retract_from(&pose) {
+            None => return Ok((Vec::new(), *from)),
+            Some((plan, None)) => plan,
+            Some((_, Some(text))) => {
+                return Err((Code::HandInside, format!("{text}; nothing moved")))
+            }
+        };
+        let end = wrc_motion::check_line(&self.robot, from, &plan.to)
+            .map(|(_, check)| check.end_joints)
+            .map_err(|e| {
+                (
+                    Code::HandInside,
+                    format!(
+                        "the hand stands in {} and the straight line out of it is refused: {e}; nothing moved",
+                        plan.station
+                    ),
+                )
+            })?;
+        let steps = vec![
+            JobStep::Transfer(wrc_cell::Step::Speed(plan.speed_pct)),
+            JobStep::Transfer(wrc_cell::Step::Line(plan.to)),
+            JobStep::Transfer(wrc_cell::Step::RestoreSpeed),
+        ];
+        Ok((steps, end))
+    }
+
+    /// While the arm stands still and no job runs: whether the hand stands inside a
+    /// station, so that HOME takes it straight out first (the Command Interpreter keeps
+    /// the plan; it checks it against where the hand is when HOME comes). A plan left by a
+    /// power loss is dropped once the hand stands outside every station (moved out with
+    /// `MOVL` or `JOG`).
+    pub(super) fn watch_rest(&mut self) {
+        let s = &self.shared;
+        if !self.reconciled
+            || self.busy.is_some()
+            || !self.stands_still()
+            || !s.io_ready.load(Ordering::Acquire)
+            || s.board_dead.load(Ordering::Acquire)
+        {
+            return;
+        }
+        let pose = self.hand_pose();
+        let same = self.rest_pose.is_some_and(|p| {
+            (p.x - pose.x).abs() < 1e-6
+                && (p.y - pose.y).abs() < 1e-6
+                && (p.z - pose.z).abs() < 1e-6
+                && (p.yaw - pose.yaw).abs() < 1e-6
+        });
+        if same {
+            return;
+        }
+        let Some(links) = self.links.as_ref() else {
+            return;
+        };
+        let offer = match (self.inside, self.retract_from(&pose)) {
+            // Out of the station a power loss left it in: nothing left to retract.
+            (Some(plan), None) => {
+                tracing::info!("wrc: the hand is out of {}", plan.station);
+                Some((None, Some(plan.station)))
+            }
+            (Some(_), Some(_)) => None,
+            (None, Some((plan, _))) => Some((Some(plan), None)),
+            (None, _) if self.rest_plan => Some((None, None)),
+            (None, _) => None,
+        };
+        if let Some((retract, out_of)) = offer {
+            if links
+                .jobs
+                .try_send(JobOffer::Recovery {
+                    retract,
+                    alarm: false,
+                })
+                .is_err()
+            {
+                return; // the queue is full: again at the next poll
+            }
+            self.rest_plan = retract.is_some();
+            if let Some(station) = out_of {
+                self.inside = None;
+                let text = format!("the hand is out of {station}");
+                self.event(SourceId::BROADCAST, false, &Event::Recovery(&text));
+            }
+        }
+        self.rest_pose = Some(pose);
     }
 
     /// At start-up, or when a board answers again, once the inputs are read: settle a
@@ -430,6 +577,7 @@ impl CellService {
         self.inside = self.inside_station(&pose).map(|s| RetractPlan {
             station: s.name,
             to: s.retract_pose(&pose),
+            depth_mm: s.approach_mm,
             speed_pct: s.speed_pct.min(RETRACT_SPEED_PCT),
             careful,
         });
@@ -450,6 +598,14 @@ impl CellService {
         }
     }
 
+    /// The station the hand is inside: the one a power loss left it in, or the one it stands
+    /// in now.
+    fn inside_now(&self) -> Option<StationName> {
+        self.inside
+            .map(|p| p.station)
+            .or_else(|| self.inside_station(&self.hand_pose()).map(|s| s.name))
+    }
+
     /// The lines of `RECOVERY` (and of the broadcast after a recovery).
     fn recovery_lines(&self) -> Vec<String> {
         let mut lines = Vec::new();
@@ -463,9 +619,10 @@ impl CellService {
             "hand x={:.3} y={:.3} z={:.3} yaw={:.3}",
             pose.x, pose.y, pose.z, pose.yaw
         );
-        match &self.inside {
-            Some(plan) => {
-                let _ = write!(hand, " inside={}", plan.station);
+        let inside = self.inside_now();
+        match inside {
+            Some(station) => {
+                let _ = write!(hand, " inside={station}");
             }
             None => hand.push_str(" inside=-"),
         }
@@ -474,8 +631,8 @@ impl CellService {
             lines.push(format!("uncertain {at} {w}"));
         }
         let mut next = Vec::new();
-        if let Some(plan) = &self.inside {
-            next.push(format!("RETRACT (or HOME) out of {}", plan.station));
+        if let Some(station) = inside {
+            next.push(format!("RETRACT (or HOME) out of {station}"));
         }
         let mut stations: Vec<StationName> = Vec::new();
         let mut blades: Vec<Blade> = Vec::new();
@@ -511,9 +668,7 @@ impl CellService {
         for l in &lines {
             self.event(from, to.checksum, &Event::Recovery(l));
         }
-        let inside = self
-            .inside
-            .map_or("-".to_string(), |p| p.station.to_string());
+        let inside = self.inside_now().map_or("-".to_string(), |s| s.to_string());
         // What the journal has cost the transfers so far (the Command Interpreter's waits
         // for a step's beginning to be on disk).
         let s = &self.shared;

@@ -186,13 +186,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
-    /// `HOME`: a hand left inside a station (the cell service found it at start-up) is
-    /// first taken straight out to the station's approach pose, slowly; then every axis
-    /// goes home by PTP (at the station's speed when a blade may hold a wafer).
+    /// `HOME`: a hand left inside a station (by a power loss, a fault, a program or an
+    /// operator; the cell service says which) is first taken straight out to the station's
+    /// approach pose, slowly; then every axis goes home by PTP (at the station's speed when
+    /// a blade may hold a wafer).
     pub(super) fn home(&mut self, from: SourceId, to: ReplyTo) {
         let home = self.robot.home();
         let mut speed = None;
-        if let Some(plan) = self.retract {
+        if let Some(plan) = self.retract_plan() {
             if let Err(text) = self.start_retract(SourceId::NONE, ReplyTo::default(), &plan) {
                 return self.nak(from, to, Code::HandInside, text.as_str());
             }
@@ -205,7 +206,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// `RETRACT`: take a hand left inside a station straight out to its approach pose.
     pub(super) fn retract_request(&mut self, from: SourceId, to: ReplyTo) {
-        let Some(plan) = self.retract else {
+        let Some(plan) = self.retract_plan() else {
             return self.nak(
                 from,
                 to,
@@ -218,8 +219,23 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
     }
 
+    /// The retract the cell service planned, if the hand (where the queued motions end) is
+    /// still past the station's approach pose; a plan the hand has left (moved out since)
+    /// is dropped.
+    fn retract_plan(&mut self) -> Option<crate::messages::cell_job::RetractPlan> {
+        let plan = self.retract?;
+        if plan.inside(&self.robot.forward(&self.planned_end)) {
+            Some(plan)
+        } else {
+            self.retract = None;
+            None
+        }
+    }
+
     /// Queue the retract of `plan` (its reply to `from`); the reason when the hand is not on
     /// the station's line any more (it was jogged) or the line is refused.
+    // The reason is a fixed buffer on purpose: the real-time task does not allocate.
+    #[allow(clippy::result_large_err)]
     fn start_retract(
         &mut self,
         from: SourceId,
@@ -231,12 +247,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             .robot
             .pulses_to_joints(&self.robot.joints_to_pulses(&self.planned_end));
         let here = self.robot.forward(&start);
-        // Along the line out: the hand must be on it (within a millimetre and a degree).
+        // Along the line out: the hand must be on it (a stop's brake may leave it by a few
+        // millimetres).
         let (s, c) = plan.to.yaw.to_radians().sin_cos();
         let (dx, dy) = (here.x - plan.to.x, here.y - plan.to.y);
         let lateral = (dx * s - dy * c).abs();
         let turned = wrc_robot::wrap180(here.yaw - plan.to.yaw).abs();
-        if lateral > 1.0 || turned > 1.0 {
+        use crate::messages::cell_job::{ON_LINE_DEG, ON_LINE_MM};
+        if !(lateral <= ON_LINE_MM && turned <= ON_LINE_DEG) {
             let _ = write!(
                 text,
                 "the hand is in {} but {lateral:.1} mm and {turned:.1} deg off its line: move it out by hand (JOG), then HOME",

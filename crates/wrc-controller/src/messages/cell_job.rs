@@ -27,6 +27,23 @@ pub const MAX_JOB_STEPS: usize = 32;
 /// Most slots a mapping reports.
 pub const MAX_MAP_SLOTS: usize = 64;
 
+/// How far off a station's line (sideways [mm], turned [deg]) a hand inside it may stand and
+/// still be taken straight out ([`RetractPlan`], a job's way out of the station it stands
+/// in): a stop's brake in a blended approach or on a line may leave it by a few millimetres
+/// (up to 3.8 mm and 3.7° measured), and the straight line to the approach pose only brings
+/// it nearer the line. Farther off, it is moved out by hand (`JOG`).
+pub const ON_LINE_MM: f64 = 5.0;
+/// See [`ON_LINE_MM`] [deg].
+pub const ON_LINE_DEG: f64 = 5.0;
+
+/// How far off a station's line a hand in front of it (`wrc_cell::Station::hand_inside`)
+/// may stand and be in the station at all [mm]: a cassette's slot leaves a wafer a few
+/// millimetres, so a hand farther off stands in the open space before the station (where a
+/// joint move passes), not in it.
+pub const IN_STATION_MM: f64 = 20.0;
+/// See [`IN_STATION_MM`] [deg].
+pub const IN_STATION_DEG: f64 = 15.0;
+
 /// What a job does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JobKind {
@@ -231,6 +248,8 @@ pub struct RetractPlan {
     pub station: StationName,
     /// The approach pose at the hand's height (the line's end, outside).
     pub to: wrc_robot::Pose,
+    /// How far the station's seat lies beyond `to`, along its line (its `approach_mm`).
+    pub depth_mm: f64,
     /// The speed of the retract and, when a blade may hold a wafer, of the HOME after it
     /// [%].
     pub speed_pct: f64,
@@ -246,6 +265,22 @@ pub struct JournalAck {
     pub step: u8,
     /// Whether the record is on disk.
     pub ok: bool,
+}
+
+impl RetractPlan {
+    /// Whether the hand at `pose` is inside the plan's station: past its approach pose, not
+    /// behind its seat, and within [`IN_STATION_MM`] and [`IN_STATION_DEG`] of its line.
+    pub fn inside(&self, pose: &wrc_robot::Pose) -> bool {
+        let (s, c) = self.to.yaw.to_radians().sin_cos();
+        let (dx, dy) = (pose.x - self.to.x, pose.y - self.to.y);
+        let along = dx * c + dy * s;
+        let lateral = (dx * s - dy * c).abs();
+        let turned = wrc_robot::wrap180(pose.yaw - self.to.yaw).abs();
+        along > wrc_cell::INSIDE_ENTRY_MARGIN_MM
+            && along <= self.depth_mm + wrc_cell::INSIDE_BEYOND_SEAT_MM
+            && lateral <= IN_STATION_MM
+            && turned <= IN_STATION_DEG
+    }
 }
 
 /// From the Command Interpreter to the cell service.

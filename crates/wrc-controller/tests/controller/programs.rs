@@ -95,6 +95,7 @@ PUT \"LP2\", 2
 PRINT \"LP2 slot 2:\", WAFER$(\"LP2\", 2), SLOT(\"LP2\", 2)
 ",
     );
+    let sides = host.world().side_collisions();
     assert_eq!(host.ask("9 RUN p"), "ACK 9");
     host.until("EVT PRINT mapped");
     // Someone takes the wafer of LP1 slot 2 away after the mapping.
@@ -127,6 +128,14 @@ PRINT \"LP2 slot 2:\", WAFER$(\"LP2\", 2), SLOT(\"LP2\", 2)
         ["got W2", "LP2 slot 2: W2 1"],
         "{:?}",
         host.seen
+    );
+    // Each retry left LP1 along its line before its approach: nothing hit a side.
+    let world = host.world();
+    assert_eq!(
+        world.side_collisions(),
+        sides,
+        "{:?}",
+        world.last_side_collision()
     );
     assert_eq!(&host.truth("LP2")[..3], "010");
     assert_eq!(&host.truth("LP1")[..3], "101");

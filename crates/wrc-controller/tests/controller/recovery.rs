@@ -4,15 +4,18 @@
 //! does not hold where it says, never forgets a wafer the cell still holds, and the
 //! recovery (RESET, HOME — which first retracts a hand left inside a station — SENSE, MAP)
 //! never moves the hand sideways inside a station and ends with the map equal to the cell.
+//! A hand a fault left inside a station (a GET's vacuum miss) is taken straight out by
+//! HOME and by the next GET or MAP before their own moves, or refused when it stands off
+//! the station's line.
 
 use std::path::PathBuf;
 
-use wrc_board::wrc_cell::journal::{read_journal, Record};
+use wrc_board::wrc_cell::journal::{read_journal, Act, Record};
 use wrc_board::wrc_cell::{parse_slot_list, SlotCode, SlotState, World};
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
 use wrc_protocol::reply_field;
 
-use crate::vhost::{demo, truth_codes, LINE_NS};
+use crate::vhost::{demo, map_codes, truth_codes, VHost, LINE_NS};
 
 /// One board period [ns].
 const PERIOD_NS: u64 = 10_000_000;
@@ -325,4 +328,90 @@ fn a_put_cut_by_a_power_loss_anywhere_is_recovered_without_a_wrong_claim() {
     }
     // The hand was left inside the station (and HOME took it out first) in several.
     assert!(inside >= 4, "{inside} cuts left the hand inside");
+}
+
+/// A host in control, homed, with LP1 mapped; the simulated cell's side collisions so far.
+fn mapped_lp1() -> (VHost, u32) {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    let sides = host.world().side_collisions();
+    (host, sides)
+}
+
+/// Take the wafer of LP1's slot `slot` out of the simulated cell (someone took it away by
+/// hand after the mapping), and GET it: the blade finds nothing after the lift (212) and
+/// the fault leaves the hand inside LP1; RESET.
+fn miss_inside_lp1(host: &mut VHost, id: u32, slot: u16) {
+    let mut board = host.sim.board(0).unwrap();
+    let cell = board.take_cell().unwrap();
+    let text = cell.world().to_text();
+    let edited = text.replacen(&format!("\"T{slot}\""), "\"-\"", 1);
+    assert_ne!(edited, text);
+    let world = World::from_text(&edited, cell.stations()).unwrap();
+    board.attach_cell(cell.with_world(world)).unwrap();
+    drop(board);
+    let r = host.motion(id, &format!("GET LP1 {slot}"));
+    assert!(r.starts_with(&format!("ABS {id} 212")), "{r}");
+    host.settled_wafers();
+    let recovery = host.ask(&format!("{} RECOVERY", id + 1));
+    assert!(recovery.contains(" inside=LP1 "), "{recovery}");
+    assert_eq!(
+        host.ask(&format!("{} RESET", id + 2)),
+        format!("ACK {}", id + 2)
+    );
+}
+
+#[test]
+fn a_hand_a_fault_left_inside_a_station_is_taken_straight_out_before_anything_else() {
+    let (mut host, sides) = mapped_lp1();
+    let straight = |host: &VHost, what: &str| {
+        let world = host.world();
+        assert_eq!(
+            world.side_collisions(),
+            sides,
+            "{what} hit a station's side: {:?}",
+            world.last_side_collision()
+        );
+    };
+    // HOME: out along LP1's line first.
+    miss_inside_lp1(&mut host, 10, 2);
+    assert_eq!(host.motion(13, "HOME"), "INF 13");
+    straight(&host, "HOME");
+    assert!(host.ask("14 RECOVERY").contains(" inside=- "));
+    // The next GET: out first (journaled as LEAVE), then its own approach.
+    miss_inside_lp1(&mut host, 20, 3);
+    assert_eq!(host.motion(23, "GET LP1 4"), "INF 23 W4");
+    straight(&host, "GET");
+    let journal = read_journal(&host.dir().join("journal.wrcj")).unwrap();
+    let first_move = journal.records.iter().find_map(|r| match r {
+        Record::Begin { act, .. } if act.moves() => Some(*act),
+        _ => None,
+    });
+    assert_eq!(first_move, Some(Act::Leave), "{:?}", journal.records);
+    assert_eq!(host.motion(24, "PUT LP1 4"), "INF 24 W4");
+    // A MAP: out first too, and the map then equals the cell.
+    miss_inside_lp1(&mut host, 30, 5);
+    assert!(host.motion(33, "MAP LP1").starts_with("INF 33"));
+    straight(&host, "MAP");
+    assert_eq!(map_codes(&host.ask("WAFERS"), "LP1"), host.truth("LP1"));
+    // Turned off the line (a jog), the hand cannot go straight out: refused, nothing moves.
+    miss_inside_lp1(&mut host, 40, 6);
+    assert_eq!(host.motion(43, "JOG 1 2000"), "INF 43");
+    let sides = host.world().side_collisions();
+    let before = host.encoders();
+    let get = host.ask("44 GET LP1 7");
+    assert!(
+        get.starts_with("NAK 44 140 ") && get.contains("off its line"),
+        "{get}"
+    );
+    let home = host.ask("45 HOME");
+    assert!(
+        home.starts_with("NAK 45 140 ") && home.contains("off its line"),
+        "{home}"
+    );
+    host.sim.run_for_ns(200_000_000);
+    assert_eq!(host.encoders(), before);
+    assert_eq!(host.world().side_collisions(), sides);
 }

@@ -97,6 +97,11 @@ impl VHost {
         }
     }
 
+    /// The controller's state directory (wafer map, journal, programs).
+    pub fn dir(&self) -> &Path {
+        self._dir.path()
+    }
+
     /// The next line, events included.
     pub fn line(&mut self) -> String {
         let l = self

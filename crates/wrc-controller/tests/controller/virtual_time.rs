@@ -99,6 +99,14 @@ fn the_demo_program_moves_25_wafers_lp1_al_lp2_and_the_map_matches_the_cell() {
     let world = board.cell().unwrap().world();
     assert_eq!(world.hand(), None);
     assert!(world.lost().is_empty(), "{}", world.to_text());
+    // No move of the 100 transfers went sideways through a station's side.
+    assert_eq!(
+        (world.side_collisions(), world.faults()),
+        (0, 0),
+        "{:?}: {}",
+        world.last_side_collision(),
+        world.to_text()
+    );
     drop(board);
     // The cycle took minutes of robot time: virtual time, not a shortened cell.
     assert!(sim.virtual_s() > 120.0, "{} s", sim.virtual_s());

@@ -179,6 +179,20 @@ pub(super) fn check_map(
     tracking: &mut Tracking,
     wafers_total: usize,
 ) -> MapCheck {
+    check_map_with(host, wafers_file, world_file, tracking, wafers_total, false)
+}
+
+/// [`check_map`], with `uncertain_ok`: an uncertain place (`W3?`, after a power loss) may
+/// hold its wafer or nothing, and is not a problem by itself; the map still claims no
+/// certain wafer the cell does not hold there and forgets none the cell holds.
+pub(super) fn check_map_with(
+    host: &mut Conn,
+    wafers_file: &Path,
+    world_file: &Path,
+    tracking: &mut Tracking,
+    wafers_total: usize,
+    uncertain_ok: bool,
+) -> MapCheck {
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
         let mut problems = Vec::new();
@@ -196,7 +210,7 @@ pub(super) fn check_map(
             (Ok(map), Ok(world)) => {
                 // A wafer the controller is still settling from its sensor (`W3?`, for a
                 // moment after RESET) is not a map to judge yet.
-                if Blade::ALL.iter().any(|b| map.is_uncertain(*b)) {
+                if !uncertain_ok && Blade::ALL.iter().any(|b| map.is_uncertain(*b)) {
                     problems.push(format!(
                         "the hand's wafer is still uncertain: `{}`",
                         map.wafers_line()

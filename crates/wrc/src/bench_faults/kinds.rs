@@ -28,11 +28,12 @@ pub(crate) enum Kind {
     ReadOnly,
     CorruptWafers,
     CorruptStations,
+    PowerLoss,
 }
 
 impl Kind {
     /// Every kind, in the campaign's order (those sharing one controller first).
-    pub(crate) const ALL: [Kind; 13] = [
+    pub(crate) const ALL: [Kind; 14] = [
         Kind::Estop,
         Kind::VacuumLoss,
         Kind::FollowingError,
@@ -46,6 +47,7 @@ impl Kind {
         Kind::ReadOnly,
         Kind::CorruptWafers,
         Kind::CorruptStations,
+        Kind::PowerLoss,
     ];
 
     /// Its name on the command line and in the table.
@@ -64,6 +66,7 @@ impl Kind {
             Kind::ReadOnly => "read-only",
             Kind::CorruptWafers => "corrupt-wafers",
             Kind::CorruptStations => "corrupt-stations",
+            Kind::PowerLoss => "power-loss",
         }
     }
 
@@ -83,6 +86,7 @@ impl Kind {
             Kind::ReadOnly => "the state directory remounted read-only during a GET or PUT; as disk-full",
             Kind::CorruptWafers => "wafers.toml corrupted (seeded: cut at a byte or at a line's end, bytes overwritten, a garbage line, zeroed) before `wrc up` starts; signal: it refuses to start (exit ≠ 0) naming the file; the file byte-identical, no process left; the file restored, `wrc up` starts with the same map",
             Kind::CorruptStations => "stations.toml corrupted likewise before `wrc up` starts; as corrupt-wafers",
+            Kind::PowerLoss => "kill -9 of `wrc board-sim` and `wrc up` together during a GET or PUT (a power cut), then `wrc up` again (its board powers up where the arm stood, every output off); signal: RECOVERY and alarm 216 say what is uncertain and whether the hand is inside a station; consistent: right after the restart the map claims no wafer the cell does not hold where it says and forgets none, and after the recovery it equals the cell with nothing uncertain; stopped: the recovery's HOME makes no side collision; RESET, HOME, SENSE, MAP LP1, the next transfer",
         }
     }
 
@@ -99,7 +103,8 @@ impl Kind {
             | Kind::DiskFull
             | Kind::ReadOnly
             | Kind::CorruptWafers
-            | Kind::CorruptStations => None,
+            | Kind::CorruptStations
+            | Kind::PowerLoss => None,
         }
     }
 
@@ -171,6 +176,7 @@ pub(super) fn run(
     let mut out = Vec::new();
     let mut skipped = None;
     let mut own = None;
+    let mut power = None;
     for _ in 0..rounds {
         if ctx.out_of_time() {
             skipped = Some(format!(
@@ -193,6 +199,7 @@ pub(super) fn run(
             Kind::ReadOnly => super::disk::disk_round(ctx, &mut own, true),
             Kind::CorruptWafers => super::disk::corrupt_round(ctx, "wafers.toml", shared),
             Kind::CorruptStations => super::disk::corrupt_round(ctx, "stations.toml", shared),
+            Kind::PowerLoss => super::power::power_loss(ctx, &mut power),
         };
         match round {
             Ok(r) => out.push(r),

@@ -15,6 +15,7 @@ mod disk;
 mod harness;
 mod kinds;
 mod lines;
+mod power;
 mod processes;
 mod session;
 

@@ -44,6 +44,18 @@ impl Session {
     /// pseudo-terminal when `pendant`), home the robot and map LP1 when the map does not
     /// know it yet.
     pub(super) fn start(
+        options: UpOptions,
+        board_dir: Option<&Path>,
+        pendant: bool,
+    ) -> anyhow::Result<Session> {
+        let mut s = Session::start_unprepared(options, board_dir, pendant)?;
+        s.prepare()?;
+        Ok(s)
+    }
+
+    /// Start `wrc up` as [`Session::start`] does, but neither RESET nor HOME nor MAP: the
+    /// controller as an operator finds it after a restart.
+    pub(super) fn start_unprepared(
         mut options: UpOptions,
         board_dir: Option<&Path>,
         pendant: bool,
@@ -66,7 +78,7 @@ impl Session {
         };
         let host = up.conn()?;
         let dir = board_dir.map_or_else(|| options.state.clone(), Path::to_path_buf);
-        let mut s = Session {
+        Ok(Session {
             up,
             host,
             tracking: Tracking::new(),
@@ -75,14 +87,12 @@ impl Session {
             world: dir.join("world.toml"),
             pendant: line.map(Pendant::attach).transpose()?,
             with_pendant: pendant,
-        };
-        s.prepare()?;
-        Ok(s)
+        })
     }
 
     /// Clear what a previous controller left (a board watchdog trip), home, map LP1 if the
     /// map does not know it.
-    fn prepare(&mut self) -> anyhow::Result<()> {
+    pub(super) fn prepare(&mut self) -> anyhow::Result<()> {
         // The map is reconciled from the vacuum sensor in the first I/O Monitor period.
         let settled = super::harness::poll(PATIENCE, || {
             let w = self.host.wafers().ok()??;

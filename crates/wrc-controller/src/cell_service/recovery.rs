@@ -655,8 +655,10 @@ impl CellService {
         for s in stations {
             next.push(format!("MAP {s}"));
         }
-        if !next.is_empty() {
+        if self.wafers.has_uncertain() {
             next.push("or CONFIRM what an operator sees".into());
+        }
+        if !next.is_empty() {
             lines.push(format!("next {}", next.join(", ")));
         }
         lines

@@ -193,6 +193,8 @@ pub(crate) enum CaseTest {
     Is(Expr),
     /// `CASE lo TO hi`: within the range (numbers).
     Range(Expr, Expr),
+    /// `CASE IS < v` (`=`, `<>`, `<`, `<=`, `>`, `>=`): the subject compared with the value.
+    Cmp(BinOp, Expr),
 }
 
 /// One `CATCH` clause: its codes (none: every error) and its block.

@@ -433,6 +433,19 @@ impl Gen {
                                 self.expr(e);
                                 self.emit(Instr::Eq, e.span);
                             }
+                            TCase::Cmp(op, e) => {
+                                self.load(*slot, e.span);
+                                self.expr(e);
+                                let instr = match op {
+                                    BinOp::Ne => Instr::Ne,
+                                    BinOp::Lt => Instr::Lt,
+                                    BinOp::Le => Instr::Le,
+                                    BinOp::Gt => Instr::Gt,
+                                    BinOp::Ge => Instr::Ge,
+                                    _ => Instr::Eq,
+                                };
+                                self.emit(instr, e.span);
+                            }
                             TCase::Range(lo, hi) => {
                                 self.load(*slot, lo.span);
                                 self.expr(lo);

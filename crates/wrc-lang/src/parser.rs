@@ -35,6 +35,7 @@ pub(crate) fn parse(source: &str, tokens: &[Token], diags: &mut Vec<Diagnostic>)
             .collect(),
         diags,
         nest: 0,
+        inline_if: false,
     };
     let mut open = Vec::new();
     let mut stmts = Vec::new();
@@ -126,6 +127,9 @@ struct Parser<'a, 'd> {
     nest: u32,
     /// Lines that already have an error.
     error_lines: HashSet<u32>,
+    /// Inside the statement after a single-line `IF … THEN`: an `ELSE` ends it like the end
+    /// of the line.
+    inline_if: bool,
 }
 
 impl Parser<'_, '_> {
@@ -164,6 +168,12 @@ impl Parser<'_, '_> {
     }
 
     fn at_line_end(&self) -> bool {
+        let t = self.peek();
+        matches!(t.tok, Tok::Newline | Tok::Eof) || (self.inline_if && self.is_word(t, "ELSE"))
+    }
+
+    /// The line really ends here (a newline or the end of the file, not an inline `ELSE`).
+    fn at_newline(&self) -> bool {
         matches!(self.peek().tok, Tok::Newline | Tok::Eof)
     }
 
@@ -198,13 +208,17 @@ impl Parser<'_, '_> {
         while !self.at_line_end() {
             self.bump();
         }
-        self.bump();
+        if self.at_newline() {
+            self.bump();
+        }
     }
 
     /// Expect the end of the statement's line and consume it; otherwise report and skip.
     fn end_line(&mut self, what: &str) {
         if self.at_line_end() {
-            self.bump();
+            if self.at_newline() {
+                self.bump();
+            }
             return;
         }
         let t = self.peek().clone();
@@ -1097,6 +1111,21 @@ impl Parser<'_, '_> {
 
     fn if_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
         let kw = self.bump();
+        // `IF cond THEN statement [ELSE statement]` on one line: no ENDIF.
+        if !self.at_line_end() {
+            let start = self.pos;
+            if let Ok(cond) = self.expr() {
+                let then = self.peek().clone();
+                if self.is_word(&then, "THEN")
+                    && !matches!(self.peek_at(1).tok, Tok::Newline | Tok::Eof)
+                {
+                    self.bump();
+                    return self.inline_if(kw.span, cond, open);
+                }
+            }
+            // The block form: read the condition again (with its errors, once).
+            self.pos = start;
+        }
         let cond = self.condition("IF");
         self.open(open, "IF", kw.span);
         let mut arms = Vec::new();
@@ -1167,6 +1196,72 @@ impl Parser<'_, '_> {
             span: kw.span,
             kind: StmtKind::If { arms, else_block },
         })
+    }
+
+    /// The rest of a single-line `IF cond THEN statement [ELSE statement]`.
+    fn inline_if(&mut self, span: Span, cond: Expr, open: &mut Vec<Open>) -> PResult<Stmt> {
+        let then = self.inline_statement(open, "THEN", true);
+        let mut else_block = Vec::new();
+        let t = self.peek().clone();
+        if then.is_ok() && self.is_word(&t, "ELSE") {
+            self.bump();
+            else_block.push(self.inline_statement(open, "ELSE", false)?);
+        } else if self.is_word(&t, "ELSE") {
+            // The THEN statement was refused: the rest of the line goes with it.
+            self.skip_line();
+        }
+        Ok(Stmt {
+            span,
+            kind: StmtKind::If {
+                arms: vec![(cond, vec![then?])],
+                else_block,
+            },
+        })
+    }
+
+    /// One simple statement after `THEN` or `ELSE` on a single-line IF; `before_else`: an
+    /// `ELSE` may follow it on the line.
+    fn inline_statement(
+        &mut self,
+        open: &mut Vec<Open>,
+        after: &str,
+        before_else: bool,
+    ) -> PResult<Stmt> {
+        let t = self.peek().clone();
+        let key = self.key(&t);
+        let block = matches!(
+            key.as_str(),
+            "IF" | "WHILE" | "FOR" | "SUB" | "FUNCTION" | "DO" | "SELECT" | "TRY" | "INCLUDE"
+        ) || CLOSERS.contains(&key.as_str())
+            || key == "END"
+                && matches!(
+                    self.key(&self.peek_at(1).clone()).as_str(),
+                    "IF" | "WHILE" | "SUB" | "FUNCTION" | "SELECT" | "TRY"
+                );
+        if t.tok == Tok::Ident && block {
+            let msg = format!(
+                "after {after} on the same line only a simple statement may follow, not {}; put a block on the lines below IF … THEN and close it with ENDIF",
+                self.text(&t)
+            );
+            self.error(t.span, msg);
+            self.inline_if = false;
+            self.skip_line();
+            return Err(());
+        }
+        if t.tok == Tok::Newline || t.tok == Tok::Eof || self.is_word(&t, "ELSE") {
+            let msg = format!(
+                "expected a statement after {after}, found {}",
+                self.describe(&t)
+            );
+            self.error(t.span, msg);
+            self.inline_if = false;
+            self.skip_line();
+            return Err(());
+        }
+        self.inline_if = before_else;
+        let r = self.statement(open);
+        self.inline_if = false;
+        r
     }
 
     fn while_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
@@ -1346,6 +1441,32 @@ impl Parser<'_, '_> {
     fn case_tests(&mut self) -> PResult<Vec<CaseTest>> {
         let mut tests = Vec::new();
         loop {
+            let t = self.peek().clone();
+            let compares = matches!(
+                self.peek_at(1).tok,
+                Tok::Eq | Tok::Ne | Tok::Lt | Tok::Le | Tok::Gt | Tok::Ge
+            );
+            if self.is_word(&t, "IS") && compares {
+                self.bump();
+                let op = self.peek().clone();
+                let cmp = match op.tok {
+                    Tok::Eq => BinOp::Eq,
+                    Tok::Ne => BinOp::Ne,
+                    Tok::Lt => BinOp::Lt,
+                    Tok::Le => BinOp::Le,
+                    Tok::Gt => BinOp::Gt,
+                    Tok::Ge => BinOp::Ge,
+                    _ => BinOp::Eq, // `compares` saw one of the above
+                };
+                self.bump();
+                let value = self.expr()?;
+                tests.push(CaseTest::Cmp(cmp, value));
+                if self.peek().tok == Tok::Comma {
+                    self.bump();
+                    continue;
+                }
+                return Ok(tests);
+            }
             let first = self.expr()?;
             if self.is_word(&self.peek().clone(), "TO") {
                 self.bump();

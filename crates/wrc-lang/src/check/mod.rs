@@ -108,6 +108,8 @@ pub(crate) enum TArg {
 pub(crate) enum TCase {
     Is(TExpr),
     Range(TExpr, TExpr),
+    /// `CASE IS op v`: the comparison (`=`, `<>`, `<`, `<=`, `>`, `>=`).
+    Cmp(crate::ast::BinOp, TExpr),
 }
 
 /// A checked `CATCH` clause: its codes (empty: every error).

@@ -658,6 +658,36 @@ impl Checker<'_> {
                         }
                         _ => ok = false,
                     },
+                    CaseTest::Cmp(op, e) => match (self.expr(e), ty) {
+                        (Some(t), Some(want))
+                            if t.ty == want
+                                && (want == Ty::Number
+                                    || matches!(
+                                        op,
+                                        crate::ast::BinOp::Eq | crate::ast::BinOp::Ne
+                                    )) =>
+                        {
+                            ttests.push(TCase::Cmp(*op, t))
+                        }
+                        (Some(t), Some(want)) if t.ty == want => {
+                            let msg = format!(
+                                "CASE IS {} compares numbers; strings compare with CASE IS = or CASE IS <>",
+                                op.symbol()
+                            );
+                            self.error(t.span, msg);
+                            ok = false;
+                        }
+                        (Some(t), Some(want)) => {
+                            let msg = format!(
+                                "CASE IS compares with {}, got {}",
+                                article(want),
+                                article(t.ty)
+                            );
+                            self.error(t.span, msg);
+                            ok = false;
+                        }
+                        _ => ok = false,
+                    },
                     CaseTest::Range(lo, hi) => {
                         let lo = self.number(lo, "a CASE range's first value");
                         let hi = self.number(hi, "a CASE range's last value");

@@ -432,3 +432,84 @@ fn a_program_with_errors_still_reports_the_names_it_defines() {
         assert!(kinds.contains(&want), "{want:?} in {kinds:?}");
     }
 }
+
+#[test]
+fn case_is_compares_the_subject_and_mixes_with_values_and_ranges() {
+    let src = "\
+FOR n = 0 TO 7
+  SELECT CASE n
+    CASE IS < 1
+      PRINT n, \"none\"
+    CASE 2, IS >= 6
+      PRINT n, \"two or six up\"
+    CASE 3 TO 4, IS = 1
+      PRINT n, \"one, three or four\"
+    CASE IS <> 5
+      PRINT n, \"not five\"
+    CASE ELSE
+      PRINT n, \"five\"
+  ENDSELECT
+NEXT
+S$ = \"PM1\"
+SELECT CASE S$
+  CASE IS = \"LP1\"
+    PRINT \"port\"
+  CASE IS <> \"AL\"
+    PRINT \"not the aligner\"
+ENDSELECT
+";
+    assert_eq!(
+        printed(src),
+        [
+            "0 none",
+            "1 one, three or four",
+            "2 two or six up",
+            "3 one, three or four",
+            "4 one, three or four",
+            "5 five",
+            "6 two or six up",
+            "7 two or six up",
+            "not the aligner"
+        ]
+    );
+    let e = errors(
+        "S$ = \"a\"\nSELECT CASE S$\n  CASE IS < \"b\"\nENDSELECT\nSELECT CASE 1\n  CASE IS > \"b\"\nENDSELECT\n",
+    );
+    assert_eq!(
+        e,
+        [
+            "3:13 CASE IS < compares numbers; strings compare with CASE IS = or CASE IS <>",
+            "6:13 CASE IS compares with a number, got a string",
+        ]
+    );
+}
+
+#[test]
+fn a_single_line_if_runs_one_statement_and_an_optional_else_without_endif() {
+    let src = "\
+FOR n = 1 TO 4
+  IF n = 2 THEN PRINT n, \"two\"
+  IF n > 2 THEN PRINT n, \"big\" ELSE PRINT n, \"small\"
+  IF n = 4 THEN EXIT FOR
+NEXT
+x = 0
+IF x = 0 THEN x = 10 ELSE x = 20
+PRINT x
+IF x > 5 THEN
+  PRINT \"block\"
+ENDIF
+";
+    assert_eq!(
+        printed(src),
+        ["1 small", "2 two", "2 small", "3 big", "4 big", "10", "block"]
+    );
+    let e = errors("IF 1 > 0 THEN WHILE 1 > 0\nIF 1 > 0 THEN\nENDIF\nIF 1 > 0 THEN PRINT 1 ELSE\nIF 1 > 0 THEN x = \nPRINT 2\n");
+    assert_eq!(
+        e,
+        [
+            "1:15 after THEN on the same line only a simple statement may follow, not WHILE; put a block on the lines below IF … THEN and close it with ENDIF",
+            "4:27 expected a statement after ELSE, found the end of the line",
+            "5:19 expected a value, found the end of the line",
+        ]
+    );
+}

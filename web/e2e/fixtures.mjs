@@ -2,7 +2,9 @@
 //
 // - `wrc`: a real `wrc up` (simulated boards, no SCHED_FIFO) on free ports, which starts
 //   `wrc ui`; stopped after the test, and its output and the controller's events attached to
-//   a failed test (and printed, so that a CI log shows them).
+//   a failed test (and printed, so that a CI log shows them). The option `wrcState`
+//   (`test.use({ wrcState: { write(dir) {…} } })`) writes files into its state directory
+//   before it starts (recovery.spec.mjs: a transfer a power loss interrupted).
 // - `pageErrors`: the page's uncaught errors and its requests to anywhere but `wrc ui` (which
 //   are refused); a failed test also gets the page's command log.
 // - `lonelyUi`: a `wrc ui` alone, its controller nowhere (the editor's compiler needs none).
@@ -49,6 +51,8 @@ class Controller {
   /** The controller's events, from a second host connection that only listens. */
   events = '';
   url = '';
+  /** The controller's host-protocol TCP port (another client beside the page). */
+  hostPort = 0;
   stateDir = mkdtempSync(join(tmpdir(), 'wrc-e2e-'));
   #proc = null;
   #eventSocket = null;
@@ -57,6 +61,7 @@ class Controller {
   async start() {
     if (!existsSync(WRC_BIN)) throw new Error(`no wrc binary at ${WRC_BIN} (cargo build -p wrc, or set WRC_BIN)`);
     const hostPort = await freeTcpPort();
+    this.hostPort = hostPort;
     let uiPort = await freeTcpPort();
     while (uiPort === hostPort) uiPort = await freeTcpPort();
     const udpPort = await freeUdpPort();
@@ -259,13 +264,16 @@ async function report(testInfo, title, text) {
 const failed = (testInfo) => testInfo.status !== testInfo.expectedStatus;
 
 export const test = base.extend({
-  wrc: async ({}, use, testInfo) => {
+  wrcState: [null, { option: true }],
+
+  wrc: async ({ wrcState }, use, testInfo) => {
     const wrc = new Controller();
     const tell = async () => {
       await report(testInfo, 'wrc up output (last 4000 chars)', wrc.output.slice(-4000));
       await report(testInfo, 'controller events (last 40)', wrc.events.trim().split('\n').slice(-40).join('\n'));
     };
     try {
+      wrcState?.write(wrc.stateDir);
       await wrc.start();
     } catch (e) {
       await wrc.stop();

@@ -1,5 +1,6 @@
 // Playwright Test configuration of the GUI's end-to-end tests (gui.spec.mjs: an operator's session;
-// editor.spec.mjs: the editor's compiler, debugger and points): Debian's Chromium
+// editor.spec.mjs: the editor's compiler, debugger and points; recovery.spec.mjs: the recovery
+// panel after a power loss cut a PUT): Debian's Chromium
 // (never a downloaded browser), one worker, and a trace and a screenshot of a failed run.
 //
 //   npm run e2e                       (from web/; builds nothing: run `npm run build` and

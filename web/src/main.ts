@@ -1,6 +1,7 @@
-// The app shell: the header (robot, connection, state, error, control lock, RESET and the
-// E-STOP), the Control panel on the left (with the Trace card) and the tabs
-// [Simulator (3D view and trace viewer) | Wafers | Editor | Plots] on the right.
+// The app shell: the header (robot, connection, state, error, a program's alarm, the recovery
+// banner, control lock, RESET and the E-STOP), the Control panel on the left (with the Trace
+// card), the tabs [Simulator (3D view and trace viewer) | Wafers | Editor | Plots] on the
+// right, and the recovery panel over them when a restart left something uncertain.
 
 import './style.css';
 import { h } from './dom';
@@ -9,12 +10,14 @@ import { Connection, defaultUrl } from './protocol/connection';
 import { ControllerModel } from './protocol/controller-model';
 import { mountStations } from './cell/stations';
 import { createWaferStore, drawWafers } from './cell/wafers';
+import { createRecoveryStore } from './cell/recovery';
 import { mountControl } from './panels/control-panel';
 import { mountWaferPanel } from './panels/wafer-panel';
 import { mountSimulator } from './view3d/simulator';
 import { mountPlots } from './plots/plots';
 import { mountEditor } from './editor/editor';
 import { mountAlarmBanner } from './panels/alarm-banner';
+import { mountRecovery } from './panels/recovery-panel';
 import { traceSaveCard } from './trace/trace-save';
 import { mountTraceViewer } from './trace/trace-viewer';
 
@@ -45,6 +48,8 @@ function start(): void {
     title: 'RESET: clear ERROR / ESTOP once the cause is gone',
     onclick: () => void cmd.send('RESET'),
   }, 'Reset');
+  // Filled once the stores exist (below): the header is built first.
+  const recoveryBanner = h('span', { class: 'recovery-slot' });
   const estop = h('button', {
     class: 'estop',
     'data-testid': 'estop',
@@ -61,6 +66,7 @@ function start(): void {
     homed,
     err,
     mountAlarmBanner(bus),
+    recoveryBanner,
     h('span', { class: 'spacer' }),
     h('span', { class: 'lock-label' }, 'Control: ', owner),
     lockBtn,
@@ -96,6 +102,10 @@ function start(): void {
   const stations = mountStations(bus, sim);
   const wafers = createWaferStore(bus);
   drawWafers(wafers, stations, sim);
+  const recoveryStore = createRecoveryStore(bus);
+  const recovery = mountRecovery({ store: recoveryStore, model, cmd, wafers, stations });
+  recoveryBanner.replaceWith(recovery.banner);
+  app.append(recovery.panel);
   const panels: Record<TabName, { resize(): void }> = {
     simulator: sim,
     wafers: mountWaferPanel(wafersEl, wafers, model, cmd, stations),
@@ -155,8 +165,9 @@ function start(): void {
   });
 
   window.addEventListener('beforeunload', () => bus.close());
-  // For debugging from the browser console; the e2e test reads the drawn pose (sim.drawnPose()).
-  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers, sim, traces };
+  // For debugging from the browser console; the e2e test reads the drawn pose and wafers
+  // (sim.drawnPose(), sim.drawnWafers()).
+  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers, sim, traces, recovery: recoveryStore };
 }
 
 start();

@@ -8,7 +8,9 @@ import {
   emptyWaferMap,
   formatPending,
   bladeBShowsWafer,
+  bladeUncertain,
   handShowsWafer,
+  hasUncertain,
   MAX_SLOTS,
   parseSlots,
   parseWaferId,
@@ -27,6 +29,7 @@ const E: SlotToken = { state: 'empty', wafer: null };
 const U: SlotToken = { state: 'unknown', wafer: null };
 const D: SlotToken = { state: 'double', wafer: null };
 const X: SlotToken = { state: 'cross', wafer: null };
+const Q = (n: number): SlotToken => ({ state: 'uncertain', wafer: `W${n}` });
 const times = (t: SlotToken, n: number): SlotToken[] => Array.from({ length: n }, () => t);
 const range = (a: number, b: number): SlotToken[] => Array.from({ length: b - a + 1 }, (_, i) => W(a + i));
 
@@ -66,6 +69,19 @@ describe('parseSlots', () => {
     expect(parseSlots('W5x2')).toEqual([W(5), W(5)]);
     expect(parseSlots('-x1')).toEqual([E]);
     expect(parseSlots('W1..W3,?x2,-,Xx2,D')).toEqual([W(1), W(2), W(3), U, U, E, X, X, D]);
+  });
+
+  it('reads an uncertain slot W<n>? (perhaps that wafer, perhaps nothing), alone and repeated', () => {
+    expect(parseSlots('W1?,-x24')).toEqual([Q(1), ...times(E, 24)]);
+    expect(parseSlots('-,W12?,W13,w7?')).toEqual([E, Q(12), W(13), Q(7)]);
+    // The controller never puts one in a run; a repeat is read like any token's.
+    expect(parseSlots('W3?x2')).toEqual([Q(3), Q(3)]);
+  });
+
+  it('refuses malformed uncertain tokens', () => {
+    for (const t of ['W?', '?W1', 'W1??', 'W1?..W3', 'W1..W3?', 'W1 ?', '-?', 'D?', '??']) {
+      expect(parseSlots(t), JSON.stringify(t)).toBeNull();
+    }
   });
 
   it('refuses malformed items, runs that go down and lists over MAX_SLOTS', () => {
@@ -324,10 +340,37 @@ describe('waferDiscs', () => {
     expect(discs[1].tilt).toBeGreaterThanOrEqual(3);
   });
 
+  it('draws an uncertain slot apart, where its wafer would be', () => {
+    const discs = waferDiscs([LP1], mapOf('hand=W1? LP1=W1?,-,W3'));
+    expect(discs.map((d) => [d.slot, d.state, d.wafer])).toEqual([
+      [1, 'uncertain', 'W1'],
+      [3, 'wafer', 'W3'],
+    ]);
+    expect(discs[0]).toMatchObject({ z: 20, tilt: 0 });
+  });
+
   it('leaves out stations STN did not describe and slots beyond the slot count; matches names ignoring case', () => {
     expect(waferDiscs([AL], mapOf('LP1=W1 AL=W1,W2'))).toHaveLength(1);
     expect(waferDiscs([{ ...AL, name: 'al' } as StationInfo], mapOf('AL=W1'))).toHaveLength(1);
     expect(waferDiscs([], mapOf(EXAMPLE))).toEqual([]);
+  });
+});
+
+describe('hasUncertain and bladeUncertain', () => {
+  it('find an uncertain slot or blade; the same wafer may be uncertain in two places', () => {
+    const m = mapOf('hand=W1? LP1=-,W2..W25 LP2=W1?,-x24');
+    expect(m.hand).toBe('W1');
+    expect(m.handUncertain).toBe(true);
+    expect(m.stations.get('LP2')![0]).toEqual(Q(1));
+    expect(hasUncertain(m)).toBe(true);
+    expect(hasUncertain(mapOf('hand=W1 LP2=W1?,-x24'))).toBe(true);
+    expect(hasUncertain(mapOf('hand=W1 hand.B=W7? LP2=-x25'))).toBe(true);
+    expect(hasUncertain(mapOf('hand=W1 LP1=W2..W25,? LP2=-x25'))).toBe(false);
+    const st = (body: string, available: boolean | null = true): WaferState => ({ available, map: mapOf(body), refusal: '', ignored: [] });
+    expect(bladeUncertain(st('hand=W1?'), 'A')).toBe(true);
+    expect(bladeUncertain(st('hand=W1? hand.B=W2'), 'B')).toBe(false);
+    expect(bladeUncertain(st('hand=- hand.B=W2?'), 'B')).toBe(true);
+    expect(bladeUncertain(st('hand=W1?', false), 'A')).toBe(false);
   });
 });
 
@@ -549,15 +592,19 @@ describe('drawWafers', () => {
   class FakeSim {
     discs: WaferDisc[][] = [];
     hand: boolean[] = [];
+    handUncertain: boolean[] = [];
     setStationWafers(d: readonly WaferDisc[]) {
       this.discs.push([...d]);
     }
-    setWafer(on: boolean) {
+    setWafer(on: boolean, uncertain = false) {
       this.hand.push(on);
+      this.handUncertain.push(uncertain);
     }
     bladeB: boolean[] = [];
-    setBladeBWafer(on: boolean) {
+    bladeBUncertain: boolean[] = [];
+    setBladeBWafer(on: boolean, uncertain = false) {
       this.bladeB.push(on);
+      this.bladeBUncertain.push(uncertain);
     }
   }
   function stationsOf(list: StationInfo[]) {
@@ -608,6 +655,22 @@ describe('drawWafers', () => {
     bus.event('EVT WAFER hand=-');
     expect(sim.hand.at(-1)).toBe(false);
     expect(sim.bladeB.at(-1)).toBe(true);
+  });
+
+  it('draws an uncertain wafer on a blade and in a slot apart, until the map settles it', async () => {
+    const { bus, store } = setup({ first: ack('hand=W1? hand.B=- LP1=W1?,-x24'), events: [] });
+    const sim = new FakeSim();
+    drawWafers(store, stationsOf([LP1]), sim);
+    await flush();
+    expect(sim.hand.at(-1)).toBe(true);
+    expect(sim.handUncertain.at(-1)).toBe(true);
+    expect(sim.bladeBUncertain.at(-1)).toBe(false);
+    expect(sim.discs.at(-1)!.map((d) => d.state)).toEqual(['uncertain']);
+    bus.event('EVT WAFER hand=-'); // SENSE found the blade empty
+    expect(sim.hand.at(-1)).toBe(false);
+    expect(sim.handUncertain.at(-1)).toBe(false);
+    bus.event('EVT WAFER LP1=W1,-x24'); // MAP found it in the slot
+    expect(sim.discs.at(-1)!.map((d) => d.state)).toEqual(['wafer']);
   });
 
   it('keeps the wafer on the hand when the controller has no cell', async () => {

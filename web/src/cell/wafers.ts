@@ -11,8 +11,12 @@
 //   (blade A), `hand.B=<tok>` is blade B (listed only by a dual-blade robot), and a transfer
 //   blade B makes ends with `:B` (`pending=get:PM1.1:W7:B`).
 // - Slots are listed from slot 1 up, comma-separated: `W<n>` a wafer, `-` empty, `?` not mapped,
-//   `D` double, `X` cross-slotted; `W<a>..W<b>` three or more wafers with rising ids in
-//   successive slots; `<tok>x<n>` a token repeated n times (`?x25`).
+//   `D` double, `X` cross-slotted, `W<n>?` uncertain (perhaps that wafer, perhaps nothing,
+//   after a transfer a power loss interrupted; never part of a run); `W<a>..W<b>` three or
+//   more wafers with rising ids in successive slots; `<tok>x<n>` a token repeated n times
+//   (`?x25`).
+// - The same id may be uncertain in two places at once (`hand=W1?` and `LP2=W1?,-x24`): the
+//   wafer is in one of them, or in neither. RECOVERY (recovery.ts) says what happened.
 //
 // Parsing never throws: a malformed part is left out (and reported in `bad`), the rest is used.
 
@@ -22,13 +26,16 @@ import type { WaferDisc } from '../view3d/scene';
 import type { SimulatorHandle } from '../view3d/simulator';
 import type { StationInfo, StationsHandle } from './stations';
 
-/** What a slot holds. */
-export type SlotState = 'wafer' | 'empty' | 'unknown' | 'double' | 'cross';
+/**
+ * What a slot holds. `uncertain`: perhaps the wafer named, perhaps nothing (GET and PUT are
+ * refused until a MAP or an operator's CONFIRM settles it).
+ */
+export type SlotState = 'wafer' | 'empty' | 'unknown' | 'double' | 'cross' | 'uncertain';
 
-/** One slot of a station (or the hand): its state and, for `wafer`, the wafer's id (`W3`). */
+/** One slot of a station (or the hand): its state and, for `wafer` and `uncertain`, the wafer's id (`W3`). */
 export interface SlotToken {
   state: SlotState;
-  /** `W<n>` when `state` is `wafer`, otherwise null. */
+  /** `W<n>` when `state` is `wafer` or `uncertain`, otherwise null. */
   wafer: string | null;
 }
 
@@ -54,8 +61,9 @@ export interface WaferMap {
   /** The wafer on blade B of a dual-blade robot, or null when it is empty or there is none. */
   handB: string | null;
   /**
-   * The wafer on the hand (blade A) is uncertain (`hand=W3?`): the motion board stopped
-   * answering while it was there, and no sensor has confirmed it since.
+   * The wafer on the hand (blade A) is uncertain (`hand=W3?`): perhaps there, perhaps not
+   * (the motion board stopped answering while it was there, or a power loss switched its
+   * vacuum off), until a sensor or an operator settles it.
    */
   handUncertain: boolean;
   /** The same for blade B (`hand.B=W7?`). */
@@ -99,7 +107,7 @@ export function parseWaferId(tok: string): string | null {
   return n === null ? null : `W${n}`;
 }
 
-/** One uncompressed slot token (`W3`, `-`, `?`, `D`, `X`), or null. */
+/** One uncompressed slot token (`W3`, `-`, `?`, `D`, `X`, `W3?`), or null. */
 function slotToken(tok: string): SlotToken | null {
   switch (tok) {
     case '-':
@@ -111,14 +119,16 @@ function slotToken(tok: string): SlotToken | null {
     case 'X':
       return CROSS;
     default: {
-      const w = parseWaferId(tok);
-      return w === null ? null : { state: 'wafer', wafer: w };
+      const uncertain = tok.endsWith('?');
+      const w = parseWaferId(uncertain ? tok.slice(0, -1) : tok);
+      if (w === null) return null;
+      return { state: uncertain ? 'uncertain' : 'wafer', wafer: w };
     }
   }
 }
 
 /**
- * A station's slots (`W1,W2,-,W4..W25`, `?x25`), expanded to one token per slot, slot 1
+ * A station's slots (`W1,W2,-,W4..W25`, `?x25`, `W1?,-x24`), expanded to one token per slot, slot 1
  * first. Null when any item is malformed, when a run goes down (`W5..W3`) or when the list
  * has more than `MAX_SLOTS` slots.
  */
@@ -261,6 +271,13 @@ export function wafersFromReply(ackLine: string, events: readonly string[]): { m
   return r;
 }
 
+/** Whether any place of the map is uncertain (a slot `W3?`, or a blade). */
+export function hasUncertain(map: WaferMap): boolean {
+  if (map.handUncertain || map.handBUncertain) return true;
+  for (const slots of map.stations.values()) if (slots.some((t) => t.state === 'uncertain')) return true;
+  return false;
+}
+
 /** `GET LP1.3 W3` for a pending transfer; `GET LP1.3 W3 with blade B` when blade B makes it. */
 export function formatPending(p: PendingTransfer): string {
   const s = `${p.kind.toUpperCase()} ${p.station}.${p.slot} ${p.wafer}`;
@@ -276,7 +293,8 @@ const WAFER_DIAMETER = 300;
 
 /**
  * The wafers to draw in the stations: one disc per slot that holds a wafer, a double or a
- * cross-slotted wafer (slot n at z + (n-1)·pitch); empty and unmapped slots draw nothing.
+ * cross-slotted wafer, or perhaps a wafer (uncertain; drawn apart) (slot n at z +
+ * (n-1)·pitch); empty and unmapped slots draw nothing.
  * A station the map names but `STN` did not describe is left out, as are slots beyond its
  * slot count. Station names match exactly, else ignoring case (as the controller does).
  */
@@ -289,7 +307,7 @@ export function waferDiscs(stations: readonly StationInfo[], map: WaferMap): Waf
     const n = Math.min(slots.length, info.slots);
     for (let i = 0; i < n; i++) {
       const s = slots[i];
-      if (s.state !== 'wafer' && s.state !== 'double' && s.state !== 'cross') continue;
+      if (s.state === 'empty' || s.state === 'unknown') continue;
       const cross = s.state === 'cross';
       const rise = cross ? info.pitch : 0; // one edge rests in the slot above
       out.push({
@@ -435,6 +453,12 @@ export function bladeBShowsWafer(s: WaferState): boolean {
   return s.available === true && s.map.handB !== null;
 }
 
+/** Whether the wafer the 3D view draws on a blade is uncertain (drawn apart, with a `?`). */
+export function bladeUncertain(s: WaferState, blade: Blade): boolean {
+  if (s.available !== true) return false;
+  return blade === 'B' ? s.map.handB !== null && s.map.handBUncertain : s.map.hand !== null && s.map.handUncertain;
+}
+
 export type WaferSink = Pick<SimulatorHandle, 'setWafer' | 'setBladeBWafer' | 'setStationWafers'>;
 
 /**
@@ -454,8 +478,8 @@ export function drawWafers(
     onBlades(s);
   }
   function onBlades(s: WaferState): void {
-    sim.setWafer(handShowsWafer(s));
-    sim.setBladeBWafer(bladeBShowsWafer(s));
+    sim.setWafer(handShowsWafer(s), bladeUncertain(s, 'A'));
+    sim.setBladeBWafer(bladeBShowsWafer(s), bladeUncertain(s, 'B'));
   }
   const unsubs = [
     store.onChange((s) => {

@@ -1,6 +1,7 @@
 import { describe, expect, it } from 'vitest';
 import {
   actionsHint,
+  bladeText,
   isDualBlade,
   keepSelection,
   pendingText,
@@ -26,6 +27,43 @@ describe('slotLabel and slotTitle', () => {
     expect(slotTitle('LP1', 1, m[0])).toBe('LP1 slot 1: W1');
     expect(slotTitle('LP1', 3, m[2])).toBe('LP1 slot 3: not mapped yet');
     expect(slotTitle('LP1', 4, m[3])).toMatch(/double wafer/);
+  });
+});
+
+describe('an uncertain place', () => {
+  const UNCERTAIN = 'hand=W1? LP1=-,W2..W25 LP2=W1?,-x24';
+
+  it('shows W<n>? in its slot and on the hand, and says what it means', () => {
+    const slot = state(UNCERTAIN).map.stations.get('LP2')![0];
+    expect(slotLabel(slot)).toBe('W1?');
+    expect(slotTitle('LP2', 1, slot)).toBe(
+      'LP2 slot 1: perhaps W1, perhaps empty (uncertain after an interrupted transfer: MAP LP2 or CONFIRM it)',
+    );
+    expect(bladeText('W1', true)).toBe('W1? (uncertain: perhaps on the blade; SENSE or CONFIRM it)');
+    expect(bladeText('W1', false)).toBe('W1');
+    expect(bladeText(null, false)).toBe('empty');
+  });
+
+  it('is neither taken from nor put into (NAK 139), but may be mapped', () => {
+    const s = state(UNCERTAIN.replace('hand=W1?', 'hand=-'));
+    const a = waferActions({ ...ready, state: s, selection: sel('LP2', 1) });
+    expect(a.get.why).toBe('LP2 slot 1 is uncertain (perhaps W1): MAP LP2 or CONFIRM it first');
+    expect(a.map).toEqual({ enabled: true, request: 'MAP LP2', why: '' });
+    const b = waferActions({ ...ready, state: state(UNCERTAIN.replace('hand=W1?', 'hand=W9')), selection: sel('LP2', 1) });
+    expect(b.put.why).toBe('LP2 slot 1 is uncertain (perhaps W1): MAP LP2 or CONFIRM it first');
+  });
+
+  it('on the hand: no GET onto it and no PUT from it until SENSE or CONFIRM', () => {
+    const a = waferActions({ ...ready, state: state(UNCERTAIN), selection: sel('LP2', 2) });
+    expect(a.get.why).toBe('the hand may hold W1 (uncertain): SENSE or CONFIRM it first');
+    expect(a.put.why).toBe('the hand may hold W1 (uncertain): SENSE or CONFIRM it first');
+    const dual = waferActions({
+      ...ready,
+      dualBlade: true,
+      state: state('hand=- hand.B=W7? PM1=W5'),
+      selection: sel('PM1', 1),
+    });
+    expect(dual.swap?.why).toBe('blade B may hold W7 (uncertain): SENSE or CONFIRM it first');
   });
 });
 

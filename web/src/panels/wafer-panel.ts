@@ -88,6 +88,8 @@ export function slotLabel(t: SlotToken): string {
       return 'double';
     case 'cross':
       return 'cross';
+    case 'uncertain':
+      return `${t.wafer ?? 'wafer'}?`;
   }
 }
 
@@ -97,11 +99,21 @@ const STATE_WORDS: Record<SlotState, string> = {
   unknown: 'not mapped yet',
   double: 'a double wafer (two wafers in one slot)',
   cross: 'a cross-slotted wafer (resting in two slots)',
+  uncertain: 'perhaps a wafer (uncertain after an interrupted transfer)',
 };
 
-/** The tooltip of a slot: `LP1 slot 3: W3`. */
+/** The tooltip of a slot: `LP1 slot 3: W3`, `LP2 slot 1: perhaps W1 (uncertain …)`. */
 export function slotTitle(station: string, slot: number, t: SlotToken): string {
+  if (t.state === 'uncertain') {
+    return `${station} slot ${slot}: perhaps ${t.wafer ?? 'a wafer'}, perhaps empty (uncertain after an interrupted transfer: MAP ${station} or CONFIRM it)`;
+  }
   return `${station} slot ${slot}: ${t.state === 'wafer' ? (t.wafer ?? 'a wafer') : STATE_WORDS[t.state]}`;
+}
+
+/** What a blade shows: `empty`, `W3`, or `W3? (uncertain: …)`. */
+export function bladeText(wafer: string | null, uncertain: boolean): string {
+  if (wafer === null) return 'empty';
+  return uncertain ? `${wafer}? (uncertain: perhaps on the blade; SENSE or CONFIRM it)` : wafer;
 }
 
 /** The selection kept valid for a new map: null when its station is gone, no slot when its slot is. */
@@ -180,12 +192,15 @@ export function waferActions(input: {
   const t: SlotToken | undefined = slots[sel.slot - 1];
   const fault = (s: SlotState): string => `${where} holds ${STATE_WORDS[s]}: clear it and MAP ${sel.station}`;
   const unmapped = `${where} is not mapped yet: MAP ${sel.station} first`;
+  const uncertain = (w: string | null): string =>
+    `${where} is uncertain (perhaps ${w ?? 'a wafer'}): MAP ${sel.station} or CONFIRM it first`;
   /** Why the slot has no wafer to take ('' when it has one), for GET and SWAP. */
   const noWaferIn = (): string => {
     if (!t) return `${where} does not exist`;
     if (t.state === 'wafer') return '';
     if (t.state === 'empty') return `${where} is empty`;
     if (t.state === 'unknown') return unmapped;
+    if (t.state === 'uncertain') return uncertain(t.wafer);
     return fault(t.state);
   };
   /** Why the slot cannot take a wafer ('' when it is empty), for PUT. */
@@ -194,18 +209,32 @@ export function waferActions(input: {
     if (t.state === 'empty') return '';
     if (t.state === 'wafer') return `${where} holds ${t.wafer ?? 'a wafer'}`;
     if (t.state === 'unknown') return unmapped;
+    if (t.state === 'uncertain') return uncertain(t.wafer);
     return fault(t.state);
   };
   const check = (req: string, why: string): WaferAction => (why === '' ? ok(req) : no(req, why));
 
   const held = onBlade(map, blade);
-  const get = held !== null ? no(getReq, `${bladeWords(blade)} already holds ${held}`) : check(getReq, noWaferIn());
-  const put = held === null ? no(putReq, `${bladeWords(blade)} holds no wafer`) : check(putReq, noRoomIn());
+  const doubt = (b: Blade): string =>
+    `${bladeWords(b)} may hold ${onBlade(map, b) ?? 'a wafer'} (uncertain): SENSE or CONFIRM it first`;
+  const heldUncertain = blade === 'B' ? map.handBUncertain : map.handUncertain;
+  const get =
+    held === null
+      ? check(getReq, noWaferIn())
+      : no(getReq, heldUncertain ? doubt(blade) : `${bladeWords(blade)} already holds ${held}`);
+  const put =
+    held === null
+      ? no(putReq, `${bladeWords(blade)} holds no wafer`)
+      : heldUncertain
+        ? no(putReq, doubt(blade))
+        : check(putReq, noRoomIn());
 
   // SWAP takes the slot's wafer with the empty blade and puts the other blade's there: it
   // needs exactly one blade loaded.
   let swap: WaferAction;
-  if (map.hand !== null && map.handB !== null) {
+  if ((map.hand !== null && map.handUncertain) || (map.handB !== null && map.handBUncertain)) {
+    swap = no(swapReq, doubt(map.hand !== null && map.handUncertain ? 'A' : 'B'));
+  } else if (map.hand !== null && map.handB !== null) {
     swap = no(swapReq, `both blades hold a wafer (${map.hand}, ${map.handB}): SWAP needs one empty`);
   } else if (map.hand === null && map.handB === null) {
     swap = no(swapReq, 'neither blade holds a wafer to swap in');
@@ -243,6 +272,8 @@ const STYLE = `
   border: 1px solid var(--line); background: #0d1319; white-space: nowrap; }
 .wafer-hand[data-wafer]:not([data-wafer='']), .wafer-hand-b[data-wafer]:not([data-wafer='']) { background: #1d4f8c;
   border-color: #3d7fd6; color: #fff; font-weight: 700; }
+.wafer-hand[data-wafer][data-uncertain='1'], .wafer-hand-b[data-wafer][data-uncertain='1'] {
+  background: repeating-linear-gradient(135deg, #6b4700 0 5px, #3d2a00 5px 10px); border: 1px dashed var(--warn); color: #ffd27a; }
 .wafer-blade-b, .wafer-blade-choice { display: inline-flex; gap: 6px; align-items: center; }
 .wafer-blade-b[hidden], .wafer-blade-choice[hidden] { display: none; }
 .wafer-pending[data-pending='1'] { background: #4a3500; border-color: var(--warn); color: #ffd27a; font-weight: 700; }
@@ -273,6 +304,10 @@ const STYLE = `
 .wslot[data-state='double'], .wlegend-double { background: #8e1f17; border-color: #ff4d4f; color: #fff; font-weight: 700; }
 .wslot[data-state='cross'], .wlegend-cross { background: repeating-linear-gradient(160deg, #8a4a00 0 5px, #b36200 5px 10px);
   border-color: #ffb020; color: #fff; font-weight: 700; }
+.wslot[data-state='uncertain'], .wlegend-uncertain {
+  background: repeating-linear-gradient(135deg, #6b4700 0 5px, #3d2a00 5px 10px); border: 1px dashed var(--warn);
+  color: #ffd27a; font-weight: 700; }
+.wslot[data-state='uncertain'] .wslot-n { color: #ffd27a; }
 .wslot[data-selected='1'], .wlegend-selected { outline: 2px solid var(--accent); outline-offset: 0; }
 .wslot[data-pending='1'], .wlegend-pending { box-shadow: 0 0 0 2px var(--warn), 0 0 8px var(--warn); }
 .wslot:focus-visible { outline: 2px solid #fff; }
@@ -366,6 +401,7 @@ export function mountWaferPanel(
     legendItem('wlegend-unknown', 'not mapped'),
     legendItem('wlegend-double', 'double'),
     legendItem('wlegend-cross', 'cross-slotted'),
+    legendItem('wlegend-uncertain', 'uncertain (W3?: perhaps, perhaps not)'),
     legendItem('wlegend-pending', 'transfer in progress'),
     legendItem('wlegend-selected', 'selected'),
     h('span', {}, 'Slot 1 is at the bottom of each column, as in a cassette.'),
@@ -483,12 +519,14 @@ export function mountWaferPanel(
     }
 
     setAttr(hand, 'data-wafer', map.hand ?? '');
-    setText(hand, map.hand === null ? 'empty' : map.handUncertain ? `${map.hand}? (uncertain: its vacuum sensor has not confirmed it)` : map.hand);
+    setAttr(hand, 'data-uncertain', map.hand !== null && map.handUncertain ? '1' : '0');
+    setText(hand, bladeText(map.hand, map.handUncertain));
     const dual = isDualBlade(v.robot, map);
     bladeBWrap.hidden = !dual;
     bladeChoice.hidden = !dual;
     setAttr(handB, 'data-wafer', map.handB ?? '');
-    setText(handB, map.handB === null ? 'empty' : map.handBUncertain ? `${map.handB}? (uncertain)` : map.handB);
+    setAttr(handB, 'data-uncertain', map.handB !== null && map.handBUncertain ? '1' : '0');
+    setText(handB, bladeText(map.handB, map.handBUncertain));
     const p = map.pending;
     setAttr(pending, 'data-pending', p ? '1' : '0');
     setAttr(pending, 'data-kind', p ? p.kind : '');

@@ -78,7 +78,7 @@ export type FirstReply =
   | { kind: 'ACK'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'NAK'; id: number; code: number; text: string; line: string };
 
-/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT, SWAP, MAP. */
+/** The end of an action (`INF` or `ABS`), for HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT, SWAP, MAP, RETRACT, SENSE. */
 export type FinalReply =
   | { kind: 'INF'; id: number; fields: Record<string, string>; line: string }
   | { kind: 'ABS'; id: number; code: number; text: string; line: string };
@@ -123,9 +123,10 @@ export interface Bus {
   /**
    * Send one request (without an id: the bus adds one). Resolves with its first reply;
    * `final`, when the verb completes later (HOME, MOVJ, MOVP, MOVL, JOG, WAIT, RUN, GET, PUT,
-   * SWAP, MAP) and the first reply is an ACK, resolves with its INF or ABS. Events that arrive
-   * between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT TASK`, `EVT WAFER`, `EVT VAR`, `EVT POINT`)
-   * are collected in `events` (lines without `EVT `).
+   * SWAP, MAP, RETRACT, SENSE) and the first reply is an ACK, resolves with its INF or ABS.
+   * Events that arrive between the request and its first reply (`EVT DIAG`, `EVT AXIS`, `EVT
+   * TASK`, `EVT WAFER`, `EVT VAR`, `EVT POINT`, `EVT RECOVERY`) are collected in `events`
+   * (lines without `EVT `).
    */
   request(line: string): Promise<{ first: FirstReply; final: Promise<FinalReply> | null; events: string[] }>;
   /** Send raw lines (UPLOAD and its text): the reply to the request among them is returned. */

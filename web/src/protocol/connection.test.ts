@@ -184,6 +184,25 @@ describe('Connection', () => {
     expect(heard).toContain('POINT demo SAFE pose 250 0 10 0');
   });
 
+  it('gives RECOVERY its EVT RECOVERY lines, not a WAFERS asked beside it; every listener hears them', async () => {
+    const s = up();
+    s.recv('ACK 1', 'ACK 2', 'ACK 3 in=0 out=0');
+    const heard: string[] = [];
+    conn.onEvent((name, body) => heard.push(`${name} ${body}`));
+    const wafers = conn.request('WAFERS'); // 4
+    const recovery = conn.request('RECOVERY'); // 5
+    s.recv(
+      'EVT RECOVERY hand x=0 y=400 z=0 yaw=0 inside=-',
+      'EVT RECOVERY uncertain hand W1',
+      'ACK 4 hand=W1? LP1=-x25',
+      'ACK 5 uncertain=1 inside=-',
+    );
+    const [w, r] = await Promise.all([wafers, recovery]);
+    expect(w.events).toEqual([]);
+    expect(r.events).toEqual(['RECOVERY hand x=0 y=400 z=0 yaw=0 inside=-', 'RECOVERY uncertain hand W1']);
+    expect(heard).toContain('RECOVERY uncertain hand W1');
+  });
+
   it('gives no final to a NAK, and ABS with code and text', async () => {
     const s = up();
     const a = conn.request('MOVJ 0 90 -90 10');

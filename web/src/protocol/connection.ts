@@ -6,7 +6,8 @@
 // - Requests get ids; first replies (ACK/NAK) and final replies (INF/ABS) are matched by id.
 //   An id-less first reply (`NAK 103`) belongs to the oldest request still waiting; the
 //   requester-only events before a first reply (`EVT AXIS`, `EVT TASK`, `EVT DIAG`, `EVT VAR`,
-//   `EVT POINT`) to the oldest waiting request of the verb that causes them (see `collect`).
+//   `EVT POINT`, `EVT RECOVERY`) to the oldest waiting request of the verb that causes them (see
+//   `collect`).
 // - Binary frames are simulator datagrams, decoded by `decodeSample`.
 
 import type {
@@ -64,6 +65,9 @@ const REQUESTER_EVENTS: Record<string, string[]> = {
   VAR: ['VARS'],
   // Also sent to everyone when a point changes; a POINTS reply is told those too.
   POINT: ['POINTS'],
+  // Also sent to everyone after a start-up that found something and after each recovery
+  // action; a RECOVERY reply is told those too (recovery.ts picks its own lines).
+  RECOVERY: ['RECOVERY'],
 };
 
 interface Pending {
@@ -378,7 +382,7 @@ export class Connection implements Bus {
 
   /**
    * Give an event line to the requests waiting for their first reply. The requester-only
-   * events (`AXIS`, `TASK`, `DIAG`, `VAR`, `POINT`) go to the oldest waiting request of the verb that causes
+   * events (`AXIS`, `TASK`, `DIAG`, `VAR`, `POINT`, `RECOVERY`) go to the oldest waiting request of the verb that causes
    * them (first replies of different verbs may overtake each other: queries answered by other
    * controller threads come back before those of the Command Interpreter); every other event
    * but the status stream goes to every waiting request.

@@ -262,11 +262,11 @@ describe('requests', () => {
   it('formats requests and knows the verbs that complete later', () => {
     expect(formatRequest(7, ' MOVP 1 2 3 4 ')).toBe('7 MOVP 1 2 3 4');
     expect(verbOf('12 movj 1 2 3 4')).toBe('MOVJ');
-    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'GET PM1 1 B', 'PUT PM1 1 A', 'SWAP PM1 1', '9 swap PM1 1', 'MAP LP1']) {
+    for (const v of ['HOME', 'movj 1', 'MOVP 1', 'MOVL 1', 'JOG 1 100', 'WAIT', 'RUN x', 'GET LP1 3', 'put LP1 3', 'GET PM1 1 B', 'PUT PM1 1 A', 'SWAP PM1 1', '9 swap PM1 1', 'MAP LP1', 'RETRACT', 'SENSE', 'sense B']) {
       expect(completesLater(v), v).toBe(true);
     }
     // HOLD and RESUME answer ACK only: the held motion's own request ends with INF/ABS.
-    for (const v of ['STATUS', 'STOP', 'ESTOP', 'HOLD', 'RESUME', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL', 'WAFERS', 'STN', 'TEACH LP1']) {
+    for (const v of ['STATUS', 'STOP', 'ESTOP', 'HOLD', 'RESUME', 'SPEED 5', 'OUT 1 1', 'UPLOAD x', 'CONTROL', 'WAFERS', 'STN', 'TEACH LP1', 'RECOVERY', 'CONFIRM W1 GONE']) {
       expect(completesLater(v), v).toBe(false);
     }
   });

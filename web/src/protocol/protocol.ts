@@ -270,7 +270,7 @@ export function parsePrograms(fields: Record<string, string>): string[] {
 }
 
 /** Verbs whose accepted request later ends with `INF` or `ABS`. */
-const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN', 'GET', 'PUT', 'SWAP', 'MAP']);
+const FINAL_VERBS = new Set(['HOME', 'MOVJ', 'MOVP', 'MOVL', 'JOG', 'WAIT', 'RUN', 'GET', 'PUT', 'SWAP', 'MAP', 'RETRACT', 'SENSE']);
 
 /** The verb of a request line (upper case), skipping a leading id. */
 export function verbOf(request: string): string {
@@ -398,6 +398,8 @@ const ALARM_TEXT: Record<number, string> = {
   212: 'wafer not sensed',
   213: 'wafer lost',
   214: 'station interlock opened',
+  215: 'the program raised an alarm',
+  216: 'a transfer was interrupted by a power loss; RECOVERY says what is uncertain',
   300: 'motion board lost',
   301: 'internal error',
 };

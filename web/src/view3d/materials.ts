@@ -29,6 +29,38 @@ const JOINT_COLOR: Record<RobotState, string> = {
   ESTOP: '#d01e14',
 };
 
+/**
+ * The face of an uncertain wafer: diagonal amber hatching with a large `?` in the middle (the
+ * disc's caps map the texture's centre to the wafer's centre). Null outside a browser.
+ */
+function uncertainTexture(): THREE.Texture | null {
+  if (typeof document === 'undefined') return null;
+  const size = 256;
+  const c = document.createElement('canvas');
+  c.width = size;
+  c.height = size;
+  const g = c.getContext('2d');
+  if (!g) return null;
+  g.fillStyle = '#ffffff';
+  g.fillRect(0, 0, size, size);
+  g.strokeStyle = '#8a5a00';
+  g.lineWidth = 10;
+  for (let k = -size; k < 2 * size; k += 36) {
+    g.beginPath();
+    g.moveTo(k, 0);
+    g.lineTo(k + size, size);
+    g.stroke();
+  }
+  g.fillStyle = '#2a1a00';
+  g.font = `bold ${Math.round(size * 0.6)}px sans-serif`;
+  g.textAlign = 'center';
+  g.textBaseline = 'middle';
+  g.fillText('?', size / 2, size / 2 + size * 0.03);
+  const t = new THREE.CanvasTexture(c);
+  t.colorSpace = THREE.SRGBColorSpace;
+  return t;
+}
+
 /** A material whose colour follows the state, with its normal colour. */
 class TintedMaterial {
   readonly base: THREE.Color;
@@ -69,6 +101,19 @@ export class Materials {
   // Faulty slots: a double wafer red, a cross-slotted one orange (as in the Wafers panel).
   readonly double = new THREE.MeshStandardMaterial({ color: '#e0352b', metalness: 0.3, roughness: 0.4, emissive: '#3a0500' });
   readonly cross = new THREE.MeshStandardMaterial({ color: '#f08a1c', metalness: 0.3, roughness: 0.4, emissive: '#2e1600' });
+  // An uncertain wafer (perhaps there, perhaps not, after an interrupted transfer): amber,
+  // fainter than a wafer, hatched, with a `?` on its face (as in the Wafers panel).
+  readonly uncertain = new THREE.MeshStandardMaterial({
+    color: '#ffb020',
+    metalness: 0.1,
+    roughness: 0.6,
+    emissive: '#3a2400',
+    transparent: true,
+    opacity: 0.55,
+    depthWrite: false,
+    side: THREE.DoubleSide,
+    map: uncertainTexture(),
+  });
   // The base housing keeps its colour: the moving parts show the state.
   private readonly tinted = [this.link, this.column, this.hand];
 

@@ -132,6 +132,14 @@ export function zCylinder(r: number, h: number, segments = 40): THREE.CylinderGe
   return g;
 }
 
+/** Which blades show a wafer, and whether it is uncertain (drawn apart, with a `?`). */
+export interface BladeWafers {
+  hand: boolean;
+  bladeB: boolean;
+  handUncertain?: boolean;
+  bladeBUncertain?: boolean;
+}
+
 /** The fork of the hand, in the wrist frame, the TCP (wafer centre) at (tcp, 0). */
 function forkGeometry(tcp: number): THREE.ExtrudeGeometry {
   const xb = tcp - PALM_BACK; // back of the palm
@@ -191,9 +199,9 @@ export class RobotModel {
    */
   constructor(
     robot: RobotInfo,
-    mats: Materials,
+    private readonly mats: Materials,
     waferGeo: THREE.BufferGeometry,
-    wafers: { hand: boolean; bladeB: boolean },
+    wafers: BladeWafers,
   ) {
     const l1 = Math.max(0, robot.link1 || 0);
     const l2 = Math.max(0, robot.link2 || 0);
@@ -266,6 +274,8 @@ export class RobotModel {
     this.wrist = wrist;
     this.wafer = bladeWafer(stack.forkA, wafers.hand);
     this.waferB = stack.forkB === null ? null : bladeWafer(stack.forkB, wafers.bladeB);
+    this.showWafer(wafers.hand, wafers.handUncertain === true);
+    this.showBladeBWafer(wafers.bladeB, wafers.bladeBUncertain === true);
   }
 
   /** Put the arm at joint values `p` [deg, deg, deg, mm]. */
@@ -289,14 +299,23 @@ export class RobotModel {
     };
   }
 
-  /** Show or hide the wafer on the hand (blade A). */
-  showWafer(on: boolean): void {
+  /** Show or hide the wafer on the hand (blade A); an uncertain one is drawn apart. */
+  showWafer(on: boolean, uncertain = false): void {
     this.wafer.visible = on;
+    this.wafer.material = uncertain ? this.mats.uncertain : this.mats.wafer;
   }
 
-  /** Show or hide the wafer on blade B (no-op on a single-hand robot). */
-  showBladeBWafer(on: boolean): void {
-    if (this.waferB) this.waferB.visible = on;
+  /** Show or hide the wafer on blade B (no-op on a single-hand robot); an uncertain one is drawn apart. */
+  showBladeBWafer(on: boolean, uncertain = false): void {
+    if (!this.waferB) return;
+    this.waferB.visible = on;
+    this.waferB.material = uncertain ? this.mats.uncertain : this.mats.wafer;
+  }
+
+  /** How each blade's wafer is drawn now: `none`, `wafer` or `uncertain` (for tests and the console). */
+  drawnBladeWafers(): { hand: string; bladeB: string | null } {
+    const look = (m: THREE.Mesh): string => (!m.visible ? 'none' : m.material === this.mats.uncertain ? 'uncertain' : 'wafer');
+    return { hand: look(this.wafer), bladeB: this.waferB ? look(this.waferB) : null };
   }
 
   /** Free the geometries made for this robot (the materials and the wafer geometry stay). */

@@ -6,7 +6,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import type { RobotInfo } from '../protocol/bus';
 import { Materials } from './materials';
-import { BASE_H, RobotModel, WAFER_GAP, WAFER_R, WAFER_T, sceneZ, zCylinder } from './robot-model';
+import { BASE_H, RobotModel, WAFER_GAP, WAFER_R, WAFER_T, sceneZ, zCylinder, type BladeWafers } from './robot-model';
 
 /** A station (cassette, aligner, process chamber) drawn as a box; all in the base frame. */
 export interface StationSpec {
@@ -41,7 +41,8 @@ export interface WaferDisc {
   z: number;
   /** The station's hand direction [deg]: a cross-slotted wafer is tilted about it. */
   yaw: number;
-  state: 'wafer' | 'double' | 'cross';
+  /** `uncertain`: perhaps this wafer, perhaps nothing (after an interrupted transfer). */
+  state: 'wafer' | 'double' | 'cross' | 'uncertain';
   wafer: string | null;
   /** Tilt about the `yaw` direction [deg] (0 but for a cross-slotted wafer). */
   tilt: number;
@@ -131,7 +132,7 @@ export class SimScene {
    * Draw `robot` instead of the robot drawn before (which is freed), with a wafer on the
    * blades `wafers` says, and a floor for its reach. Returns the new drawing, not yet posed.
    */
-  setRobot(robot: RobotInfo, wafers: { hand: boolean; bladeB: boolean }): RobotModel {
+  setRobot(robot: RobotInfo, wafers: BladeWafers): RobotModel {
     if (this.robot) {
       this.scene.remove(this.robot.root);
       this.robot.dispose();
@@ -260,7 +261,14 @@ export class SimScene {
       const d = discs[i];
       m.visible = d !== undefined;
       if (!d) return;
-      m.material = d.state === 'double' ? mats.double : d.state === 'cross' ? mats.cross : mats.wafer;
+      m.material =
+        d.state === 'double'
+          ? mats.double
+          : d.state === 'cross'
+            ? mats.cross
+            : d.state === 'uncertain'
+              ? mats.uncertain
+              : mats.wafer;
       m.position.set(d.x, d.y, sceneZ(d.z) + WAFER_GAP);
       // Yaw about +Z, then a cross-slotted wafer's tilt about the station's hand direction.
       m.rotation.set(THREE.MathUtils.degToRad(d.tilt), 0, THREE.MathUtils.degToRad(d.yaw), 'ZYX');
@@ -268,6 +276,22 @@ export class SimScene {
       m.name = `${d.station}.${d.slot}`;
     });
     this.dirty = true;
+  }
+
+  /**
+   * What the stations' wafers look like now, read back from the scene (for tests and the
+   * console): `LP2.1` → `wafer`, `double`, `cross` or `uncertain`.
+   */
+  drawnSlotWafers(): Record<string, string> {
+    const mats = this.materials;
+    const out: Record<string, string> = {};
+    for (const m of this.slotWafers) {
+      if (!m.visible) continue;
+      const look =
+        m.material === mats.uncertain ? 'uncertain' : m.material === mats.double ? 'double' : m.material === mats.cross ? 'cross' : 'wafer';
+      out[m.name] = look;
+    }
+    return out;
   }
 
   /** Size the canvas to `width` × `height` [CSS px]; ignored while hidden (0) or unchanged. */

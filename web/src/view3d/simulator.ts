@@ -33,10 +33,13 @@ export interface SimulatorHandle {
   addStation(spec: StationSpec): string;
   removeStation(id: string): void;
   clearStations(): void;
-  /** Show or hide the wafer on the hand (shown by default). */
-  setWafer(onHand: boolean): void;
+  /**
+   * Show or hide the wafer on the hand (shown by default); an `uncertain` one (perhaps there,
+   * after an interrupted transfer) is drawn amber, hatched, with a `?`.
+   */
+  setWafer(onHand: boolean, uncertain?: boolean): void;
   /** Show or hide the wafer on blade B of a dual-blade robot (hidden by default; no-op without one). */
-  setBladeBWafer(onBladeB: boolean): void;
+  setBladeBWafer(onBladeB: boolean, uncertain?: boolean): void;
   /**
    * The wafers in the stations (replacing those drawn before); call when the map or the
    * stations change, not per frame.
@@ -52,6 +55,12 @@ export interface SimulatorHandle {
    * (for tests and the console); null before a robot is known or without WebGL.
    */
   drawnPose(): ArmPose | null;
+  /**
+   * How the wafers are drawn now, read back from the scene (for tests and the console): each
+   * blade's (`none`, `wafer`, `uncertain`; blade B null on a single-hand robot) and each
+   * station slot's that shows one (`LP2.1` → `wafer`, `double`, `cross`, `uncertain`).
+   */
+  drawnWafers(): { hand: string | null; bladeB: string | null; slots: Record<string, string> };
   /** Remove the view and stop everything (not needed by the app; for tests and reuse). */
   dispose(): void;
 }
@@ -112,6 +121,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     setStationWafers() {},
     showRecorded() {},
     drawnPose: () => null,
+    drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
     dispose() {
       root.remove();
     },
@@ -144,6 +154,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
 
   let waferOnHand = true;
   let waferOnBladeB = false;
+  let handUncertain = false;
+  let bladeBUncertain = false;
   /** While set, the view draws this instead of the live datagrams. */
   let recorded: RecordedFrame | null = null;
   let state: RobotState = 'IDLE';
@@ -157,7 +169,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
 
   function setRobot(robot: RobotInfo): void {
     const first = view.robot === null;
-    const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB });
+    const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB, handUncertain, bladeBUncertain });
     model.pose(armPose(model.axes, live.applied?.positions ?? live.latest?.positions ?? homePositions(robot)));
     if (first) view.fitCamera(model.reach);
     view.dirty = true;
@@ -274,21 +286,27 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     addStation: (spec) => view.addStation(spec),
     removeStation: (id) => view.removeStation(id),
     clearStations: () => view.clearStations(),
-    setWafer(onHand: boolean) {
-      if (onHand === waferOnHand) return;
+    setWafer(onHand: boolean, uncertain = false) {
+      if (onHand === waferOnHand && uncertain === handUncertain) return;
       waferOnHand = onHand;
-      view.robot?.showWafer(onHand);
+      handUncertain = uncertain;
+      view.robot?.showWafer(onHand, uncertain);
       view.dirty = true;
     },
-    setBladeBWafer(onBladeB: boolean) {
-      if (onBladeB === waferOnBladeB) return;
+    setBladeBWafer(onBladeB: boolean, uncertain = false) {
+      if (onBladeB === waferOnBladeB && uncertain === bladeBUncertain) return;
       waferOnBladeB = onBladeB;
-      view.robot?.showBladeBWafer(onBladeB);
+      bladeBUncertain = uncertain;
+      view.robot?.showBladeBWafer(onBladeB, uncertain);
       view.dirty = true;
     },
     setStationWafers: (discs) => view.setStationWafers(discs),
     showRecorded,
     drawnPose: () => view.robot?.drawnPose() ?? null,
+    drawnWafers: () => {
+      const blades = view.robot?.drawnBladeWafers() ?? null;
+      return { hand: blades?.hand ?? null, bladeB: blades?.bladeB ?? null, slots: view.drawnSlotWafers() };
+    },
     dispose() {
       if (disposed) return;
       disposed = true;

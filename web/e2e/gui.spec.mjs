@@ -429,7 +429,8 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
 
   await step('E-STOP during a long move', async () => {
     await id('tab-simulator').click();
-    await setSpeed(page, 20);
+    // Slow, as for HOLD: the E-stop must land while the arm moves.
+    await setSpeed(page, 10);
     // A request typed in the command line.
     await id('raw-command').fill('WHERE');
     await id('raw-command').press('Enter');

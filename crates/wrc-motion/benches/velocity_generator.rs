@@ -1,12 +1,13 @@
 //! Velocity Generator cost: one 50 ms cycle of a straight line for 4 axes, IK included
 //! (5 periods at 10 ms, 50 at 1 ms). The paper needed 5,185-9,181 µs per cycle; the target
 //! here is 20 µs. Also the cost of starting a line (checked point by point), of planning one
-//! with its whole timing law, of stopping one, and a PTP cycle.
+//! with its whole timing law, of stopping one, a PTP cycle, and of a transfer's blended
+//! approach (its bounded search, and the exhaustive one).
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use wrc_motion::{BrakeLimits, MotionSettings, Period, Profile, VelocityGenerator};
+use wrc_motion::{BlendSearch, BrakeLimits, MotionSettings, Period, Profile, VelocityGenerator};
 use wrc_robot::{Pose, Posture, Robot};
 
 /// Where the 250 mm line of these benchmarks ends.
@@ -196,6 +197,16 @@ fn cycle(c: &mut Criterion) {
     c.bench_function("plan_approach_lp1_to_al", |b| {
         b.iter_batched_ref(
             || at_lp1.clone(),
+            |vg| black_box(vg.plan_approach(&al, &seat, 80.0).unwrap()),
+            BatchSize::SmallInput,
+        )
+    });
+    // The same with every entry timed by the line's law run to its end (no budget).
+    let mut exhaustive = at_lp1.clone();
+    exhaustive.set_blend_search(BlendSearch::Exhaustive);
+    c.bench_function("plan_approach_lp1_to_al_exhaustive", |b| {
+        b.iter_batched_ref(
+            || exhaustive.clone(),
             |vg| black_box(vg.plan_approach(&al, &seat, 80.0).unwrap()),
             BatchSize::SmallInput,
         )

@@ -7,11 +7,11 @@
 //! [`BrakeLimits`]).
 //!
 //! Planning takes from microseconds (a PTP) to milliseconds (a line or path is checked point
-//! by point; a blend into or out of a path runs the path's law for its candidates:
-//! docs/motion.md gives the costs) but, like every period, it does not allocate: the
-//! generator owns fixed-size arrays and a derivative table allocated with it, so all of it
-//! can run in the real-time Velocity Generator task. The commanded position is by definition
-//! the sum of the pulses emitted; no pulse is ever lost or invented.
+//! by point; a blend into or out of a path searches its candidates within a budget of work,
+//! [`BlendSearch`]: docs/motion.md gives the costs) but, like every period, it does not
+//! allocate: the generator owns fixed-size arrays and a derivative table allocated with it,
+//! so all of it can run in the real-time Velocity Generator task. The commanded position is
+//! by definition the sum of the pulses emitted; no pulse is ever lost or invented.
 
 use wrc_robot::{Joints, Pose, Posture, Robot, MAX_AXES};
 
@@ -24,10 +24,11 @@ use crate::fir_axes::FirAxes;
 use crate::geometry::{path_window, place_on};
 use crate::geometry::{Geometry, Window};
 use crate::jerk_axes::{JerkAxes, Planner, RUCKIG_DOF};
-use crate::line_profile::{Bounds, LineProfile};
+use crate::line_profile::{estimate_time, Bounds, LineProfile};
 use crate::paper::PaperChannel;
 use crate::path::{line_path, scan, scan_recording, DerivTable, Derivs, LineAxes, PathCheck};
 use crate::path_spec::PathSpec;
+use crate::search::{BlendSearch, SearchStats, Work};
 use crate::settings::{check_speed_pct, MotionSettings, Profile};
 use crate::solutions::ptp_target;
 
@@ -39,8 +40,9 @@ const LINE_COUNTS: i64 = 1 << 40;
 /// [mm]: each gives the path a faster exit.
 pub const DEPART_ROOM_MM: [f64; 3] = [100.0, 30.0, 10.0];
 
-/// How far along a path its entries are compared ([`VelocityGenerator::plan_ptp_into`]):
-/// beyond the entry's acceleration from the slowest entry to the path's speed [mm].
+/// How far along a path its entries are compared ([`VelocityGenerator::plan_ptp_into`]; a
+/// line's to its end): beyond the entry's acceleration from the slowest entry to the path's
+/// speed [mm].
 pub const ENTRY_HORIZON_MM: f64 = 150.0;
 
 /// The fractions of the nominal velocity at a via point tried by
@@ -271,8 +273,33 @@ enum Then {
         ptp: JerkAxes,
         target: [i64; MAX_AXES],
     },
+    /// The path's law is planned to rest at the path's end and waits at its junction (the
+    /// first knot whose search looks past that end) to decide how it leaves: flowing into
+    /// the PTP, or not ([`VelocityGenerator::plan_depart`]).
+    Depart(Junction),
     /// A stop came during the path: it ends there; the move was going to `target`.
     Cancelled { target: [i64; MAX_AXES] },
+}
+
+/// What a path that flows into a PTP needs to decide how it leaves at its junction
+/// ([`Then::Depart`]); fixed-size.
+#[derive(Debug, Clone, Copy)]
+struct Junction {
+    /// The law's parameter where the path ends (its law is planned with its bounds ending
+    /// there until it decides).
+    cut: f64,
+    /// The ends of the rooms past the path's end that were checked, largest first [law's
+    /// parameter]: a flowing exit's law may brake up to one of them.
+    rooms: [f64; DEPART_ROOM_MM.len()],
+    /// How many of `rooms` there are.
+    count: usize,
+    /// The joints where the path ends.
+    at_cut: Joints,
+    /// The PTP's target [deg or mm], and in pulses.
+    to: Joints,
+    target: [i64; MAX_AXES],
+    /// The speed and acceleration overrides of the PTP, as fractions.
+    scales: (f64, f64),
 }
 
 impl Then {
@@ -283,6 +310,7 @@ impl Then {
             Then::Ptp { target } | Then::Flow { target, .. } | Then::Cancelled { target } => {
                 Some(*target)
             }
+            Then::Depart(j) => Some(j.target),
         }
     }
 }
@@ -373,6 +401,10 @@ pub struct VelocityGenerator {
     /// Ruckig, for a blended approach's first part (preallocated; boxed: its calculator is
     /// some 24 kB, too much to move around on a real-time thread's stack).
     planner: Box<Planner>,
+    /// How the blends between a PTP and a path search their candidates.
+    search: BlendSearch,
+    /// What those searches did.
+    stats: SearchStats,
 }
 
 impl VelocityGenerator {
@@ -392,7 +424,27 @@ impl VelocityGenerator {
             line_axes,
             table: DerivTable::new(),
             planner: Box::new(Planner::new()),
+            search: BlendSearch::DEFAULT,
+            stats: SearchStats::default(),
         })
+    }
+
+    /// How the blends between a PTP and a path ([`VelocityGenerator::plan_ptp_into`],
+    /// [`VelocityGenerator::plan_depart`], [`VelocityGenerator::plan_approach`]) search their
+    /// candidates: [`BlendSearch::DEFAULT`], bounded for the real-time task, unless set.
+    pub fn set_blend_search(&mut self, search: BlendSearch) {
+        self.search = search;
+    }
+
+    /// The blends' search in force.
+    pub fn blend_search(&self) -> BlendSearch {
+        self.search
+    }
+
+    /// What the blends' searches of this generator did: how many, how many ran out of
+    /// their budget and stopped at the junction, their work.
+    pub fn search_stats(&self) -> SearchStats {
+        self.stats
     }
 
     /// The robot.
@@ -810,8 +862,12 @@ impl VelocityGenerator {
     /// allow without acceleration, at ½ or ¼ of it, or at rest (a rest-to-rest approach in
     /// one move): of those whose first part keeps every joint in range and, entering
     /// moving, the TCP behind the line's start, the one that gets to `target` soonest (from
-    /// the approach pose itself, entering at rest). Entering at rest is the unblended
-    /// transfer's move to the approach pose, committed only there. Refused
+    /// the approach pose itself, entering at rest) by the estimate of the line's law
+    /// ([`BlendSearch`]; by the law itself under [`BlendSearch::Exhaustive`]). The entry at
+    /// rest, the fallback, is planned first; the moving ones only while the budget of work
+    /// lasts (a fallback taken for want of it is counted in [`SearchStats`]). Entering at
+    /// rest is the
+    /// unblended transfer's move to the approach pose, committed only there. Refused
     /// ([`PlanError::ApproachCrossesEntry`]) if none passes. This is
     /// [`VelocityGenerator::plan_ptp_into`] with [`EntryRule::Station`] on a straight line.
     ///
@@ -857,8 +913,11 @@ impl VelocityGenerator {
     /// `path.start`, checked by the caller), reached moving at the path's entry velocity,
     /// flowing into `path` at `path_pct` (never faster than this move's override). The same
     /// planning as [`VelocityGenerator::plan_approach`] — four entry speeds, down to rest (a
-    /// PTP and the path in one move), the one that gets to the end soonest of those that keep
-    /// every joint in range — with `rule`: [`EntryRule::Free`] for a program's blended PTP
+    /// PTP and the path in one move), of those that keep every joint in range the one that
+    /// gets [`ENTRY_HORIZON_MM`] along the path soonest by the estimate of its law (no law
+    /// is run ahead: a few milliseconds before the first pulse, whatever the path; past the
+    /// budget of work of [`BlendSearch`], the entry at rest) — with
+    /// `rule`: [`EntryRule::Free`] for a program's blended PTP
     /// (no station rule, so it never refuses what the PTP and the path as two moves would
     /// do), [`EntryRule::Station`] for a transfer. From the path's start or a point of it (a
     /// RESUME after a HOLD on it) it is the path alone, from there. Returns whether anything
@@ -927,12 +986,29 @@ impl VelocityGenerator {
         let v_max = 0.9 * LineProfile::entry_speed(&bounds, &|u: f64| self.table.at(u));
         let scale = (self.scale(), self.accel());
         let ts = self.settings.period_s;
-        // The fastest candidate: (duration, first part, its commit period, the line's law).
+        // Where the entries are compared: a line's end, or ENTRY_HORIZON_MM along a path,
+        // where the entries no longer differ.
+        let horizon = match path {
+            Geometry::Line(_) => 1.0,
+            Geometry::Curve(_) => (ENTRY_HORIZON_MM / path.length_mm()).min(1.0),
+        };
+        let work = Work::new(self.search);
+        let mut skipped = false;
+        // The fastest moving candidate and the entry at rest: (duration, first part, its
+        // commit period, the line's law). The entry at rest, the fallback, is planned first
+        // whatever the budget; each moving one checks the budget before its brake is
+        // verified and before its time is estimated, and none is started once it is spent.
         let mut best: Option<(f64, JerkAxes, u64, LineProfile)> = None;
-        for fraction in [1.0, 0.5, 0.25, 0.0] {
+        let mut at_rest: Option<(f64, JerkAxes, u64, LineProfile)> = None;
+        for fraction in [0.0, 1.0, 0.5, 0.25] {
             let table = &self.table;
-            let derivs = |u: f64| table.at(u);
+            let rows = |u: f64| table.at(u);
+            let derivs = work.counting(&rows);
             let v0 = v_max * fraction;
+            if v0 > 0.0 && !work.left() {
+                skipped = true;
+                break;
+            }
             let profile = if v0 > 0.0 {
                 match LineProfile::start_moving(&bounds, &derivs, v0) {
                     Some(p) => p,
@@ -994,31 +1070,58 @@ impl VelocityGenerator {
             if rule == EntryRule::Free {
                 last_ok = 0;
             }
-            // The line's time from this entry (its law run once on a copy); a path's to
-            // ENTRY_HORIZON_MM along it, where the entries no longer differ (running a
-            // path's law to its end for each would cost tens of milliseconds).
-            let mut dry = profile;
-            let end_t = match path {
-                Geometry::Line(_) => {
-                    let end_t = dry.run_to_end(&bounds, &derivs);
-                    if !dry.completed() {
-                        continue;
-                    }
-                    end_t
-                }
-                Geometry::Curve(_) => {
-                    let horizon = (ENTRY_HORIZON_MM / path.length_mm()).min(1.0);
-                    match dry.time_at(&bounds, &derivs, horizon) {
-                        Some((t, _)) => t,
-                        None => continue,
+            if v0 > 0.0 && !work.left() {
+                skipped = true;
+                break;
+            }
+            // The path's time from this entry to the horizon: estimated (bounded search), or
+            // its law run there on a copy (exhaustive: a path's law costs tens of
+            // milliseconds for the four entries).
+            let end_t = match self.search {
+                BlendSearch::Bounded { .. } => estimate_time(&bounds, &derivs, v0, horizon),
+                BlendSearch::Exhaustive => {
+                    let mut dry = profile;
+                    match path {
+                        Geometry::Line(_) => {
+                            let end_t = dry.run_to_end(&bounds, &derivs);
+                            if !dry.completed() {
+                                continue;
+                            }
+                            end_t
+                        }
+                        Geometry::Curve(_) => match dry.time_at(&bounds, &derivs, horizon) {
+                            Some((t, _)) => t,
+                            None => continue,
+                        },
                     }
                 }
             };
-            let total = ptp.duration() + end_t / line_scale;
-            if best.as_ref().is_none_or(|b| total < b.0) {
-                best = Some((total, ptp, last_ok.saturating_sub(2), profile));
+            if !end_t.is_finite() {
+                continue;
+            }
+            let candidate = (
+                ptp.duration() + end_t / line_scale,
+                ptp,
+                last_ok.saturating_sub(2),
+                profile,
+            );
+            if v0 == 0.0 {
+                at_rest = Some(candidate);
+            } else if best.as_ref().is_none_or(|b| candidate.0 < b.0) {
+                best = Some(candidate);
             }
         }
+        // The entry at rest only if it is sooner than every moving one: a fallback when the
+        // budget left it the only one.
+        let rest_sooner = match (&at_rest, &best) {
+            (Some(r), Some(b)) => r.0 < b.0,
+            (Some(_), None) => true,
+            (None, _) => false,
+        };
+        if rest_sooner {
+            best = at_rest;
+        }
+        self.stats.record(&work, skipped && rest_sooner);
         let Some((_, ptp, commit_k, profile)) = best else {
             self.nothing_to_do();
             return Err(PlanError::ApproachCrossesEntry);
@@ -1047,14 +1150,20 @@ impl VelocityGenerator {
     /// time-optimal (Ruckig from the path's state where it ends), the TCP leaving the path at
     /// its end moving.
     ///
-    /// How fast it leaves: the path's law is planned with room past its end to brake along
-    /// the path's continuation (its last segment continued) — 100, 30 or 10 mm
-    /// ([`DEPART_ROOM_MM`]), each checked like the path — so the path may end moving; every
-    /// state of it keeps a verified brake along the path, as a line's does. The rooms are
-    /// tried largest first (the fastest exit; each costs a run of the path's law to its end):
-    /// the first whose PTP part keeps every joint in range (checked every 2 ms) is taken,
-    /// unless the path to rest at its end and the PTP from there (two moves in one) arrive
-    /// sooner. When none passes, it is those two moves: it never refuses what they would do.
+    /// How fast it leaves: a flowing exit's law is planned with room past the path's end to
+    /// brake along its continuation (its last segment continued) — 100, 30 or 10 mm
+    /// ([`DEPART_ROOM_MM`]), checked like the path — so the path may end moving; every state
+    /// of it keeps a verified brake along the path, as a line's does. Before the first pulse
+    /// only the path and the largest room that keeps in the workspace are checked and
+    /// tabulated: the law is planned to rest at the path's end and run as the periods are
+    /// produced, up to its *junction*, the first knot from which the search for its next step
+    /// looks past the path's end. Up to there the law is the same with any room, so the exit
+    /// is decided there, in the period that reaches it, with the law run ahead over the last
+    /// stretch only: the rooms largest first, the first whose PTP part keeps every joint in
+    /// range (checked every 2 ms) taken, unless the path to rest at its end and the PTP from
+    /// there (two moves in one) arrive sooner. When none passes, or the search runs out of
+    /// its budget of work ([`BlendSearch`]: counted in [`SearchStats`]), it is those two
+    /// moves: it never refuses what they would do.
     ///
     /// From the path's start the whole move; from a point of the path (a RESUME after a HOLD
     /// on it) the rest of the path and the PTP; from anywhere else — at or past the path's end,
@@ -1085,97 +1194,176 @@ impl VelocityGenerator {
             return self.start_path_at(path, line_scale);
         };
         let target = self.robot.joints_to_pulses(to);
-        let n = self.robot.axis_count();
         let here = self.robot.forward(&current);
         let window = |to: f64| Window::new(curve, from, to, posture, &here);
-        // The path itself, checked (its refusal is the move's): also the fallback, the path
-        // to rest at its end and the PTP from there.
         let rest = Geometry::Curve(window(1.0));
-        scan(&rest, &self.robot, &current, None)?;
-        // The exits, fastest first: the first whose PTP part passes is taken.
-        let step = self.settings.period_s.min(0.002);
-        for room in DEPART_ROOM_MM {
-            let to_u = 1.0 + room / total;
-            let geometry = Geometry::Curve(window(to_u));
+        // The path with the largest room past its end that keeps in the workspace, checked
+        // and tabulated; if the largest fails, the path alone is checked first (its refusal
+        // is the move's).
+        let mut room = None;
+        for (i, mm) in DEPART_ROOM_MM.iter().enumerate() {
+            let w = window(1.0 + mm / total);
+            let geometry = Geometry::Curve(w);
             let cut = geometry.path_end();
-            let Ok((check, at_cut)) =
-                scan_recording(&geometry, &self.robot, &current, Some(&mut self.table), cut)
-            else {
-                continue;
-            };
-            let bounds = self.bounds_of(&geometry);
-            let table = &self.table;
-            let derivs = |u: f64| table.at(u);
-            let mut dry = LineProfile::start(&bounds, &derivs);
-            let Some((t_cut, (_, v, a))) = dry.time_at(&bounds, &derivs, cut) else {
-                continue;
-            };
-            // Every joint's state where the path ends, in real time.
-            let Ok(jets) = geometry.jets_at(&self.robot, cut, &at_cut) else {
-                continue;
-            };
-            let (v, a) = (v * line_scale, a * line_scale * line_scale);
-            let (mut qv, mut qa) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
-            for i in 0..n {
-                let d = jets.joints[i].d;
-                qv[i] = d[1] * v;
-                qa[i] = d[1] * a + d[2] * v * v;
-            }
-            let zero = [0.0; MAX_AXES];
-            let Some(ptp) = self.planner.between(
-                &self.robot,
-                (&at_cut, &qv, &qa),
-                (to, &zero, &zero),
-                (self.scale(), self.accel()),
-            ) else {
-                continue;
-            };
-            let samples = (ptp.duration() / step).ceil() as u64;
-            if !(0..=samples).all(|k| {
-                self.robot
-                    .check_joints(&ptp.state(k as f64 * step).0)
-                    .is_ok()
-            }) {
-                continue;
-            }
-            // Never slower than the path to rest and the PTP from there: the path at rest
-            // reaches its end no sooner than it leaves it moving, so only when this exit may
-            // be slower is the path's law run to rest to compare.
-            let time = t_cut / line_scale + ptp.duration();
-            let end_pulses = self.robot.joints_to_pulses(&at_cut);
-            if time > t_cut / line_scale + self.ptp_duration(&end_pulses, &target) {
-                let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
-                let bounds = self.bounds_of(&rest);
-                let table = &self.table;
-                let derivs = |u: f64| table.at(u);
-                let mut dry = LineProfile::start(&bounds, &derivs);
-                let end_t = dry.run_to_end(&bounds, &derivs);
-                let rest_pulses = self.robot.joints_to_pulses(&check.end_joints);
-                if end_t / line_scale + self.ptp_duration(&rest_pulses, &target) <= time {
+            match scan_recording(&geometry, &self.robot, &current, Some(&mut self.table), cut) {
+                Ok((_, at_cut)) => {
+                    room = Some((i, w, at_cut));
                     break;
                 }
-                // Back to this exit's table.
-                scan(&geometry, &self.robot, &current, Some(&mut self.table))?;
+                Err(_) if i == 0 => {
+                    scan(&rest, &self.robot, &current, None)?;
+                }
+                Err(_) => {}
             }
-            let then = Then::Flow {
-                t_cut: t_cut / line_scale,
-                ptp,
-                target,
-            };
-            self.start_cartesian(geometry, &check, &current, line_scale, then)?;
-            // The path's own end is not where this move ends.
-            if let Active::Line { target: t, .. } = &mut self.active {
-                *t = target;
-            }
-            return Ok(true);
         }
-        // No exit passes (or the first that does is slower): the path to rest at its end,
-        // then the PTP from there.
-        let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
-        if self.start_cartesian(rest, &check, &current, line_scale, Then::Ptp { target })? {
-            Ok(true)
+        let Some((first, w, at_cut)) = room else {
+            // No room past the end: the path to rest at its end, then the PTP from there.
+            let check = scan(&rest, &self.robot, &current, Some(&mut self.table))?;
+            return if self.start_cartesian(
+                rest,
+                &check,
+                &current,
+                line_scale,
+                Then::Ptp { target },
+            )? {
+                Ok(true)
+            } else {
+                self.plan_ptp_pulses(&target).map(|info| info.periods > 0)
+            };
+        };
+        let geometry = Geometry::Curve(w);
+        let cut = geometry.path_end();
+        let mut rooms = [1.0; DEPART_ROOM_MM.len()];
+        let mut count = 0;
+        for mm in &DEPART_ROOM_MM[first..] {
+            rooms[count] = w.v(1.0 + mm / total);
+            count += 1;
+        }
+        // Planned to rest at the path's end, watched for its junction.
+        let bounds = self.bounds_of(&geometry).ending_at(cut);
+        let table = &self.table;
+        let profile = LineProfile::start_watched(&bounds, &|u: f64| table.at(u));
+        let end_pulses = self.robot.joints_to_pulses(&at_cut);
+        self.active = Active::Line {
+            path: geometry,
+            law: LineLaw::Timed {
+                profile,
+                bounds,
+                scale: line_scale,
+                table: self.table.id,
+            },
+            target: end_pulses,
+            last: current,
+            t0: 0.0,
+            then: Then::Depart(Junction {
+                cut,
+                rooms,
+                count,
+                at_cut,
+                to: *to,
+                target,
+                scales: (self.scale(), self.accel()),
+            }),
+        };
+        self.k = 0;
+        self.stopped = false;
+        // A path within a brake of its end is at its junction from the start.
+        self.settle_junction();
+        Ok(true)
+    }
+
+    /// Bring the law of a path into a PTP that has not decided how it leaves up to time
+    /// `now` [s] of the move, and decide there if it reaches its junction.
+    fn reach_junction(&mut self, now: f64) {
+        let Active::Line {
+            path,
+            law:
+                LineLaw::Timed {
+                    profile,
+                    bounds,
+                    scale,
+                    table,
+                },
+            then: Then::Depart(_),
+            last,
+            t0,
+            ..
+        } = &mut self.active
+        else {
+            return;
+        };
+        let t = (now - *t0) * *scale;
+        if *table == self.table.id && !profile.braked_now() {
+            let tab = &self.table;
+            profile.at(bounds, &|u: f64| tab.at(u), t);
         } else {
-            self.plan_ptp_pulses(&target).map(|info| info.periods > 0)
+            let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
+            profile.at(bounds, &|u: f64| path.derivs(robot, axes, u, &reference), t);
+        }
+        self.settle_junction();
+    }
+
+    /// If the path under way (a path into a PTP) waits at its junction, decide how it leaves
+    /// ([`VelocityGenerator::plan_depart`]) and go on. Never allocates.
+    fn settle_junction(&mut self) {
+        let Active::Line {
+            path,
+            law:
+                LineLaw::Timed {
+                    profile,
+                    bounds,
+                    scale,
+                    table,
+                },
+            then: Then::Depart(junction),
+            last,
+            ..
+        } = self.active
+        else {
+            return;
+        };
+        if !profile.at_junction() {
+            return;
+        }
+        let work = Work::new(self.search);
+        let step = self.settings.period_s.min(0.002);
+        let exit = if table == self.table.id && !profile.braked_now() {
+            let tab = &self.table;
+            let rows = |u: f64| tab.at(u);
+            let derivs = work.counting(&rows);
+            exit_at_junction(
+                (&self.robot, &mut self.planner, &work, step),
+                (&path, &profile, &bounds, scale),
+                &junction,
+                &derivs,
+            )
+        } else {
+            // Another generator's plan: the derivatives from the kinematics, exactly.
+            let (robot, axes) = (&self.robot, &self.line_axes);
+            let rows = |u: f64| path.derivs(robot, axes, u, &last);
+            let derivs = work.counting(&rows);
+            exit_at_junction(
+                (robot, &mut self.planner, &work, step),
+                (&path, &profile, &bounds, scale),
+                &junction,
+                &derivs,
+            )
+        };
+        self.stats.record(&work, exit.fell_back);
+        if let Active::Line {
+            law: LineLaw::Timed {
+                profile, bounds, ..
+            },
+            target,
+            then,
+            ..
+        } = &mut self.active
+        {
+            (*profile, *bounds, *then) = (exit.profile, exit.bounds, exit.then);
+            if matches!(exit.then, Then::Flow { .. }) {
+                // The path's own end is not where this move ends.
+                *target = junction.target;
+            }
         }
     }
 
@@ -1358,24 +1546,7 @@ impl VelocityGenerator {
     /// The duration of a PTP from `from` to `to` [pulse] planned now [s]: the slowest axis's
     /// time-optimal profile at the overrides (what the move itself takes, synchronised).
     fn ptp_duration(&self, from: &[i64; MAX_AXES], to: &[i64; MAX_AXES]) -> f64 {
-        let (s, alpha) = (self.scale(), self.accel());
-        let mut t = 0.0f64;
-        for (i, axis) in self.robot.axes().iter().enumerate() {
-            let d = (to[i] - from[i]).unsigned_abs() as f64 / axis.pulses_per_unit;
-            if d > 0.0 {
-                let l = &axis.limits;
-                t = t.max(
-                    DoubleS::time_optimal(
-                        d,
-                        l.max_velocity * s,
-                        l.max_acceleration * s * s * alpha,
-                        l.max_jerk * s * s * s * alpha,
-                    )
-                    .duration(),
-                );
-            }
-        }
-        t
+        ptp_time(&self.robot, from, to, (self.scale(), self.accel()))
     }
 
     fn nothing_to_do(&mut self) -> MoveInfo {
@@ -1708,6 +1879,8 @@ impl VelocityGenerator {
         let n = self.robot.axis_count();
         let before = self.position;
         let ts = self.settings.period_s;
+        // A path into a PTP decides how it leaves in the period that reaches its junction.
+        self.reach_junction((self.k + 1) as f64 * ts);
         if let Active::Approach {
             ptp,
             path,
@@ -1939,6 +2112,12 @@ impl VelocityGenerator {
                     then: Then::Ptp { target },
                     ..
                 } => Some(*target),
+                // A path into a PTP whose law came to rest at the path's end without reaching
+                // its junction (it never looked past the end): the PTP from there.
+                Active::Line {
+                    then: Then::Depart(junction),
+                    ..
+                } => Some(junction.target),
                 _ => None,
             };
             if let Some(target) = next {
@@ -2030,6 +2209,139 @@ fn stop_line(
     } else {
         profile.stop();
     }
+}
+
+/// How a path into a PTP leaves, decided at its junction ([`exit_at_junction`]).
+struct Exit {
+    /// The law from the junction's knot on, and its bounds.
+    profile: LineProfile,
+    bounds: Bounds,
+    /// What follows the path: the PTP from where it ends moving, or from rest at its end.
+    then: Then,
+    /// Whether the search ran out of its budget and took the rest at the path's end.
+    fell_back: bool,
+}
+
+/// How the path along `path`, whose law `profile` (played at speed override `scale`, with
+/// `bounds` ending at the path's end) waits at its junction, leaves for the PTP of `j`
+/// ([`VelocityGenerator::plan_depart`]): each room's law resumed from the junction and run
+/// to the path's end, the first whose PTP part (from the state there, checked every
+/// `step` [s]) keeps every joint in range, unless the path to rest and the PTP from there
+/// arrive sooner; the rest when none passes, or when `work` runs out (a fallback).
+fn exit_at_junction(
+    (robot, planner, work, step): (&Robot, &mut Planner, &Work, f64),
+    (path, profile, bounds, scale): (&Geometry, &LineProfile, &Bounds, f64),
+    j: &Junction,
+    derivs: &impl Fn(f64) -> Derivs,
+) -> Exit {
+    let more = || work.left();
+    let end_pulses = robot.joints_to_pulses(&j.at_cut);
+    let rest_ptp = ptp_time(robot, &end_pulses, &j.target, j.scales);
+    // The path to rest at its end: the law as it was watched, resumed.
+    let mut rest = *profile;
+    rest.resume(bounds, derivs);
+    let stop_there = |fell_back: bool| Exit {
+        profile: rest,
+        bounds: *bounds,
+        then: Then::Ptp { target: j.target },
+        fell_back,
+    };
+    // The exits, largest room first: the first whose PTP part passes.
+    let zero = [0.0; MAX_AXES];
+    let mut flow = None;
+    for &end in &j.rooms[..j.count] {
+        if !work.left() {
+            return stop_there(true);
+        }
+        let b = bounds.ending_at(end);
+        let mut law = *profile;
+        law.resume(&b, derivs);
+        let mut dry = law;
+        let Some((t_cut, (_, v, a))) = dry.time_at_while(&b, derivs, j.cut, &more) else {
+            if !work.left() {
+                return stop_there(true);
+            }
+            continue;
+        };
+        // Every joint's state where the path ends, in real time.
+        let Ok(jets) = path.jets_at(robot, j.cut, &j.at_cut) else {
+            continue;
+        };
+        let (v, a) = (v * scale, a * scale * scale);
+        let (mut qv, mut qa) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+        for i in 0..robot.axis_count() {
+            let d = jets.joints[i].d;
+            qv[i] = d[1] * v;
+            qa[i] = d[1] * a + d[2] * v * v;
+        }
+        let Some(ptp) = planner.between(
+            robot,
+            (&j.at_cut, &qv, &qa),
+            (&j.to, &zero, &zero),
+            j.scales,
+        ) else {
+            continue;
+        };
+        let samples = (ptp.duration() / step).ceil() as u64;
+        if (0..=samples).all(|k| robot.check_joints(&ptp.state(k as f64 * step).0).is_ok()) {
+            flow = Some((law, b, t_cut / scale, ptp));
+            break;
+        }
+    }
+    let Some((law, b, t_cut, ptp)) = flow else {
+        return stop_there(false);
+    };
+    let time = t_cut + ptp.duration();
+    let flowing = Exit {
+        profile: law,
+        bounds: b,
+        then: Then::Flow {
+            t_cut,
+            ptp,
+            target: j.target,
+        },
+        fell_back: false,
+    };
+    // Never slower than the path to rest and the PTP from there: the path at rest reaches
+    // its end no sooner than it leaves it moving, so only when this exit may be slower is
+    // the law to rest run to its end to compare.
+    if time <= t_cut + rest_ptp {
+        return flowing;
+    }
+    let mut dry = rest;
+    match dry.run_to_end_while(bounds, derivs, &more) {
+        Some(end_t) if end_t / scale + rest_ptp <= time => stop_there(false),
+        Some(_) => flowing,
+        None => stop_there(true),
+    }
+}
+
+/// The duration [s] of a PTP of `robot` from `from` to `to` [pulse] at the speed and
+/// acceleration overrides `(s, α)` (fractions): the slowest axis's time-optimal profile
+/// (what the move itself takes, synchronised).
+fn ptp_time(
+    robot: &Robot,
+    from: &[i64; MAX_AXES],
+    to: &[i64; MAX_AXES],
+    (s, alpha): (f64, f64),
+) -> f64 {
+    let mut t = 0.0f64;
+    for (i, axis) in robot.axes().iter().enumerate() {
+        let d = (to[i] - from[i]).unsigned_abs() as f64 / axis.pulses_per_unit;
+        if d > 0.0 {
+            let l = &axis.limits;
+            t = t.max(
+                DoubleS::time_optimal(
+                    d,
+                    l.max_velocity * s,
+                    l.max_acceleration * s * s * alpha,
+                    l.max_jerk * s * s * s * alpha,
+                )
+                .duration(),
+            );
+        }
+    }
+    t
 }
 
 /// Whether `p` lies on the straight segment from `a` to `b` (within 1 µm, with the segment's

@@ -23,7 +23,10 @@ use crate::error::{PathProblem, PlanError};
 use crate::path::{end_reachable, no_posture, scan, Derivs, LineAxes, LinePath, PathCheck};
 use crate::path_spec::PathSpec;
 
-/// A composite path seen over u in [`from`, `to`] of its parameter.
+/// A composite path seen over u in [`from`, `to`] of its parameter: v = 0 at `from`, v = 1
+/// where the window reaches the path's end (or at `to` before it), and past 1 along the
+/// continuation beyond the end, up to [`Window::v_end`], in the same units — so that a
+/// window with a continuation is, up to the path's end, the window without it, to the bit.
 ///
 /// The robot stands at the window's start within [`START_TOL_MM`] or [`ON_PATH_TOL_MM`]
 /// (pulses round the joints, so a pose of the path is never quite where the robot is): that
@@ -35,8 +38,11 @@ pub(crate) struct Window {
     pub curve: Curve,
     /// The path's u at v = 0.
     pub from: f64,
-    /// The path's u at v = 1 (past 1: beyond the path's end, along its last segment).
+    /// The path's u where the window ends (past 1: beyond the path's end, along its last
+    /// segment).
     pub to: f64,
+    /// The path's u per unit of v: from `from` to the path's end, or to `to` before it.
+    span: f64,
     /// Elbow posture kept along it.
     pub posture: Posture,
     /// Where the robot stands less the path's pose at v = 0 [mm, mm, mm, deg].
@@ -76,7 +82,8 @@ impl Window {
             here.z - at.z,
             wrap180(here.yaw - at.yaw),
         ];
-        let length = curve.total() * (to - from);
+        let span = to.min(1.0) - from;
+        let length = curve.total() * span;
         let fade = if length > 0.0 {
             (FADE_MM / length).min(0.5)
         } else {
@@ -86,15 +93,27 @@ impl Window {
             curve,
             from,
             to,
+            span,
             posture,
             offset,
             fade,
         }
     }
 
+    /// The v where the window ends: 1, or past 1 on a window that continues beyond the
+    /// path's end.
+    #[inline]
+    pub(crate) fn v_end(&self) -> f64 {
+        if self.to > 1.0 {
+            self.v(self.to)
+        } else {
+            1.0
+        }
+    }
+
     /// The pose at v and its derivatives with respect to v.
     fn pose_jet(&self, v: f64) -> PoseJet {
-        let mut p = self.curve.pose_jet(self.u(v), self.to - self.from);
+        let mut p = self.curve.pose_jet(self.u(v), self.span);
         if v < self.fade && self.offset != [0.0; 4] {
             let f = fade_out(v / self.fade);
             for (jet, o) in [&mut p.x, &mut p.y, &mut p.z, &mut p.yaw]
@@ -114,13 +133,13 @@ impl Window {
     /// The path's u at v.
     #[inline]
     pub(crate) fn u(&self, v: f64) -> f64 {
-        self.from + v * (self.to - self.from)
+        self.from + v * self.span
     }
 
     /// The v of the path's u.
     #[inline]
     pub(crate) fn v(&self, u: f64) -> f64 {
-        (u - self.from) / (self.to - self.from)
+        (u - self.from) / self.span
     }
 }
 
@@ -136,6 +155,9 @@ pub(crate) enum Geometry {
 
 /// Most sample pieces of a path: a composite path's, and the continuation beyond its end.
 pub(crate) const MAX_TABLE_PIECES: usize = MAX_PIECES + 1;
+
+/// Most sample intervals of the continuation beyond a path's end (besides the path's own).
+pub(crate) const CONTINUATION_INTERVALS: usize = 1024;
 
 /// The sample pieces of a path: (v where it starts, where it ends, sample intervals).
 pub(crate) type Pieces = ([(f64, f64, usize); MAX_TABLE_PIECES], usize);
@@ -172,11 +194,12 @@ impl Geometry {
         matches!(self, Geometry::Curve(_))
     }
 
-    /// Length of the TCP's path over v in [0, 1] [mm] (along σ for a composite path).
+    /// Length of the TCP's path over v in [0, 1] [mm] (along σ for a composite path; a
+    /// window's continuation past the path's end lies beyond v = 1).
     pub(crate) fn length_mm(&self) -> f64 {
         match self {
             Geometry::Line(l) => l.length_mm(),
-            Geometry::Curve(w) => w.curve.total() * (w.to - w.from),
+            Geometry::Curve(w) => w.curve.total() * w.span,
         }
     }
 
@@ -243,7 +266,8 @@ impl Geometry {
 
     /// The pieces the check samples and the derivative table holds, in v: a composite
     /// path's pieces within the window, and the continuation beyond the path's end as a
-    /// piece of its own (so that v where the path ends is a sample).
+    /// piece of its own (so that v where the path ends is a sample, and the path's pieces
+    /// are sampled as in the window without it).
     pub(crate) fn pieces(&self) -> Pieces {
         let mut out = [(0.0, 0.0, 0usize); MAX_TABLE_PIECES];
         match self {
@@ -255,9 +279,10 @@ impl Geometry {
                 let c = &w.curve;
                 let last = c.pieces() - 1;
                 let mut count = 0;
+                let v_end = w.v_end();
                 let mut push = |a: f64, b: f64, n: usize| {
                     if b > a && n > 0 {
-                        out[count] = (w.v(a).max(0.0), w.v(b).min(1.0), n);
+                        out[count] = (w.v(a).max(0.0), w.v(b).min(v_end), n);
                         count += 1;
                     }
                 };
@@ -267,13 +292,7 @@ impl Geometry {
                     let part = (n as f64 * (b - a) / (u1 - u0).max(1e-300)).ceil() as usize;
                     push(a, b, part.min(n).max(1));
                 }
-                if w.to > 1.0 {
-                    // Beyond the end, sampled as the line's 0.5 mm (at least 4 intervals).
-                    let mm = (w.to - 1.0) * c.total();
-                    let n = ((mm / crate::path::SAMPLE_MM).ceil() as usize).clamp(4, 1024);
-                    push(1.0f64.max(w.from), w.to, n);
-                }
-                // Stay within the table.
+                // The path's pieces stay within the table's share of them.
                 let sum: usize = out[..count].iter().map(|p| p.2).sum();
                 let cap = crate::curve::MAX_CURVE_INTERVALS;
                 if sum > cap {
@@ -283,14 +302,24 @@ impl Geometry {
                 }
                 if count > 0 {
                     out[0].0 = 0.0;
-                    out[count - 1].1 = 1.0;
+                    out[count - 1].1 = v_end.min(1.0);
+                }
+                if w.to > 1.0 {
+                    // Beyond the end, sampled as the line's 0.5 mm (at least 4 intervals).
+                    let mm = (w.to - 1.0) * c.total();
+                    let n = ((mm / crate::path::SAMPLE_MM).ceil() as usize)
+                        .clamp(4, CONTINUATION_INTERVALS);
+                    out[count] = (1.0, v_end, n);
+                    count += 1;
                 }
                 (out, count)
             }
         }
     }
 
-    /// The v where the path itself ends (1, or less on a window that continues beyond it).
+    /// The v where the path itself ends in this window: 1 (a window continued past the
+    /// path's end has the continuation beyond 1; one that ends before the path's end ends
+    /// at 1).
     pub(crate) fn path_end(&self) -> f64 {
         match self {
             Geometry::Line(_) => 1.0,

@@ -22,8 +22,10 @@
 //! [`VelocityGenerator::plan_approach`], with a station's rule), a path into a PTP
 //! ([`VelocityGenerator::plan_depart`]) and a PTP through a via point
 //! ([`VelocityGenerator::plan_ptp_via`]), by Ruckig's synchronised moves to and from the
-//! path's moving states. An acceleration override ([`VelocityGenerator::set_accel_pct`])
-//! lowers a move's accelerations and jerks, never its stop. Not for the controller:
+//! path's moving states; their searches for the fastest candidate are bounded in work, not
+//! time ([`BlendSearch`], observed in [`SearchStats`]). An acceleration override
+//! ([`VelocityGenerator::set_accel_pct`]) lowers a move's accelerations and jerks, never its
+//! stop. Not for the controller:
 //! [`reference`] (lower bounds of a line's or path's duration, TOPP-RA) and [`bench`]
 //! (`wrc bench motion`), which allocate.
 //!
@@ -72,6 +74,7 @@ mod paper;
 mod path;
 mod path_spec;
 pub mod reference;
+mod search;
 mod settings;
 mod solutions;
 
@@ -81,11 +84,12 @@ pub use double_s::DoubleS;
 pub use error::{ArcProblem, PathPlace, PathProblem, PlanError, SettingsError};
 pub use generator::{
     BrakeLimits, EntryRule, Goal, MotionState, MoveEnd, MoveInfo, Period, Status, Sync,
-    VelocityGenerator, DEPART_ROOM_MM, VIA_SPEEDS,
+    VelocityGenerator, DEPART_ROOM_MM, ENTRY_HORIZON_MM, VIA_SPEEDS,
 };
 pub use geometry::{check_path, ON_PATH_TOL_MM, START_TOL_MM, YAW_TOL_DEG};
 pub use paper::PaperChannel;
 pub use path::{check_line, LinePath, PathCheck, PathLimits};
 pub use path_spec::{PathSegment, PathSpec, MAX_PATH_SEGMENTS};
+pub use search::{BlendSearch, SearchStats};
 pub use settings::{check_speed_pct, LineLimits, MotionSettings, Profile, MAX_PAPER_MASK};
 pub use solutions::{ptp_cost, ptp_target, solutions, sooner, Solutions, MAX_SOLUTIONS};

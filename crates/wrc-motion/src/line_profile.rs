@@ -214,6 +214,10 @@ pub(crate) struct Bounds {
     /// [`Derivs::piece`]) is checked every [`CHECK_MM`] of it, and closed-form brakes
     /// [`BLEND_CHECKS`] times as often as on a line.
     path_mm: f64,
+    /// Where the motion must end [u]: every brake stops by it, and the law lands on it. 1,
+    /// or less on a path continued past its end whose law must stop at the path's end
+    /// ([`Bounds::ending_at`]).
+    end: f64,
 }
 
 impl Bounds {
@@ -229,6 +233,7 @@ impl Bounds {
             cn: f64::INFINITY,
             accel: 1.0,
             path_mm: 0.0,
+            end: 1.0,
         };
         for k in 0..axes.n {
             let l = &robot.axes()[axes.idx[k]].limits;
@@ -279,6 +284,13 @@ impl Bounds {
         }
     }
 
+    /// These bounds with the motion ending at `end` [u] in (0, 1] instead of 1: a path
+    /// continued past its end (room for the brakes of a path that flows into a PTP) whose
+    /// law must stop at the path's end, or within part of the continuation.
+    pub(crate) fn ending_at(&self, end: f64) -> Bounds {
+        Bounds { end, ..*self }
+    }
+
     /// These bounds without the acceleration override: what a stop brakes with.
     pub(crate) fn full_accel(&self) -> Bounds {
         if self.accel == 1.0 {
@@ -302,6 +314,7 @@ impl Bounds {
             cn: self.cn * f.sqrt(),
             accel: self.accel,
             path_mm: self.path_mm,
+            end: self.end,
         }
     }
 
@@ -411,6 +424,45 @@ impl Bounds {
         (lo, hi)
     }
 
+    /// The largest acceleration ü the limits admit at speed v (negative: the state must
+    /// decelerate).
+    #[inline]
+    fn accel(&self, d: &Derivs, v: f64) -> f64 {
+        let mut hi = self.ca;
+        let v2 = v * v;
+        for k in 0..self.n {
+            let d1 = d.d1[k];
+            if d1.abs() < 1e-9 {
+                continue;
+            }
+            let c = d.d2[k] * v2;
+            let (l, h) = ((-self.a[k] - c) / d1, (self.a[k] - c) / d1);
+            hi = hi.min(l.max(h));
+        }
+        hi
+    }
+
+    /// The fastest speed u̇ [1/s] admissible with no acceleration of u where the derivatives
+    /// are `d`: every joint's and the TCP's velocity limit, the centripetal acceleration, and
+    /// every joint's acceleration limit against its centripetal term q″·u̇²; ∞ where nothing
+    /// bounds it.
+    #[inline]
+    fn speed(&self, d: &Derivs) -> f64 {
+        let mut v = self.cv;
+        if d.dn > 1e-12 {
+            v = v.min(self.cn / d.dn);
+        }
+        for k in 0..self.n {
+            if d.d1[k].abs() >= 1e-9 {
+                v = v.min(self.v[k] / d.d1[k].abs());
+            }
+            if d.d2[k].abs() >= 1e-12 {
+                v = v.min((self.a[k] / d.d2[k].abs()).sqrt());
+            }
+        }
+        v
+    }
+
     /// The largest deceleration −ü the limits admit at speed v (negative: the state must
     /// accelerate).
     #[inline]
@@ -428,6 +480,77 @@ impl Bounds {
         }
         -lo
     }
+}
+
+/// Most steps of [`estimate_time`] (60 s of plan time).
+const ESTIMATE_STEPS: usize = 15_000;
+
+/// An estimate of the plan time [s] the law takes from u = 0, entered at speed `v0` [1/s]
+/// with no acceleration, to u = `to`, without running it: a forward integration in steps of
+/// [`STEP_S`] that accelerates as hard as every acceleration limit allows at the present
+/// speed (the coupling term q″u̇² included), changing the acceleration with the jerk
+/// admissible at rest, up to the speed admissible with no acceleration where it is
+/// ([`Bounds::speed`]: velocity limits, centripetal terms), and held to it where that speed
+/// drops; near the end, under the speed from which a jerk-limited brake with the limits
+/// there stops on it. Nothing is verified: it compares entries into a path
+/// ([`crate::VelocityGenerator::plan_ptp_into`]), whose laws differ, once they have met,
+/// by about what their estimates differ (docs/motion.md: how often it picks another entry
+/// than the laws themselves would). About 2 derivative rows per step, no allocation;
+/// ∞ if it does not get there within 60 s.
+pub(crate) fn estimate_time(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, v0: f64, to: f64) -> f64 {
+    let h = STEP_S;
+    // The speed from which the time-optimal brake with deceleration `a` and jerk `j`,
+    // decelerating at `a` already, stops within `rem`: at `a` down to a²/2j, then the jerk
+    // brings the deceleration and the speed to 0 together (a³/6j² of the way).
+    let brake_speed = |rem: f64, a: f64, j: f64| {
+        let rem = rem.max(0.0);
+        let tail = a * a * a / (6.0 * j * j);
+        if !(a > 0.0 && j > 0.0) {
+            f64::INFINITY
+        } else if rem >= tail {
+            let v1 = a * a / (2.0 * j);
+            (2.0 * a * (rem - tail) + v1 * v1).sqrt()
+        } else {
+            (3.0 * rem * j.sqrt() / std::f64::consts::SQRT_2).powf(2.0 / 3.0)
+        }
+    };
+    let cap = |d: &Derivs, u: f64| {
+        let v = b.speed(d);
+        if to >= b.end {
+            v.min(brake_speed(
+                to - u,
+                b.accel_at_rest(d),
+                b.jerk_hi_at_rest(d),
+            ))
+        } else {
+            v
+        }
+    };
+    let (mut u, mut v, mut a, mut t) = (0.0f64, v0.max(0.0), 0.0f64, 0.0f64);
+    let mut d = derivs(u);
+    for _ in 0..ESTIMATE_STEPS {
+        if u >= to {
+            return t;
+        }
+        let j = b.jerk_hi_at_rest(&d);
+        // Accelerate as hard as allowed, easing off so as to reach the admissible speed
+        // with no acceleration left.
+        let room = (cap(&d, u) - v).max(0.0);
+        let target = b.accel(&d, v).max(0.0).min((2.0 * j * room).sqrt());
+        let an = target.clamp(a - j * h, a + j * h);
+        let vn = v + 0.5 * (a + an) * h;
+        let un = u + 0.5 * (v + vn) * h;
+        if un >= to {
+            return t + h * (to - u) / (un - u);
+        }
+        d = derivs(un);
+        let held = vn.min(cap(&d, un)).max(0.0);
+        if un <= u {
+            break;
+        }
+        (u, v, a, t) = (un, held, if held < vn { an.min(0.0) } else { an }, t + h);
+    }
+    f64::INFINITY
 }
 
 /// Position, velocity and acceleration after `dt` [s] at constant jerk `j` (of u here, of
@@ -570,7 +693,8 @@ fn brake_stop(
 ) -> Result<Option<f64>, Unsafe> {
     let mut d = derivs(u);
     let mut falling = 0;
-    let mut beyond = u > 1.0 + END_TOL;
+    let end = b.end + END_TOL;
+    let mut beyond = u > end;
     for _ in 0..MAX_BRAKE_STEPS {
         let (j, dt, last) = match brake_step(b, &d, v, a, policy) {
             BrakeStep::Rest => break,
@@ -585,7 +709,7 @@ fn brake_stop(
         let (un, vn, an) = step_to(u, v, a, j, dt);
         // Past the end the brake is followed on (the derivatives of the end) only to learn
         // where it would stop.
-        beyond |= un > 1.0 + END_TOL;
+        beyond |= un > end;
         if vn < -1e-9 {
             return Err(Unsafe::Limit);
         }
@@ -685,6 +809,11 @@ enum Mode {
     Closed { from: f64, brake: Brake1d },
     /// At rest for good at `u`.
     Done,
+    /// Stopped before choosing the step from the last knot, the first whose search looked
+    /// past the end ([`LineProfile::start_watched`]); `last` is the jerk of the step
+    /// before. The step from the knot is its verified brake until
+    /// [`LineProfile::resume`] chooses again.
+    Junction { last: f64 },
 }
 
 /// The state of a line's timing law: the last knot (plan time t, u, u̇, ü), the jerk and
@@ -713,6 +842,9 @@ pub(crate) struct LineProfile {
     /// A brake from [`LineProfile::brake_now`] is under way: it was verified with the
     /// derivatives it was given there, so it must be followed with the same ones.
     braked_now: bool,
+    /// Watched: the law stops at the first knot whose search looks past the end
+    /// ([`LineProfile::start_watched`]).
+    junction: bool,
 }
 
 impl LineProfile {
@@ -731,9 +863,54 @@ impl LineProfile {
             land: None,
             mode: Mode::Forward,
             braked_now: false,
+            junction: false,
         };
         p.choose(b, derivs);
         p
+    }
+
+    /// [`LineProfile::start`], watched: the law stops at the first knot from which the
+    /// search for its next step looks past the end — where a brake of a candidate step would
+    /// reach it — and waits there ([`LineProfile::at_junction`]) until
+    /// [`LineProfile::resume`]. Up to that knot the law is the same whatever lies past the
+    /// end and wherever the end is beyond it, to the bit: no step of it depended on either.
+    /// So a path that may flow into a PTP is planned to rest at its end, and decides how it
+    /// leaves only there: with the end moved further along its continuation, or not.
+    pub(crate) fn start_watched(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> LineProfile {
+        let mut p = LineProfile {
+            t: 0.0,
+            u: 0.0,
+            v: 0.0,
+            a: 0.0,
+            jerk: 0.0,
+            dt: STEP_S,
+            brake: 0,
+            brake_stop: 0.0,
+            ends: false,
+            land: None,
+            mode: Mode::Forward,
+            braked_now: false,
+            junction: true,
+        };
+        p.choose(b, derivs);
+        p
+    }
+
+    /// Whether the law waits at its junction ([`LineProfile::start_watched`]).
+    pub(crate) fn at_junction(&self) -> bool {
+        matches!(self.mode, Mode::Junction { .. })
+    }
+
+    /// Go on from the junction with the bounds `b` (whose end may differ from the one it
+    /// was watched with), no longer watched: the step from the junction's knot is chosen
+    /// as it would have been had the law been planned with `b` from its start.
+    pub(crate) fn resume(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
+        if let Mode::Junction { last } = self.mode {
+            self.mode = Mode::Forward;
+            self.junction = false;
+            self.jerk = last;
+            self.choose(b, derivs);
+        }
     }
 
     /// A law that starts at u = 0 already moving, at speed `v0` [1/s] with no acceleration
@@ -756,7 +933,7 @@ impl LineProfile {
             Horizon::Full,
         )
         .ok()?;
-        let stop = stop.filter(|s| *s <= 1.0)?;
+        let stop = stop.filter(|s| *s <= b.end)?;
         let mut p = LineProfile {
             t: 0.0,
             u: 0.0,
@@ -770,6 +947,7 @@ impl LineProfile {
             land: None,
             mode: Mode::Forward,
             braked_now: false,
+            junction: false,
         };
         p.choose(b, derivs);
         Some(p)
@@ -779,19 +957,7 @@ impl LineProfile {
     /// acceleration of u: every joint's and the TCP's velocity limit, and every joint's
     /// acceleration limit against the centripetal term q″·u̇².
     pub(crate) fn entry_speed(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
-        let d = derivs(0.0);
-        let mut v = b.cv;
-        if d.dn > 1e-12 {
-            v = v.min(b.cn / d.dn);
-        }
-        for k in 0..b.n {
-            if d.d1[k].abs() >= 1e-9 {
-                v = v.min(b.v[k] / d.d1[k].abs());
-            }
-            if d.d2[k].abs() >= 1e-12 {
-                v = v.min((b.a[k] / d.d2[k].abs()).sqrt());
-            }
-        }
+        let v = b.speed(&derivs(0.0));
         if v.is_finite() {
             v
         } else {
@@ -826,7 +992,7 @@ impl LineProfile {
             // derivatives are of the order of 1 − stop ≤ LAND_TOL relative).
             Some((from, stop)) if u > from && stop > from => {
                 let x = ((u - from) / (stop - from)).min(1.0);
-                (u + (1.0 - stop) * x * x * x * x).min(1.0)
+                (u + (b.end - stop) * x * x * x * x).min(b.end)
             }
             _ => u,
         }
@@ -842,9 +1008,24 @@ impl LineProfile {
         derivs: &impl Fn(f64) -> Derivs,
         target: f64,
     ) -> Option<(f64, (f64, f64, f64))> {
+        self.time_at_while(b, derivs, target, &|| true)
+    }
+
+    /// [`LineProfile::time_at`] while `more()` says so (checked every quarter step: a budget
+    /// of work); `None` when it does not.
+    pub(crate) fn time_at_while(
+        &mut self,
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        target: f64,
+        more: &impl Fn() -> bool,
+    ) -> Option<(f64, (f64, f64, f64))> {
         let h = STEP_S / 4.0;
         let mut t = self.t;
         for _ in 0..4 * MAX_BRAKE_STEPS {
+            if !more() {
+                return None;
+            }
             let before = *self;
             if self.at(b, derivs, t + h) >= target {
                 let after = *self;
@@ -866,7 +1047,7 @@ impl LineProfile {
                 let (_, v, a) = p.state(hi);
                 return Some((hi, (u_at(hi), v, a)));
             }
-            if self.done() {
+            if self.done() || self.at_junction() {
                 return None;
             }
             t += h;
@@ -878,6 +1059,31 @@ impl LineProfile {
     pub(crate) fn run_to_end(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> f64 {
         self.advance_to(b, derivs, f64::INFINITY);
         self.t
+    }
+
+    /// [`LineProfile::run_to_end`] knot by knot while `more()` says so (a budget of work):
+    /// the plan time at which it comes to rest [s], or `None` when `more()` ends it first or
+    /// the law waits at its junction.
+    pub(crate) fn run_to_end_while(
+        &mut self,
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        more: &impl Fn() -> bool,
+    ) -> Option<f64> {
+        for _ in 0..4 * MAX_BRAKE_STEPS {
+            if self.done() {
+                return Some(self.t);
+            }
+            if self.at_junction() || !more() {
+                return None;
+            }
+            let next = match self.mode {
+                Mode::Closed { .. } => f64::INFINITY,
+                _ => self.t + self.dt,
+            };
+            self.advance_to(b, derivs, next);
+        }
+        None
     }
 
     /// Move the last knot up to time `t` [s] (the knot at or before it, or the rest).
@@ -896,7 +1102,9 @@ impl LineProfile {
                 Mode::Forward | Mode::Stopping | Mode::Braking { .. } if t >= self.t + self.dt => {
                     self.next_knot(b, derivs)
                 }
-                Mode::Forward | Mode::Stopping | Mode::Braking { .. } => return,
+                Mode::Forward | Mode::Stopping | Mode::Braking { .. } | Mode::Junction { .. } => {
+                    return
+                }
             }
         }
     }
@@ -904,7 +1112,7 @@ impl LineProfile {
     /// Request a controlled stop: the current step ends at its knot, then the brake that was
     /// verified from that knot takes the line to rest (on the line, within every limit).
     pub(crate) fn stop(&mut self) {
-        if self.mode == Mode::Forward {
+        if matches!(self.mode, Mode::Forward | Mode::Junction { .. }) {
             self.mode = Mode::Stopping;
         }
     }
@@ -922,7 +1130,7 @@ impl LineProfile {
         match self.mode {
             Mode::Done => (self.u, 0.0, 0.0),
             Mode::Closed { from, brake } => brake.at(t - from),
-            Mode::Forward | Mode::Stopping | Mode::Braking { .. } => {
+            Mode::Forward | Mode::Stopping | Mode::Braking { .. } | Mode::Junction { .. } => {
                 let (u, v, a) = step_to(self.u, self.v, self.a, self.jerk, t - self.t);
                 (u, v.max(0.0), a)
             }
@@ -1077,6 +1285,9 @@ impl LineProfile {
     /// (stopping at `self.brake_stop`).
     fn choose(&mut self, b: &Bounds, derivs: &impl Fn(f64) -> Derivs) {
         let (u, v, a) = (self.u, self.v, self.a);
+        if matches!(self.mode, Mode::Junction { .. }) {
+            return;
+        }
         if let Mode::Braking { brake } = self.mode {
             // The stop's brake, step by step as it was verified (a failure never comes from
             // a verified state: it would end the motion where it is).
@@ -1106,11 +1317,46 @@ impl LineProfile {
         if self.mode == Mode::Stopping || self.land.is_some() {
             return;
         }
-        if u > 0.0 && self.brake_stop >= 1.0 - LAND_TOL {
+        if u > 0.0 && self.brake_stop >= b.end - LAND_TOL {
             // The last brake: it ends the line; stretch it onto u = 1.
             self.land = Some((u, self.brake_stop));
             return;
         }
+        // Past its end the law sees the end's derivatives (a table's past its last row): its
+        // brakes are followed there only to learn where they would stop.
+        let end = b.end;
+        if !self.junction {
+            self.search(b, &|x: f64| derivs(x.min(end)), (&d, fallback), last);
+            return;
+        }
+        // Watched: the first search that looks past the end (a brake of a probe reaching
+        // it) is undone, and the law waits at this knot, on its verified brake.
+        let before = *self;
+        let looked = std::cell::Cell::new(false);
+        let watch = |x: f64| {
+            if x > end {
+                looked.set(true);
+            }
+            derivs(x.min(end))
+        };
+        self.search(b, &watch, (&d, fallback), last);
+        if looked.get() {
+            *self = before;
+            self.mode = Mode::Junction { last };
+        }
+    }
+
+    /// The search for the step from the knot (u, u̇, ü) where the derivatives are `d`, the
+    /// brake verified there giving `fallback`; `last` is the jerk of the step before.
+    fn search(
+        &mut self,
+        b: &Bounds,
+        derivs: &impl Fn(f64) -> Derivs,
+        (d, fallback): (&Derivs, BrakeStep),
+        last: f64,
+    ) {
+        let (u, v, a) = (self.u, self.v, self.a);
+        let (d, jb, brake) = (*d, self.jerk, self.brake);
         let (_, hi) = b.jerk_range(&d, v, a);
         if hi <= jb {
             return;
@@ -1179,8 +1425,9 @@ impl LineProfile {
                     Err(Unsafe::Overshoot(at)) => Some(at),
                     _ => None,
                 };
-                let landed = over
-                    .and_then(|over| land(&with_brake, (jb, self.brake_stop), (candidate, over)));
+                let landed = over.and_then(|over| {
+                    land(&with_brake, b.end, (jb, self.brake_stop), (candidate, over))
+                });
                 if let Some((j, k, stop)) = landed {
                     self.set_step(j, k, stop);
                 }
@@ -1205,7 +1452,7 @@ impl LineProfile {
 /// (checked every [`CHECK_S`] at most and at both ends of every phase, with that phase's
 /// jerk), never moves backwards and stops by u = 1.
 fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d) -> bool {
-    if brake.stop_position() > 1.0 + END_TOL {
+    if brake.stop_position() > b.end + END_TOL {
         return false;
     }
     brake.phases().all(|(start, len, jerk)| {
@@ -1224,12 +1471,13 @@ fn closed_brake_ok(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, brake: &Brake1d)
     })
 }
 
-/// The jerk in (lo.0, hi.0) whose verified brake stops within [`LAND_TOL`] of u = 1, given
-/// where the brakes of `lo.0` and `hi.0` stop (before and beyond 1): the Illinois variant
-/// of regula falsi on the stop point. The best safe jerk found if it runs out of steps or a
-/// probe fails on a limit.
+/// The jerk in (lo.0, hi.0) whose verified brake stops within [`LAND_TOL`] of u = `end`,
+/// given where the brakes of `lo.0` and `hi.0` stop (before and beyond it): the Illinois
+/// variant of regula falsi on the stop point. The best safe jerk found if it runs out of
+/// steps or a probe fails on a limit.
 fn land(
     full: &impl Fn(f64) -> Result<(u8, Option<f64>), Unsafe>,
+    end: f64,
     lo: (f64, f64),
     hi: (f64, f64),
 ) -> Option<(f64, u8, f64)> {
@@ -1237,7 +1485,7 @@ fn land(
     let mut best = None;
     let mut side = 0i8;
     for _ in 0..LANDING_STEPS {
-        let (gl, gh) = (sl - 1.0, sh - 1.0);
+        let (gl, gh) = (sl - end, sh - end);
         let mut j = jl - gl * (jh - jl) / (gh - gl);
         if !(j > jl && j < jh) {
             j = 0.5 * (jl + jh);
@@ -1245,19 +1493,19 @@ fn land(
         match full(j) {
             Ok((k, Some(stop))) => {
                 best = Some((j, k, stop));
-                if stop >= 1.0 - LAND_TOL {
+                if stop >= end - LAND_TOL {
                     break;
                 }
                 (jl, sl) = (j, stop);
                 if side == -1 {
-                    sh = 1.0 + 0.5 * (sh - 1.0);
+                    sh = end + 0.5 * (sh - end);
                 }
                 side = -1;
             }
             Err(Unsafe::Overshoot(stop)) => {
                 (jh, sh) = (j, stop);
                 if side == 1 {
-                    sl = 1.0 + 0.5 * (sl - 1.0);
+                    sl = end + 0.5 * (sl - end);
                 }
                 side = 1;
             }
@@ -1292,6 +1540,131 @@ mod tests {
             assert!(t < 100.0);
         }
         (t, out)
+    }
+
+    #[test]
+    fn a_watched_law_is_any_ends_law_to_its_junction_and_resumes_as_that_ends_law() {
+        // A line whose "path" ends at u = 0.6, continued to 0.75 or to 1 (the room a path
+        // into a PTP brakes in). The law planned to rest at 0.6 and watched is, up to its
+        // junction, the law planned with each end from its start, knot for knot to the bit;
+        // resumed there with an end, it is that end's law to its rest.
+        let robot = Robot::paper_default();
+        let (a, b) = (
+            Pose {
+                x: 250.0,
+                y: -150.0,
+                z: 0.0,
+                yaw: 0.0,
+            },
+            Pose {
+                x: 250.0,
+                y: 150.0,
+                z: 0.0,
+                yaw: 0.0,
+            },
+        );
+        let path = LinePath::new(&robot, a, b, Posture::Right);
+        let start = robot.inverse(&a, Posture::Right, None).unwrap();
+        let mut table = DerivTable::new();
+        path.scan(&robot, &start, Some(&mut table)).unwrap();
+        let line = crate::settings::MotionSettings::default().line;
+        let bounds = Bounds::new(&robot, &LineAxes::of(&robot), &line, path.length_mm());
+        let derivs = |u: f64| table.at(u);
+        let cut = 0.6;
+        let to_cut = bounds.ending_at(cut);
+        for end in [cut, 0.75, 1.0] {
+            let with_end = bounds.ending_at(end);
+            let mut plain = LineProfile::start(&with_end, &derivs);
+            let mut watched = LineProfile::start_watched(&to_cut, &derivs);
+            let mut junction = None;
+            let mut t = 0.0;
+            while !plain.done() {
+                t += 0.001;
+                let u = plain.at(&with_end, &derivs, t);
+                if junction.is_none() {
+                    watched.at(&to_cut, &derivs, t);
+                    if watched.at_junction() {
+                        junction = Some(watched.u);
+                        watched.resume(&with_end, &derivs);
+                    } else {
+                        let unwatched = LineProfile {
+                            junction: false,
+                            ..watched
+                        };
+                        assert_eq!(unwatched, plain, "end {end}: at {t} s");
+                        continue;
+                    }
+                }
+                let w = watched.at(&with_end, &derivs, t);
+                assert_eq!(w.to_bits(), u.to_bits(), "end {end}: at {t} s");
+                assert_eq!(watched, plain, "end {end}: at {t} s");
+            }
+            let junction = junction.expect("the watched law reached its junction");
+            assert!(
+                junction > 0.1 && junction < cut,
+                "end {end}: junction at u = {junction}"
+            );
+            assert!(watched.completed() && plain.completed());
+        }
+    }
+
+    #[test]
+    fn the_estimate_ranks_entries_as_the_law_does() {
+        // Lines where the Cartesian limits bind, and one near the stretched arm where the
+        // joints' do: the estimated time to 3/4 of the line and to its end (at rest) from
+        // entries at rest and moving is within 15 % of the law's, and the differences
+        // between entries — what a PTP into a path compares — within 10 ms.
+        let robot = Robot::paper_default();
+        let line = crate::settings::MotionSettings::default().line;
+        for (a, b) in [
+            ((250.0, -100.0), (250.0, 100.0)),
+            ((150.0, 150.0), (-150.0, 150.0)),
+            ((380.0, -40.0), (380.0, 60.0)),
+        ] {
+            let pose = |(x, y): (f64, f64)| Pose {
+                x,
+                y,
+                z: 0.0,
+                yaw: 0.0,
+            };
+            let (a, b) = (pose(a), pose(b));
+            let path = LinePath::new(&robot, a, b, Posture::Right);
+            let start = robot.inverse(&a, Posture::Right, None).unwrap();
+            let mut table = DerivTable::new();
+            path.scan(&robot, &start, Some(&mut table)).unwrap();
+            let bounds = Bounds::new(&robot, &LineAxes::of(&robot), &line, path.length_mm());
+            let derivs = |u: f64| table.at(u);
+            let v_max = 0.9 * LineProfile::entry_speed(&bounds, &derivs);
+            for to in [0.75, 1.0] {
+                let mut times = Vec::new();
+                for f in [1.0, 0.5, 0.25, 0.0] {
+                    let v0 = v_max * f;
+                    let mut law = if v0 > 0.0 {
+                        LineProfile::start_moving(&bounds, &derivs, v0).unwrap()
+                    } else {
+                        LineProfile::start(&bounds, &derivs)
+                    };
+                    let t = if to < 1.0 {
+                        law.time_at(&bounds, &derivs, to).unwrap().0
+                    } else {
+                        law.run_to_end(&bounds, &derivs)
+                    };
+                    let e = estimate_time(&bounds, &derivs, v0, to);
+                    assert!(
+                        (e / t - 1.0).abs() < 0.15,
+                        "{a:?} to {to}: entry {f}: {e} s, law {t} s"
+                    );
+                    times.push((t, e));
+                }
+                for w in times.windows(2) {
+                    let (law, est) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
+                    assert!(
+                        (law - est).abs() < 0.010,
+                        "{a:?} to {to}: {law} s apart, estimated {est} s"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

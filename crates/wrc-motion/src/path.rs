@@ -48,7 +48,8 @@ pub(crate) const LINE_AXES: usize = 4;
 pub(crate) const CHANNELS: usize = LINE_AXES + 1;
 
 /// Most points of a derivative table: a composite path's samples, both ends of each piece.
-const TABLE_POINTS: usize = crate::curve::MAX_CURVE_INTERVALS + MAX_TABLE_PIECES;
+const TABLE_POINTS: usize =
+    crate::curve::MAX_CURVE_INTERVALS + crate::geometry::CONTINUATION_INTERVALS + MAX_TABLE_PIECES;
 
 /// A straight segment in Cartesian space.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -201,12 +202,15 @@ impl DerivTable {
         }
     }
 
-    /// The derivatives at `v` in [0, 1].
+    /// The derivatives at `v` in [0, 1] (or to the end of a continuation past the path's
+    /// end), clamped to the table's ends. Where two pieces meet, the one before: at the
+    /// path's end, the path's last sample, whether a continuation follows or not.
     #[inline]
     pub(crate) fn at(&self, v: f64) -> Derivs {
-        let v = v.clamp(0.0, 1.0);
-        let mut k = self.count.saturating_sub(1);
-        while k > 0 && self.pieces[k].v0 > v {
+        let last = self.count.saturating_sub(1);
+        let v = v.clamp(0.0, self.pieces[last].v1.max(1.0));
+        let mut k = last;
+        while k > 0 && self.pieces[k].v0 >= v {
             k -= 1;
         }
         let piece = &self.pieces[k];

@@ -4,7 +4,9 @@
 //! the controller runs them; the bench prints their durations over the lower bound, the
 //! limits they used (from the output pulses), their accuracy (the TCP's distance from the
 //! path, a blend's from its corner) and the planning time (wrc-motion measures; this module
-//! parses, prints and writes JSON).
+//! parses, prints and writes JSON). Each PTP blend is planned twice, with the bounded
+//! search the controller uses and with the exhaustive one (no budget, and a PTP's entries
+//! into a path timed by the path's law, as before the search was bounded), in the same run.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -13,7 +15,7 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 use wrc_motion::bench::paths::{
-    random_joints, run_blend, run_path, Blend, BlendRun, PathCase, PathRun,
+    random_joints, run_blend, run_path, Blend, BlendRun, Cycles, PathCase, PathRun,
 };
 use wrc_motion::bench::{median_max, run_line, LineRun, Lines};
 use wrc_motion::{DoubleS, Profile};
@@ -86,6 +88,7 @@ pub(crate) fn fir_settings(
 /// Run `wrc bench motion`.
 pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let (robot, settings) = fir_settings(args.config.as_deref(), args.period_ms, &args.speed)?;
+    let cycles = vg_cycles(args.config.as_deref(), settings.period_s)?;
     println!(
         "wrc bench motion: {} random reachable lines and {} long ones of {} (seed {}), period {} ms, speeds {:?} %",
         args.lines,
@@ -200,7 +203,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             print_path_figures(pct, "blended paths", f);
         }
         let blend_figures = (!blends.is_empty())
-            .then(|| run_blends(&generator, &blends))
+            .then(|| run_blends(&generator, &blends, cycles))
             .transpose()?;
         if let Some(f) = &blend_figures {
             print_blend_figures(pct, f);
@@ -231,6 +234,25 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
         println!("  JSON written to {}", path.display());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// How the controller's Velocity Generator produces a move's periods with this
+/// configuration: in the cycle that plans it, as many as its pulse ring holds (two of its
+/// periods' worth and twice the Pulse Generator's look-ahead, as the controller sizes it),
+/// then one of its periods' worth a cycle.
+fn vg_cycles(config: Option<&std::path::Path>, period_s: f64) -> anyhow::Result<Cycles> {
+    let config = wrc_config::Config::load(config)?;
+    let vg_s = config
+        .tasks
+        .get("velocity_generator")
+        .map_or(0.05, |t| t.period_us as f64 * 1e-6);
+    let then = (vg_s / period_s).ceil().max(1.0) as usize;
+    let lookahead_s = config.lookahead_periods as f64 * config.motion.period_s;
+    let lookahead = ((lookahead_s / period_s) - 1e-9).ceil().max(1.0) as usize;
+    Ok(Cycles {
+        first: (2 * then + 2 * lookahead).clamp(16, 4096),
+        then,
+    })
 }
 
 fn refusal_kind(e: &wrc_motion::PlanError) -> String {
@@ -501,7 +523,8 @@ fn print_path_figures(pct: f64, what: &str, f: &serde_json::Value) {
     );
 }
 
-/// The three PTP blends on each case, as JSON.
+/// The three PTP blends on each case, with the bounded search and with the exhaustive one,
+/// as JSON.
 fn run_blends(
     generator: &wrc_motion::VelocityGenerator,
     cases: &[(
@@ -510,25 +533,93 @@ fn run_blends(
         wrc_robot::Joints,
         wrc_robot::Joints,
     )],
+    cycles: Cycles,
 ) -> anyhow::Result<serde_json::Value> {
+    let mut exhaustive = generator.clone();
+    exhaustive.set_blend_search(wrc_motion::BlendSearch::Exhaustive);
+    // The search's fallback on its own: no work to spend (a PTP into a path enters it at
+    // rest; a path into a PTP is the two moves, the reference already).
+    let mut fallback = generator.clone();
+    fallback.set_blend_search(wrc_motion::BlendSearch::Bounded { work: 0 });
     let mut out = serde_json::Map::new();
     for kind in ["into_path", "out_of_path", "through_via"] {
-        let runs: Vec<BlendRun> = cases
+        let run = |g: &wrc_motion::VelocityGenerator| -> anyhow::Result<Vec<BlendRun>> {
+            cases
+                .iter()
+                .map(|(case, a, b, c)| {
+                    let blend = match kind {
+                        "into_path" => Blend::Into { from: *a },
+                        "out_of_path" => Blend::Depart { to: *b },
+                        _ => Blend::Via { via: *b, to: *c },
+                    };
+                    run_blend(g, case, blend, cycles).with_context(|| format!("{kind} on {case:?}"))
+                })
+                .collect()
+        };
+        let runs = run(generator)?;
+        let before = run(&exhaustive)?;
+        let fell = if kind == "into_path" {
+            run(&fallback)?
+        } else {
+            Vec::new()
+        };
+        let vs_fallback: Vec<f64> = runs
             .iter()
-            .map(|(case, a, b, c)| {
-                let blend = match kind {
-                    "into_path" => Blend::Into { from: *a },
-                    "out_of_path" => Blend::Depart { to: *b },
-                    _ => Blend::Via { via: *b, to: *c },
-                };
-                run_blend(generator, case, blend).with_context(|| format!("{kind} on {case:?}"))
-            })
-            .collect::<anyhow::Result<_>>()?;
+            .zip(&fell)
+            .map(|(r, f)| r.blended_s / f.blended_s)
+            .collect();
         let ratios: Vec<f64> = runs.iter().map(BlendRun::ratio).collect();
-        let plan_ms: Vec<f64> = runs.iter().map(|r| r.plan_s * 1e3).collect();
-        let (rm, rx) = median_max(&ratios);
-        let min = ratios.iter().copied().fold(f64::INFINITY, f64::min);
-        let (pm, px) = median_max(&plan_ms);
+        let before_ratios: Vec<f64> = before.iter().map(BlendRun::ratio).collect();
+        let vs_before: Vec<f64> = runs
+            .iter()
+            .zip(&before)
+            .map(|(r, b)| r.blended_s / b.blended_s)
+            .collect();
+        let ms = |runs: &[BlendRun], f: fn(&BlendRun) -> f64| -> serde_json::Value {
+            let v: Vec<f64> = runs.iter().map(|r| f(r) * 1e3).collect();
+            let (m, x) = median_max(&v);
+            json!({ "median": m, "max": x })
+        };
+        let spread = |v: &[f64]| {
+            let (m, x) = median_max(v);
+            let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+            json!({ "median": m, "max": x, "min": min })
+        };
+        // The work of each search (the runs without one, a path with no room past its end
+        // or a via, left out).
+        let work: Vec<f64> = runs
+            .iter()
+            .filter(|r| r.search.searches > 0)
+            .map(|r| r.search.max_work as f64)
+            .collect();
+        let steps: Vec<f64> = runs.iter().map(|r| r.search.max_step as f64).collect();
+        let (_, step_max) = median_max(&steps);
+        // A search in a period of its own (a path deciding at its junction): its period's
+        // time, and that time per work unit where the search dominates it.
+        let searched: Vec<&BlendRun> = runs
+            .iter()
+            .filter(|r| r.search_period_s.is_some())
+            .collect();
+        let search_ms: Vec<f64> = searched
+            .iter()
+            .filter_map(|r| r.search_period_s.map(|s| s * 1e3))
+            .collect();
+        let us_per_unit: Vec<f64> = searched
+            .iter()
+            .filter(|r| r.search.last_work >= 5_000)
+            .filter_map(|r| {
+                r.search_period_s
+                    .map(|s| s * 1e6 / r.search.last_work as f64)
+            })
+            .collect();
+        let stat = |v: &[f64]| {
+            if v.is_empty() {
+                serde_json::Value::Null
+            } else {
+                let (m, x) = median_max(v);
+                json!({ "median": m, "max": x, "runs": v.len() })
+            }
+        };
         // From the pulses: where a path stops and a PTP starts from rest (the fallback) the
         // exact positions step by the pulses' rounding, which the exact figures would count.
         let over = runs
@@ -550,9 +641,39 @@ fn run_blends(
             kind.into(),
             json!({
                 "runs": runs.len(),
-                "ratio_to_apart": { "median": rm, "max": rx, "min": min },
+                "ratio_to_apart": spread(&ratios),
                 "faster": ratios.iter().filter(|&&r| r < 1.0).count(),
-                "plan_ms": { "median": pm, "max": px },
+                "exhaustive_ratio_to_apart": spread(&before_ratios),
+                "exhaustive_faster": before_ratios.iter().filter(|&&r| r < 1.0).count(),
+                "ratio_to_exhaustive": spread(&vs_before),
+                "ratio_to_fallback": (!vs_fallback.is_empty()).then(|| spread(&vs_fallback)),
+                "slower_than_fallback": vs_fallback.iter().filter(|&&r| r > 1.0).count(),
+                "plan_ms": ms(&runs, |r| r.plan_s),
+                "cycle_max_ms": ms(&runs, |r| r.cycle_max_s),
+                "period_max_ms": ms(&runs, |r| r.period_max_s),
+                "exhaustive_plan_ms": ms(&before, |r| r.plan_s),
+                "exhaustive_cycle_max_ms": ms(&before, |r| r.cycle_max_s),
+                "searches": runs.iter().map(|r| r.search.searches).sum::<u64>(),
+                "fallbacks": runs.iter().map(|r| r.search.fallbacks).sum::<u64>(),
+                "work_units": stat(&work),
+                "largest_step_units": step_max,
+                "search_period_ms": stat(&search_ms),
+                "us_per_unit": stat(&us_per_unit),
+                "per_run": runs
+                    .iter()
+                    .zip(&before)
+                    .enumerate()
+                    .map(|(i, (r, b))| json!({
+                        "ratio_to_apart": r.ratio(),
+                        "exhaustive_ratio_to_apart": b.ratio(),
+                        "ratio_to_fallback": vs_fallback.get(i),
+                        "work_units": r.search.last_work,
+                        "fell_back": r.search.fallbacks > 0,
+                        "plan_ms": r.plan_s * 1e3,
+                        "exhaustive_plan_ms": b.plan_s * 1e3,
+                        "search_period_ms": r.search_period_s.map(|s| s * 1e3),
+                    }))
+                    .collect::<Vec<_>>(),
                 "over_a_limit": over,
                 "limit_use_pulses": max_use(true),
                 "limit_use_exact": max_use(false),
@@ -560,11 +681,18 @@ fn run_blends(
             }),
         );
     }
+    out.insert(
+        "cycles".into(),
+        json!({ "first": cycles.first, "then": cycles.then }),
+    );
     Ok(serde_json::Value::Object(out))
 }
 
 fn print_blend_figures(pct: f64, f: &serde_json::Value) {
-    println!("\nspeed {pct} %, PTP blends against the same moves at rest between them:");
+    println!(
+        "\nspeed {pct} %, PTP blends against the same moves at rest between them (bounded search; the exhaustive one in brackets; a Velocity Generator cycle plans and produces {} periods, then {} a cycle):",
+        f["cycles"]["first"], f["cycles"]["then"]
+    );
     for (label, key) in [
         ("PTP into a path", "into_path"),
         ("path into a PTP", "out_of_path"),
@@ -573,14 +701,74 @@ fn print_blend_figures(pct: f64, f: &serde_json::Value) {
         let b = &f[key];
         let g = |a: &str, c: &str| b[a][c].as_f64().unwrap_or(f64::NAN);
         println!(
-            "  {label}: {} runs, duration / apart median {:.3} min {:.3} max {:.3} ({} faster), planning median {:.3} max {:.3} ms, over a limit {} (most of a limit used, pulses {:.4}, exact {:.4}), exact ends {}",
+            "  {label}: {} runs, duration / apart median {:.4} min {:.4} max {:.4} ({} faster) [{:.4} min {:.4} max {:.4}, {} faster]; duration / exhaustive's median {:.4} min {:.4} max {:.4}",
             b["runs"],
             g("ratio_to_apart", "median"),
             g("ratio_to_apart", "min"),
             g("ratio_to_apart", "max"),
             b["faster"],
+            g("exhaustive_ratio_to_apart", "median"),
+            g("exhaustive_ratio_to_apart", "min"),
+            g("exhaustive_ratio_to_apart", "max"),
+            b["exhaustive_faster"],
+            g("ratio_to_exhaustive", "median"),
+            g("ratio_to_exhaustive", "min"),
+            g("ratio_to_exhaustive", "max"),
+        );
+        println!(
+            "    planning median {:.3} max {:.3} ms [{:.3} / {:.3}]; busiest cycle median {:.3} max {:.3} ms [{:.3} / {:.3}]; longest period median {:.3} max {:.3} ms; searches {}, fallbacks (budget ran out) {}{}",
             g("plan_ms", "median"),
             g("plan_ms", "max"),
+            g("exhaustive_plan_ms", "median"),
+            g("exhaustive_plan_ms", "max"),
+            g("cycle_max_ms", "median"),
+            g("cycle_max_ms", "max"),
+            g("exhaustive_cycle_max_ms", "median"),
+            g("exhaustive_cycle_max_ms", "max"),
+            g("period_max_ms", "median"),
+            g("period_max_ms", "max"),
+            b["searches"],
+            b["fallbacks"],
+            if b["work_units"].is_object() {
+                format!(
+                    ", work units of a search median {:.0} max {:.0}",
+                    g("work_units", "median"),
+                    g("work_units", "max")
+                )
+            } else {
+                String::new()
+            },
+        );
+        if b["ratio_to_fallback"].is_object() {
+            println!(
+                "    duration / the search's fallback (no budget: entering at rest) median {:.4} min {:.4} max {:.4}, slower than it {}",
+                g("ratio_to_fallback", "median"),
+                g("ratio_to_fallback", "min"),
+                g("ratio_to_fallback", "max"),
+                b["slower_than_fallback"],
+            );
+        }
+        if b["search_period_ms"].is_object() {
+            println!(
+                "    the period that searches (a path deciding at its junction): {} runs, median {:.3} max {:.3} ms; largest step {} units; {} a unit (median, max; runs of 5,000 units and more: {})",
+                b["search_period_ms"]["runs"],
+                g("search_period_ms", "median"),
+                g("search_period_ms", "max"),
+                b["largest_step_units"],
+                if b["us_per_unit"].is_object() {
+                    format!(
+                        "{:.3} / {:.3} µs",
+                        g("us_per_unit", "median"),
+                        g("us_per_unit", "max")
+                    )
+                } else {
+                    "—".to_string()
+                },
+                b["us_per_unit"]["runs"],
+            );
+        }
+        println!(
+            "    over a limit {} (most of a limit used, pulses {:.4}, exact {:.4}), exact ends {}",
             b["over_a_limit"],
             b["limit_use_pulses"].as_f64().unwrap_or(f64::NAN),
             b["limit_use_exact"].as_f64().unwrap_or(f64::NAN),

@@ -16,6 +16,7 @@ use crate::generator::{EntryRule, MoveEnd, Period, Status, VelocityGenerator};
 use crate::geometry::check_path;
 use crate::path_spec::{PathSegment, PathSpec};
 use crate::reference::{path_bound, LineBound};
+use crate::search::SearchStats;
 
 use super::{limit_use, LimitUse, Lines};
 
@@ -333,6 +334,17 @@ pub fn run_path(generator: &VelocityGenerator, case: &PathCase) -> Result<PathRu
     })
 }
 
+/// How the controller's Velocity Generator produces a move's periods: planning and
+/// `first` periods in the cycle that takes the order (it fills the pulse ring), then `then`
+/// periods in each of its later cycles (one of its periods' worth).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Cycles {
+    /// Periods produced in the cycle that plans the move.
+    pub first: usize,
+    /// Periods produced in each later cycle.
+    pub then: usize,
+}
+
 /// A blended move against the same moves at rest between them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BlendRun {
@@ -340,8 +352,19 @@ pub struct BlendRun {
     pub blended_s: f64,
     /// The moves at rest between them, from their periods [s].
     pub apart_s: f64,
-    /// Wall time of planning the blended move (every candidate) [s].
+    /// Wall time of planning the blended move (every candidate before the first pulse) [s].
     pub plan_s: f64,
+    /// Wall time of the busiest Velocity Generator cycle of the move ([`Cycles`]): planning
+    /// and the first periods, or a later cycle's periods (one of them may decide how a path
+    /// leaves for a PTP) [s].
+    pub cycle_max_s: f64,
+    /// Wall time of the longest single period [s].
+    pub period_max_s: f64,
+    /// Wall time of the period in which a search ran, if one did after planning (a path
+    /// into a PTP deciding at its junction how it leaves) [s].
+    pub search_period_s: Option<f64>,
+    /// What the blend's search did: its work and whether it ran out of its budget.
+    pub search: SearchStats,
     /// Whether it ended exactly on its target's pulses, within every limit.
     pub exact_end: bool,
     /// Limits used.
@@ -355,20 +378,51 @@ impl BlendRun {
     }
 }
 
-/// Run the move planned in `vg` to its end: its periods, the exact joints and pulses of
-/// each (the start first), and whether it completed.
-fn play(vg: &mut VelocityGenerator) -> (u64, Vec<Joints>, Vec<[i64; wrc_robot::MAX_AXES]>, bool) {
+/// A move run to its end ([`play`]).
+struct Played {
+    /// Periods it took.
+    periods: u64,
+    /// The exact joints and the pulses of each period (the start first).
+    exact: Vec<Joints>,
+    pulses: Vec<[i64; wrc_robot::MAX_AXES]>,
+    /// Whether it completed.
+    completed: bool,
+    /// Wall time of each period [s].
+    took: Vec<f64>,
+    /// Wall time of the last period in which the generator's blend search ran [s].
+    search_period: Option<f64>,
+}
+
+/// Run the move planned in `vg` to its end.
+fn play(vg: &mut VelocityGenerator) -> Played {
     let mut out = Period::default();
     let (mut exact, mut pulses) = (vec![vg.joints()], vec![*vg.position_pulses()]);
     let mut completed = true;
+    let mut took = Vec::new();
+    let mut search_period = None;
     while vg.is_moving() {
-        if let Status::Finished(end) = vg.next_period(&mut out) {
+        let searches = vg.search_stats().searches;
+        let began = Instant::now();
+        let status = vg.next_period(&mut out);
+        let elapsed = began.elapsed().as_secs_f64();
+        took.push(elapsed);
+        if vg.search_stats().searches != searches {
+            search_period = Some(elapsed);
+        }
+        if let Status::Finished(end) = status {
             completed = end == MoveEnd::Completed;
         }
         exact.push(out.exact);
         pulses.push(*vg.position_pulses());
     }
-    ((pulses.len() - 1) as u64, exact, pulses, completed)
+    Played {
+        periods: (pulses.len() - 1) as u64,
+        exact,
+        pulses,
+        completed,
+        took,
+        search_period,
+    }
 }
 
 /// Which PTP blend [`run_blend`] measures.
@@ -396,12 +450,14 @@ pub enum Blend {
     },
 }
 
-/// Plan and run a PTP blend on `case` with a copy of `generator`, and the same moves at rest
-/// between them.
+/// Plan and run a PTP blend on `case` with a copy of `generator` (its robot, settings and
+/// [`crate::BlendSearch`]), its periods produced in the Velocity Generator's `cycles`, and
+/// the same moves at rest between them.
 pub fn run_blend(
     generator: &VelocityGenerator,
     case: &PathCase,
     blend: Blend,
+    cycles: Cycles,
 ) -> Result<BlendRun, PlanError> {
     let robot = generator.robot();
     let ts = generator.settings().period_s;
@@ -431,8 +487,13 @@ pub fn run_blend(
         }
     };
     let plan_s = began.elapsed().as_secs_f64();
-    let (periods, exact, pulses, completed) = play(&mut vg);
+    let played = play(&mut vg);
     let end = *vg.position_pulses();
+    let first = played.took.len().min(cycles.first);
+    let cycle_max_s = played.took[first..]
+        .chunks(cycles.then.max(1))
+        .map(|c| c.iter().sum::<f64>())
+        .fold(plan_s + played.took[..first].iter().sum::<f64>(), f64::max);
     // The same moves, one after the other, from rest to rest.
     let mut apart_periods = 0;
     let steps = match blend {
@@ -449,17 +510,21 @@ pub fn run_blend(
                 apart.start_path(spec)?;
             }
         }
-        apart_periods += play(&mut apart).0;
+        apart_periods += play(&mut apart).periods;
     }
-    let exact_end = completed
+    let exact_end = played.completed
         && end == *apart.position_pulses()
         && target.is_none_or(|t| end == robot.joints_to_pulses(&t));
     Ok(BlendRun {
-        blended_s: periods as f64 * ts,
+        blended_s: played.periods as f64 * ts,
         apart_s: apart_periods as f64 * ts,
         plan_s,
+        cycle_max_s,
+        period_max_s: played.took.iter().copied().fold(0.0, f64::max),
+        search_period_s: played.search_period,
+        search: vg.search_stats(),
         exact_end,
-        limits: limit_use(robot, generator.settings(), &exact, &pulses),
+        limits: limit_use(robot, generator.settings(), &played.exact, &played.pulses),
     })
 }
 

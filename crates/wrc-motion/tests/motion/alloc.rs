@@ -1,8 +1,9 @@
 //! Counting allocator: planning, producing periods and stopping (STOP and ESTOP, PTP and
-//! lines, in this generator or another one) allocate nothing.
+//! lines, in this generator or another one) allocate nothing, nor do the PTP blends'
+//! searches and their fallbacks.
 
 use wrc_alloc_count::{heap_calls, CountingAllocator};
-use wrc_motion::{BrakeLimits, EntryRule, Goal, Period, Profile, Status};
+use wrc_motion::{BlendSearch, BrakeLimits, EntryRule, Goal, Period, Profile, Status};
 use wrc_robot::{Pose, Posture};
 
 use crate::common::generator;
@@ -301,6 +302,28 @@ fn paths_and_ptp_blends_allocate_nothing() {
         while vg.is_moving() {
             vg.next_period(&mut out);
         }
+        // The searches' fallbacks: with no budget, a PTP into the path enters it at rest and
+        // the path into a PTP stops at its end.
+        vg.set_blend_search(BlendSearch::Bounded { work: 0 });
+        vg.plan_ptp(&elsewhere).unwrap();
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        assert!(vg
+            .plan_ptp_into(&start, &spec, 100.0, EntryRule::Free)
+            .unwrap());
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        vg.plan_ptp(&start).unwrap();
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        assert!(vg.plan_depart(&spec, &elsewhere, 100.0).unwrap());
+        while vg.is_moving() {
+            vg.next_period(&mut out);
+        }
+        assert_eq!(vg.search_stats().fallbacks, 2);
         assert_eq!(
             heap_calls().allocations - before,
             0,

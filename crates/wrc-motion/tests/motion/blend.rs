@@ -6,8 +6,10 @@
 //! RESUMEd by the same order to the same end.
 
 use wrc_motion::bench::PathProbe;
-use wrc_motion::{BrakeLimits, EntryRule, Goal, MoveEnd, Period, Profile, VelocityGenerator};
-use wrc_robot::{Joints, Pose, Posture};
+use wrc_motion::{
+    BlendSearch, BrakeLimits, EntryRule, Goal, MoveEnd, Period, Profile, VelocityGenerator,
+};
+use wrc_robot::{Joints, Pose, Posture, MAX_AXES};
 
 use crate::common::*;
 use crate::path::{at, cases, line, p, path};
@@ -29,6 +31,26 @@ fn tcp(vg: &VelocityGenerator, run: &Run) -> Vec<Pose> {
             robot.forward(&robot.pulses_to_joints(&pulses))
         })
         .collect()
+}
+
+/// The pulses of every period of a run.
+fn pulses(periods: &[Period]) -> Vec<[i64; MAX_AXES]> {
+    periods.iter().map(|p| p.pulses).collect()
+}
+
+/// Whether the TCP stands at `pose` in some period of `run` (from rest a period moves it by
+/// micrometres there; entering a path moving, by millimetres).
+fn stands_at(vg: &VelocityGenerator, run: &Run, pose: &Pose) -> bool {
+    let poses = tcp(vg, run);
+    let d = |q: &Pose, r: &Pose| (q.x - r.x).hypot(q.y - r.y).hypot(q.z - r.z);
+    let k = (0..poses.len())
+        .min_by(|&i, &j| d(&poses[i], pose).total_cmp(&d(&poses[j], pose)))
+        .unwrap();
+    let (a, b) = (
+        &poses[k.saturating_sub(1)],
+        &poses[(k + 1).min(poses.len() - 1)],
+    );
+    d(a, b) < 0.1
 }
 
 /// Stop after `k` periods (with `limits`) and run the brake; the generator at rest.
@@ -319,6 +341,251 @@ fn a_hold_in_any_part_of_a_blend_is_resumed_by_the_same_order() {
                 })
                 .fold(f64::INFINITY, f64::min);
             assert!(nearest <= ts, "before the via: {nearest} s from it");
+        }
+    }
+}
+
+#[test]
+fn a_path_into_a_ptp_is_the_path_alone_until_its_junction_near_its_end() {
+    // Up to its junction (the first knot whose search looks past the path's end) the law of
+    // a path that flows into a PTP is the path's own, to the bit: its pulses are the path's
+    // alone. It decides how it leaves there, within a brake of the end, never earlier.
+    let ts = 0.01;
+    let to_pose = p(100.0, 250.0, 150.0, 90.0);
+    for (name, spec) in cases() {
+        let mut alone = at(Profile::Fir, ts, 100.0, &spec.start);
+        let to = joints(&alone, &to_pose);
+        assert!(alone.start_path(&spec).unwrap());
+        let path = run(&mut alone);
+        let mut vg = at(Profile::Fir, ts, 100.0, &spec.start);
+        assert!(vg.plan_depart(&spec, &to, 100.0).unwrap());
+        let blended = run(&mut vg);
+        let same = path
+            .periods
+            .iter()
+            .zip(&blended.periods)
+            .take_while(|(a, b)| a.pulses == b.pulses)
+            .count();
+        let probe = PathProbe::new(vg.robot(), &spec).unwrap();
+        let poses = tcp(&vg, &blended);
+        let left = (1.0 - probe.distance(&poses[same.min(poses.len() - 1)]).u) * probe.length_mm();
+        assert!(
+            left < 150.0,
+            "{name}: {same} periods as the path alone, then {left:.1} mm from its end"
+        );
+        assert_eq!(vg.search_stats().searches, 1, "{name}");
+        println!("{name}: the path alone for {same} periods, to {left:.1} mm from its end");
+    }
+}
+
+#[test]
+fn a_search_out_of_budget_stops_at_the_junction_and_says_so() {
+    let ts = 0.01;
+    let to_pose = p(100.0, 250.0, 150.0, 90.0);
+    let from = p(150.0, 250.0, 100.0, 90.0);
+    for (name, spec) in cases() {
+        // A path into a PTP with no work to spend: the path to rest, then the PTP — the two
+        // moves, to the pulse.
+        let mut vg = at(Profile::Fir, ts, 100.0, &spec.start);
+        let to = joints(&vg, &to_pose);
+        assert!(vg.start_path(&spec).unwrap());
+        let mut apart = run(&mut vg).periods;
+        vg.plan_ptp(&to).unwrap();
+        apart.extend(run(&mut vg).periods);
+        let mut vg = at(Profile::Fir, ts, 100.0, &spec.start);
+        vg.set_blend_search(BlendSearch::Bounded { work: 0 });
+        assert!(vg.plan_depart(&spec, &to, 100.0).unwrap());
+        let blended = run(&mut vg);
+        assert_eq!(blended.end, MoveEnd::Completed);
+        assert_eq!(pulses(&blended.periods), pulses(&apart), "{name}");
+        assert_eq!(*vg.position_pulses(), vg.robot().joints_to_pulses(&to));
+        assert_within_limits(&vg, &blended, 1e-3, 1.0);
+        let stats = vg.search_stats();
+        assert_eq!((stats.searches, stats.fallbacks), (1, 1), "{name}");
+        // Its one step: the law resumed from the junction to rest at the path's end.
+        assert_eq!(stats.last_work, stats.max_step, "{name}");
+
+        // A PTP into a path with no work to spend: it enters the path at rest, and the
+        // moving entries are not even started (the one step is the entry at rest's).
+        let mut vg = at(Profile::Fir, ts, 100.0, &from);
+        vg.set_blend_search(BlendSearch::Bounded { work: 0 });
+        let via = joints(&vg, &spec.start);
+        assert!(vg
+            .plan_ptp_into(&via, &spec, 100.0, EntryRule::Free)
+            .unwrap());
+        let blended = run(&mut vg);
+        assert_eq!(blended.end, MoveEnd::Completed);
+        assert_within_limits(&vg, &blended, 1e-3, 1.0);
+        let stats = vg.search_stats();
+        assert_eq!((stats.searches, stats.fallbacks), (1, 1), "{name}");
+        assert_eq!(stats.last_work, stats.max_step, "{name}");
+        assert!(
+            stands_at(&vg, &blended, &spec.start),
+            "{name}: entered moving"
+        );
+    }
+}
+
+#[test]
+fn a_bounded_search_ends_within_a_step_of_its_budget_with_the_same_move_or_the_fallback() {
+    // Budgets below what the search without one spends. A search checks its budget before
+    // each step (a knot of the path's law; an entry's brake check or its estimate) and ends
+    // at the first check that finds it spent: its work is at most its budget and its
+    // largest step. Whatever the budget, the move ends on its target within every limit and
+    // is never slower than the two moves at rest between them. A path into a PTP is either
+    // the move the search without a budget finds or, when it ran out, the path to rest and
+    // the PTP from there, both to the pulse; a PTP into a path that ran out enters at rest.
+    let ts = 0.01;
+    let from = p(150.0, 250.0, 100.0, 90.0);
+    let to_pose = p(100.0, 250.0, 150.0, 90.0);
+    let (mut fell_back, mut found, mut largest_step) = (0, 0, 0);
+    let mut check = |name: &str, budget: u64, vg: &VelocityGenerator, run: &Run, apart: usize| {
+        let stats = vg.search_stats();
+        assert_eq!(run.end, MoveEnd::Completed, "{name}");
+        assert_within_limits(vg, run, 1e-3, 1.0);
+        assert!(
+            run.periods.len() <= apart,
+            "{name}, budget {budget}: {} periods, {apart} at rest between",
+            run.periods.len()
+        );
+        assert_eq!(stats.searches, 1, "{name}");
+        assert!(
+            stats.last_work <= budget + stats.max_step,
+            "{name}: {} units for a budget of {budget}, steps of up to {}",
+            stats.last_work,
+            stats.max_step
+        );
+        largest_step = largest_step.max(stats.max_step);
+        stats.fallbacks == 1
+    };
+    for (name, spec) in cases() {
+        // A path into a PTP.
+        let mut vg = at(Profile::Fir, ts, 100.0, &spec.start);
+        let to = joints(&vg, &to_pose);
+        let target = vg.robot().joints_to_pulses(&to);
+        assert!(vg.start_path(&spec).unwrap());
+        let mut apart = run(&mut vg).periods;
+        vg.plan_ptp(&to).unwrap();
+        apart.extend(run(&mut vg).periods);
+        let depart = |search: BlendSearch| {
+            let mut vg = at(Profile::Fir, ts, 100.0, &spec.start);
+            vg.set_blend_search(search);
+            assert!(vg.plan_depart(&spec, &to, 100.0).unwrap());
+            let blended = run(&mut vg);
+            assert_eq!(*vg.position_pulses(), target, "{name}");
+            (vg, blended)
+        };
+        let (vg, free) = depart(BlendSearch::Bounded { work: u64::MAX });
+        assert_eq!(vg.search_stats().fallbacks, 0, "{name}");
+        let all = vg.search_stats().last_work;
+        for budget in [all / 4, all / 2, all - 1] {
+            let (vg, blended) = depart(BlendSearch::Bounded { work: budget });
+            let name = format!("{name}, out of the path");
+            if check(&name, budget, &vg, &blended, apart.len()) {
+                assert_eq!(pulses(&blended.periods), pulses(&apart), "{name}");
+                fell_back += 1;
+            } else {
+                assert_eq!(pulses(&blended.periods), pulses(&free.periods), "{name}");
+                found += 1;
+            }
+        }
+
+        // A PTP into the path.
+        let mut vg = at(Profile::Fir, ts, 100.0, &from);
+        let via = joints(&vg, &spec.start);
+        let mut apart = vg.plan_ptp(&via).unwrap().periods as usize;
+        run(&mut vg);
+        apart += vg.plan_path(&spec).unwrap().periods as usize;
+        run(&mut vg);
+        let end = *vg.position_pulses();
+        let into = |search: BlendSearch| {
+            let mut vg = at(Profile::Fir, ts, 100.0, &from);
+            vg.set_blend_search(search);
+            assert!(vg
+                .plan_ptp_into(&via, &spec, 100.0, EntryRule::Free)
+                .unwrap());
+            let blended = run(&mut vg);
+            assert_eq!(*vg.position_pulses(), end, "{name}");
+            (vg, blended)
+        };
+        let (vg, _) = into(BlendSearch::Bounded { work: u64::MAX });
+        let all = vg.search_stats().last_work;
+        for budget in [all / 4, all / 2, all - 1] {
+            let (vg, blended) = into(BlendSearch::Bounded { work: budget });
+            let name = format!("{name}, into the path");
+            if check(&name, budget, &vg, &blended, apart) {
+                assert!(
+                    stands_at(&vg, &blended, &spec.start),
+                    "{name}: entered moving"
+                );
+                fell_back += 1;
+            } else {
+                found += 1;
+            }
+        }
+    }
+    assert!(
+        fell_back > 0 && found > 0,
+        "{fell_back} fell back, {found} found"
+    );
+    // The budget's grain: a step is small against the default budget.
+    assert!(
+        largest_step * 4 <= BlendSearch::DEFAULT.limit(),
+        "a step of {largest_step} units"
+    );
+    println!("{fell_back} fell back, {found} found a move; steps of up to {largest_step} units");
+}
+
+#[test]
+fn the_bounded_search_plans_as_the_exhaustive_one_and_the_same_every_time() {
+    // The bounded search compares entries by an estimate of the path's law and decides a
+    // path's exit at its junction: on the test paths it takes the same moves as timing
+    // every candidate by its law (within a period), is never slower than its fallback (at
+    // rest at the junction), and plans the same periods and counts the same work every time
+    // (no clock in the plan).
+    let ts = 0.01;
+    let from = p(150.0, 250.0, 100.0, 90.0);
+    let to_pose = p(100.0, 250.0, 150.0, 90.0);
+    for (name, spec) in cases() {
+        let plan = |search: BlendSearch, depart: bool| {
+            let mut vg = at(
+                Profile::Fir,
+                ts,
+                100.0,
+                if depart { &spec.start } else { &from },
+            );
+            vg.set_blend_search(search);
+            if depart {
+                let to = joints(&vg, &to_pose);
+                assert!(vg.plan_depart(&spec, &to, 100.0).unwrap());
+            } else {
+                let via = joints(&vg, &spec.start);
+                assert!(vg
+                    .plan_ptp_into(&via, &spec, 100.0, EntryRule::Free)
+                    .unwrap());
+            }
+            let out = run(&mut vg);
+            (out, vg.search_stats())
+        };
+        for depart in [false, true] {
+            let (bounded, stats) = plan(BlendSearch::DEFAULT, depart);
+            let (again, stats_again) = plan(BlendSearch::DEFAULT, depart);
+            let (exhaustive, _) = plan(BlendSearch::Exhaustive, depart);
+            let (fallback, _) = plan(BlendSearch::Bounded { work: 0 }, depart);
+            assert_eq!(stats, stats_again, "{name}");
+            assert_eq!(stats.fallbacks, 0, "{name}");
+            assert_eq!(pulses(&bounded.periods), pulses(&again.periods), "{name}");
+            let (n, m) = (bounded.periods.len(), exhaustive.periods.len());
+            assert!(
+                n <= m + 1,
+                "{name} (depart {depart}): {n} periods, exhaustive {m}"
+            );
+            // Never slower than its fallback, the motion at rest at the junction.
+            assert!(
+                n <= fallback.periods.len(),
+                "{name} (depart {depart}): {n} periods, the fallback {}",
+                fallback.periods.len()
+            );
         }
     }
 }

@@ -1112,21 +1112,28 @@ impl Parser<'_, '_> {
     fn if_block(&mut self, open: &mut Vec<Open>) -> PResult<Stmt> {
         let kw = self.bump();
         // `IF cond THEN statement [ELSE statement]` on one line: no ENDIF.
-        if !self.at_line_end() {
-            let start = self.pos;
-            if let Ok(cond) = self.expr() {
-                let then = self.peek().clone();
-                if self.is_word(&then, "THEN")
-                    && !matches!(self.peek_at(1).tok, Tok::Newline | Tok::Eof)
-                {
-                    self.bump();
-                    return self.inline_if(kw.span, cond, open);
+        let cond = if self.at_line_end() {
+            self.condition("IF")
+        } else {
+            let start = self.peek().span;
+            match self.expr() {
+                Ok(cond) => {
+                    let then = self.peek().clone();
+                    if self.is_word(&then, "THEN")
+                        && !matches!(self.peek_at(1).tok, Tok::Newline | Tok::Eof)
+                    {
+                        self.bump();
+                        return self.inline_if(kw.span, cond, open);
+                    }
+                    self.then_line("IF");
+                    cond
+                }
+                Err(()) => {
+                    self.skip_line();
+                    error_expr(start)
                 }
             }
-            // The block form: read the condition again (with its errors, once).
-            self.pos = start;
-        }
-        let cond = self.condition("IF");
+        };
         self.open(open, "IF", kw.span);
         let mut arms = Vec::new();
         let mut else_block = Vec::new();

@@ -436,6 +436,8 @@ impl CellService {
             tracing::warn!("wrc: the transfer journal ends in a record a power cut left half written (line {line}); it is judged up to the record before");
         }
         let mut notes: Vec<String> = Vec::new();
+        // Saved and told only when something changes: a clean start says nothing.
+        let before = self.wafers.wafers_line();
         let pending = self.wafers.pending().copied();
         let blade = pending.map_or(Blade::A, |t| t.blade);
         let j = judge(&journal.records, self.evidence(blade));
@@ -557,7 +559,9 @@ impl CellService {
                 alarm,
             });
         }
-        self.persist();
+        if !notes.is_empty() || self.wafers.wafers_line() != before {
+            self.persist();
+        }
         if alarm {
             let lines = self.recovery_lines();
             for l in &lines {

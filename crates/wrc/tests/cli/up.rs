@@ -553,7 +553,9 @@ fn the_pendant_speaks_the_protocol_on_a_serial_line_with_checksums() {
         .write_all(format!("{body}*{sum:02X}\n").as_bytes())
         .unwrap();
     let r = read_line(&mut master);
-    let (text, check) = r.rsplit_once('*').expect("a reply with a checksum");
+    let (text, check) = r
+        .rsplit_once('*')
+        .unwrap_or_else(|| panic!("a reply with a checksum, got {r:?}"));
     assert!(text.starts_with("ACK 4 state=IDLE"), "{r}");
     assert_eq!(
         u8::from_str_radix(check, 16).unwrap(),

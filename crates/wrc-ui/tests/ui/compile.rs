@@ -3,7 +3,7 @@
 
 use serde_json::json;
 
-use crate::{http, post_compile, start};
+use crate::{http, post_compile, post_unread, start};
 
 #[test]
 fn an_error_comes_back_at_its_line_and_column() {
@@ -227,7 +227,7 @@ fn a_bad_request_is_a_400_that_says_what_is_wrong() {
     let a = http(addr, "GET", "/api/compile", &[], "");
     assert_eq!(a.status, 405, "{a:?}");
     let huge = json!({ "name": "demo", "source": "X = 1\n".repeat(2 << 20) });
-    let a = post_compile(addr, &huge);
+    let a = post_unread(addr, "/api/compile", huge.to_string());
     assert_eq!(a.status, 413, "{a:?}");
     assert!(a.json()["error"].as_str().unwrap().contains("larger than"));
     // Still serving.

@@ -90,6 +90,55 @@ pub fn http(
 }
 
 /// `POST /api/compile` of `body` as JSON.
+/// POST `body` (JSON) to `path` over a plain socket, the body written by another thread, and
+/// read the answer to the end: a server may answer a body it refuses (413) before reading it,
+/// and close, which an HTTP client writing the body sees as a broken pipe before the answer.
+pub fn post_unread(addr: SocketAddr, path: &str, body: String) -> Answer {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(addr).unwrap();
+    let mut writer = stream.try_clone().unwrap();
+    let head = format!(
+        "POST {path} HTTP/1.1\r\nhost: {addr}\r\ncontent-type: application/json\r\ncontent-length: {}\r\nconnection: close\r\n\r\n",
+        body.len()
+    );
+    let write = std::thread::spawn(move || {
+        // Refused early, the rest of the body meets a closed socket: that is the point.
+        let _ = writer
+            .write_all(head.as_bytes())
+            .and_then(|()| writer.write_all(body.as_bytes()));
+    });
+    let mut bytes = Vec::new();
+    // The answer comes before the server closes; a reset after it ends the read.
+    let mut buf = [0u8; 4096];
+    loop {
+        match stream.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => bytes.extend_from_slice(&buf[..n]),
+        }
+    }
+    let _ = write.join();
+    let text = String::from_utf8_lossy(&bytes).to_string();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    let status = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no HTTP answer: {text:?}"));
+    let content_type = head
+        .lines()
+        .find_map(|l| {
+            l.to_ascii_lowercase()
+                .strip_prefix("content-type:")
+                .map(|v| v.trim().to_string())
+        })
+        .unwrap_or_default();
+    Answer {
+        status,
+        content_type,
+        body: body.to_string(),
+    }
+}
+
 pub fn post_compile(addr: SocketAddr, body: &serde_json::Value) -> Answer {
     http(
         addr,

@@ -1210,8 +1210,15 @@ impl WaferMap {
         let r = self.settle(sensed);
         for b in Blade::ALL {
             let i = b.index();
-            if self.hands[i].is_none() || sensed[i] {
+            if self.hands[i].is_none() {
                 self.uncertain[i] = false;
+            } else if sensed[i] && self.uncertain[i] {
+                // Sensed: certain on this blade, so nowhere else it was perhaps (its slot,
+                // the other blade).
+                self.uncertain[i] = false;
+                if let Some(w) = self.hands[i] {
+                    self.forget_elsewhere(w, Location::Hand(b));
+                }
             }
         }
         r

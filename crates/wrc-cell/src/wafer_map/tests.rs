@@ -1208,3 +1208,32 @@ fn a_blade_is_settled_by_its_sensor_and_a_place_by_an_operators_word() {
     assert!(map.confirm_gone(WaferId(99)).is_err());
     assert_eq!(map, before);
 }
+
+#[test]
+fn a_sensed_blade_makes_its_uncertain_wafer_certain_there_and_nowhere_else() {
+    // Found by the fuzzer: a wafer perhaps on either blade (a file says so), and blade B's
+    // sensor senses one: it is on B, so not on A any more.
+    let text = "version = 1\nnext_id = 27\nhand = \"W4\"\nhand_b = \"W4\"\nhand_uncertain = true\nhand_b_uncertain = true\n";
+    let mut m = WaferMap::from_text(text, "t.toml").unwrap();
+    m.verify().unwrap();
+    let _ = m.reconcile([false, true]);
+    m.verify().unwrap();
+    assert_eq!(
+        (m.hand_of(Blade::A), m.hand_of(Blade::B)),
+        (None, Some(WaferId(4)))
+    );
+    assert!(!m.is_uncertain(Blade::B));
+    // Perhaps on the hand, perhaps back in its slot (a GET cut by a power loss), and the
+    // sensor senses it on the hand: the slot is empty.
+    let mut m = mapped();
+    let get = m.prepare(TransferKind::Get, "LP1", 7).unwrap();
+    m.begin(get).unwrap();
+    m.commit().unwrap();
+    assert!(m.doubt_back_in_slot(Blade::A, get.slot_location()));
+    m.verify().unwrap();
+    let _ = m.reconcile([true, false]);
+    m.verify().unwrap();
+    assert_eq!(m.hand(), Some(WaferId(7)));
+    assert!(!m.is_uncertain(Blade::A));
+    assert_eq!(m.uncertain_places(), Vec::new());
+}

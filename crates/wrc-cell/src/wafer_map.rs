@@ -1028,7 +1028,7 @@ impl WaferMap {
     }
 
     /// Wafer `w` is certain at `kept` (a slot of station `kept` with slot 0: every slot of
-    /// that station is spared): clear every other place it was uncertain in.
+    /// that station is spared): clear every other place that holds it, uncertain or not.
     fn forget_elsewhere(&mut self, w: WaferId, kept: Location) {
         for b in Blade::ALL {
             let i = b.index();
@@ -1047,7 +1047,8 @@ impl WaferMap {
                     Location::Slot { station, slot: 0 } => station == s.name,
                     other => other == here,
                 };
-                if *st == SlotState::Uncertain(w) && !spared {
+                let holds = matches!(st, SlotState::Wafer(x) | SlotState::Uncertain(x) if *x == w);
+                if holds && !spared {
                     *st = SlotState::Empty;
                 }
             }
@@ -1405,7 +1406,7 @@ impl WaferMap {
             },
             hand => hand,
         };
-        self.forget_elsewhere_exact(w, kept);
+        self.forget_elsewhere(w, kept);
         self.tidy();
         Ok(())
     }
@@ -1467,29 +1468,6 @@ impl WaferMap {
             Location::Slot { station, slot } => {
                 if let Ok((si, i)) = self.find(station.as_str(), *slot) {
                     self.stations[si].slots[i] = SlotState::Empty;
-                }
-            }
-        }
-    }
-
-    /// [`WaferMap::forget_elsewhere`] sparing exactly one place.
-    fn forget_elsewhere_exact(&mut self, w: WaferId, kept: Location) {
-        for b in Blade::ALL {
-            let i = b.index();
-            if self.hands[i] == Some(w) && kept != Location::Hand(b) {
-                self.hands[i] = None;
-                self.uncertain[i] = false;
-            }
-        }
-        for s in &mut self.stations {
-            for (i, st) in s.slots.iter_mut().enumerate() {
-                let here = Location::Slot {
-                    station: s.name,
-                    slot: (i + 1) as u16,
-                };
-                let mine = matches!(st, SlotState::Wafer(x) | SlotState::Uncertain(x) if *x == w);
-                if mine && here != kept {
-                    *st = SlotState::Empty;
                 }
             }
         }

@@ -1245,22 +1245,22 @@ impl Parser<'_, '_> {
                     self.key(&self.peek_at(1).clone()).as_str(),
                     "IF" | "WHILE" | "SUB" | "FUNCTION" | "SELECT" | "TRY"
                 );
-        if t.tok == Tok::Ident && block {
-            let msg = format!(
+        let refusal = if t.tok == Tok::Ident && block {
+            Some(format!(
                 "after {after} on the same line only a simple statement may follow, not {}; put a block on the lines below IF … THEN and close it with ENDIF",
                 self.text(&t)
-            );
-            self.error(t.span, msg);
-            self.inline_if = false;
-            self.skip_line();
-            return Err(());
-        }
-        if t.tok == Tok::Newline || t.tok == Tok::Eof || self.is_word(&t, "ELSE") {
-            let msg = format!(
+            ))
+        } else if t.tok == Tok::Newline || t.tok == Tok::Eof || self.is_word(&t, "ELSE") {
+            Some(format!(
                 "expected a statement after {after}, found {}",
                 self.describe(&t)
-            );
+            ))
+        } else {
+            None
+        };
+        if let Some(msg) = refusal {
             self.error(t.span, msg);
+            // The rest of the line, an ELSE part included, goes with it.
             self.inline_if = false;
             self.skip_line();
             return Err(());

@@ -256,38 +256,16 @@ pub fn run_line(generator: &VelocityGenerator, case: &LineCase) -> Result<LineRu
         cartesian_jerk_s: bound.cartesian_jerk_s / s,
         joint_jerk_s: bound.joint_jerk_s / s,
     };
-    let n = robot.axis_count();
-    let mut exact = vec![from];
-    let mut pulses = vec![start_pulses];
     let mut deviation = 0.0f64;
-    let mut period = Period::default();
-    let mut position = start_pulses;
-    let mut end = MoveEnd::Completed;
-    let (mut period_max_s, mut periods_total_s) = (0.0f64, 0.0);
-    while vg.is_moving() {
-        let began = Instant::now();
-        let status = vg.next_period(&mut period);
-        let took = began.elapsed().as_secs_f64();
-        period_max_s = period_max_s.max(took);
-        periods_total_s += took;
-        for (p, d) in position.iter_mut().zip(&period.pulses).take(n) {
-            *p += d;
-        }
-        exact.push(period.exact);
-        pulses.push(position);
-        let tcp = robot.forward(&robot.pulses_to_joints(&position));
-        deviation = deviation.max(distance_to_segment(&tcp, &a, &case.target));
-        if let Status::Finished(e) = status {
-            end = e;
-        }
-    }
-    // The run took the planned number of periods.
-    let ran = (pulses.len() - 1) as u64;
+    let played = play(&mut vg, from, start_pulses, |tcp| {
+        deviation = deviation.max(distance_to_segment(tcp, &a, &case.target));
+    });
     // The target's pulses: the line's end joints, followed continuously from the start.
     let (_, check) = check_line(robot, &from, &case.target)?;
     let target = robot.joints_to_pulses(&check.end_joints);
-    let exact_end = end == MoveEnd::Completed && position == target && ran == info.periods;
-    let limits = limit_use(robot, settings, &exact, &pulses);
+    let exact_end = played.ended_at(&target, info.periods);
+    let limits = limit_use(robot, settings, &played.exact, &played.pulses);
+    let (period_max_s, periods_total_s) = (played.period_max_s, played.periods_total_s);
     Ok(LineRun {
         case: *case,
         length_mm: ((case.target.x - a.x).powi(2)
@@ -305,6 +283,66 @@ pub fn run_line(generator: &VelocityGenerator, case: &LineCase) -> Result<LineRu
         deviation_mm: deviation,
         exact_end,
     })
+}
+
+/// A move played period by period to its end, as the Pulse Generator takes it.
+pub(crate) struct Played {
+    /// The exact joints of each period, the start first.
+    pub exact: Vec<Joints>,
+    /// The pulse position after each period, the start first.
+    pub pulses: Vec<[i64; MAX_AXES]>,
+    /// How the move ended.
+    pub end: MoveEnd,
+    /// Wall time of the longest period and of all of them [s].
+    pub period_max_s: f64,
+    pub periods_total_s: f64,
+}
+
+impl Played {
+    /// Completed exactly on `target`'s pulses in the `periods` it was planned to take.
+    pub fn ended_at(&self, target: &[i64; MAX_AXES], periods: u64) -> bool {
+        self.end == MoveEnd::Completed
+            && self.pulses.last() == Some(target)
+            && (self.pulses.len() - 1) as u64 == periods
+    }
+}
+
+/// Run `vg`'s move under way to its end from `start_pulses` (the joints `from`), timing each
+/// period; `each` sees the TCP after every period (from the pulses).
+pub(crate) fn play(
+    vg: &mut VelocityGenerator,
+    from: Joints,
+    start_pulses: [i64; MAX_AXES],
+    mut each: impl FnMut(&Pose),
+) -> Played {
+    let robot = vg.robot().clone();
+    let n = robot.axis_count();
+    let mut played = Played {
+        exact: vec![from],
+        pulses: vec![start_pulses],
+        end: MoveEnd::Completed,
+        period_max_s: 0.0,
+        periods_total_s: 0.0,
+    };
+    let mut period = Period::default();
+    let mut position = start_pulses;
+    while vg.is_moving() {
+        let began = Instant::now();
+        let status = vg.next_period(&mut period);
+        let took = began.elapsed().as_secs_f64();
+        played.period_max_s = played.period_max_s.max(took);
+        played.periods_total_s += took;
+        for (p, d) in position.iter_mut().zip(&period.pulses).take(n) {
+            *p += d;
+        }
+        played.exact.push(period.exact);
+        played.pulses.push(position);
+        each(&robot.forward(&robot.pulses_to_joints(&position)));
+        if let Status::Finished(e) = status {
+            played.end = e;
+        }
+    }
+    played
 }
 
 /// Distance of `p` from the segment a–b, in x, y and z [mm].

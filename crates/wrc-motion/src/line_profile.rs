@@ -850,6 +850,11 @@ pub(crate) struct LineProfile {
 impl LineProfile {
     /// A law at rest at u = 0, planned from there.
     pub(crate) fn start(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> LineProfile {
+        LineProfile::begin(b, derivs, false)
+    }
+
+    /// A law at rest at u = 0, watched for its junction or not.
+    fn begin(b: &Bounds, derivs: &impl Fn(f64) -> Derivs, junction: bool) -> LineProfile {
         let mut p = LineProfile {
             t: 0.0,
             u: 0.0,
@@ -863,7 +868,7 @@ impl LineProfile {
             land: None,
             mode: Mode::Forward,
             braked_now: false,
-            junction: false,
+            junction,
         };
         p.choose(b, derivs);
         p
@@ -877,23 +882,7 @@ impl LineProfile {
     /// So a path that may flow into a PTP is planned to rest at its end, and decides how it
     /// leaves only there: with the end moved further along its continuation, or not.
     pub(crate) fn start_watched(b: &Bounds, derivs: &impl Fn(f64) -> Derivs) -> LineProfile {
-        let mut p = LineProfile {
-            t: 0.0,
-            u: 0.0,
-            v: 0.0,
-            a: 0.0,
-            jerk: 0.0,
-            dt: STEP_S,
-            brake: 0,
-            brake_stop: 0.0,
-            ends: false,
-            land: None,
-            mode: Mode::Forward,
-            braked_now: false,
-            junction: true,
-        };
-        p.choose(b, derivs);
-        p
+        LineProfile::begin(b, derivs, true)
     }
 
     /// Whether the law waits at its junction ([`LineProfile::start_watched`]).

@@ -349,14 +349,31 @@ fn summarise(
     })
 }
 
+/// The number at `path` in the figures `f` (NaN where there is none).
+fn figure(f: &serde_json::Value, path: &[&str]) -> f64 {
+    path.iter()
+        .fold(f, |v, p| &v[*p])
+        .as_f64()
+        .unwrap_or(f64::NAN)
+}
+
+/// The limits used, from the exact positions and from the output pulses.
+fn print_limit_use(f: &serde_json::Value) {
+    for (label, key) in [
+        ("exact positions", "limit_use_exact"),
+        ("output pulses less rounding", "limit_use_pulses"),
+    ] {
+        println!(
+            "  limit use (v a j), {label}: {:.4} {:.4} {:.4}",
+            figure(f, &[key, "v"]),
+            figure(f, &[key, "a"]),
+            figure(f, &[key, "j"])
+        );
+    }
+}
+
 fn print_figures(pct: f64, what: &str, f: &serde_json::Value) {
-    let g = |path: &[&str]| {
-        let mut v = f;
-        for p in path {
-            v = &v[*p];
-        }
-        v.as_f64().unwrap_or(f64::NAN)
-    };
+    let g = |path: &[&str]| figure(f, path);
     println!(
         "\nspeed {pct} %, {what}: {} lines, length median {:.0} mm, max {:.0} mm",
         f["lines"],
@@ -397,17 +414,7 @@ fn print_figures(pct: f64, what: &str, f: &serde_json::Value) {
             g(&[key, "max"])
         );
     }
-    for (label, key) in [
-        ("exact positions", "limit_use_exact"),
-        ("output pulses less rounding", "limit_use_pulses"),
-    ] {
-        println!(
-            "  limit use (v a j), {label}: {:.4} {:.4} {:.4}",
-            g(&[key, "v"]),
-            g(&[key, "a"]),
-            g(&[key, "j"])
-        );
-    }
+    print_limit_use(f);
     println!(
         "  lines over a limit: {}; TCP off the line (from the pulses): max {:.4} mm; ends exactly on the target pulses: {} of {}",
         f["lines_over_a_limit"],
@@ -463,13 +470,7 @@ fn summarise_paths(runs: &[PathRun]) -> serde_json::Value {
 }
 
 fn print_path_figures(pct: f64, what: &str, f: &serde_json::Value) {
-    let g = |path: &[&str]| {
-        let mut v = f;
-        for p in path {
-            v = &v[*p];
-        }
-        v.as_f64().unwrap_or(f64::NAN)
-    };
+    let g = |path: &[&str]| figure(f, path);
     println!(
         "\nspeed {pct} %, {what}: {} runs, length median {:.0} mm, max {:.0} mm",
         f["runs"],
@@ -502,17 +503,7 @@ fn print_path_figures(pct: f64, what: &str, f: &serde_json::Value) {
             g(&[key, "max"])
         );
     }
-    for (label, key) in [
-        ("exact positions", "limit_use_exact"),
-        ("output pulses less rounding", "limit_use_pulses"),
-    ] {
-        println!(
-            "  limit use (v a j), {label}: {:.4} {:.4} {:.4}",
-            g(&[key, "v"]),
-            g(&[key, "a"]),
-            g(&[key, "j"])
-        );
-    }
+    print_limit_use(f);
     println!(
         "  over a limit: {}; TCP off the path (from the pulses): max {:.4} mm; in a blend, from its corner: max {:.3} of the zone; ends exactly on the end's pulses: {} of {}",
         f["over_a_limit"],

@@ -195,9 +195,12 @@ class FakeBus implements Bus {
 }
 
 const ack = (body: string): FirstReply => ({ kind: 'ACK', id: 1, fields: {}, line: `ACK 1 ${body}` });
-const flush = async () => {
-  for (let i = 0; i < 5; i++) await new Promise((r) => setTimeout(r, 0));
-};
+/**
+ * Let the store handle what it was sent. The fake bus answers in microtasks and the store
+ * handles a reply (and any request it then makes) in microtasks too, with no timer anywhere:
+ * a macrotask runs only once all of them have run, so one turn is enough, on any machine.
+ */
+const flush = () => new Promise((r) => setTimeout(r, 0));
 const SETTLED: Reply = { first: ack('uncertain=0 inside=-'), events: ['RECOVERY hand x=0 y=400 z=0 yaw=0 inside=-'] };
 const UNSETTLED: Reply = { first: ack('uncertain=2 inside=LP2'), events: REPLY };
 

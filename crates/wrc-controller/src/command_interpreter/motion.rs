@@ -249,10 +249,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let here = self.robot.forward(&start);
         // Along the line out: the hand must be on it (a stop's brake may leave it by a few
         // millimetres).
-        let (s, c) = plan.to.yaw.to_radians().sin_cos();
-        let (dx, dy) = (here.x - plan.to.x, here.y - plan.to.y);
-        let lateral = (dx * s - dy * c).abs();
-        let turned = wrc_robot::wrap180(here.yaw - plan.to.yaw).abs();
+        let (_, lateral, turned) = plan.offset(&here);
         use crate::messages::cell_job::{ON_LINE_DEG, ON_LINE_MM};
         if !(lateral <= ON_LINE_MM && turned <= ON_LINE_DEG) {
             let _ = write!(

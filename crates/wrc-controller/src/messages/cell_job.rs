@@ -268,14 +268,22 @@ pub struct JournalAck {
 }
 
 impl RetractPlan {
+    /// Where `pose` is from the line out: how far past the approach pose along it [mm], how
+    /// far off it sideways [mm], and how far turned from it [deg].
+    pub fn offset(&self, pose: &wrc_robot::Pose) -> (f64, f64, f64) {
+        let (s, c) = self.to.yaw.to_radians().sin_cos();
+        let (dx, dy) = (pose.x - self.to.x, pose.y - self.to.y);
+        (
+            dx * c + dy * s,
+            (dx * s - dy * c).abs(),
+            wrc_robot::wrap180(pose.yaw - self.to.yaw).abs(),
+        )
+    }
+
     /// Whether the hand at `pose` is inside the plan's station: past its approach pose, not
     /// behind its seat, and within [`IN_STATION_MM`] and [`IN_STATION_DEG`] of its line.
     pub fn inside(&self, pose: &wrc_robot::Pose) -> bool {
-        let (s, c) = self.to.yaw.to_radians().sin_cos();
-        let (dx, dy) = (pose.x - self.to.x, pose.y - self.to.y);
-        let along = dx * c + dy * s;
-        let lateral = (dx * s - dy * c).abs();
-        let turned = wrc_robot::wrap180(pose.yaw - self.to.yaw).abs();
+        let (along, lateral, turned) = self.offset(pose);
         along > wrc_cell::INSIDE_ENTRY_MARGIN_MM
             && along <= self.depth_mm + wrc_cell::INSIDE_BEYOND_SEAT_MM
             && lateral <= IN_STATION_MM

@@ -167,18 +167,6 @@ fn blocks(text: &str) -> Vec<Block> {
     out
 }
 
-/// `UPLOAD` of `text` as `name` with request id `id`: the reply.
-fn upload(host: &mut VHost, id: u32, name: &str, text: &str) -> String {
-    let mut lines = format!("{id} UPLOAD {name}\n");
-    for l in text.lines() {
-        lines.push_str(l);
-        lines.push('\n');
-    }
-    lines.push_str(".\n");
-    host.send_raw(&lines);
-    host.reply()
-}
-
 /// The `POINT` request that stores `value` as point `name` of `program`.
 fn point_request(id: u32, program: &str, name: &str, value: &PointValue) -> String {
     match value {
@@ -235,7 +223,7 @@ fn run_block(fence: &Fence, earlier: &[&Block]) -> Result<Run, String> {
                 }
             }
             Block::Stored { fence: f, name } => {
-                let r = upload(&mut host, id, name, &f.text);
+                let r = host.upload(id, name, &f.text);
                 if !r.starts_with(&format!("ACK {id} name={name} ")) {
                     return Err(format!(
                         "the upload of {name} ({DOC}:{}): {r}; heard {:#?}",
@@ -247,7 +235,7 @@ fn run_block(fence: &Fence, earlier: &[&Block]) -> Result<Run, String> {
         }
     }
     let name = fence.attr("name").unwrap_or("example");
-    let r = upload(&mut host, 3, name, &fence.text);
+    let r = host.upload(3, name, &fence.text);
     if !r.starts_with(&format!("ACK 3 name={name} ")) {
         return Err(format!("the upload: {r}; heard {:#?}", host.seen));
     }
@@ -432,6 +420,7 @@ fn unused_words(blocks: &[Block]) -> Vec<String> {
             "DO WHILE",
             "DO UNTIL",
             "SELECT CASE",
+            "CASE IS",
             "CASE ELSE",
             "ENDSELECT",
             "TRY",

@@ -10,18 +10,6 @@ use wrc_controller::simulation::SimCellFrom;
 
 use crate::vhost::{repo, VHost};
 
-/// Upload `text` as program `name` with request id `id`; the reply.
-fn upload(host: &mut VHost, id: u32, name: &str, text: &str) -> String {
-    let mut lines = format!("{id} UPLOAD {name}\n");
-    for l in text.lines() {
-        lines.push_str(l);
-        lines.push('\n');
-    }
-    lines.push_str(".\n");
-    host.send_raw(&lines);
-    host.reply()
-}
-
 /// `CONTROL` and `HOME`, then upload `text` as `name`: a host ready to run it.
 fn ready(text: &str) -> VHost {
     let mut host = VHost::start();
@@ -32,7 +20,7 @@ fn ready(text: &str) -> VHost {
 fn ready_with(host: &mut VHost, text: &str) {
     assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
     assert_eq!(host.motion(2, "HOME"), "INF 2");
-    let r = upload(host, 3, "p", text);
+    let r = host.upload(3, "p", text);
     assert!(r.starts_with("ACK 3 name=p "), "{r}: {:?}", host.seen);
     host.seen.clear();
 }
@@ -481,7 +469,7 @@ fn named_points_are_stored_next_to_the_program_taught_by_it_and_listed() {
     assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
     assert_eq!(host.motion(2, "HOME"), "INF 2");
     // A program that needs P1 does not compile without it; the error says how to get it.
-    let r = upload(&mut host, 3, "p", text);
+    let r = host.upload(3, "p", text);
     assert!(r.starts_with("NAK 3 126 "), "{r}");
     assert!(r.contains("P1") && r.contains("named point"), "{r}");
     // Teaching P1 (before the program is stored: the points belong to its name).
@@ -497,7 +485,7 @@ fn named_points_are_stored_next_to_the_program_taught_by_it_and_listed() {
         "{:?}",
         host.seen
     );
-    assert!(upload(&mut host, 4, "p", text).starts_with("ACK 4 name=p "));
+    assert!(host.upload(4, "p", text).starts_with("ACK 4 name=p "));
     host.seen.clear();
     assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
     assert_eq!(printed(&host), ["TRUE"]);
@@ -539,9 +527,11 @@ fn named_points_are_stored_next_to_the_program_taught_by_it_and_listed() {
 fn a_program_includes_a_stored_library_and_calls_another_stored_program() {
     let mut host = VHost::start();
     let lib = "SUB greet(who$)\n  PRINT \"hello\", who$\nENDSUB\nFUNCTION twice(v)\n  RETURN v * 2\nENDFUNCTION\n";
-    assert!(upload(&mut host, 4, "lib", lib).starts_with("ACK 4 name=lib "));
+    assert!(host.upload(4, "lib", lib).starts_with("ACK 4 name=lib "));
     let other = "PRINT \"other runs\"\n";
-    assert!(upload(&mut host, 5, "other", other).starts_with("ACK 5 name=other "));
+    assert!(host
+        .upload(5, "other", other)
+        .starts_with("ACK 5 name=other "));
     ready_with(
         &mut host,
         "INCLUDE \"lib\"\nCALL greet(\"cell\")\nPRINT twice(21)\nCALL PROGRAM \"other\"\nPRINT \"back\"\n",
@@ -549,13 +539,9 @@ fn a_program_includes_a_stored_library_and_calls_another_stored_program() {
     assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
     assert_eq!(printed(&host), ["hello cell", "42", "other runs", "back"]);
     // A library that no longer compiles with it is named in the refusal.
-    assert!(upload(
-        &mut host,
-        6,
-        "lib",
-        "SUB greet(who$)\n  PRINT who$\nENDSUB\n"
-    )
-    .starts_with("ACK 6 "));
+    assert!(host
+        .upload(6, "lib", "SUB greet(who$)\n  PRINT who$\nENDSUB\n")
+        .starts_with("ACK 6 "));
     host.seen.clear();
     let r = host.ask("9 RUN p");
     assert!(r.starts_with("NAK 9 126 "), "{r}: {:?}", host.seen);
@@ -647,7 +633,7 @@ fn the_example_wafer_cycle_skips_empty_slots_and_gives_up_a_wafer_the_operator_s
         world: None,
     });
     let library = std::fs::read_to_string(repo().join("examples/cell_lib.wrl")).unwrap();
-    assert!(upload(&mut host, 5, "cell_lib", &library).starts_with("ACK 5 "));
+    assert!(host.upload(5, "cell_lib", &library).starts_with("ACK 5 "));
     let program = std::fs::read_to_string(repo().join("examples/wafer_cycle.wrl")).unwrap();
     ready_with(&mut host, &program);
     assert_eq!(host.ask("9 RUN p"), "ACK 9");
@@ -718,7 +704,7 @@ fn a_called_programs_teach_goes_to_its_own_points_file() {
         .ask("4 POINT callee REST JOINTS 0 90 0 50")
         .starts_with("ACK 4 "));
     let callee = "MOVEJ JOINTS(10, 90, 0, 50)\nTEACH REST\nPRINT REST\n";
-    assert!(upload(&mut host, 5, "callee", callee).starts_with("ACK 5 "));
+    assert!(host.upload(5, "callee", callee).starts_with("ACK 5 "));
     ready_with(&mut host, "CALL PROGRAM \"callee\"\nTEACH HOME_HERE\n");
     assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
     assert!(

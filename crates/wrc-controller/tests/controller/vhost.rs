@@ -117,6 +117,18 @@ impl VHost {
         self.sim.send(&mut self.client, text).unwrap();
     }
 
+    /// `UPLOAD` of `text` as program `name` with request id `id`: the reply.
+    pub fn upload(&mut self, id: u32, name: &str, text: &str) -> String {
+        let mut lines = format!("{id} UPLOAD {name}\n");
+        for l in text.lines() {
+            lines.push_str(l);
+            lines.push('\n');
+        }
+        lines.push_str(".\n");
+        self.send_raw(&lines);
+        self.reply()
+    }
+
     /// Send `line` and return the first reply that is not an event.
     pub fn ask(&mut self, line: &str) -> String {
         self.send_raw(&format!("{line}\n"));

@@ -1,35 +1,13 @@
 //! Cell data in programs: the wafer map and station questions the host answers, named
 //! points from the points file (with the compiler's checks), TEACH, INCLUDE and CALL
-//! PROGRAM through [`Sources`].
-
-use std::collections::HashMap;
+//! PROGRAM through `wrc_lang::Sources`.
 
 use wrc_lang::{
-    compile_with, Answer, CellInfo, CompileOptions, Compiled, Request, Resume, Sources, Step, Vm,
-    VmLimits,
+    compile_with, Answer, CellInfo, CompileOptions, Compiled, Request, Resume, Step, Vm, VmLimits,
 };
 use wrc_robot::Pose;
 
-use crate::common::{answer, robot, Io};
-
-/// Stored programs and points files, by name.
-#[derive(Default)]
-struct Store {
-    programs: HashMap<String, String>,
-    points: HashMap<String, String>,
-}
-
-impl Sources for Store {
-    fn program(&self, name: &str) -> Result<String, String> {
-        self.programs
-            .get(name)
-            .cloned()
-            .ok_or_else(|| format!("there is no stored program named {name}"))
-    }
-    fn points(&self, name: &str) -> Result<Option<String>, String> {
-        Ok(self.points.get(name).cloned())
-    }
-}
+use crate::common::{answer, robot, Io, Store};
 
 fn compile_in(store: &Store, name: &str, source: &str) -> Compiled {
     compile_with(

@@ -7,6 +7,27 @@ use wrc_lang::{
 };
 use wrc_robot::{Pose, Robot};
 
+/// Stored programs and points files, by name: what `INCLUDE`, `CALL PROGRAM` and named
+/// points read (the controller's program store, in memory).
+#[derive(Default)]
+pub struct Store {
+    pub programs: std::collections::HashMap<String, String>,
+    pub points: std::collections::HashMap<String, String>,
+}
+
+impl wrc_lang::Sources for Store {
+    fn program(&self, name: &str) -> Result<String, String> {
+        self.programs
+            .get(name)
+            .cloned()
+            .ok_or_else(|| format!("there is no stored program named {name}"))
+    }
+
+    fn points(&self, name: &str) -> Result<Option<String>, String> {
+        Ok(self.points.get(name).cloned())
+    }
+}
+
 /// The robot of the embedded default configuration (the paper's 300 mm robot).
 pub fn robot() -> Robot {
     wrc_config::Config::embedded_default().robot

@@ -3,36 +3,15 @@
 //! `language_docs` runs them). A block marked `file=NAME.wrl` is a stored program or library
 //! that later blocks INCLUDE or CALL PROGRAM, and a ```toml block marked
 //! `file=NAME.points.toml` is program NAME's points file: both reach the later blocks
-//! through [`Sources`]. `name=NAME` names the program (default `example`), and
+//! through `wrc_lang::Sources`. `name=NAME` names the program (default `example`), and
 //! `config=dual-blade` compiles it for the dual-blade robot.
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 
-use wrc_lang::{compile_with, CompileOptions, Sources};
+use wrc_lang::{compile_with, CompileOptions};
 use wrc_robot::Robot;
 
-use crate::common::robot;
-
-/// The stored programs and points files of the blocks read so far.
-#[derive(Default)]
-struct Store {
-    programs: HashMap<String, String>,
-    points: HashMap<String, String>,
-}
-
-impl Sources for Store {
-    fn program(&self, name: &str) -> Result<String, String> {
-        self.programs
-            .get(name)
-            .cloned()
-            .ok_or_else(|| format!("no earlier block of the reference is file={name}.wrl"))
-    }
-
-    fn points(&self, name: &str) -> Result<Option<String>, String> {
-        Ok(self.points.get(name).cloned())
-    }
-}
+use crate::common::{robot, Store};
 
 /// A fenced block: the line of its first text line, its info string's words and its text.
 struct Fence {

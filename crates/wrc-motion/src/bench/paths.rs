@@ -281,27 +281,10 @@ pub fn run_path(generator: &VelocityGenerator, case: &PathCase) -> Result<PathRu
         joint_jerk_s: bound.joint_jerk_s / s,
     };
     let probe = PathProbe::new(robot, spec)?;
-    let n = robot.axis_count();
     let start_pulses = *vg.position_pulses();
-    let (mut exact, mut pulses) = (vec![from], vec![start_pulses]);
     let (mut deviation, mut zone_use) = (0.0f64, 0.0f64);
-    let mut period = Period::default();
-    let mut position = start_pulses;
-    let mut end = MoveEnd::Completed;
-    let (mut period_max_s, mut periods_total_s) = (0.0f64, 0.0);
-    while vg.is_moving() {
-        let began = Instant::now();
-        let status = vg.next_period(&mut period);
-        let took = began.elapsed().as_secs_f64();
-        period_max_s = period_max_s.max(took);
-        periods_total_s += took;
-        for (p, d) in position.iter_mut().zip(&period.pulses).take(n) {
-            *p += d;
-        }
-        exact.push(period.exact);
-        pulses.push(position);
-        let tcp = robot.forward(&robot.pulses_to_joints(&position));
-        let d = probe.distance(&tcp);
+    let played = super::play(&mut vg, from, start_pulses, |tcp| {
+        let d = probe.distance(tcp);
         deviation = deviation.max(d.off_mm);
         if let Some(c) = d.from_corner_mm {
             let zone = spec.segments[usize::from(d.place.segment) - 1].blend_mm();
@@ -312,25 +295,21 @@ pub fn run_path(generator: &VelocityGenerator, case: &PathCase) -> Result<PathRu
             };
             zone_use = zone_use.max(c / zone);
         }
-        if let Status::Finished(e) = status {
-            end = e;
-        }
-    }
+    });
     let target = robot.joints_to_pulses(&check_path(robot, &from, spec)?.end_joints);
-    let ran = (pulses.len() - 1) as u64;
     Ok(PathRun {
         case: *case,
         length_mm: probe.length_mm(),
         duration_s: info.duration_s,
         plan_s,
         start_s,
-        period_max_s,
-        periods_total_s,
+        period_max_s: played.period_max_s,
+        periods_total_s: played.periods_total_s,
         bound,
-        limits: limit_use(robot, settings, &exact, &pulses),
+        limits: limit_use(robot, settings, &played.exact, &played.pulses),
         deviation_mm: deviation,
         zone_use,
-        exact_end: end == MoveEnd::Completed && position == target && ran == info.periods,
+        exact_end: played.ended_at(&target, info.periods),
     })
 }
 

@@ -270,7 +270,19 @@ pub fn compile_with(source: &str, file: &str, robot: &Robot, options: &CompileOp
         let main = units.remove(i);
         units.insert(0, main);
     }
-    let checked = check::check(&units, robot, &mut diags);
+    // As messages cite a place in another file: `cell_lib.wrl:47:5`.
+    let file_names: Vec<String> = files
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            if i == 0 {
+                f.name.clone()
+            } else {
+                format!("{}.wrl", f.name)
+            }
+        })
+        .collect();
+    let checked = check::check(&units, robot, &file_names, &mut diags);
     let has_errors = diags.iter().any(Diagnostic::is_error);
     let (program, symbols) = match checked {
         Ok(checked) if !has_errors => {

@@ -89,7 +89,7 @@ impl Checker<'_> {
             let msg = format!(
                 "{} is used before it is assigned (first assigned at {})",
                 name.text,
-                v.first.at()
+                self.cite(v.first, name.span)
             );
             self.error(name.span, msg);
         }

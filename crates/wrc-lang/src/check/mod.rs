@@ -289,6 +289,8 @@ struct Checker<'a> {
     routine_index: ByUnit,
     /// Each unit's name and the routine of its main body (none for unit 0).
     unit_names: Vec<String>,
+    /// Each source file's name as messages cite it (`cell_lib.wrl`), by file index.
+    file_names: &'a [String],
     unit_main: Vec<Option<u32>>,
     ctx: Ctx,
     /// Main bodies: variables assigned so far in the text.
@@ -306,6 +308,7 @@ struct Checker<'a> {
 pub(crate) fn check(
     units: &[Unit],
     robot: &Robot,
+    file_names: &[String],
     diags: &mut Vec<Diagnostic>,
 ) -> Result<Checked, Vec<Symbol>> {
     let errors_before = diags.iter().filter(|d| d.is_error()).count();
@@ -318,6 +321,7 @@ pub(crate) fn check(
         routines: Vec::new(),
         routine_index: ByUnit::default(),
         unit_names: units.iter().map(|u| u.name.clone()).collect(),
+        file_names,
         unit_main: vec![None; units.len()],
         ctx: Ctx::default(),
         assigned: Vec::new(),

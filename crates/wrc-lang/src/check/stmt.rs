@@ -390,7 +390,7 @@ impl Checker<'_> {
                 }
                 if let Some(ty) = ty {
                     if ty != te.ty {
-                        let msg = self.type_clash(&target.text, ty, first, te.ty);
+                        let msg = self.type_clash(target, ty, first, te.ty);
                         self.error(te.span, msg);
                         return;
                     }
@@ -427,7 +427,7 @@ impl Checker<'_> {
                 let v = &self.globals[g as usize];
                 if let Some(ty) = v.ty {
                     if ty != te.ty {
-                        let msg = self.type_clash(&target.text, ty, v.ty_span, te.ty);
+                        let msg = self.type_clash(target, ty, v.ty_span, te.ty);
                         self.error(te.span, msg);
                         self.globals[g as usize].broken = true;
                         return;

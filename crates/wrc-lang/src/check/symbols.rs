@@ -429,7 +429,11 @@ impl Checker<'_> {
                     name.text
                 )
             } else {
-                format!("{} is declared twice (first at {})", name.text, first.at())
+                format!(
+                    "{} is declared twice (first at {})",
+                    name.text,
+                    self.cite(first, name.span)
+                )
             };
             self.error(name.span, msg);
             return;
@@ -479,15 +483,10 @@ impl Checker<'_> {
         if let Some(&first) = self.routine_index.get(u, &name.key) {
             let at = self.routines[first as usize].name.span;
             let msg = format!(
-                "{} {} is defined twice (first at {}{})",
+                "{} {} is defined twice (first at {})",
                 kind.word(),
                 name.text,
-                if at.file != name.span.file {
-                    "another file, "
-                } else {
-                    ""
-                },
-                at.at()
+                self.cite(at, name.span)
             );
             self.error(name.span, msg);
             return;
@@ -902,12 +901,25 @@ impl Checker<'_> {
         }
     }
 
+    /// `place` as a message at `here` cites it: `line:col` in the same file,
+    /// `file.wrl:line:col` in another.
+    pub(super) fn cite(&self, place: Span, here: Span) -> String {
+        if place.file == here.file {
+            return place.at();
+        }
+        match self.file_names.get(usize::from(place.file)) {
+            Some(file) => format!("{file}:{}", place.at()),
+            None => place.at(),
+        }
+    }
+
     /// A message for a type a value cannot change to.
-    pub(super) fn type_clash(&self, name: &str, ty: Ty, since: Span, got: Ty) -> String {
+    pub(super) fn type_clash(&self, name: &Name, ty: Ty, since: Span, got: Ty) -> String {
         format!(
-            "{name} holds {} (since {}); it cannot be assigned {}",
+            "{} holds {} (since {}); it cannot be assigned {}",
+            name.text,
             article(ty),
-            since.at(),
+            self.cite(since, name.span),
             article(got)
         )
     }

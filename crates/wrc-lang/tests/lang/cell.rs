@@ -286,6 +286,34 @@ fn include_brings_a_librarys_subs_and_functions_and_reports_their_errors_in_thei
 }
 
 #[test]
+fn a_name_defined_in_the_program_and_in_a_library_cites_the_other_file_by_name() {
+    let mut store = Store::default();
+    store.programs.insert(
+        "lib".into(),
+        "DIM COUNT AS NUMBER\nSUB place(st AS STRING)\n  PRINT st\nENDSUB\n".into(),
+    );
+    // Found by fuzzing the upload: the message said "first at another file, 2:5".
+    let c = compile_in(
+        &store,
+        "main",
+        "SUB place(st AS STRING)\n  PRINT st\nENDSUB\nDIM COUNT AS NUMBER\nINCLUDE \"lib\"\n",
+    );
+    assert_eq!(
+        errors(&c),
+        [
+            "lib:1:5 COUNT is declared twice (first at main.wrl:4:5)",
+            "lib:2:5 SUB place is defined twice (first at main.wrl:1:5)",
+        ]
+    );
+    // In the same file, only line and column.
+    let c = compile_in(&store, "main", "SUB a\nENDSUB\nSUB a\nENDSUB\nCALL a\n");
+    assert_eq!(
+        errors(&c),
+        ["main:3:5 SUB a is defined twice (first at 1:5)"]
+    );
+}
+
+#[test]
 fn call_program_runs_another_stored_program_with_its_own_variables() {
     let mut store = Store::default();
     store.programs.insert(

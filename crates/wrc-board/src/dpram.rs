@@ -397,15 +397,23 @@ impl Dpram {
 
     /// Host (any thread): ask for a stop whose brake, if the board brakes on its own, uses
     /// `level` % of the brake limits; a stronger level still pending is kept (an ESTOP is
-    /// never weakened by a STOP that follows it). Returns the new stop sequence. Lock-free:
-    /// a compare-and-swap of the stop word.
+    /// never weakened by a STOP that follows it). A stop still pending at a level at least
+    /// as strong already covers this one and is not posted again: a new word would not be
+    /// the one the host's flush, perhaps armed already, answers, and the board would brake
+    /// on its own, each axis off the path (an ESTOP that ends a job asks for the job's
+    /// motion to stop too). Returns the stop sequence that covers the request. Lock-free: a
+    /// compare-and-swap of the stop word.
     pub fn post_stop(&self, level: u8) -> u32 {
         use crate::layout::stop;
         let word = self.map.u32(control::STOP);
         let mut old = word.load(Ordering::Acquire);
+        let level = level.clamp(1, 100);
         loop {
             let acked = stop::seq(self.load(control::STOP_ACK));
             let pending = stop::seq(old) != acked;
+            if pending && stop::level(old) >= level {
+                return stop::seq(old);
+            }
             let level = if pending {
                 level.max(stop::level(old))
             } else {

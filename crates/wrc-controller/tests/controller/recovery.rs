@@ -6,9 +6,11 @@
 //! never moves the hand sideways inside a station and ends with the map equal to the cell.
 //! A hand a fault left inside a station (a GET's vacuum miss) is taken straight out by
 //! HOME and by the next GET or MAP before their own moves, or refused when it stands off
-//! the station's line.
+//! the station's line. An ESTOP anywhere in a GET or a PUT leaves the hand on the station's
+//! line, and HOME takes it out.
 
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
 
 use wrc_board::wrc_cell::journal::{read_journal, Act, Record};
 use wrc_board::wrc_cell::{parse_slot_list, SlotCode, SlotState, World};
@@ -185,9 +187,23 @@ fn run_to(cell: &mut Cell, cut: Cut) {
     panic!("the journal never held {} records", cut.records);
 }
 
-/// The cuts of one transfer: after each record, and in the middle of each motion (from a
-/// reference run: the virtual time from a step's BEGIN to its DONE).
+/// The cuts of one transfer: after each record, and in the middle of each motion.
 fn cuts(put: bool) -> Vec<Cut> {
+    let (records, mut out) = motion_cuts(put, &[0.5]);
+    out.splice(
+        0..0,
+        (1..records).map(|r| Cut {
+            records: r,
+            then_ns: 0,
+        }),
+    );
+    out
+}
+
+/// Moments in each motion of one transfer, at `fractions` of it (from a reference run: the
+/// virtual time from a moving step's BEGIN to the next record), and the number of records
+/// the transfer's journal holds at its end.
+fn motion_cuts(put: bool, fractions: &[f64]) -> (usize, Vec<Cut>) {
     let mut cell = mapped();
     if put {
         assert_eq!(cell.motion(6, "GET LP1 1"), "INF 6 W1");
@@ -212,13 +228,8 @@ fn cuts(put: bool) -> Vec<Cut> {
         matches!(records.last(), Some(Record::Close(_))),
         "{records:?}"
     );
-    let mut out: Vec<Cut> = (1..records.len())
-        .map(|r| Cut {
-            records: r,
-            then_ns: 0,
-        })
-        .collect();
-    // Mid-motion: from a BEGIN of a moving step to the next record.
+    let mut out = Vec::new();
+    // From a BEGIN of a moving step to the next record.
     for (i, r) in records.iter().enumerate() {
         if let Record::Begin { act, .. } = r {
             if !act.moves() {
@@ -227,19 +238,17 @@ fn cuts(put: bool) -> Vec<Cut> {
             let at = |k: usize| times.iter().find(|(n, _)| *n > k).map(|(_, t)| *t);
             if let (Some(begin), Some(next)) = (at(i), at(i + 1)) {
                 if next > begin + 2 * PERIOD_NS {
-                    out.push(Cut {
+                    out.extend(fractions.iter().map(|f| Cut {
                         records: i + 1,
-                        then_ns: (next - begin) / 2,
-                    });
+                        then_ns: ((next - begin) as f64 * f) as u64,
+                    }));
                 }
             }
         }
     }
-    out
+    (records.len(), out)
 }
 
-/// Cut a transfer at `cut`, restart, check the claims, recover, check the map equals the
-/// cell; returns what RECOVERY said.
 fn cut_and_recover(put: bool, cut: Cut) -> String {
     let mut cell = mapped();
     if put {
@@ -414,4 +423,93 @@ fn a_hand_a_fault_left_inside_a_station_is_taken_straight_out_before_anything_el
     host.sim.run_for_ns(200_000_000);
     assert_eq!(host.encoders(), before);
     assert_eq!(host.world().side_collisions(), sides);
+}
+
+/// When an ESTOP comes in a transfer.
+#[derive(Debug, Clone, Copy)]
+enum StopAt {
+    /// At a moment of one of its motions.
+    Motion(Cut),
+    /// This many periods after the Pulse Generator first sent the transfer's pulses from a
+    /// state committed to enter the station (a blended approach's first part past its
+    /// commit point, or the line in).
+    Committed(u64),
+}
+
+/// ESTOP a GET LP1 1 (or a PUT LP2 1 after it) at `at`: the hand ends on the station's
+/// line or outside it (the simulated cell sees no side collision), and after RESET, HOME
+/// takes it out without one.
+fn estop_keeps_the_line(put: bool, at: StopAt) {
+    let mut cell = mapped();
+    if put {
+        assert_eq!(cell.motion(6, "GET LP1 1"), "INF 6 W1");
+    }
+    let line = if put { "PUT LP2 1" } else { "GET LP1 1" };
+    let committed = cell.sim.shared().entry_committed.load(Ordering::Acquire);
+    assert_eq!(cell.ask(&format!("7 {line}")), "ACK 7");
+    match at {
+        StopAt::Motion(cut) => run_to(&mut cell, cut),
+        StopAt::Committed(periods) => {
+            let shared = cell.sim.shared().clone();
+            let mut left = 3_000;
+            while shared.entry_committed.load(Ordering::Acquire) == committed {
+                assert!(left > 0, "{line}: never committed to enter");
+                left -= 1;
+                cell.sim.run_for_ns(PERIOD_NS);
+            }
+            cell.sim.run_for_ns(periods * PERIOD_NS);
+        }
+    }
+    let when = format!("{line}, ESTOP at {at:?}");
+    let sides = cell.world().side_collisions();
+    cell.sim.send(&mut cell.client, "8 ESTOP\n").unwrap();
+    loop {
+        let l = cell.line();
+        if l.starts_with("ABS 7") || l.starts_with("INF 7") {
+            break;
+        }
+    }
+    // The map settles the ended transfer from the vacuum sensor once the arm stands still
+    // and the sensor has answered (a HOME sent sooner, after a PUT's release, carries a
+    // wafer the map still has on the hand and ends in 213, wafer lost).
+    cell.sim.run_for_ns(1_000_000_000);
+    let world = cell.world();
+    assert_eq!(
+        world.side_collisions(),
+        sides,
+        "{when}: the stop hit {:?}'s side; {:?}",
+        world.last_side_collision(),
+        cell.seen
+    );
+    assert!(cell.ask("9 RESET").starts_with("ACK 9"), "{when}");
+    assert_eq!(cell.motion(10, "HOME"), "INF 10", "{when}: {:?}", cell.seen);
+    let world = cell.world();
+    assert_eq!(
+        world.side_collisions(),
+        sides,
+        "{when}: HOME hit {:?}'s side",
+        world.last_side_collision()
+    );
+    let recovery = cell.ask("11 RECOVERY");
+    assert!(
+        recovery.starts_with("ACK 11 uncertain=0 inside=-"),
+        "{when}: {recovery}"
+    );
+}
+
+/// Found by stopping every 50 ms: a stop the Command Interpreter asked for again when the
+/// ESTOP ended the job made the board brake each axis on its own (up to 11 mm and 6 degrees
+/// off the line inside LP1), and a stop past a blended approach's commit point braked each
+/// axis on its own (up to 13 mm and 11 degrees off LP2's line).
+#[test]
+fn an_estop_anywhere_in_a_get_or_a_put_leaves_the_hand_on_the_stations_line() {
+    for put in [false, true] {
+        let (_, moments) = motion_cuts(put, &[0.25, 0.5, 0.75]);
+        // A blended approach's first part goes on for about 25 periods after it commits;
+        // stops 14 to 24 periods in ended inside the station, off its line.
+        let committed = (0..=30).step_by(5).map(StopAt::Committed);
+        for at in moments.into_iter().map(StopAt::Motion).chain(committed) {
+            estop_keeps_the_line(put, at);
+        }
+    }
 }

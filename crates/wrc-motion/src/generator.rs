@@ -236,6 +236,10 @@ enum Active {
         law: LineLaw,
         target: [i64; MAX_AXES],
         last: Joints,
+        /// A stop asked for after the commit point: the first part runs on to the line,
+        /// which brakes with these limits from its start (on the line, not sideways into
+        /// the station).
+        stop: Option<BrakeLimits>,
     },
     /// Ruckig's synchronised moves in joint space, one after the other (`count` of
     /// `parts`, from time `t0` of the move), ending at rest on `target` [pulse]: a PTP
@@ -1138,6 +1142,7 @@ impl VelocityGenerator {
             },
             target: target_pulses,
             last: *via,
+            stop: None,
         };
         self.k = 0;
         self.stopped = false;
@@ -1743,6 +1748,19 @@ impl VelocityGenerator {
                 }
             },
             Active::Approach {
+                commit_k,
+                stop: committed,
+                ..
+            } if self.k > *commit_k => {
+                // Past the commit point every axis's own brake would end past the line's
+                // start, off the line, inside the station: the planned first part (checked)
+                // takes the hand to the line, whose brake keeps it on the line.
+                if *committed != Some(BrakeLimits::Full) {
+                    *committed = Some(limits);
+                }
+                cut_short = true;
+            }
+            Active::Approach {
                 ptp, path, target, ..
             } => {
                 let goal = Goal::of_path(path, *target);
@@ -1821,7 +1839,16 @@ impl VelocityGenerator {
                     // restored to the same state (the Pulse Generator's) take the same brake.
                     let (robot, axes, reference) = (&self.robot, &self.line_axes, *last);
                     let derivs = |u: f64| path.derivs(robot, axes, u, &reference);
-                    stop_line(profile, bounds, scale, limits, now - *t0, &derivs);
+                    // From the line's start at the latest (a committed approach's stop,
+                    // taken in the period in which the line takes over).
+                    stop_line(
+                        profile,
+                        bounds,
+                        scale,
+                        limits,
+                        (now - *t0).max(0.0),
+                        &derivs,
+                    );
                     // Nothing follows a stopped path; the move was going to its target.
                     if let Some(target) = then.target() {
                         *then = Then::Cancelled { target };
@@ -1887,6 +1914,7 @@ impl VelocityGenerator {
             law,
             target,
             last,
+            stop,
             ..
         } = self.active
         {
@@ -1900,6 +1928,10 @@ impl VelocityGenerator {
                     t0: ptp.duration(),
                     then: Then::End,
                 };
+                // A stop asked for after the commit point brakes on the line from its start.
+                if let Some(limits) = stop {
+                    self.stop(limits);
+                }
             }
         }
         if let Active::Line {

@@ -13,6 +13,7 @@ use crate::common::*;
 
 /// A transfer's approach: from a station's approach pose (where the last transfer left the
 /// hand) to another's approach pose `a`, then straight in to its seat `s`.
+#[derive(Clone)]
 struct Case {
     name: &'static str,
     from: Pose,
@@ -156,9 +157,12 @@ fn a_blended_approach_is_faster_within_every_limit_and_enters_on_the_line() {
 }
 
 #[test]
-fn an_estop_up_to_the_commit_point_ends_behind_the_approach_pose() {
+fn an_estop_up_to_the_commit_point_ends_behind_the_approach_pose_and_after_it_on_the_line() {
     let ts = 0.01;
-    for c in cases() {
+    for (c, limits) in cases()
+        .into_iter()
+        .flat_map(|c| [BrakeLimits::Full, BrakeLimits::Override].map(|l| (c.clone(), l)))
+    {
         let mut vg = generator(Profile::Fir, ts, 100.0);
         at(&mut vg, &c.from);
         let q = via(&vg, &c.a);
@@ -177,7 +181,7 @@ fn an_estop_up_to_the_commit_point_ends_behind_the_approach_pose() {
             if committed && committed_at.is_none() {
                 committed_at = Some(k);
             }
-            stopper.stop(BrakeLimits::Full);
+            stopper.stop(limits);
             let mut periods = Vec::new();
             let end = loop {
                 match stopper.next_period(&mut out) {
@@ -204,6 +208,17 @@ fn an_estop_up_to_the_commit_point_ends_behind_the_approach_pose() {
                     c.name,
                     along(&c, &pose)
                 );
+            } else {
+                // Committed: on to the line, and braked on it (every axis braking on its
+                // own ended up to 13 mm and 11 degrees off it, inside the station).
+                assert!(
+                    off_line(&c, &pose) <= 0.01 && (pose.yaw - c.a.yaw).abs() <= 0.01,
+                    "{} {limits:?}: a stop after {k} periods ended {:.3} mm and {:.3} deg off the line",
+                    c.name,
+                    off_line(&c, &pose),
+                    pose.yaw - c.a.yaw
+                );
+                assert!(along(&c, &pose) >= -1e-3, "{} k={k}", c.name);
             }
         }
         let k = committed_at.expect("the approach commits before it enters");

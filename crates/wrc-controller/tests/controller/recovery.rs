@@ -437,8 +437,9 @@ enum StopAt {
 }
 
 /// ESTOP a GET LP1 1 (or a PUT LP2 1 after it) at `at`: the hand ends on the station's
-/// line or outside it (the simulated cell sees no side collision), and after RESET, HOME
-/// takes it out without one.
+/// line or outside it (the simulated cell sees no side collision), the wafer map settled
+/// from the sensors agrees with the cell, and after RESET, HOME takes the hand out without
+/// a side collision.
 fn estop_keeps_the_line(put: bool, at: StopAt) {
     let mut cell = mapped();
     if put {
@@ -481,6 +482,10 @@ fn estop_keeps_the_line(put: bool, at: StopAt) {
         world.last_side_collision(),
         cell.seen
     );
+    // The map settled from the sensors makes no claim the cell contradicts, and forgets no
+    // wafer.
+    let wafers = cell.ask("WAFERS");
+    check_claims(&wafers, &world, &when);
     assert!(cell.ask("9 RESET").starts_with("ACK 9"), "{when}");
     assert_eq!(cell.motion(10, "HOME"), "INF 10", "{when}: {:?}", cell.seen);
     let world = cell.world();

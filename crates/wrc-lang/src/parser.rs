@@ -1449,23 +1449,10 @@ impl Parser<'_, '_> {
         let mut tests = Vec::new();
         loop {
             let t = self.peek().clone();
-            let compares = matches!(
-                self.peek_at(1).tok,
-                Tok::Eq | Tok::Ne | Tok::Lt | Tok::Le | Tok::Gt | Tok::Ge
-            );
-            if self.is_word(&t, "IS") && compares {
-                self.bump();
-                let op = self.peek().clone();
-                let cmp = match op.tok {
-                    Tok::Eq => BinOp::Eq,
-                    Tok::Ne => BinOp::Ne,
-                    Tok::Lt => BinOp::Lt,
-                    Tok::Le => BinOp::Le,
-                    Tok::Gt => BinOp::Gt,
-                    Tok::Ge => BinOp::Ge,
-                    _ => BinOp::Eq, // `compares` saw one of the above
-                };
-                self.bump();
+            let compares = comparison(&self.peek_at(1).tok);
+            if let Some(cmp) = compares.filter(|_| self.is_word(&t, "IS")) {
+                self.bump(); // IS
+                self.bump(); // the comparison
                 let value = self.expr()?;
                 tests.push(CaseTest::Cmp(cmp, value));
                 if self.peek().tok == Tok::Comma {
@@ -1836,14 +1823,8 @@ impl Parser<'_, '_> {
     fn cmp_expr(&mut self) -> PResult<Expr> {
         let mut l = self.add_expr()?;
         loop {
-            let op = match self.peek().tok {
-                Tok::Eq => BinOp::Eq,
-                Tok::Ne => BinOp::Ne,
-                Tok::Lt => BinOp::Lt,
-                Tok::Le => BinOp::Le,
-                Tok::Gt => BinOp::Gt,
-                Tok::Ge => BinOp::Ge,
-                _ => return Ok(l),
+            let Some(op) = comparison(&self.peek().tok) else {
+                return Ok(l);
             };
             let t = self.bump();
             let r = self.add_expr()?;
@@ -2018,6 +1999,19 @@ fn error_expr(span: Span) -> Expr {
         span,
         depth: 1,
     }
+}
+
+/// The comparison operator `tok` is, if it is one (`=`, `<>`, `<`, `<=`, `>`, `>=`).
+fn comparison(tok: &Tok) -> Option<BinOp> {
+    Some(match tok {
+        Tok::Eq => BinOp::Eq,
+        Tok::Ne => BinOp::Ne,
+        Tok::Lt => BinOp::Lt,
+        Tok::Le => BinOp::Le,
+        Tok::Gt => BinOp::Gt,
+        Tok::Ge => BinOp::Ge,
+        _ => return None,
+    })
 }
 
 #[cfg(test)]

@@ -424,11 +424,13 @@ impl Bounds {
         (lo, hi)
     }
 
-    /// The largest acceleration ü the limits admit at speed v (negative: the state must
-    /// decelerate).
+    /// The accelerations ü the limits admit at speed v, lowest and highest: every joint's
+    /// acceleration limit against its centripetal term q″·v², and the Cartesian one. The
+    /// highest is negative where the state must decelerate, the lowest positive where it
+    /// must accelerate.
     #[inline]
-    fn accel(&self, d: &Derivs, v: f64) -> f64 {
-        let mut hi = self.ca;
+    fn accel_range(&self, d: &Derivs, v: f64) -> (f64, f64) {
+        let (mut lo, mut hi) = (-self.ca, self.ca);
         let v2 = v * v;
         for k in 0..self.n {
             let d1 = d.d1[k];
@@ -437,9 +439,17 @@ impl Bounds {
             }
             let c = d.d2[k] * v2;
             let (l, h) = ((-self.a[k] - c) / d1, (self.a[k] - c) / d1);
+            lo = lo.max(l.min(h));
             hi = hi.min(l.max(h));
         }
-        hi
+        (lo, hi)
+    }
+
+    /// The largest acceleration ü the limits admit at speed v (negative: the state must
+    /// decelerate).
+    #[inline]
+    fn accel(&self, d: &Derivs, v: f64) -> f64 {
+        self.accel_range(d, v).1
     }
 
     /// The fastest speed u̇ [1/s] admissible with no acceleration of u where the derivatives
@@ -467,18 +477,7 @@ impl Bounds {
     /// accelerate).
     #[inline]
     fn decel(&self, d: &Derivs, v: f64) -> f64 {
-        let mut lo = -self.ca;
-        let v2 = v * v;
-        for k in 0..self.n {
-            let d1 = d.d1[k];
-            if d1.abs() < 1e-9 {
-                continue;
-            }
-            let c = d.d2[k] * v2;
-            let (l, h) = ((-self.a[k] - c) / d1, (self.a[k] - c) / d1);
-            lo = lo.max(l.min(h));
-        }
-        -lo
+        -self.accel_range(d, v).0
     }
 }
 

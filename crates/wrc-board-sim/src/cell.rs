@@ -146,8 +146,13 @@ impl SimCell {
                 }
             })
             .collect();
+        let mut world = World::new(&stations);
+        let offsets: Vec<f64> = std::iter::once(0.0)
+            .chain(config.hand.blade_b.map(|b| b.z_offset_mm))
+            .collect();
+        world.set_arm(robot, &stations, &offsets);
         Ok(SimCell {
-            world: World::new(&stations),
+            world,
             stations,
             robot: robot.clone(),
             channels,
@@ -165,7 +170,11 @@ impl SimCell {
 
     /// The same cell starting from `world` instead, e.g. read back with
     /// [`World::from_text`] and this cell's [`SimCell::stations`].
-    pub fn with_world(self, world: World) -> SimCell {
+    pub fn with_world(self, mut world: World) -> SimCell {
+        let offsets: Vec<f64> = std::iter::once(0.0)
+            .chain(self.hand.blade_b.map(|b| b.z_offset_mm))
+            .collect();
+        world.set_arm(&self.robot, &self.stations, &offsets);
         SimCell { world, ..self }
     }
 
@@ -233,8 +242,14 @@ impl SimCell {
         for (p, &channel) in pulses.iter_mut().zip(&self.channels).take(self.axis_count) {
             *p = encoders[channel];
         }
-        let pose = self.robot.forward(&self.robot.pulses_to_joints(&pulses));
+        let joints = self.robot.pulses_to_joints(&pulses);
+        let pose = self.robot.forward(&joints);
         self.pose = pose;
+        // The arm against the cell, along the period's joint-space segment.
+        if let Some(event) = self.world.touch(&joints) {
+            self.last_event = Some(event);
+            self.events = self.events.wrapping_add(1);
+        }
         let vacuum_on = outputs & (1 << (self.hand.vacuum_output & 31)) != 0;
         if let Some(event) = self.world.step(pose, vacuum_on) {
             self.last_event = Some(event);

@@ -124,9 +124,10 @@ pub fn describe_event(event: &WorldEvent) -> String {
             "FAULT: the hand rose through the wafer in {station} slot {slot} with the vacuum \
              off; the wafer stays"
         ),
-        WorldEvent::SideCollision { station } => format!(
-            "FAULT: side collision at {station}: inside the station the hand moved sideways \
-             off its line or turned, and hit the station's side"
+        WorldEvent::SideCollision { station, body } => format!(
+            "FAULT: side collision at {station}: {} touched it (a station is entered only \
+             along its line, an obstacle never)",
+            body.describe()
         ),
     }
 }
@@ -298,21 +299,21 @@ mod tests {
         assert_eq!(&lines[6..], ["hand - (vacuum off)", "lost -", "faults 0"]);
         assert!(text.is_ascii());
         // A hand that turns inside PM2 hits its side.
+        let robot = wrc_robot::Robot::paper_default();
         let mut world = World::new(&stations);
+        world.set_arm(&robot, &stations, &[0.0]);
         let seat = stations.get("PM2").unwrap().seated_pose(1, false).unwrap();
-        world.step(seat, false);
-        let event = world.step(
-            wrc_robot::Pose {
-                yaw: seat.yaw + 10.0,
-                ..seat
-            },
-            false,
-        );
-        let event = event.unwrap();
+        let q = robot
+            .inverse(&seat, wrc_robot::Posture::Right, None)
+            .unwrap();
+        assert_eq!(world.touch(&q), None);
+        let mut turned = q;
+        turned[2] += 10.0;
+        let event = world.touch(&turned).unwrap();
         assert_eq!(
             describe_event(&event),
-            "FAULT: side collision at PM2: inside the station the hand moved sideways off its \
-             line or turned, and hit the station's side"
+            "FAULT: side collision at PM2: the hand touched it (a station is entered only \
+             along its line, an obstacle never)"
         );
         let text = summary(&world, &stations);
         assert!(

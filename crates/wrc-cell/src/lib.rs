@@ -60,6 +60,7 @@ mod atomic;
 pub mod blade;
 pub mod journal;
 pub mod mapping;
+pub mod obstacle;
 pub mod station;
 pub mod stations;
 pub mod transfer;
@@ -69,6 +70,10 @@ pub mod world;
 pub use atomic::write_atomic;
 pub use blade::{Blade, MAX_BLADES};
 pub use mapping::{parse_slot_codes, slot_codes_string, SlotCode, SlotCodesError};
+pub use obstacle::{
+    obstacle_line, CellModel, CellModelError, CellSettings, Contact, LineTolerance, Obstacle,
+    ObstacleShape, SolidKind, StationVolume, Sweep, SweepContact, VolumeSpec,
+};
 pub use station::{
     parse_station_name, PoseKind, Station, StationError, StationKind, StationName, StationSim,
     INSIDE_BEYOND_SEAT_MM, INSIDE_ENTRY_MARGIN_MM, INSIDE_HALF_WIDTH_MM, MAX_INPUT, MAX_SLOTS,

@@ -44,7 +44,11 @@ use wrc_motion::{check_line, ptp_cost, solutions, sooner, PlanError};
 use wrc_robot::{IkCheck, InlineName, Joints, KinematicsError, Pose, Posture, Robot};
 
 use crate::mapping::SlotCode;
+use crate::obstacle::{StationVolume, VolumeSpec};
 use wrc_robot::{wrap180, Num};
+
+/// The wafer radius the stations file's sizes are checked with (a 300 mm wafer) [mm].
+pub const WAFER_RADIUS_MM: f64 = 150.0;
 
 /// A station name: 1 to 16 ASCII letters, digits, `_` or `-`; compared case-insensitively.
 pub type StationName = InlineName<16>;
@@ -158,6 +162,8 @@ pub struct Station {
     pub posture: Option<Posture>,
     /// The simulated board's initial wafers here, if given.
     pub sim: Option<StationSim>,
+    /// Sizes of its solid volume that differ from the default ([`Station::volume`]).
+    pub volume: VolumeSpec,
 }
 
 /// Which of a slot's four poses.
@@ -311,6 +317,7 @@ impl Station {
             interlock_input: None,
             posture: None,
             sim: None,
+            volume: VolumeSpec::default(),
         }
     }
 
@@ -395,6 +402,7 @@ impl Station {
                 ));
             }
         }
+        self.volume(WAFER_RADIUS_MM).check(self.name)?;
         if let Some(sim) = &self.sim {
             if sim.wafers.len() != usize::from(self.slots) {
                 return Err(bad(
@@ -408,6 +416,13 @@ impl Station {
             }
         }
         Ok(())
+    }
+
+    /// Its solid volume for wafers of `wafer_radius_mm` [mm]: the default
+    /// ([`StationVolume::default_for`]) with the sizes its `volume` gives.
+    pub fn volume(&self, wafer_radius_mm: f64) -> StationVolume {
+        self.volume
+            .over(StationVolume::default_for(self, wafer_radius_mm))
     }
 
     /// Whether the station has slot `slot` (1-based).

@@ -21,6 +21,26 @@
 //!
 //! [station.sim]                # optional: the simulated board's initial wafers
 //! wafers = "11111 11111 11111 11111 11111"   # one code per slot, slot 1 first
+//!
+//! [station.volume]             # optional: sizes of its solid box (crate::obstacle) [mm]
+//! mouth_mm = 45.0              # each one optional: the default's
+//! depth_mm = 235.0
+//! width_mm = 310.0
+//! bottom_mm = 10.0
+//! top_mm = 280.0
+//!
+//! [[obstacle]]                 # optional: fixed obstacles, never entered
+//! name = "column"              # as a station's name, and not one
+//! kind = "cylinder"            # cylinder: x_mm, y_mm, radius_mm; box: x_mm, y_mm, yaw_deg
+//! x_mm = -300.0                #   (optional, 0), depth_mm, width_mm
+//! y_mm = 0.0
+//! radius_mm = 40.0
+//! bottom_mm = -400.0           # heights in the Z axis's frame
+//! top_mm = 600.0
+//!
+//! [cell]                       # optional
+//! travel_z_mm = 0.0            # where the folded arm travels clear of everything
+//! clearance_mm = 2.0           # how close the controller lets the arm come to a solid
 //! ```
 //!
 //! Unknown keys are refused; errors name the file, the line and the key.
@@ -32,6 +52,9 @@ use wrc_robot::{Pose, Posture, Robot};
 
 use crate::atomic::write_atomic;
 use crate::mapping::{parse_slot_codes, slot_codes_grouped};
+use crate::obstacle::{
+    CellModel, CellModelError, CellSettings, Obstacle, RawCell, RawObstacle, VolumeSpec,
+};
 use crate::station::{
     parse_station_name, same_name, Station, StationError, StationKind, StationSim,
 };
@@ -111,17 +134,24 @@ fn line_suffix(line: Option<usize>) -> String {
     line.map(|l| format!(", line {l}")).unwrap_or_default()
 }
 
-/// An ordered list of checked stations with unique names (ignoring case).
+/// An ordered list of checked stations with unique names (ignoring case), with the cell's
+/// fixed obstacles and settings.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Stations {
     list: Vec<Station>,
+    obstacles: Vec<Obstacle>,
+    cell: CellSettings,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawFile<S> {
+struct RawFile<S, O> {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cell: Option<RawCell>,
     #[serde(default = "Vec::new")]
     station: Vec<S>,
+    #[serde(default = "Vec::new", skip_serializing_if = "Vec::is_empty")]
+    obstacle: Vec<O>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -146,6 +176,8 @@ struct RawStation {
     posture: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     sim: Option<RawSim>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    volume: Option<VolumeSpec>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -217,6 +249,7 @@ impl RawStation {
             interlock_input: self.interlock_input,
             posture,
             sim,
+            volume: self.volume.unwrap_or_default(),
         };
         station.check()?;
         Ok(station)
@@ -240,6 +273,7 @@ impl RawStation {
             sim: s.sim.as_ref().map(|sim| RawSim {
                 wafers: slot_codes_grouped(&sim.wafers),
             }),
+            volume: (!s.volume.is_empty()).then_some(s.volume),
         }
     }
 }
@@ -290,12 +324,26 @@ impl Stations {
     /// Parse stations-file text; `file` names it in errors. Each station is checked on its
     /// own ([`Station::check`]); whether the robot reaches it is [`Stations::validate`].
     pub fn parse(text: &str, file: &str) -> Result<Stations, StationsError> {
-        let raw: RawFile<toml::Spanned<RawStation>> =
+        let raw: RawFile<toml::Spanned<RawStation>, toml::Spanned<RawObstacle>> =
             toml::from_str(text).map_err(|e| StationsError::Parse {
                 file: file.to_string(),
                 message: e.to_string().trim_end().replace('\n', "\n  "),
             })?;
         let mut stations = Stations::new();
+        if let Some(cell) = raw.cell {
+            let defaults = CellSettings::default();
+            stations.cell = CellSettings {
+                travel_z_mm: cell.travel_z_mm,
+                clearance_mm: cell.clearance_mm.unwrap_or(defaults.clearance_mm),
+            };
+            stations
+                .cell
+                .check()
+                .map_err(|message| StationsError::Parse {
+                    file: file.to_string(),
+                    message,
+                })?;
+        }
         for spanned in raw.station {
             let line = Some(line_of(text, spanned.span().start));
             let at = |source: StationError| StationsError::Station {
@@ -312,6 +360,25 @@ impl Stations {
                 }));
             }
             stations.list.push(station);
+        }
+        for spanned in raw.obstacle {
+            let line = Some(line_of(text, spanned.span().start));
+            let at = |source: StationError| StationsError::Station {
+                file: file.to_string(),
+                line,
+                source: Box::new(source),
+            };
+            let obstacle = spanned.into_inner().into_obstacle().map_err(at)?;
+            if stations.get(obstacle.name.as_str()).is_some()
+                || stations.obstacle(obstacle.name.as_str()).is_some()
+            {
+                return Err(at(StationError::Invalid {
+                    station: obstacle.name,
+                    field: "name",
+                    reason: "is used by a station or an earlier obstacle too (names are compared ignoring case); give every obstacle its own name".into(),
+                }));
+            }
+            stations.obstacles.push(obstacle);
         }
         Ok(stations)
     }
@@ -336,8 +403,18 @@ impl Stations {
 
     /// The stations as stations-file text (parses back to an equal list).
     pub fn to_toml(&self) -> String {
+        let cell = (self.cell != CellSettings::default()).then_some(RawCell {
+            travel_z_mm: self.cell.travel_z_mm,
+            clearance_mm: Some(self.cell.clearance_mm),
+        });
         let raw = RawFile {
+            cell,
             station: self.list.iter().map(RawStation::from_station).collect(),
+            obstacle: self
+                .obstacles
+                .iter()
+                .map(RawObstacle::from_obstacle)
+                .collect(),
         };
         let body = toml::to_string(&raw).unwrap_or_else(|e| {
             // Serializing plain strings and finite numbers cannot fail; keep the file
@@ -358,6 +435,50 @@ impl Stations {
             file: path.display().to_string(),
             source,
         })
+    }
+
+    /// The cell's fixed obstacles, in file order.
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    /// The obstacle called `name`, ignoring case.
+    pub fn obstacle(&self, name: &str) -> Option<&Obstacle> {
+        self.obstacles
+            .iter()
+            .find(|o| same_name(o.name.as_str(), name))
+    }
+
+    /// The same cell with these obstacles (checked; names unique among stations and
+    /// obstacles).
+    pub fn with_obstacles(mut self, obstacles: Vec<Obstacle>) -> Result<Stations, StationsError> {
+        self.obstacles.clear();
+        for o in obstacles {
+            o.check()?;
+            if self.get(o.name.as_str()).is_some() || self.obstacle(o.name.as_str()).is_some() {
+                return Err(StationsError::Duplicate {
+                    name: o.name.to_string(),
+                });
+            }
+            self.obstacles.push(o);
+        }
+        Ok(self)
+    }
+
+    /// The cell's settings (`[cell]`).
+    pub fn cell(&self) -> &CellSettings {
+        &self.cell
+    }
+
+    /// The same cell with `settings`.
+    pub fn with_cell(mut self, settings: CellSettings) -> Stations {
+        self.cell = settings;
+        self
+    }
+
+    /// The cell as solids for `robot`'s collision checks ([`CellModel`]).
+    pub fn model(&self, robot: &Robot) -> Result<CellModel, CellModelError> {
+        CellModel::new(robot, &self.list, &self.obstacles, self.cell)
     }
 
     /// The station called `name`, ignoring case.
@@ -443,18 +564,22 @@ impl<'a> IntoIterator for &'a Stations {
     }
 }
 
-/// The body of one `STN` reply line for `station`:
-/// `LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220 stroke=6
-/// speed=30 interlock=14 posture=any` (one line; numbers in \[mm\], \[deg\] and [%] with at most 3
+/// The body of one `STN` reply line for `station`, its volume for wafers of
+/// `wafer_radius_mm`: `LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10
+/// approach=220 stroke=6 speed=30 interlock=14 posture=any mouth=45 depth=235 width=310
+/// bottom=10 top=280 opening=152` (one line; numbers in \[mm\], \[deg\] and [%] with at most 3
 /// decimals and no trailing zeros; `interlock=none` without an interlock; `posture` is
-/// `right`, `left` or `any`).
-pub fn stn_line(station: &Station) -> String {
+/// `right`, `left` or `any`; `mouth` … `top` the solid box ([`crate::StationVolume`]),
+/// `opening` the half width of the hand's wafer on its line with the simulated cell's
+/// tolerance, what passes the box's front).
+pub fn stn_line(station: &Station, wafer_radius_mm: f64) -> String {
+    let v = station.volume(wafer_radius_mm);
     let interlock = station
         .interlock_input
         .map_or_else(|| "none".to_string(), |i| i.to_string());
     let posture = station.posture.map_or("any", posture_name);
     format!(
-        "{} kind={} x={} y={} z={} yaw={} slots={} pitch={} approach={} stroke={} speed={} interlock={} posture={}",
+        "{} kind={} x={} y={} z={} yaw={} slots={} pitch={} approach={} stroke={} speed={} interlock={} posture={} mouth={} depth={} width={} bottom={} top={} opening={}",
         station.name,
         station.kind,
         Num(station.pose.x),
@@ -468,6 +593,12 @@ pub fn stn_line(station: &Station) -> String {
         Num(station.speed_pct),
         interlock,
         posture,
+        Num(v.mouth_mm),
+        Num(v.depth_mm),
+        Num(v.width_mm),
+        Num(v.bottom_mm),
+        Num(v.top_mm),
+        Num(wafer_radius_mm + crate::obstacle::LineTolerance::WORLD.lateral_mm),
     )
 }
 
@@ -773,18 +904,26 @@ speed_pct = 40.0
     #[test]
     fn stn_lines_are_compact() {
         let stations = Stations::embedded_demo();
-        let line = stn_line(stations.get("LP1").unwrap());
+        let line = stn_line(stations.get("LP1").unwrap(), 150.0);
         assert_eq!(
             line,
             "LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220 \
-             stroke=6 speed=60 interlock=14 posture=any"
+             stroke=6 speed=60 interlock=14 posture=any mouth=45 depth=235 width=310 bottom=10 \
+             top=280 opening=152"
         );
-        let line = stn_line(stations.get("PM1").unwrap());
+        let line = stn_line(stations.get("PM1").unwrap(), 150.0);
         assert!(
             line.starts_with("PM1 kind=process_module x=-308.145 y=143.69 "),
             "{line}"
         );
-        assert!(line.ends_with(" interlock=none posture=any"), "{line}");
+        // One slot: 40 mm tall from 10 mm below its support.
+        assert!(
+            line.ends_with(" interlock=none posture=any mouth=45 depth=235 width=310 bottom=90 top=130 opening=152"),
+            "{line}"
+        );
+        // The aligner's approach pose is nearer (200 mm): its box begins nearer the seat.
+        let line = stn_line(stations.get("AL").unwrap(), 150.0);
+        assert!(line.contains(" mouth=25 depth=215 "), "{line}");
     }
 
     #[test]

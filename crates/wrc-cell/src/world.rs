@@ -22,37 +22,28 @@
 //! * The vacuum sensor ([`World::vacuum_sensor`]) is on when a wafer is on the hand and the
 //!   vacuum is on (no delay here; the board adds its own).
 //! * The mapping sensor ([`World::map_station`]) reports each slot's [`SlotCode`].
-//! * **Side collision**: inside a station the hand may only move along the station's line
-//!   — in, out, and up or down within the slot; moving sideways or turning hits the
-//!   cassette (or the slit valve, the aligner's posts). With u = (cos yaw, sin yaw) of the
-//!   station's taught yaw (the direction into it) and d = the hand's x, y minus the taught
-//!   x, y, let *along* = d·u and *lateral* = |d × u| \[mm\]. The hand is **inside** the
-//!   station ([`Station::hand_inside`], the same test the controller uses to find a hand it
-//!   must take straight out) when
-//!   - along > −(approach_mm − [`ENTRY_MARGIN_MM`]): past the approach pose, which is
-//!     outside by definition (station.rs), by more than the margin, the clearance in front
-//!     of the opening (a joint move that leaves or reaches an approach pose may cross its
-//!     line by a few millimetres before it turns away);
-//!   - along ≤ [`BEYOND_SEAT_MM`]: not behind the seat (the back of a cassette);
-//!   - lateral ≤ [`STATION_HALF_WIDTH_MM`], a wafer's radius: farther sideways the hand is
-//!     not in front of that station at all.
-//!
-//!   Heights are not looked at: a station's inside reaches from the floor to the ceiling.
-//!   A step in which the hand is inside a station with lateral > [`SIDE_TOLERANCE_MM`] or
-//!   its yaw more than [`SIDE_TOLERANCE_DEG`] off the station's is a
-//!   [`WorldEvent::SideCollision`] (a fault), reported once per entry: not again while the
-//!   hand stays inside that station, again after it has been outside. The hand and the
-//!   wafers stay where they are (the model records the crash; it does not model damage).
-//!   The controller's straight lines in and out stay within hundredths of a millimetre of
-//!   the line and keep the yaw; its PTP moves end at approach poses, outside. A step that
-//!   releases a wafer reports that release; a side collision in it is reported at the
-//!   next step (the hand cannot leave a station within one board period).
+//! * **Collision with the cell**: the arm's bodies — links, blades, carried wafers
+//!   ([`wrc_robot::Robot::bodies`]) — against every station's solid box and every fixed
+//!   obstacle ([`crate::obstacle`], the controller's own model of the cell, here with the
+//!   true stations, no margin and the cassette's tolerance [`LineTolerance::WORLD`]): a
+//!   station is entered only through its opening, on its line (the TCP within
+//!   [`SIDE_TOLERANCE_MM`] of it, the hand within [`SIDE_TOLERANCE_DEG`] of its direction, a
+//!   blade at a slot's height); anything else that touches it — moving sideways or turning
+//!   inside, swinging into its front, a link or the wafer brushing it — and anything that
+//!   touches an obstacle is a [`WorldEvent::SideCollision`] (a fault, counted), reported
+//!   once per contact: not again until the arm is out of that solid (back on the line
+//!   inside it is still inside). The board calls
+//!   [`World::touch`] every period with the joints at the period's start and end, and the
+//!   world checks the joint-space segment between them as the board's servo interpolates
+//!   it, in steps of at most 1 mm of any point's travel. The hand and the wafers stay
+//!   where they are (the model records the crash; it does not model damage). Heights count:
+//!   the arm passes under a station. The arm needs a robot ([`World::set_arm`]); a world
+//!   without one checks nothing.
 //! * A dual-blade robot's blade B is a second hand with its own pose (the board gives it
-//!   its height) and vacuum: [`World::step_blade`]. Each blade picks, releases and collides
-//!   with a station's sides as above (both blades are at the same x, y and yaw, so a
-//!   dual-blade hand that enters out of line reports a collision for each); the blades do
-//!   not collide with each other or with the wafers next to the slot they serve (a cell
-//!   engineer keeps them apart when teaching).
+//!   its height) and vacuum: [`World::step_blade`]. Each blade picks and releases as above
+//!   and is one of the arm's bodies for [`World::touch`]; the blades do not collide with
+//!   each other or with the wafers next to the slot they serve (a cell engineer keeps them
+//!   apart when teaching).
 //!
 //! # Identity: comparing the controller's map with the world
 //!
@@ -68,10 +59,11 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
-use wrc_robot::Pose;
+use wrc_robot::{BladeLoad, BodyKind, Joints, Pose, Robot};
 
 use crate::blade::{Blade, MAX_BLADES};
 use crate::mapping::SlotCode;
+use crate::obstacle::{CellModel, LineTolerance, MAX_SOLIDS};
 use crate::station::{same_name, Station, StationName};
 use crate::stations::Stations;
 use crate::wafer_map::{Location, SlotFault, SlotState, Transfer, WaferId, WaferMap};
@@ -85,12 +77,15 @@ pub const SEAT_TOLERANCE_DEG: f64 = 1.0;
 
 /// How far sideways from a station's line the hand may be while inside the station \[mm\]
 /// (see the module docs): far more than the controller's straight lines ever stray (they
-/// stay within hundredths of a millimetre), far less than a cassette's clearance.
-pub const SIDE_TOLERANCE_MM: f64 = 2.0;
+/// stay within hundredths of a millimetre), a cassette's clearance.
+pub const SIDE_TOLERANCE_MM: f64 = LineTolerance::WORLD.lateral_mm;
 
 /// How far the hand's yaw may be from a station's taught yaw while inside the station
 /// \[deg\] (see the module docs).
-pub const SIDE_TOLERANCE_DEG: f64 = 2.0;
+pub const SIDE_TOLERANCE_DEG: f64 = LineTolerance::WORLD.yaw_deg;
+
+/// The longest step of any point of the arm between two checks of [`World::touch`] [mm].
+pub const TOUCH_STEP_MM: f64 = 1.0;
 
 /// How much less than `approach_mm` in front of the seat the inside of a station begins
 /// \[mm\]: the approach pose itself, and a hand within this of it, is outside.
@@ -181,11 +176,13 @@ pub enum WorldEvent {
         /// The slot.
         slot: u16,
     },
-    /// Fault: inside the station the hand moved sideways off its line or turned (see the
-    /// module docs): it hit the station's side. Nothing moved.
+    /// Fault: a body of the arm touched a station other than through its opening on its
+    /// line, or a fixed obstacle (see the module docs). Nothing moved.
     SideCollision {
-        /// The station.
+        /// The station or obstacle.
         station: StationName,
+        /// The body that touched it.
+        body: BodyKind,
     },
 }
 
@@ -228,23 +225,18 @@ pub enum WorldError {
 struct WorldStation {
     station: Station,
     slots: Vec<SlotContent>,
-    /// Per blade: it hit this station's side since it last entered it (and is still inside).
-    side_hit: [bool; MAX_BLADES],
 }
 
-impl WorldStation {
-    /// Where `pose` is relative to the station's line: `None` outside the station, else
-    /// whether it is off the line (sideways or turned beyond the tolerances).
-    fn inside(&self, pose: &Pose) -> Option<bool> {
-        let p = &self.station.pose;
-        if !self.station.hand_inside(pose) {
-            return None;
-        }
-        let (_, lateral) = self.station.line_offset(pose);
-        let turned = wrap180(pose.yaw - p.yaw).abs();
-        // A NaN yaw is off the line too.
-        Some(lateral > SIDE_TOLERANCE_MM || turned.is_nan() || turned > SIDE_TOLERANCE_DEG)
-    }
+/// The arm the world checks against the cell: the robot, its blades' heights, and the cell
+/// as solids.
+#[derive(Debug, Clone, PartialEq)]
+struct WorldArm {
+    robot: Robot,
+    /// Each blade's wafer plane above the TCP [mm] (the hand first).
+    offsets: Vec<f64>,
+    model: CellModel,
+    /// The joints at the end of the last [`World::touch`].
+    last: Option<Joints>,
 }
 
 /// The simulated cell. See the module docs for the model.
@@ -261,6 +253,11 @@ pub struct World {
     /// Side collisions so far, and the station of the latest.
     side_collisions: u32,
     last_side_collision: Option<StationName>,
+    /// Per solid of the cell (stations, then obstacles): a body touches it now.
+    touching: [bool; MAX_SOLIDS],
+    /// The cell's fixed obstacles, by name (after the stations in `touching`).
+    obstacles: Vec<StationName>,
+    arm: Option<Box<WorldArm>>,
 }
 
 impl World {
@@ -298,7 +295,6 @@ impl World {
                 WorldStation {
                     station: s.clone(),
                     slots,
-                    side_hit: [false; MAX_BLADES],
                 }
             })
             .collect();
@@ -312,7 +308,112 @@ impl World {
             next_tag,
             side_collisions: 0,
             last_side_collision: None,
+            touching: [false; MAX_SOLIDS],
+            obstacles: stations.obstacles().iter().map(|o| o.name).collect(),
+            arm: None,
         }
+    }
+
+    /// The index among the cell's solids (stations, then obstacles) of the one called
+    /// `name`, ignoring case.
+    fn solid_index(&self, name: &str) -> Option<usize> {
+        self.station_index(name).ok().or_else(|| {
+            self.obstacles
+                .iter()
+                .position(|o| same_name(o.as_str(), name))
+                .map(|i| self.stations.len() + i)
+        })
+    }
+
+    /// The name of solid `i` (see [`World::solid_index`]).
+    fn solid_name(&self, i: usize) -> Option<StationName> {
+        match self.stations.get(i) {
+            Some(w) => Some(w.station.name),
+            None => self.obstacles.get(i - self.stations.len()).copied(),
+        }
+    }
+
+    /// Check the arm of `robot` against the cell of `stations` (the same the world was made
+    /// with: its stations and obstacles) in [`World::touch`]; `offsets` are the blades'
+    /// wafer planes above the TCP [mm], the hand's (0) first. A cell with more solids than
+    /// the model holds is checked without the rest.
+    pub fn set_arm(&mut self, robot: &Robot, stations: &Stations, offsets: &[f64]) {
+        let model = stations
+            .model(robot)
+            .unwrap_or_else(|_| CellModel::empty(robot));
+        self.arm = Some(Box::new(WorldArm {
+            robot: robot.clone(),
+            offsets: offsets.iter().copied().take(MAX_BLADES).collect(),
+            model,
+            last: None,
+        }));
+    }
+
+    /// The arm moved from where the last call left it to `joints` [deg, mm] (the first call:
+    /// is at `joints`), each point of it along the straight joint-space segment: report the
+    /// first new contact of a body with a solid of the cell (see the module docs). The
+    /// blades carry the wafers the world has on them. Nothing without [`World::set_arm`].
+    pub fn touch(&mut self, joints: &Joints) -> Option<WorldEvent> {
+        let arm = self.arm.as_mut()?;
+        let from = arm.last.replace(*joints).unwrap_or(*joints);
+        let mut blades = [BladeLoad::default(); MAX_BLADES];
+        let n = arm.offsets.len().max(1);
+        for (b, blade) in blades.iter_mut().enumerate().take(n) {
+            *blade = BladeLoad {
+                z_offset_mm: arm.offsets.get(b).copied().unwrap_or(0.0),
+                wafer: self.hands[b].is_some(),
+            };
+        }
+        let blades = &blades[..n];
+        let travel: f64 = from
+            .iter()
+            .zip(joints)
+            .zip(arm.model.levers())
+            .map(|((a, b), l)| (b - a).abs() * l)
+            .sum();
+        let steps = (travel / TOUCH_STEP_MM).ceil().clamp(1.0, 10_000.0) as u32;
+        let mut event = None;
+        for k in 1..=steps {
+            let t = f64::from(k) / f64::from(steps);
+            let mut q = from;
+            for (v, (a, b)) in q.iter_mut().zip(from.iter().zip(joints)) {
+                *v = a + t * (b - a);
+            }
+            let bodies = arm.robot.bodies(&q, blades);
+            for i in 0..arm.model.len() {
+                if self.touching[i] {
+                    // A contact lasts until the arm is out of the solid, through its
+                    // opening or not.
+                    self.touching[i] = arm.model.overlaps(i, &bodies, 0.0);
+                    continue;
+                }
+                let hit = arm
+                    .model
+                    .contact_with(i, &bodies, blades, &LineTolerance::WORLD, 0.0);
+                match hit {
+                    None => {}
+                    Some(c) => {
+                        self.touching[i] = true;
+                        self.faults = self.faults.saturating_add(1);
+                        self.side_collisions = self.side_collisions.saturating_add(1);
+                        self.last_side_collision = Some(c.name);
+                        event.get_or_insert(WorldEvent::SideCollision {
+                            station: c.name,
+                            body: c.body,
+                        });
+                    }
+                }
+            }
+        }
+        event
+    }
+
+    /// The names of the stations and obstacles a body of the arm touches now.
+    pub fn touching(&self) -> Vec<StationName> {
+        (0..MAX_SOLIDS)
+            .filter(|&i| self.touching[i])
+            .filter_map(|i| self.solid_name(i))
+            .collect()
     }
 
     fn station_index(&self, name: &str) -> Result<usize, WorldError> {
@@ -346,9 +447,6 @@ impl World {
         if let (Some(tag), false) = (self.hands[b], vacuum_on) {
             self.hands[b] = None;
             return Some(self.release(tag, &pose));
-        }
-        if let Some(event) = self.sides(b, &pose) {
-            return Some(event);
         }
         let prev_z = prev_z?;
         if pose.z.is_nan() || pose.z <= prev_z {
@@ -384,27 +482,6 @@ impl World {
             }
         }
         None
-    }
-
-    /// Blade `b` at `pose` against every station's sides: forget the hits of the stations
-    /// it is no longer inside, and report a new one (see the module docs).
-    fn sides(&mut self, b: usize, pose: &Pose) -> Option<WorldEvent> {
-        let mut event = None;
-        for w in &mut self.stations {
-            match w.inside(pose) {
-                None => w.side_hit[b] = false,
-                Some(true) if !w.side_hit[b] && event.is_none() => {
-                    w.side_hit[b] = true;
-                    event = Some(w.station.name);
-                }
-                Some(_) => {}
-            }
-        }
-        let station = event?;
-        self.faults = self.faults.saturating_add(1);
-        self.side_collisions = self.side_collisions.saturating_add(1);
-        self.last_side_collision = Some(station);
-        Some(WorldEvent::SideCollision { station })
     }
 
     /// The wafer `tag` leaves the hand at `pose`.
@@ -495,13 +572,14 @@ impl World {
         self.faults
     }
 
-    /// Side collisions so far ([`WorldEvent::SideCollision`], also counted in
+    /// Collisions with the cell so far ([`WorldEvent::SideCollision`], also counted in
     /// [`World::faults`]).
     pub fn side_collisions(&self) -> u32 {
         self.side_collisions
     }
 
-    /// The station of the latest [`WorldEvent::SideCollision`], if there was one.
+    /// The station or obstacle of the latest [`WorldEvent::SideCollision`], if there was
+    /// one.
     pub fn last_side_collision(&self) -> Option<StationName> {
         self.last_side_collision
     }
@@ -540,17 +618,14 @@ impl World {
             faults: i64::from(self.faults),
             side_collisions: i64::from(self.side_collisions),
             last_side_collision: self.last_side_collision.map(|n| n.to_string()),
+            touching: self.touching().iter().map(|n| n.to_string()).collect(),
             station: self
                 .stations
                 .iter()
                 .map(|w| RawWorldStation {
                     name: w.station.name.to_string(),
                     slots: w.slots.iter().map(|c| content_token(*c)).collect(),
-                    side_hit: Blade::ALL
-                        .iter()
-                        .filter(|b| w.side_hit[b.index()])
-                        .map(|b| b.as_str().to_string())
-                        .collect(),
+                    side_hit: Vec::new(),
                 })
                 .collect(),
         };
@@ -579,7 +654,7 @@ impl World {
                 world.stations.len()
             )));
         }
-        for (w, r) in world.stations.iter_mut().zip(&raw.station) {
+        for (i, (w, r)) in world.stations.iter_mut().zip(&raw.station).enumerate() {
             if !same_name(w.station.name.as_str(), &r.name) || r.slots.len() != w.slots.len() {
                 return Err(corrupt(format!(
                     "saved station {} with {} slots does not match station {} with {} slots",
@@ -593,15 +668,25 @@ impl World {
                 *c = parse_content_token(token)
                     .ok_or_else(|| corrupt(format!("{token:?} is not a slot content")))?;
             }
+            // Written by an older build: a blade that hit this station's side.
             for blade in &r.side_hit {
-                let b = Blade::parse(blade).ok_or_else(|| {
+                Blade::parse(blade).ok_or_else(|| {
                     corrupt(format!(
                         "station {}: side_hit {blade:?} is not a blade (A or B)",
                         r.name
                     ))
                 })?;
-                w.side_hit[b.index()] = true;
+                world.touching[i] = true;
             }
+        }
+        for name in &raw.touching {
+            let i = world
+                .solid_index(name)
+                .filter(|&i| i < MAX_SOLIDS)
+                .ok_or_else(|| {
+                    corrupt(format!("touching {name:?} is not a station or obstacle"))
+                })?;
+            world.touching[i] = true;
         }
         world.hands = [
             raw.hand.map(|h| tag(h, "hand")).transpose()?,
@@ -620,10 +705,12 @@ impl World {
         world.last_side_collision = match &raw.last_side_collision {
             Some(name) => Some(
                 world
-                    .station_index(name)
-                    .map(|i| world.stations[i].station.name)
-                    .map_err(|_| {
-                        corrupt(format!("last_side_collision {name:?} is not a station"))
+                    .solid_index(name)
+                    .and_then(|i| world.solid_name(i))
+                    .ok_or_else(|| {
+                        corrupt(format!(
+                            "last_side_collision {name:?} is not a station or obstacle"
+                        ))
                     })?,
             ),
             None => None,
@@ -696,6 +783,9 @@ struct RawWorld {
     side_collisions: i64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     last_side_collision: Option<String>,
+    /// The stations and obstacles a body touches now.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    touching: Vec<String>,
     #[serde(default)]
     station: Vec<RawWorldStation>,
 }
@@ -709,7 +799,8 @@ fn is_zero(n: &i64) -> bool {
 struct RawWorldStation {
     name: String,
     slots: Vec<String>,
-    /// The blades (`A`, `B`) that hit its side since they entered it.
+    /// Read from an older build's file: the blades (`A`, `B`) that hit its side since they
+    /// entered it (now `touching`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     side_hit: Vec<String>,
 }

@@ -56,6 +56,59 @@ struct RawRobot {
     hand_mm: f64,
     #[serde(default = "default_margin")]
     singularity_margin_mm: f64,
+    #[serde(default)]
+    shape: RawShape,
+}
+
+/// `[robot.shape]`: the arm's bodies for the cell's collision checks (wrc_robot::ArmShape).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RawShape {
+    link1_radius_mm: f64,
+    link1_z_mm: [f64; 2],
+    link2_radius_mm: f64,
+    link2_z_mm: [f64; 2],
+    blade_back_mm: f64,
+    blade_front_mm: f64,
+    blade_half_width_mm: f64,
+    blade_thickness_mm: f64,
+    wafer_radius_mm: f64,
+    wafer_thickness_mm: f64,
+}
+
+impl Default for RawShape {
+    fn default() -> Self {
+        let d = wrc_robot::ArmShape::default();
+        RawShape {
+            link1_radius_mm: d.link1_radius_mm,
+            link1_z_mm: d.link1_z_mm,
+            link2_radius_mm: d.link2_radius_mm,
+            link2_z_mm: d.link2_z_mm,
+            blade_back_mm: d.blade_back_mm,
+            blade_front_mm: d.blade_front_mm,
+            blade_half_width_mm: d.blade_half_width_mm,
+            blade_thickness_mm: d.blade_thickness_mm,
+            wafer_radius_mm: d.wafer_radius_mm,
+            wafer_thickness_mm: d.wafer_thickness_mm,
+        }
+    }
+}
+
+impl RawShape {
+    fn shape(&self) -> wrc_robot::ArmShape {
+        wrc_robot::ArmShape {
+            link1_radius_mm: self.link1_radius_mm,
+            link1_z_mm: self.link1_z_mm,
+            link2_radius_mm: self.link2_radius_mm,
+            link2_z_mm: self.link2_z_mm,
+            blade_back_mm: self.blade_back_mm,
+            blade_front_mm: self.blade_front_mm,
+            blade_half_width_mm: self.blade_half_width_mm,
+            blade_thickness_mm: self.blade_thickness_mm,
+            wafer_radius_mm: self.wafer_radius_mm,
+            wafer_thickness_mm: self.wafer_thickness_mm,
+        }
+    }
 }
 
 fn default_name() -> String {
@@ -182,6 +235,7 @@ impl RawConfig {
             r.hand_mm,
             r.singularity_margin_mm,
         )
+        .and_then(|robot| robot.with_shape(r.shape.shape()))
         .map_err(|ModelError { key, reason, .. }| invalid(key, reason))?;
 
         let m = self.motion;

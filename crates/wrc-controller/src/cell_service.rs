@@ -311,11 +311,29 @@ impl CellService {
 
     /// `STN`.
     pub fn stn(&mut self, from: SourceId, to: ReplyTo) {
-        let lines: Vec<String> = self.stations.iter().map(wrc_cell::stn_line).collect();
+        let lines: Vec<String> = self
+            .stations
+            .iter()
+            .map(|s| wrc_cell::stn_line(s, self.robot.shape().wafer_radius_mm))
+            .collect();
         for text in &lines {
             self.event(from, to.checksum, &Event::Station(text));
         }
-        self.ack(from, to, &format!("stations={}", lines.len()));
+        let obstacles: Vec<String> = self
+            .stations
+            .obstacles()
+            .iter()
+            .map(wrc_cell::obstacle_line)
+            .collect();
+        for text in &obstacles {
+            self.event(from, to.checksum, &Event::Obstacle(text));
+        }
+        let ack = if obstacles.is_empty() {
+            format!("stations={}", lines.len())
+        } else {
+            format!("stations={} obstacles={}", lines.len(), obstacles.len())
+        };
+        self.ack(from, to, &ack);
     }
 
     /// `WAFERS`.
@@ -449,9 +467,10 @@ impl CellService {
         let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
         let pose = self.robot.forward(&joints);
         let mut taught = self.stations.clone();
+        let wafer_radius = self.robot.shape().wafer_radius_mm;
         let body = match taught
             .teach(name.as_str(), pose, &self.robot)
-            .map(wrc_cell::stn_line)
+            .map(|s| wrc_cell::stn_line(s, wafer_radius))
         {
             Ok(body) => body,
             Err(e) => {

@@ -435,6 +435,8 @@ pub enum Event<'a> {
     /// `EVT STATION <name> kind=… x=… …`: one station, in the reply to `STN` (to the
     /// requester only) and after `TEACH` (to every connection); the body after `STATION`.
     Station(&'a str),
+    /// `EVT OBSTACLE <obstacle line>`: a fixed obstacle of the cell (in the reply to `STN`).
+    Obstacle(&'a str),
     /// `EVT WAFER <place>=<tokens>`: one part of the wafer map, when `WAFERS` does not fit
     /// on one line (to the requester only).
     Wafer(&'a str),
@@ -507,6 +509,7 @@ impl Event<'_> {
             Event::Axis(_) => "AXIS",
             Event::Task(_) => "TASK",
             Event::Station(_) => "STATION",
+            Event::Obstacle(_) => "OBSTACLE",
             Event::Wafer(_) => "WAFER",
             Event::Closing { .. } => "CLOSING",
         }
@@ -553,6 +556,7 @@ impl Display for Event<'_> {
             | Event::Axis(text)
             | Event::Task(text)
             | Event::Station(text)
+            | Event::Obstacle(text)
             | Event::Wafer(text)
             | Event::Var(text)
             | Event::Point(text)

@@ -22,6 +22,8 @@ mod jet;
 mod kinematics;
 mod num;
 mod robot;
+pub mod shape;
+pub mod solid;
 
 pub use axis::{Axis, AxisName, AxisRole, InlineName, Limits, Unit};
 pub use error::{KinematicsError, ModelError};
@@ -29,3 +31,4 @@ pub use jet::Jet;
 pub use kinematics::{wrap180, IkCheck, JointJets, Pose, PoseJet, Posture};
 pub use num::Num;
 pub use robot::{Arm, Joints, Robot, MAX_AXES};
+pub use shape::{ArmBodies, ArmShape, BladeLoad, BodyKind};

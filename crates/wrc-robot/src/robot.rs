@@ -2,6 +2,8 @@
 
 use crate::axis::{Axis, AxisName, AxisRole, Limits, Unit};
 use crate::error::{KinematicsError, ModelError};
+use crate::shape::{blade_capsule, ArmBodies, ArmShape, BladeLoad, BodyKind};
+use crate::solid::{Capsule, Span};
 
 /// Most axes one controller drives: four motion boards of four axes each.
 pub const MAX_AXES: usize = 16;
@@ -39,6 +41,7 @@ pub struct Robot {
     pub name: String,
     axes: Vec<Axis>,
     arm: Arm,
+    shape: ArmShape,
 }
 
 fn positive(key: String, value: f64) -> Result<(), ModelError> {
@@ -214,7 +217,96 @@ impl Robot {
                 wrist,
                 z,
             },
+            shape: ArmShape::default(),
         })
+    }
+
+    /// The same robot with the bodies `shape` ([`ArmShape::validate`]d).
+    pub fn with_shape(mut self, shape: ArmShape) -> Result<Robot, ModelError> {
+        shape.validate()?;
+        self.shape = shape;
+        Ok(self)
+    }
+
+    /// The sizes of the arm's bodies.
+    pub fn shape(&self) -> &ArmShape {
+        &self.shape
+    }
+
+    /// The arm's bodies at `joints` [deg, mm] with `blades` (the hand first; at most
+    /// [`crate::shape::MAX_BLADES`]): links 1 and 2, a bar from the wrist to the blades'
+    /// palm when the hand reaches further than the blades do behind the TCP, and each
+    /// blade with its wafer if it carries one. Allocation-free.
+    pub fn bodies(&self, joints: &Joints, blades: &[BladeLoad]) -> ArmBodies {
+        let arm = &self.arm;
+        let shape = &self.shape;
+        let j1 = joints[arm.shoulder].to_radians();
+        let j12 = j1 + joints[arm.elbow].to_radians();
+        let yaw = j12 + arm.wrist.map_or(0.0, |w| joints[w].to_radians());
+        let z = arm.z.map_or(0.0, |i| joints[i]);
+        let elbow = [arm.link1_mm * j1.cos(), arm.link1_mm * j1.sin()];
+        let wrist = [
+            elbow[0] + arm.link2_mm * j12.cos(),
+            elbow[1] + arm.link2_mm * j12.sin(),
+        ];
+        let (s, c) = yaw.sin_cos();
+        let tcp = [wrist[0] + arm.hand_mm * c, wrist[1] + arm.hand_mm * s];
+        let mut out = ArmBodies {
+            tcp,
+            yaw: yaw.to_degrees(),
+            z,
+            ..ArmBodies::default()
+        };
+        let span = |[lo, hi]: [f64; 2]| Span::new(z + lo, z + hi);
+        out.push(
+            Capsule::new(
+                [0.0, 0.0],
+                elbow,
+                shape.link1_radius_mm,
+                span(shape.link1_z_mm),
+            ),
+            BodyKind::Link1,
+        );
+        out.push(
+            Capsule::new(elbow, wrist, shape.link2_radius_mm, span(shape.link2_z_mm)),
+            BodyKind::Link2,
+        );
+        let lowest = blades.iter().map(|b| b.z_offset_mm).fold(0.0f64, f64::min);
+        if arm.hand_mm > shape.blade_back_mm {
+            let palm = arm.hand_mm - shape.blade_back_mm;
+            out.push(
+                Capsule::new(
+                    wrist,
+                    [wrist[0] + palm * c, wrist[1] + palm * s],
+                    shape.blade_half_width_mm.min(shape.link2_radius_mm),
+                    Span::new(z + lowest - shape.blade_thickness_mm, z),
+                ),
+                BodyKind::HandBar,
+            );
+        }
+        for (i, blade) in blades.iter().take(crate::shape::MAX_BLADES).enumerate() {
+            let plane = z + blade.z_offset_mm;
+            out.push(
+                blade_capsule(
+                    shape,
+                    tcp,
+                    (c, s),
+                    Span::new(plane - shape.blade_thickness_mm, plane),
+                ),
+                BodyKind::Blade(i as u8),
+            );
+            if blade.wafer {
+                out.push(
+                    Capsule::disc(
+                        tcp,
+                        shape.wafer_radius_mm,
+                        Span::new(plane, plane + shape.wafer_thickness_mm),
+                    ),
+                    BodyKind::Wafer(i as u8),
+                );
+            }
+        }
+        out
     }
 
     /// The paper's robot (Fig. 2): two 200 mm links, a hand joint and a Z lift; the same as

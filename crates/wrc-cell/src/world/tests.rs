@@ -653,7 +653,7 @@ fn blade_b_picks_and_places_on_its_own() {
     assert_eq!(world.hand_of(Blade::B), None);
 }
 
-// ---- side collisions ----------------------------------------------------------------
+// ---- collisions with the cell -------------------------------------------------------
 
 /// `from` + `u`·(`to` − `from`) in x, y, z and yaw.
 fn lerp(from: Pose, to: Pose, u: f64) -> Pose {
@@ -663,13 +663,6 @@ fn lerp(from: Pose, to: Pose, u: f64) -> Pose {
         z: from.z + u * (to.z - from.z),
         yaw: from.yaw + u * (to.yaw - from.yaw),
     }
-}
-
-/// Step blade A from `from` to `to` in `n` equal steps with `vacuum`; every event.
-fn sweep(world: &mut World, from: Pose, to: Pose, n: u32, vacuum: bool) -> Vec<WorldEvent> {
-    (1..=n)
-        .filter_map(|i| world.step(lerp(from, to, f64::from(i) / f64::from(n)), vacuum))
-        .collect()
 }
 
 /// `pose` moved `along` into the station and `side` to its left (of the hand direction
@@ -683,20 +676,60 @@ fn offset(pose: Pose, yaw: f64, along: f64, side: f64) -> Pose {
     }
 }
 
-fn side(station: &str) -> WorldEvent {
-    WorldEvent::SideCollision {
-        station: name(station),
+fn robot() -> wrc_robot::Robot {
+    wrc_robot::Robot::paper_default()
+}
+
+/// A world of `stations` that checks the paper robot's arm (the hand only).
+fn armed(stations: &Stations) -> World {
+    let mut world = World::new(stations);
+    world.set_arm(&robot(), stations, &[0.0]);
+    world
+}
+
+/// The joints of `pose` with the right elbow (the left one where the right cannot), near
+/// `near`.
+fn joints(pose: Pose, near: Option<&Joints>) -> Joints {
+    let robot = robot();
+    let posture = near
+        .and_then(|q| wrc_robot::Posture::of(&robot, q))
+        .unwrap_or(wrc_robot::Posture::Right);
+    robot
+        .inverse(&pose, posture, near)
+        .or_else(|_| robot.inverse(&pose, wrc_robot::Posture::Left, near))
+        .unwrap()
+}
+
+/// Move the arm through `poses` (each reached in one call, along a straight joint-space
+/// segment): every event.
+fn visit(world: &mut World, poses: &[Pose]) -> Vec<WorldEvent> {
+    let mut last: Option<Joints> = None;
+    let mut events = Vec::new();
+    for p in poses {
+        let q = joints(*p, last.as_ref());
+        events.extend(world.touch(&q));
+        last = Some(q);
     }
+    events
+}
+
+/// The poses from `from` to `to` in `n` equal steps (`from` left out).
+fn line(from: Pose, to: Pose, n: u32) -> Vec<Pose> {
+    (1..=n)
+        .map(|i| lerp(from, to, f64::from(i) / f64::from(n)))
+        .collect()
 }
 
 /// Every transfer's straight lines of the demo cell, in 1 mm steps, with both blades and
-/// with the vacuum as a GET has it: in, the stroke, out; nothing hits a side.
+/// with the vacuum as a GET has it: in, the stroke, out; nothing touches the cell, and the
+/// wafer picked is carried out.
 #[test]
-fn straight_lines_in_and_out_never_hit_a_side() {
+fn straight_lines_in_and_out_never_touch_the_cell() {
     let stations = demo();
     for s in &stations {
         for slot in [1, s.slots] {
             let mut world = World::new(&stations);
+            world.set_arm(&robot(), &stations, &[0.0, -30.0]);
             let (out_low, in_low) = (
                 s.approach_pose(slot, false).unwrap(),
                 s.seated_pose(slot, false).unwrap(),
@@ -706,16 +739,20 @@ fn straight_lines_in_and_out_never_hit_a_side() {
                 s.seated_pose(slot, true).unwrap(),
             );
             let n = s.approach_mm.ceil() as u32;
-            let mut events = Vec::new();
-            world.step(out_low, false);
-            world.step_blade(Blade::B, out_low, false);
-            for i in 1..=n {
-                let p = lerp(out_low, in_low, f64::from(i) / f64::from(n));
+            let first = s
+                .approach_joints(&robot(), slot, false, &robot().home())
+                .unwrap();
+            let mut events: Vec<WorldEvent> = world.touch(&first).into_iter().collect();
+            let mut path = line(out_low, in_low, n);
+            path.extend(line(in_low, in_high, 20));
+            path.extend(line(in_high, out_high, n));
+            let mut last = first;
+            for p in path {
+                let q = joints(p, Some(&last));
+                events.extend(world.touch(&q));
                 events.extend(world.step(p, true));
-                events.extend(world.step_blade(Blade::B, p, false));
+                last = q;
             }
-            events.extend(sweep(&mut world, in_low, in_high, 20, true));
-            events.extend(sweep(&mut world, in_high, out_high, n, true));
             assert!(
                 events
                     .iter()
@@ -731,50 +768,58 @@ fn straight_lines_in_and_out_never_hit_a_side() {
 
 /// A PTP that swings the arm about the shoulder from the seat (or from halfway in) moves
 /// the hand sideways through the cassette's side: one collision, at the station it was in;
-/// one that goes on to another station's approach pose hits more on its way.
+/// one that goes on to the aligner's approach pose hits more on its way.
 #[test]
 fn a_ptp_sweep_from_inside_hits_the_side() {
     let stations = demo();
-    let robot = wrc_robot::Robot::paper_default();
     let lp1 = stations.get("LP1").unwrap();
     let seat = lp1.seated_pose(4, false).unwrap();
     let halfway = offset(seat, lp1.pose.yaw, -0.5 * lp1.approach_mm, 0.0);
-    let posture = wrc_robot::Posture::Right;
-    // Joint-interpolated from `a` to `b` in 200 steps: the events.
-    let ptp = |world: &mut World, a: wrc_robot::Joints, b: wrc_robot::Joints| {
+    for from in [seat, halfway] {
+        // The shoulder turns 15 degrees: the hand swings sideways, still in front of LP1.
+        let mut world = armed(&stations);
+        let a = joints(from, None);
+        let mut b = a;
+        b[0] += 15.0;
+        assert_eq!(world.touch(&a), None);
+        let mut events: Vec<WorldEvent> = world.touch(&b).into_iter().collect();
+        events.extend(world.touch(&b));
+        assert_eq!(events.len(), 1, "from {from:?}: {events:?}");
+        assert!(
+            matches!(events[0], WorldEvent::SideCollision { station, .. } if station == name("LP1")),
+            "{events:?}"
+        );
+        assert_eq!((world.faults(), world.side_collisions()), (1, 1));
+        assert_eq!(world.last_side_collision(), Some(name("LP1")));
+        assert_eq!(world.touching(), [name("LP1")]);
+        assert_eq!(world.tags().len(), 25, "nothing moved");
+
+        // Straight to the aligner's approach pose: out through LP1's side and on, sweeping
+        // the stretched arm through LP2 on its way.
+        let mut world = armed(&stations);
+        let al = stations.get("AL").unwrap().approach_pose(1, false).unwrap();
+        let b = joints(al, Some(&a));
+        world.touch(&a);
         let mut events = Vec::new();
         for i in 1..=200 {
             let u = f64::from(i) / 200.0;
-            let mut j = a;
-            for (k, q) in j.iter_mut().enumerate() {
-                *q = a[k] + u * (b[k] - a[k]);
+            let mut q = a;
+            for (k, v) in q.iter_mut().enumerate() {
+                *v = a[k] + u * (b[k] - a[k]);
             }
-            events.extend(world.step(robot.forward(&j), false));
+            events.extend(world.touch(&q));
         }
-        events
-    };
-    for from in [seat, halfway] {
-        // The shoulder turns 15 degrees: the hand swings sideways, still in front of LP1.
-        let mut world = World::new(&stations);
-        let a = robot.inverse(&from, posture, None).unwrap();
-        let mut b = a;
-        b[0] += 15.0;
-        world.step(from, false);
-        assert_eq!(ptp(&mut world, a, b), [side("LP1")], "from {from:?}");
-        assert_eq!((world.faults(), world.side_collisions()), (1, 1));
-        assert_eq!(world.last_side_collision(), Some(name("LP1")));
-        assert_eq!(world.tags().len(), 25, "nothing moved");
-
-        // Straight to the aligner's approach pose: out through LP1's side, then through
-        // LP2's and into the aligner's front while still turning.
-        let mut world = World::new(&stations);
-        let al = stations.get("AL").unwrap().approach_pose(1, false).unwrap();
-        let b = robot.inverse(&al, posture, Some(&a)).unwrap();
-        world.step(from, false);
-        let events = ptp(&mut world, a, b);
-        assert_eq!(events.first(), Some(&side("LP1")), "from {from:?}");
-        assert_eq!(events.iter().filter(|e| **e == side("LP1")).count(), 1);
-        assert!(events.contains(&side("AL")), "{events:?}");
+        assert!(
+            matches!(events.first(), Some(WorldEvent::SideCollision { station, .. }) if *station == name("LP1")),
+            "from {from:?}: {events:?}"
+        );
+        assert_eq!(
+            events
+                .iter()
+                .filter(|e| matches!(e, WorldEvent::SideCollision { station, .. } if *station == name("LP1")))
+                .count(),
+            1
+        );
     }
 }
 
@@ -784,41 +829,37 @@ fn moving_sideways_inside_hits_the_side_once_per_entry() {
     let lp1 = stations.get("LP1").unwrap();
     let yaw = lp1.pose.yaw;
     let seat = lp1.seated_pose(2, false).unwrap();
-    let mut world = World::new(&stations);
-    world.step(seat, false);
+    let mut world = armed(&stations);
+    assert_eq!(visit(&mut world, &[seat]), []);
     // 1.9 mm sideways is within the tolerance; 2.1 mm is not.
-    assert_eq!(world.step(offset(seat, yaw, 0.0, 1.9), false), None);
-    assert_eq!(world.step(offset(seat, yaw, -100.0, -1.9), false), None);
-    assert_eq!(
-        world.step(offset(seat, yaw, -100.0, -2.1), false),
-        Some(side("LP1"))
+    assert_eq!(visit(&mut world, &[offset(seat, yaw, 0.0, 1.9)]), []);
+    assert_eq!(visit(&mut world, &[offset(seat, yaw, -100.0, -1.9)]), []);
+    let hit = visit(&mut world, &[offset(seat, yaw, -100.0, -2.1)]);
+    assert!(
+        matches!(hit[..], [WorldEvent::SideCollision { station, .. }] if station == name("LP1")),
+        "{hit:?}"
     );
-    // Still inside: not reported again, wherever it goes in there.
+    // Still touching: not reported again, wherever it goes in there, across the line too.
     for s in [-2.1, -50.0, 0.0, 20.0] {
-        assert_eq!(world.step(offset(seat, yaw, -100.0, s), false), None);
+        assert_eq!(visit(&mut world, &[offset(seat, yaw, -100.0, s)]), []);
     }
-    // Out behind the approach pose and in again out of line: a new collision.
-    world.step(offset(seat, yaw, -lp1.approach_mm, 0.0), false);
+    // Out of the station along its line: clear; in again off the line: a new collision.
+    let out = offset(seat, yaw, -lp1.approach_mm, 0.0);
     assert_eq!(
-        world.step(
-            offset(seat, yaw, -lp1.approach_mm + ENTRY_MARGIN_MM + 2.0, 5.0),
-            false
-        ),
-        Some(side("LP1"))
+        visit(&mut world, &[offset(seat, yaw, -100.0, 0.0), out]),
+        []
     );
+    assert_eq!(world.touching(), []);
+    assert_eq!(visit(&mut world, &[offset(seat, yaw, -60.0, 5.0)]).len(), 1);
     assert_eq!((world.faults(), world.side_collisions()), (2, 2));
-    // The text form keeps the hit (and the counts): read back, the hand is still known to
-    // be in the side, and no new collision is reported.
-    let back = World::from_text(&world.to_text(), &stations).unwrap();
-    assert_eq!(back, world);
-    let mut back = back;
-    assert_eq!(
-        back.step(
-            offset(seat, yaw, -lp1.approach_mm + ENTRY_MARGIN_MM + 2.0, 9.0),
-            false
-        ),
-        None
-    );
+    // The text form keeps the contact (and the counts): read back, the arm is still known
+    // to touch LP1, and no new collision is reported.
+    let text = world.to_text();
+    assert!(text.contains("touching = [\"LP1\"]"), "{text}");
+    let mut back = World::from_text(&text, &stations).unwrap();
+    assert_eq!(back.touching(), [name("LP1")]);
+    back.set_arm(&robot(), &stations, &[0.0]);
+    assert_eq!(visit(&mut back, &[offset(seat, yaw, -60.0, 9.0)]), []);
 }
 
 #[test]
@@ -826,147 +867,171 @@ fn turning_inside_hits_the_side() {
     let stations = demo();
     let pm2 = stations.get("PM2").unwrap();
     let seat = pm2.seated_pose(1, true).unwrap();
-    let mut world = World::new(&stations);
-    world.step(seat, false);
+    let mut world = armed(&stations);
     let turned = |deg: f64| Pose {
         yaw: seat.yaw + deg,
         ..seat
     };
-    assert_eq!(world.step(turned(1.9), false), None);
-    assert_eq!(world.step(turned(-1.9), false), None);
-    assert_eq!(world.step(turned(2.5), false), Some(side("PM2")));
-    assert_eq!(world.step(turned(90.0), false), None, "once per entry");
-    // Turning around in the wrap-around of ±180° is turning too.
-    let mut world = World::new(&stations);
-    let al = stations.get("AL").unwrap();
-    let mid = offset(al.pose, al.pose.yaw, -50.0, 0.0);
-    world.step(mid, false);
-    assert_eq!(
-        world.step(
-            Pose {
-                yaw: mid.yaw - 360.0 + 1.0,
-                ..mid
-            },
-            false
-        ),
-        None,
-        "the same yaw a turn apart"
-    );
-    assert_eq!(
-        world.step(
-            Pose {
-                yaw: mid.yaw + 180.0,
-                ..mid
-            },
-            false
-        ),
-        Some(side("AL"))
-    );
+    assert_eq!(visit(&mut world, &[seat, turned(1.9), turned(-1.9)]), []);
+    assert_eq!(visit(&mut world, &[turned(2.5)]).len(), 1);
     assert_eq!(world.faults(), 1);
 }
 
+/// Heights count: under a station the arm may swing; at the station's heights it may not.
+#[test]
+fn the_arm_passes_under_a_station() {
+    let stations = demo();
+    let lp1 = stations.get("LP1").unwrap();
+    let yaw = lp1.pose.yaw;
+    // From beside the seat to the other side of it, 100 mm in front of the seat: through
+    // LP1's box (and on into LP2's) at 100 mm, under them at 0.
+    for z in [0.0, 100.0] {
+        let mut world = armed(&stations);
+        let at = |side: f64| Pose {
+            z,
+            ..offset(lp1.pose, yaw, -100.0, side)
+        };
+        let events = visit(&mut world, &[at(-200.0), at(200.0)]);
+        let lp1_hit = events.iter().any(
+            |e| matches!(e, WorldEvent::SideCollision { station, .. } if *station == name("LP1")),
+        );
+        assert_eq!(lp1_hit, z > 0.0, "z {z}: {events:?}");
+        if z == 0.0 {
+            assert_eq!(events, [], "under every station");
+        }
+    }
+}
+
 /// Sideways motion and turning where the hand is outside every station: at LP1's approach
-/// pose and within the entry margin of it, behind it, beside LP1 and beyond its back. (Near
-/// the robot's base the stations' insides reach close to one another: these stay clear of
-/// the neighbours' too.)
+/// pose, behind it, and beyond LP1's back, where the arm does not reach the box.
 #[test]
 fn moving_sideways_or_turning_outside_a_station_is_no_collision() {
     let stations = demo();
     let lp1 = stations.get("LP1").unwrap();
     let yaw = lp1.pose.yaw;
     let seat = lp1.seated_pose(1, false).unwrap();
-    let mut world = World::new(&stations);
+    let mut world = armed(&stations);
     let mut events = Vec::new();
-    for along in [-lp1.approach_mm, -lp1.approach_mm + 0.9] {
-        let p = offset(seat, yaw, along, 0.0);
-        events.extend(world.step(p, false));
-        events.extend(sweep(
-            &mut world,
+    let p = offset(seat, yaw, -lp1.approach_mm, 0.0);
+    events.extend(visit(&mut world, &[p]));
+    events.extend(visit(
+        &mut world,
+        &line(
             p,
             Pose {
                 yaw: yaw + 90.0,
                 ..p
             },
             30,
-            false,
-        ));
-        events.extend(sweep(
-            &mut world,
-            offset(p, yaw, 0.0, -40.0),
-            offset(p, yaw, 0.0, 40.0),
-            40,
-            false,
-        ));
-    }
-    let behind = offset(seat, yaw, -lp1.approach_mm - 10.0, 0.0);
-    events.extend(sweep(
-        &mut world,
-        offset(behind, yaw, 0.0, -30.0),
-        offset(behind, yaw, 0.0, 30.0),
-        30,
-        false,
+        ),
     ));
-    for (along, from, to) in [(0.0, 151.0, 180.0), (6.0, -40.0, 40.0)] {
-        let a = offset(seat, yaw, along, from);
-        events.extend(world.step(a, false));
-        events.extend(sweep(
-            &mut world,
-            a,
-            offset(seat, yaw, along, to),
-            20,
-            false,
-        ));
-    }
+    events.extend(visit(
+        &mut world,
+        &line(offset(p, yaw, 0.0, -20.0), offset(p, yaw, 0.0, 20.0), 40),
+    ));
+    let behind = offset(seat, yaw, -lp1.approach_mm - 10.0, 0.0);
+    events.extend(visit(
+        &mut world,
+        &line(
+            offset(behind, yaw, 0.0, -30.0),
+            offset(behind, yaw, 0.0, 30.0),
+            30,
+        ),
+    ));
     assert_eq!(events, [], "{}", world.to_text());
     assert_eq!(world.faults(), 0);
 }
 
-/// The vacuum goes off in the period the hand first swings sideways inside: the release is
-/// reported in that step, the collision at the next.
+/// A fixed obstacle is never entered; it is named in the event and the text form.
 #[test]
-fn a_release_and_a_side_collision_in_one_step_are_both_reported() {
-    let stations = demo();
-    let lp1 = stations.get("LP1").unwrap();
+fn an_obstacle_is_touched_by_the_body_that_reaches_it() {
+    let column = crate::obstacle::Obstacle {
+        name: name("column"),
+        shape: crate::obstacle::ObstacleShape::Cylinder {
+            x_mm: 0.0,
+            y_mm: 250.0,
+            radius_mm: 20.0,
+        },
+        bottom_mm: -500.0,
+        top_mm: 600.0,
+    };
+    let stations = demo().with_obstacles(vec![column]).unwrap();
     let mut world = World::new(&stations);
-    world.step(seated(&stations, "LP1", 1, false), true);
-    world.step(seated(&stations, "LP1", 1, true), true);
-    let out = offset(seated(&stations, "LP1", 1, true), lp1.pose.yaw, -100.0, 0.0);
-    world.step(out, true);
-    let off = offset(out, lp1.pose.yaw, 0.0, 10.0);
-    assert_eq!(world.step(off, false), Some(WorldEvent::Lost { tag: 1 }));
-    assert_eq!(world.step(off, false), Some(side("LP1")));
-    assert_eq!(world.faults(), 2);
+    world.set_arm(&robot(), &stations, &[0.0]);
+    let hit = visit(
+        &mut world,
+        &[
+            Pose {
+                x: 250.0,
+                y: 0.0,
+                z: 0.0,
+                yaw: 90.0,
+            },
+            Pose {
+                x: 0.0,
+                y: 250.0,
+                z: 0.0,
+                yaw: 90.0,
+            },
+        ],
+    );
+    assert_eq!(hit.len(), 1, "{hit:?}");
+    assert!(
+        matches!(hit[0], WorldEvent::SideCollision { station, .. } if station == name("column")),
+        "{hit:?}"
+    );
+    let text = world.to_text();
+    assert!(text.contains("last_side_collision = \"column\""), "{text}");
+    assert!(World::from_text(&text, &stations).is_ok());
 }
 
 #[test]
-fn the_text_form_checks_the_side_collision_state() {
+fn the_text_form_checks_the_collision_state() {
     let stations = demo();
-    let mut world = World::new(&stations);
+    let mut world = armed(&stations);
     let seat = seated(&stations, "PM1", 1, false);
-    world.step(seat, false);
-    world.step(
-        Pose {
-            x: seat.x + 5.0,
-            ..seat
-        },
-        false,
+    visit(
+        &mut world,
+        &[
+            seat,
+            Pose {
+                x: seat.x + 5.0,
+                ..seat
+            },
+        ],
     );
     let text = world.to_text();
-    assert!(text.contains("side_hit = [\"A\"]"), "{text}");
+    assert!(text.contains("touching = [\"PM1\"]"), "{text}");
     assert!(text.contains("last_side_collision = \"PM1\""), "{text}");
-    assert_eq!(World::from_text(&text, &stations).unwrap(), world);
+    let back = World::from_text(&text, &stations).unwrap();
+    assert_eq!(back.touching(), world.touching());
+    assert_eq!(back.to_text(), text);
     let bad = |t: &str| World::from_text(t, &stations).unwrap_err().to_string();
-    assert!(bad(&text.replace("[\"A\"]", "[\"C\"]")).contains("\"C\" is not a blade"));
     let other = text.replace(
         "last_side_collision = \"PM1\"",
         "last_side_collision = \"PM9\"",
     );
     assert!(
-        bad(&other).contains("\"PM9\" is not a station"),
+        bad(&other).contains("\"PM9\" is not a station or obstacle"),
         "{}",
         bad(&other)
     );
-    // A world without any (the text of earlier builds) reads as none.
+    assert!(
+        bad(&text.replace("touching = [\"PM1\"]", "touching = [\"XX\"]"))
+            .contains("touching \"XX\" is not a station or obstacle")
+    );
+    // The text of an older build: a station's side hit by blade A.
+    let old = text.replace("touching = [\"PM1\"]\n", "").replace(
+        "name = \"PM1\"\nslots = [\"-\"]",
+        "name = \"PM1\"\nslots = [\"-\"]\nside_hit = [\"A\"]",
+    );
+    assert_ne!(old, text);
+    assert_eq!(
+        World::from_text(&old, &stations).unwrap().touching(),
+        [name("PM1")]
+    );
+    assert!(bad(&old.replace("[\"A\"]", "[\"C\"]")).contains("\"C\" is not a blade"));
+    // A world without any reads as none.
     let clean = World::new(&stations);
-    assert!(!clean.to_text().contains("side"));
+    assert!(!clean.to_text().contains("side") && !clean.to_text().contains("touching"));
 }

@@ -378,10 +378,13 @@ pub struct LineTolerance {
 }
 
 impl LineTolerance {
-    /// The controller's: its lines stay within hundredths of a millimetre of the line.
+    /// The controller's: its lines stay within hundredths of a millimetre of the line, a
+    /// stop on a line on it, and an axis's own brake in a blended approach's first part
+    /// (a transfer resumed near its seat) within 1.5 mm and 1 degree; 0.2 mm and degree
+    /// inside the simulated cell's for the servo's lag.
     pub const CONTROLLER: LineTolerance = LineTolerance {
-        lateral_mm: 1.0,
-        yaw_deg: 1.0,
+        lateral_mm: 1.8,
+        yaw_deg: 1.8,
         height_mm: 1.0,
     };
     /// The simulated cell's (the ground truth): a cassette's clearance.
@@ -823,20 +826,25 @@ impl TravelRoute {
     }
 }
 
+/// How many routes [`travel_routes`] offers at most.
+pub const MAX_ROUTES: usize = 5;
+
 /// The routes from `from` to `to` through `travel_z` [mm] (the Z axis's value), shortest
 /// first: (1) down or up to `travel_z` where the arm stands, a PTP there to the target's
-/// joints, and up or down to the target; (2) the same with the arm folded on the way — at
-/// `travel_z` the elbow folds (to its limit less [`FOLD_MARGIN_DEG`], on the side it is
-/// on, the hand keeping its direction), the shoulder and hand turn to the target's side,
-/// the elbow unfolds. A PTP between two of them is a straight line in joint space. A robot
-/// without a Z axis has only the folded route at its one height; an elbow that cannot fold
-/// past 90 degrees, only the first.
+/// joints, and up or down to the target; then the same with the arm folded on the way — the
+/// elbow folds (to its limit less [`FOLD_MARGIN_DEG`], on the side it is on, the hand keeping
+/// its direction), the shoulder and hand turn to the target's side, the elbow unfolds —
+/// folding at `travel_z` or where the arm stands before it goes down or up (a hand above or
+/// below a station), and unfolding at `travel_z` or at the target's height. A PTP between
+/// two of them is a straight line in joint space. A robot without a Z axis has only the
+/// folded route at its one height; an elbow that cannot fold past 90 degrees, only the
+/// first.
 pub fn travel_routes(
     robot: &Robot,
     from: &Joints,
     to: &Joints,
     travel_z: f64,
-) -> [Option<TravelRoute>; 2] {
+) -> [Option<TravelRoute>; MAX_ROUTES] {
     let arm = robot.arm();
     let at_z = |q: &Joints| {
         let mut q = *q;
@@ -846,21 +854,35 @@ pub fn travel_routes(
         q
     };
     let (a, b) = (at_z(from), at_z(to));
-    let mut direct = TravelRoute::new(false);
-    direct.push(a);
-    direct.push(b);
+    let mut out = [None; MAX_ROUTES];
+    if arm.z.is_some() {
+        let mut direct = TravelRoute::new(false);
+        direct.push(a);
+        direct.push(b);
+        out[0] = Some(direct);
+    }
     let elbow = &robot.axes()[arm.elbow];
     let fold = elbow.max.min(-elbow.min).min(180.0) - FOLD_MARGIN_DEG;
-    let mut folded = None;
     if fold > 90.0 {
-        let mut route = TravelRoute::new(true);
-        route.push(a);
-        route.push(folded_at(robot, &a, fold));
-        route.push(folded_at(robot, &b, fold));
-        route.push(b);
-        folded = Some(route);
+        let (f0, f1) = (folded_at(robot, from, fold), folded_at(robot, to, fold));
+        let (f0_low, f1_low) = (at_z(&f0), at_z(&f1));
+        // Fold below (or above) and unfold there; fold first, then go down; go down, then
+        // fold, and come up folded; fold first and come up folded.
+        let ways: [[Joints; 4]; 4] = [
+            [a, f0_low, f1_low, b],
+            [f0, f0_low, f1_low, b],
+            [a, f0_low, f1_low, f1],
+            [f0, f0_low, f1_low, f1],
+        ];
+        for (slot, way) in out[1..].iter_mut().zip(ways) {
+            let mut route = TravelRoute::new(true);
+            for q in way {
+                route.push(q);
+            }
+            *slot = Some(route);
+        }
     }
-    [arm.z.map(|_| direct), folded]
+    out
 }
 
 /// `q` with the elbow folded to `fold` [deg] on the side it is on, the hand keeping its
@@ -907,6 +929,8 @@ pub struct Sweep<'a> {
     last: Option<Sample>,
     /// Samples evaluated so far (the cost).
     evaluations: u64,
+    /// Solids not held against the motion ([`Sweep::ignore_touched`]).
+    ignored: [bool; MAX_SOLIDS],
 }
 
 impl<'a> Sweep<'a> {
@@ -927,7 +951,45 @@ impl<'a> Sweep<'a> {
             margin_mm,
             last: None,
             evaluations: 0,
+            ignored: [false; MAX_SOLIDS],
         }
+    }
+
+    /// From now on, do not hold against the motion the solids the arm is closer to than the
+    /// margin at the last joints: a motion that starts where a fault left the arm touching
+    /// something may take it out. Returns how many.
+    pub fn ignore_touched(&mut self) -> usize {
+        let Some(last) = self.last else {
+            return 0;
+        };
+        let mut n = 0;
+        for i in 0..self.model.len {
+            if last.clear[i] < self.margin_mm && !self.ignored[i] {
+                self.ignored[i] = true;
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// The least clearance at the last joints to a solid held against the motion [mm]: 0 for
+    /// a station whose opening the hand passes (a brake could take it off its line),
+    /// `f64::INFINITY` before the first joints or in an empty cell.
+    pub fn min_clearance(&self) -> f64 {
+        let Some(last) = &self.last else {
+            return f64::INFINITY;
+        };
+        (0..self.model.len)
+            .filter(|&i| !self.ignored[i])
+            .map(|i| {
+                let d = last.clear[i];
+                if d.is_finite() {
+                    d
+                } else {
+                    0.0
+                }
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// How many joint vectors it has evaluated (the bisection's included).
@@ -941,6 +1003,11 @@ impl<'a> Sweep<'a> {
         let mut clear = [f64::INFINITY; MAX_SOLIDS];
         self.model
             .clearances(&bodies, self.blades, &self.tol, &mut clear);
+        for (c, ignored) in clear.iter_mut().zip(&self.ignored) {
+            if *ignored {
+                *c = f64::INFINITY;
+            }
+        }
         Sample {
             joints: *joints,
             clear,

@@ -23,9 +23,12 @@ use wrc_config::HandConfig;
 use wrc_protocol::{Code, Event, ReplyBuf, ReplyTo, StationName, MAX_LINE};
 use wrc_robot::{Joints, Robot};
 
-use crate::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JobRefusal, JobStep};
+use crate::messages::cell_job::{
+    CellEvent, CellJob, CellView, JobKind, JobOffer, JobRefusal, JobStep,
+};
 use crate::messages::{Outputs, SourceId, StoreLinks};
 use crate::shared::{RobotState, Shared};
+use wrc_rt::ipc::mailbox::MailboxWriter;
 
 mod recovery;
 
@@ -146,6 +149,9 @@ pub struct CellService {
     rest_pose: Option<wrc_robot::Pose>,
     /// The Command Interpreter holds a retract plan `watch_rest` sent (not a power loss's).
     rest_plan: bool,
+    /// Where the cell goes to the Command Interpreter's check of every motion, and the
+    /// blades' wafers it was last told.
+    view: Option<(MailboxWriter<CellView>, [bool; MAX_BLADES])>,
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
@@ -230,9 +236,51 @@ impl CellService {
             journal_acks: Vec::new(),
             rest_pose: None,
             rest_plan: false,
+            view: None,
         };
         cell.open_journal();
         Ok(cell)
+    }
+
+    /// Publish the cell (the stations' and obstacles' solids and the blades' wafers) to the
+    /// Command Interpreter's check of every motion through `view`, now and whenever the
+    /// stations or the map change.
+    pub fn with_view(mut self, view: MailboxWriter<CellView>) -> CellService {
+        self.view = Some((view, [false; MAX_BLADES]));
+        self.publish_view(true);
+        self
+    }
+
+    /// Publish the cell to the Command Interpreter if the blades' wafers changed since the
+    /// last time, or always with `stations` (they changed).
+    fn publish_view(&mut self, stations: bool) {
+        let wafers = Blade::ALL.map(|b| self.wafers.hand_of(b).is_some());
+        let model = if stations {
+            match self.stations.model(&self.robot) {
+                Ok(model) => Some(model),
+                Err(e) => {
+                    eprintln!("wrc: the cell cannot be checked against motions: {e}");
+                    None
+                }
+            }
+        } else {
+            None
+        };
+        let Some((writer, told)) = self.view.as_mut() else {
+            return;
+        };
+        if !stations && *told == wafers {
+            return;
+        }
+        *told = wafers;
+        let model = match model {
+            Some(m) => m,
+            None => match self.stations.model(&self.robot) {
+                Ok(m) => m,
+                Err(_) => wrc_cell::CellModel::empty(&self.robot),
+            },
+        };
+        writer.write(CellView { model, wafers });
     }
 
     /// The I/O Monitor's period [s] (Table 1: 0.1 s unless the configuration says
@@ -292,6 +340,7 @@ impl CellService {
     /// Tell every connection the map's places (`EVT WAFER` per place, `pending=-` when no
     /// transfer is pending any more).
     fn broadcast_map(&mut self) {
+        self.publish_view(false);
         let mut parts = self.wafers.wafers_lines();
         if self.wafers.pending().is_none() {
             parts.push("pending=-".to_string());
@@ -484,6 +533,7 @@ impl CellService {
         }
         // Teaching moves a station; its slots, and so the wafer map, stay as they are.
         self.stations = taught;
+        self.publish_view(true);
         self.ack(from, to, &body);
         self.event(SourceId::BROADCAST, false, &Event::Station(&body));
     }
@@ -917,6 +967,7 @@ impl CellService {
     /// Periodic work: reconcile a transfer left pending by a crash once the inputs are
     /// known, and keep `shared.hand_wafers` saying which blades the map has a wafer on.
     pub fn poll(&mut self) {
+        self.publish_view(false);
         if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
             self.board_lost(None);
         }

@@ -363,6 +363,10 @@ pub(crate) fn assemble<H: Host>(
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone())
     .with_shared(shared.clone());
+    // The cell, for the Command Interpreter's check of every motion: published by the cell
+    // service whenever the stations or the wafers on the blades change.
+    let (cell_view_tx, cell_view_rx) = mailbox(crate::messages::cell_job::CellView::empty(&robot));
+    let checks_cell = options.cell.is_some();
     let store = match &options.cell {
         Some(files) => store.with_cell(
             crate::cell_service::CellService::open(
@@ -372,6 +376,7 @@ pub(crate) fn assemble<H: Host>(
                 shared.clone(),
                 config.hand,
             )?
+            .with_view(cell_view_tx)
             .with_blend(config.blend)
             .with_io_period(
                 config
@@ -523,6 +528,12 @@ pub(crate) fn assemble<H: Host>(
             store: links,
         },
     );
+    if checks_cell {
+        let offsets: Vec<f64> = std::iter::once(0.0)
+            .chain(config.hand.blade_b.map(|b| b.z_offset_mm))
+            .collect();
+        interpreter = interpreter.with_cell_check(generator.clone(), cell_view_rx, &offsets);
+    }
     interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
     interpreter.hand = config.hand;
     let ci_applied = ci_wake.notifier();

@@ -61,6 +61,30 @@ pub fn refusal_code(err: &PlanError) -> u16 {
     }
 }
 
+/// Plan `order` on `g` from where it stands, as the Velocity Generator task does (the
+/// Command Interpreter's cell check plays the same on its own copy): whether anything moves.
+/// A line's timing law is computed as its periods are produced (wrc-motion's `start_line`),
+/// not all before the first one. Allocation-free.
+pub fn plan_order(g: &mut Generator, order: &MoveOrder) -> Result<bool, PlanError> {
+    g.set_speed_pct(order.speed_pct)?;
+    g.set_accel_pct(order.accel_pct)?;
+    match order.kind {
+        MoveKind::Joints(j) => g.plan_ptp(&j).map(|i| i.periods > 0),
+        MoveKind::Pose(p, posture) => g.plan_ptp_pose(&p, posture).map(|i| i.periods > 0),
+        MoveKind::Line(p) => g.start_line(&p),
+        MoveKind::Approach { via, to, line_pct } => g.plan_approach(&via, &to, line_pct),
+        MoveKind::Path(path) => g.start_path(&path),
+        MoveKind::PtpToPath {
+            via,
+            path,
+            path_pct,
+        } => g.plan_ptp_into(&via, &path, path_pct, EntryRule::Free),
+        MoveKind::Depart { path, to, path_pct } => g.plan_depart(&path, &to, path_pct),
+        MoveKind::Via { start, via, to } => g.plan_ptp_via(&start, &via, &to),
+        MoveKind::Jog { axis, pulses } => g.plan_jog(axis, pulses).map(|i| i.periods > 0),
+    }
+}
+
 /// The Velocity Generator.
 pub struct VelocityGenerator {
     generator: Generator,
@@ -120,33 +144,7 @@ impl VelocityGenerator {
                 self.held = Some(order);
                 return false;
             }
-            let g = &mut self.generator;
-            // Whether anything moves. A line's timing law is computed as its periods are
-            // produced (wrc-motion's start_line), not all before the first one.
-            let planned = g
-                .set_speed_pct(order.speed_pct)
-                .and_then(|()| g.set_accel_pct(order.accel_pct))
-                .and_then(|()| match order.kind {
-                    MoveKind::Joints(j) => g.plan_ptp(&j).map(|i| i.periods > 0),
-                    MoveKind::Pose(p, posture) => {
-                        g.plan_ptp_pose(&p, posture).map(|i| i.periods > 0)
-                    }
-                    MoveKind::Line(p) => g.start_line(&p),
-                    MoveKind::Approach { via, to, line_pct } => {
-                        g.plan_approach(&via, &to, line_pct)
-                    }
-                    MoveKind::Path(path) => g.start_path(&path),
-                    MoveKind::PtpToPath {
-                        via,
-                        path,
-                        path_pct,
-                    } => g.plan_ptp_into(&via, &path, path_pct, EntryRule::Free),
-                    MoveKind::Depart { path, to, path_pct } => g.plan_depart(&path, &to, path_pct),
-                    MoveKind::Via { start, via, to } => g.plan_ptp_via(&start, &via, &to),
-                    MoveKind::Jog { axis, pulses } => {
-                        g.plan_jog(axis, pulses).map(|i| i.periods > 0)
-                    }
-                });
+            let planned = plan_order(&mut self.generator, &order);
             match planned {
                 Ok(false) => self.report(order.ticket, MoveOutcome::Completed),
                 Ok(true) => {

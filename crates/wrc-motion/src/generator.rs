@@ -372,6 +372,21 @@ impl MotionState {
         }
     }
 
+    /// Whether a stop from this state brakes along the motion's own path, so that the brake
+    /// ends on the path before its end: a PTP or jog in phase or single-axis sync (default
+    /// profile), a straight line or path, a blended approach past its commit point. False
+    /// where every axis brakes on its own and leaves the path: a time-synchronised PTP, the
+    /// paper profile's channels, Ruckig's parts (a PTP blend, an approach's first part before
+    /// its commit point), a brake already under way. True at rest.
+    pub fn brakes_on_path(&self) -> bool {
+        match &self.active {
+            Active::Idle | Active::Line { .. } => true,
+            Active::Joint { law, sync, .. } => matches!(law, Law::Fir(_)) && *sync != Sync::Time,
+            Active::Approach { commit_k, .. } => self.k > *commit_k,
+            Active::Jerk { .. } | Active::Brake { .. } => false,
+        }
+    }
+
     /// Whether a blended approach under way in this state has passed the last moment from
     /// which a stop at full limits (asked for up to two periods later) still ends behind
     /// the line's start: the hand is committed to enter. True for any other line, false
@@ -2394,8 +2409,11 @@ fn on_segment(p: &Pose, a: &Pose, b: &Pose) -> bool {
         a.y + f * d[1] - p.y,
         a.z + f * d[2] - p.z,
     ];
-    (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt() < 1e-3
-        && wrc_robot::wrap180(p.yaw - yaw).abs() < 1e-3
+    // Where a stop on the line leaves it: within the rounding to pulses (a HOLD after a
+    // blended approach's commit point is held a few micrometres off it; a new entry from
+    // there would go back out to the approach pose).
+    (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt() <= crate::geometry::ON_PATH_TOL_MM
+        && wrc_robot::wrap180(p.yaw - yaw).abs() <= crate::geometry::YAW_TOL_DEG
 }
 
 /// Input rate of the paper profile [unit/s] that keeps a mask of 2·`half` periods of `ts`

@@ -75,6 +75,9 @@ pub enum Code {
     SpeedOutOfRange = 115,
     /// 116: no such output.
     OutputUnknown = 116,
+    /// 117: the motion would touch a station off its line or a fixed obstacle of the cell
+    /// (or its brake would), and no safe route goes around it.
+    Collision = 117,
     /// 120: another command source holds control.
     ControlHeld = 120,
     /// 121: the robot is busy with a motion; wait for it or send `STOP`.
@@ -186,6 +189,7 @@ impl Code {
         Code::AxisUnknown,
         Code::SpeedOutOfRange,
         Code::OutputUnknown,
+        Code::Collision,
         Code::ControlHeld,
         Code::Busy,
         Code::InError,
@@ -266,6 +270,7 @@ impl Code {
             Code::AxisUnknown => "no such axis",
             Code::SpeedOutOfRange => "speed must be 1-100",
             Code::OutputUnknown => "no such output",
+            Code::Collision => "the motion would touch the cell",
             Code::ControlHeld => "control held by another source",
             Code::Busy => "busy with a motion; WAIT or STOP first",
             Code::InError => "in ERROR state; send RESET first",
@@ -359,6 +364,7 @@ mod tests {
             (Code::AxisUnknown, 114),
             (Code::SpeedOutOfRange, 115),
             (Code::OutputUnknown, 116),
+            (Code::Collision, 117),
             (Code::ControlHeld, 120),
             (Code::Busy, 121),
             (Code::InError, 122),

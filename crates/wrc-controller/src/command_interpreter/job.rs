@@ -121,7 +121,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// Every blade's vacuum-sensed input.
-    fn vacuum_sensed_all(&self) -> [bool; MAX_BLADES] {
+    pub(super) fn vacuum_sensed_all(&self) -> [bool; MAX_BLADES] {
         Blade::ALL.map(|b| self.vacuum_sensed_of(b))
     }
 

@@ -24,6 +24,7 @@ use wrc_rt::{CycleContext, Release, Task};
 
 mod admission;
 mod blend;
+mod clearance;
 mod debug;
 mod job;
 mod motion;
@@ -32,6 +33,7 @@ mod requests;
 mod reset;
 mod urgent;
 
+pub use clearance::CheckFigures;
 pub use urgent::UrgentPath;
 
 use crate::messages::{
@@ -158,6 +160,8 @@ pub struct CommandInterpreter<B: MotionBoard> {
     retract: Option<crate::messages::cell_job::RetractPlan>,
     /// The ticket of the retract under way.
     retract_ticket: Option<u32>,
+    /// Every motion checked against the cell before it is accepted (none without a cell).
+    cell: Option<clearance::CellCheck>,
 }
 
 impl<B: MotionBoard> CommandInterpreter<B> {
@@ -197,7 +201,28 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             hand_dropped: 0,
             retract: None,
             retract_ticket: None,
+            cell: None,
         }
+    }
+
+    /// Check every motion against the cell that `view` publishes (the cell service writes
+    /// it), playing it on `generator`, a copy of the Velocity Generator's; `offsets` are the
+    /// blades' heights above the hand's [mm], the hand's (0) first.
+    pub fn with_cell_check(
+        mut self,
+        generator: wrc_motion::VelocityGenerator,
+        view: wrc_rt::ipc::mailbox::MailboxReader<crate::messages::cell_job::CellView>,
+        offsets: &[f64],
+    ) -> Self {
+        self.cell = Some(clearance::CellCheck::new(generator, view, offsets));
+        self
+    }
+
+    /// What the cell checks have cost so far (zeros without a cell).
+    pub fn check_figures(&self) -> CheckFigures {
+        self.cell
+            .as_ref()
+            .map_or_else(CheckFigures::default, clearance::CellCheck::figures)
     }
 
     /// MOVING, STOPPING and HELD end when nothing is open, queued, in flight or stopping

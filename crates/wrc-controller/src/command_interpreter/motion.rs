@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 use std::sync::atomic::Ordering;
 
 use wrc_board::MotionBoard;
+use wrc_cell::obstacle::TravelRoute;
+use wrc_protocol::Num;
 use wrc_protocol::{Code, Event, ReplyTo};
 use wrc_robot::Joints;
 use wrc_rt::FixedText;
@@ -32,6 +34,8 @@ pub(super) struct Ticket {
     pub(super) speed_pct: Option<f64>,
     /// The motion's acceleration override [%]; RESUME keeps it.
     pub(super) accel_pct: f64,
+    /// The joints where it ends (where the motions queued after it start).
+    pub(super) end: Joints,
     /// The Pulse Generator reported it held (it was braking when HOLD came).
     pub(super) held: bool,
 }
@@ -43,6 +47,21 @@ pub(super) struct Waiter {
     pub(super) to: ReplyTo,
     /// The stop or alarm that ended the motions it waited for abnormally: its `ABS` code.
     pub(super) ended: Option<Code>,
+}
+
+/// How a motion may go, checked against the cell. (The route is held by value on purpose:
+/// boxing it would allocate in the real-time cycle.)
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Cleared {
+    /// As asked.
+    Go,
+    /// A jog stopped short: these pulses, ending at these joints.
+    Shortened { pulses: i64, end: Joints },
+    /// A PTP through these via points.
+    Route(TravelRoute),
+    /// Not at all (the text says why).
+    Refused,
 }
 
 /// Where a HOLD stands.
@@ -101,6 +120,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         to: ReplyTo,
         home: bool,
         resume: MoveKind,
+        end: Joints,
     ) -> Option<u32> {
         let speed_pct = self.next_move.speed_pct;
         let accel_pct = self.next_move.accel_pct.unwrap_or(100.0);
@@ -115,12 +135,19 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             resume,
             speed_pct,
             accel_pct,
+            end,
             held: false,
         });
         Some(ticket)
     }
 
     /// Validate and queue a motion; ACK or NAK. Returns its ticket when it was queued.
+    ///
+    /// Every motion is first checked against the cell ([`super::clearance`]): a PTP that
+    /// would touch it goes round through the travel height (its legs queued ahead of it,
+    /// `ACK <id> route=travel`), a jog stops short of it (`ACK <id> limited=<name>
+    /// jog=<pulses>`), anything else is refused with `NAK 117` naming what it would touch
+    /// and where.
     pub(super) fn motion(
         &mut self,
         from: SourceId,
@@ -128,6 +155,61 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         kind: MoveKind,
         end: Joints,
         home: bool,
+    ) -> Option<u32> {
+        let mut note = FixedText::<400>::new();
+        match self.clear_of_cell(kind, end, &mut note) {
+            Cleared::Go => self.queue_motion(from, to, kind, end, home, note.as_str()),
+            Cleared::Shortened { pulses, end } => {
+                let MoveKind::Jog { axis, .. } = kind else {
+                    return None;
+                };
+                let kind = MoveKind::Jog { axis, pulses };
+                self.queue_motion(from, to, kind, end, home, note.as_str())
+            }
+            Cleared::Route(route) => {
+                if self.tickets.iter().filter(|t| t.is_none()).count() <= route.len {
+                    self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
+                    return None;
+                }
+                for via in route.via() {
+                    let here = self.robot.joints_to_pulses(&self.planned_end);
+                    if self.robot.joints_to_pulses(via) == here {
+                        continue;
+                    }
+                    self.queue_motion(
+                        SourceId::NONE,
+                        ReplyTo::default(),
+                        MoveKind::Joints(*via),
+                        *via,
+                        false,
+                        "",
+                    )?;
+                }
+                // From the route's last via point the target's joints, as checked (a pose
+                // from there could pick another solution).
+                let kind = match kind {
+                    MoveKind::Pose(..) => MoveKind::Joints(end),
+                    other => other,
+                };
+                self.queue_motion(from, to, kind, end, home, note.as_str())
+            }
+            Cleared::Refused => {
+                self.nak(from, to, Code::Collision, note.as_str());
+                None
+            }
+        }
+    }
+
+    /// Queue a motion checked against the cell; ACK with `note` (empty: a plain ACK) or NAK
+    /// when the queues are full. Returns its ticket when it was queued.
+    fn queue_motion(
+        &mut self,
+        from: SourceId,
+        to: ReplyTo,
+        kind: MoveKind,
+        end: Joints,
+        home: bool,
+        note: &str,
     ) -> Option<u32> {
         // A line, a path or a blend is resumed as itself (the Velocity Generator finds where
         // on it the arm stands); every other motion as a PTP to the joint target admission
@@ -143,20 +225,14 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 MoveKind::Joints(end)
             }
         };
-        let Some(ticket) = self.new_ticket(from, to, home, resume) else {
+        let Some(ticket) = self.new_ticket(from, to, home, resume, end) else {
             self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
             return None;
         };
-        let operator = self.speed_limit();
         let order = MoveOrder {
             ticket,
             epoch: self.shared.stop_epoch.load(Ordering::Acquire),
-            speed_pct: self
-                .next_move
-                .speed_pct
-                .map_or(operator, |s| s.min(operator)),
-            accel_pct: self.next_move.accel_pct.unwrap_or(100.0),
-            kind,
+            ..self.order_for(kind)
         };
         if self.io.orders.try_send(order).is_err() {
             if let Some(t) = self
@@ -170,10 +246,208 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             return None;
         }
         self.planned_end = end;
-        let line = self.buf.ack(to, "");
+        let line = self.buf.ack(to, note);
         deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
         Some(ticket)
+    }
+
+    /// The order a motion of `kind` would get now (speed and acceleration as `queue_motion`
+    /// gives them).
+    fn order_for(&self, kind: MoveKind) -> MoveOrder {
+        let operator = self.speed_limit();
+        MoveOrder {
+            ticket: 0,
+            epoch: 0,
+            speed_pct: self
+                .next_move
+                .speed_pct
+                .map_or(operator, |s| s.min(operator)),
+            accel_pct: self.next_move.accel_pct.unwrap_or(100.0),
+            kind,
+        }
+    }
+
+    /// Whether a motion of `kind` from where the queued motions end keeps clear of the cell,
+    /// and if not, how it may go anyway (see [`Self::motion`]); `note` gets the ACK's note
+    /// or the refusal's text.
+    fn clear_of_cell(&mut self, kind: MoveKind, end: Joints, note: &mut FixedText<400>) -> Cleared {
+        let Some(mut cell) = self.cell.take() else {
+            return Cleared::Go;
+        };
+
+        let verdict = self.check_with(&mut cell, kind, end, note);
+        self.cell = Some(cell);
+        verdict
+    }
+
+    fn check_with(
+        &mut self,
+        cell: &mut super::clearance::CellCheck,
+        kind: MoveKind,
+        end: Joints,
+        note: &mut FixedText<400>,
+    ) -> Cleared {
+        if !cell.active() {
+            return Cleared::Go;
+        }
+        let sensed = self.vacuum_sensed_all();
+        let start = self.robot.joints_to_pulses(&self.planned_end);
+        let touch = match cell.check(&self.robot, &self.order_for(kind), &start, sensed) {
+            Ok(_) => return Cleared::Go,
+            Err(t) => t,
+        };
+        // A target that touches the cell is refused: no way to it helps.
+        if !matches!(kind, MoveKind::Jog { .. }) {
+            if let Some(c) = cell.target_touch(&self.robot, &self.planned_end, &end, sensed) {
+                let what = match c.kind {
+                    wrc_cell::SolidKind::Station => "station",
+                    wrc_cell::SolidKind::Obstacle => "obstacle",
+                };
+                let at = self.robot.forward(&end);
+                let _ = write!(
+                    note,
+                    "the target would put {} into {what} {} (x={} y={} z={} yaw={}): a station is entered only along its line, an obstacle never",
+                    c.body.describe(),
+                    c.name,
+                    Num(at.x),
+                    Num(at.y),
+                    Num(at.z),
+                    Num(at.yaw)
+                );
+                return Cleared::Refused;
+            }
+        }
+        // A PTP goes round through the travel height; a jog stops short.
+        let target = match kind {
+            MoveKind::Joints(j) => Some(j),
+            MoveKind::Pose(..) => Some(end),
+            MoveKind::Approach { via, .. } | MoveKind::PtpToPath { via, .. } => Some(via),
+            _ => None,
+        };
+        let travel = cell.travel_z(&self.robot, sensed);
+        if let (Some(target), Some(z)) = (target, travel) {
+            let last = match kind {
+                MoveKind::Pose(..) => MoveKind::Joints(end),
+                other => other,
+            };
+            for route in
+                wrc_cell::obstacle::travel_routes(&self.robot, &self.planned_end, &target, z)
+                    .into_iter()
+                    .flatten()
+            {
+                let mut at = start;
+                let legs = route
+                    .via()
+                    .iter()
+                    .map(|q| MoveKind::Joints(*q))
+                    .chain([last]);
+                let mut clear = true;
+                for leg in legs {
+                    match cell.check(&self.robot, &self.order_for(leg), &at, sensed) {
+                        Ok(q) => at = self.robot.joints_to_pulses(&q),
+                        Err(_) => {
+                            clear = false;
+                            break;
+                        }
+                    }
+                }
+                if clear {
+                    let _ = write!(note, "route=travel");
+                    return Cleared::Route(route);
+                }
+            }
+        }
+        if let MoveKind::Jog { axis, pulses } = kind {
+            if let Some((pulses, end)) = self.shortest_clear_jog(cell, axis, pulses, sensed) {
+                let _ = write!(note, "limited={} jog={pulses}", touch.contact.name);
+                return Cleared::Shortened { pulses, end };
+            }
+        }
+        self.describe_touch(&touch, travel, target.is_some(), note)
+    }
+
+    /// The longest jog of `axis` towards `pulses` that keeps clear of the cell, if one of a
+    /// pulse at least does: its pulses and its end.
+    fn shortest_clear_jog(
+        &self,
+        cell: &mut super::clearance::CellCheck,
+        axis: usize,
+        pulses: i64,
+        sensed: [bool; wrc_cell::MAX_BLADES],
+    ) -> Option<(i64, Joints)> {
+        let start = self.robot.joints_to_pulses(&self.planned_end);
+        let sign = pulses.signum();
+        let (mut lo, mut hi) = (0i64, pulses.abs());
+        let step = (hi / 1000).max(1);
+        let mut best = None;
+        while hi - lo > step {
+            let mid = lo + (hi - lo) / 2;
+            let order = self.order_for(MoveKind::Jog {
+                axis,
+                pulses: sign * mid,
+            });
+            match cell.check(&self.robot, &order, &start, sensed) {
+                Ok(q) => {
+                    lo = mid;
+                    best = Some((sign * mid, q));
+                }
+                Err(_) => hi = mid,
+            }
+        }
+        best
+    }
+
+    /// The refusal's text for `touch` (`route`: a route was looked for).
+    fn describe_touch(
+        &self,
+        touch: &super::clearance::Touch,
+        travel: Option<f64>,
+        route: bool,
+        note: &mut FixedText<400>,
+    ) -> Cleared {
+        let c = &touch.contact;
+        let what = match c.kind {
+            wrc_cell::SolidKind::Station => "station",
+            wrc_cell::SolidKind::Obstacle => "obstacle",
+        };
+        let at = self.robot.forward(&touch.joints);
+        let pct = (touch.fraction * 100.0).round();
+        let _ = if touch.brake {
+            write!(
+                note,
+                "a stop at {pct} % of the motion would brake {} into {what} {} (x={} y={} z={} yaw={})",
+                c.body.describe(),
+                c.name,
+                Num(at.x),
+                Num(at.y),
+                Num(at.z),
+                Num(at.yaw)
+            )
+        } else {
+            write!(
+                note,
+                "{} would touch {what} {} at {pct} % of the motion (x={} y={} z={} yaw={})",
+                c.body.describe(),
+                c.name,
+                Num(at.x),
+                Num(at.y),
+                Num(at.z),
+                Num(at.yaw)
+            )
+        };
+        let _ = note.write_str(": a station is entered only along its line, an obstacle never");
+        if route {
+            let _ = match travel {
+                Some(z) => write!(
+                    note,
+                    "; no route through the travel height (z={}) is clear either",
+                    Num(z)
+                ),
+                None => note.write_str("; the cell declares no travel height to go round it"),
+            };
+        }
+        Cleared::Refused
     }
 
     /// The speed override a motion may use now [%]: the operator's, below the careful
@@ -432,16 +706,42 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let mut order: [Option<Ticket>; MAX_TICKETS] = [None; MAX_TICKETS];
         order.copy_from_slice(&self.tickets);
         order.sort_unstable_by_key(|o| o.map_or(u32::MAX, |t| t.ticket.wrapping_sub(first)));
+        // From where it is held the motion is planned anew: it must keep clear of the cell
+        // (a PTP held off its path by its axes' own brakes takes another way back to it).
+        let resumed = |t: &Ticket| MoveOrder {
+            ticket: t.ticket,
+            epoch,
+            // The motion's own speed and acceleration, below today's override.
+            speed_pct: t.speed_pct.map_or(speed_pct, |s| s.min(speed_pct)),
+            accel_pct: t.accel_pct,
+            kind: t.resume,
+        };
+        if let Some(mut cell) = self.cell.take() {
+            let sensed = self.vacuum_sensed_all();
+            let mut at = self.shared.commanded_pulses();
+            let mut refused = None;
+            for t in order.iter().flatten() {
+                match cell.check(&self.robot, &resumed(t), &at, sensed) {
+                    Ok(q) => at = self.robot.joints_to_pulses(&q),
+                    Err(touch) => {
+                        refused = Some(touch);
+                        break;
+                    }
+                }
+            }
+            self.cell = Some(cell);
+            if let Some(touch) = refused {
+                let mut note = FixedText::<400>::new();
+                let _ = note.write_str("RESUME from here: ");
+                self.describe_touch(&touch, None, false, &mut note);
+                let _ = note.write_str("; STOP abandons the held motion, then move out of the way");
+                return self.nak(from, to, Code::Collision, note.as_str());
+            }
+        }
         for t in order.into_iter().flatten() {
             let ticket = t.ticket;
-            let sent = self.io.orders.try_send(MoveOrder {
-                ticket,
-                epoch,
-                // The motion's own speed and acceleration, below today's override.
-                speed_pct: t.speed_pct.map_or(speed_pct, |s| s.min(speed_pct)),
-                accel_pct: t.accel_pct,
-                kind: t.resume,
-            });
+            self.planned_end = t.end;
+            let sent = self.io.orders.try_send(resumed(&t));
             // The order queue holds MAX_TICKETS orders and the Velocity Generator dropped
             // the held ones, so there is room; should there not be, the motion ends openly.
             if sent.is_err() {

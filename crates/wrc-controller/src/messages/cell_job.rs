@@ -16,10 +16,31 @@
 //! switches the vacuum starts only once the service has answered [`JournalAck`] for its
 //! beginning: after a power loss the journal bounds what the robot did.
 
-use wrc_cell::{Blade, Step, MAX_BLADES};
+use wrc_cell::{Blade, CellModel, Step, MAX_BLADES};
 use wrc_protocol::{Code, ReplyTo, StationName};
 
 use super::{floor_char_boundary, SourceId};
+
+/// The cell as the Command Interpreter checks every motion against it: the stations and
+/// obstacles as solids, and which blades may hold a wafer (the map's, certain or not).
+/// Published by the cell service through a mailbox whenever the stations or the map change.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellView {
+    /// The cell's solids.
+    pub model: CellModel,
+    /// Per blade (the hand first): the map has a wafer on it.
+    pub wafers: [bool; MAX_BLADES],
+}
+
+impl CellView {
+    /// No cell: every motion is clear.
+    pub fn empty(robot: &wrc_robot::Robot) -> CellView {
+        CellView {
+            model: CellModel::empty(robot),
+            wafers: [false; MAX_BLADES],
+        }
+    }
+}
 
 /// Most steps in one job.
 pub const MAX_JOB_STEPS: usize = 32;

@@ -122,6 +122,7 @@ fn hold_stop_and_estop_in_every_phase_of_a_blended_put_leave_the_map_as_the_cell
                     let held = host.where_();
                     host.sim.run_for_ns(500_000_000);
                     assert_eq!(host.where_().0, held.0, "held means held");
+                    let sides = host.world().side_collisions();
                     assert_eq!(host.ask("RESUME"), "ACK");
                     assert_eq!(
                         end_of(&mut host, 10),
@@ -129,6 +130,15 @@ fn hold_stop_and_estop_in_every_phase_of_a_blended_put_leave_the_map_as_the_cell
                         "{stop} at {delay_ms} ms"
                     );
                     map_is_the_cell(&mut host, false);
+                    // Regression: held on the line in, a few micrometres off it by the
+                    // rounding to pulses, RESUME went back out to the approach pose by a
+                    // joint move through the station's side; it goes on along the line.
+                    assert_eq!(
+                        host.world().side_collisions(),
+                        sides,
+                        "{stop} at {delay_ms} ms: {:?}",
+                        host.world().last_side_collision()
+                    );
                 }
                 _ => {
                     let end = end_of(&mut host, 10);

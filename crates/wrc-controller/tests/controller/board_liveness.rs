@@ -41,7 +41,7 @@ fn reset_until_attached(host: &mut VHost, id: u32) {
 #[test]
 fn a_board_that_dies_mid_move_ends_it_with_300_and_a_reset_reattaches_it() {
     let mut host = homed();
-    assert_eq!(host.ask("3 MOVJ 90 60 -45 40"), "ACK 3");
+    assert_eq!(host.ask("3 MOVJ 90 60 -45 0"), "ACK 3");
     host.wait_moving("J1 on its way", |j, _, _| j[0] > -40.0);
     let died_ns = host.sim.now_ns();
     assert!(host.sim.kill_board(0));
@@ -83,7 +83,7 @@ fn a_board_that_dies_mid_move_ends_it_with_300_and_a_reset_reattaches_it() {
             "re-attached at {joints:?}, stood at {stood:?}"
         );
     }
-    assert_eq!(host.motion(6, "MOVJ 0 90 0 10"), "INF 6");
+    assert_eq!(host.motion(6, "MOVJ 0 90 0 5"), "INF 6");
     let (joints, _, _) = host.where_();
     assert!(
         (joints[0] - 0.0).abs() < 0.01 && (joints[1] - 90.0).abs() < 0.01,
@@ -180,7 +180,7 @@ fn a_live_board_whose_encoder_sticks_still_trips_the_following_error() {
     // The other side of the heartbeat: a board that runs, but whose axis does not follow
     // its command, is caught by the following error (203), not by the heartbeat.
     let mut host = homed();
-    assert_eq!(host.ask("3 MOVJ 90 60 -45 40"), "ACK 3");
+    assert_eq!(host.ask("3 MOVJ 90 60 -45 0"), "ACK 3");
     host.wait_moving("J1 on its way", |j, _, _| j[0] > -60.0);
     host.inject("encoder-stuck 0 on");
     let end = host.until("ABS 3");

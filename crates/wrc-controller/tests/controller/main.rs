@@ -3,6 +3,7 @@
 mod alloc;
 mod blend;
 mod board_liveness;
+mod cell_obstacle;
 mod detached;
 mod error_check;
 mod estop_input;

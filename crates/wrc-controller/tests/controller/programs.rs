@@ -327,7 +327,7 @@ X = 1
 DIM A[3]
 CALL work(2)
 X = X + 10
-MOVEJ JOINTS(40, 90, -60, 30)
+MOVEJ JOINTS(40, 90, -60, 0)
 PRINT X, A[1]
 END
 SUB work(n)
@@ -416,7 +416,7 @@ fn breakpoints_steps_and_variables_over_the_protocol() {
     // The same motion at full speed takes far less time than stepped.
     assert_eq!(host.motion(18, "HOME"), "INF 18");
     let t0 = host.sim.now_ns();
-    assert_eq!(host.motion(19, "MOVJ 40 90 -60 30"), "INF 19");
+    assert_eq!(host.motion(19, "MOVJ 40 90 -60 0"), "INF 19");
     let full = host.sim.now_ns() - t0;
     assert!(
         stepped as f64 > 1.5 * full as f64,
@@ -684,15 +684,15 @@ fn the_example_wafer_cycle_skips_empty_slots_and_gives_up_a_wafer_the_operator_s
 #[test]
 fn here_stays_the_exact_target_once_the_robot_has_settled() {
     let mut host = ready(
-        "MOVEL POSE(300, 0, 50, 0)\nPRINT HERE()\nDELAY 1\nPRINT HERE()\nMOVEP POSE(250, 100, 20, 30)\nDELAY 1\nPRINT HERE()\n",
+        "MOVEL POSE(300, 0, 5, 0)\nPRINT HERE()\nDELAY 1\nPRINT HERE()\nMOVEP POSE(250, 100, 0, 30)\nDELAY 1\nPRINT HERE()\n",
     );
     assert_eq!(run(&mut host), "INF 9");
     assert_eq!(
         printed(&host),
         [
-            "POSE(300, 0, 50, 0)",
-            "POSE(300, 0, 50, 0)",
-            "POSE(250, 100, 20, 30)"
+            "POSE(300, 0, 5, 0)",
+            "POSE(300, 0, 5, 0)",
+            "POSE(250, 100, 0, 30)"
         ]
     );
 }
@@ -701,32 +701,32 @@ fn here_stays_the_exact_target_once_the_robot_has_settled() {
 fn a_called_programs_teach_goes_to_its_own_points_file() {
     let mut host = VHost::start();
     assert!(host
-        .ask("4 POINT callee REST JOINTS 0 90 0 50")
+        .ask("4 POINT callee REST JOINTS 0 90 0 5")
         .starts_with("ACK 4 "));
-    let callee = "MOVEJ JOINTS(10, 90, 0, 50)\nTEACH REST\nPRINT REST\n";
+    let callee = "MOVEJ JOINTS(10, 90, 0, 5)\nTEACH REST\nPRINT REST\n";
     assert!(host.upload(5, "callee", callee).starts_with("ACK 5 "));
     ready_with(&mut host, "CALL PROGRAM \"callee\"\nTEACH HOME_HERE\n");
     assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
     assert!(
         host.seen
             .iter()
-            .any(|l| l == "EVT POINT callee REST joints 10 90 0 50"),
+            .any(|l| l == "EVT POINT callee REST joints 10 90 0 5"),
         "{:?}",
         host.seen
     );
-    assert_eq!(printed(&host), ["JOINTS(10, 90, 0, 50)"]);
+    assert_eq!(printed(&host), ["JOINTS(10, 90, 0, 5)"]);
     // The caller's own TEACH goes to its file.
     assert!(host.ask("6 POINTS p").starts_with("ACK 6 points=1"));
     host.seen.clear();
     assert_eq!(host.ask("7 POINTS callee"), "ACK 7 points=1");
-    assert_eq!(host.seen[0], "EVT POINT callee REST joints 10 90 0 50");
+    assert_eq!(host.seen[0], "EVT POINT callee REST joints 10 90 0 5");
 }
 
 #[test]
 fn a_held_program_move_resumes_at_its_own_speed_and_acceleration() {
     let config = wrc_config::Config::embedded_default();
     let j1 = &config.robot.axes()[0];
-    let mut host = ready("MOVEJ JOINTS(150, 90, 0, 50) SPEED 20 ACCEL 25\nPRINT \"there\"\n");
+    let mut host = ready("MOVEJ JOINTS(150, 90, 0, 5) SPEED 20 ACCEL 25\nPRINT \"there\"\n");
     assert_eq!(host.ask("9 RUN p"), "ACK 9");
     host.wait_moving("the move under way", |j, _, _| j[0] > 20.0);
     assert_eq!(host.ask("10 HOLD"), "ACK 10");

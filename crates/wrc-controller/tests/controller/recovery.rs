@@ -413,10 +413,42 @@ fn a_hand_a_fault_left_inside_a_station_is_taken_straight_out_before_anything_el
     assert!(host.motion(33, "MAP LP1").starts_with("INF 33"));
     straight(&host, "MAP");
     assert_eq!(map_codes(&host.ask("WAFERS"), "LP1"), host.truth("LP1"));
-    // Turned off the line (a jog), the hand cannot go straight out: refused, nothing moves.
+    // A jog that would turn it off the line inside LP1 stops short, at the station's
+    // boundary, and says so: no side hit.
+    miss_inside_lp1(&mut host, 40, 6);
+    let sides = host.world().side_collisions();
+    let jog = host.ask("43 JOG 1 2000");
+    assert!(jog.starts_with("ACK 43 limited=LP1 jog="), "{jog}");
+    assert_eq!(host.reply(), "INF 43");
+    assert_eq!(host.world().side_collisions(), sides);
+    assert_eq!(host.motion(44, "HOME"), "INF 44");
+    straight(&host, "the limited jog and HOME");
+}
+
+/// A hand a fault left inside a station more than 5 degrees off its line cannot be taken
+/// straight out: GET and HOME are refused (140) and nothing moves. (Off the line inside a
+/// station the arm touches it: to put it there by a jog, LP1's box is moved out of the
+/// hand's way in this cell; the rule of 140 is the same.)
+#[test]
+fn a_hand_far_off_a_stations_line_is_refused_not_scraped_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let stations = dir.path().join("stations.toml");
+    let text = wrc_board::wrc_cell::DEMO_TOML.replacen(
+        "[station.sim]\nwafers = \"11111 11111 11111 11111 11111\"\n",
+        "[station.sim]\nwafers = \"11111 11111 11111 11111 11111\"\n\n[station.volume]\nmouth_mm = -400.0\ndepth_mm = 10.0\n",
+        1,
+    );
+    assert_ne!(text, wrc_board::wrc_cell::DEMO_TOML);
+    std::fs::write(&stations, text).unwrap();
+    let mut host = VHost::start_with(SimCellFrom {
+        stations: Some(&stations),
+        ..SimCellFrom::default()
+    });
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
     miss_inside_lp1(&mut host, 40, 6);
     assert_eq!(host.motion(43, "JOG 1 2000"), "INF 43");
-    let sides = host.world().side_collisions();
     let before = host.encoders();
     let get = host.ask("44 GET LP1 7");
     assert!(
@@ -430,7 +462,6 @@ fn a_hand_a_fault_left_inside_a_station_is_taken_straight_out_before_anything_el
     );
     host.sim.run_for_ns(200_000_000);
     assert_eq!(host.encoders(), before);
-    assert_eq!(host.world().side_collisions(), sides);
 }
 
 /// When an ESTOP comes in a transfer.

@@ -289,10 +289,10 @@ fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
     let mut host = VHost::start();
     assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
     assert_eq!(host.motion(2, "HOME"), "INF 2");
-    assert_eq!(host.motion(3, "MOVP 300 -150 20 0"), "INF 3");
+    assert_eq!(host.motion(3, "MOVP 300 -150 0 0"), "INF 3");
     assert!(host.ask("SPEED 20").starts_with("ACK"));
     let (a, b) = ((300.0, -150.0), (300.0, 150.0));
-    assert_eq!(host.ask("4 MOVL 300 150 20 0"), "ACK 4");
+    assert_eq!(host.ask("4 MOVL 300 150 0 0"), "ACK 4");
     host.wait_moving("y past -100 mm", |_, _, y| y > -100.0);
     hold(&mut host, 4);
     let (_, x, y) = host.where_();
@@ -310,7 +310,7 @@ fn a_held_line_stays_on_its_line_and_stop_abandons_a_held_motion() {
     assert!((x - b.0).abs() < 0.01 && (y - b.1).abs() < 0.01, "{x} {y}");
 
     // STOP while held ends the held motion.
-    assert_eq!(host.ask("5 MOVL 300 -150 20 0"), "ACK 5");
+    assert_eq!(host.ask("5 MOVL 300 -150 0 0"), "ACK 5");
     host.wait_moving("y back below 100 mm", |_, _, y| y < 100.0);
     hold(&mut host, 5);
     assert_eq!(host.ask("STOP"), "ACK");
@@ -569,8 +569,8 @@ fn every_verb_is_carried_out_by_someone() {
     fn example(verb: &'static str) -> Option<&'static str> {
         Some(match verb {
             "MOVJ" => "MOVJ 0 90 0 50",
-            "MOVP" => "MOVP 300 0 50 0",
-            "MOVL" => "MOVL 300 0 60 0",
+            "MOVP" => "MOVP 300 0 0 0",
+            "MOVL" => "MOVL 300 0 5 0",
             "JOG" => "JOG 1 1",
             "SPEED" => "SPEED 50",
             "OUT" => "OUT 5 1",
@@ -649,11 +649,14 @@ fn a_wafer_whose_vacuum_sensor_drops_in_motion_stays_uncertain_until_reset_settl
     for (round, sensor_back) in [(0u32, true), (1, false)] {
         let id = 10 + 10 * round;
         let target = if round == 0 {
-            "MOVP 0 -300 100 -90"
+            "MOVP 0 -200 0 -90"
         } else {
-            "MOVP 250 100 100 0"
+            "MOVP 250 100 0 0"
         };
-        assert_eq!(host.ask(&format!("{id} {target}")), format!("ACK {id}"));
+        // From where the first round's stop left it, round 1 goes round through the
+        // travel height (`ACK 20 route=travel`).
+        let ack = host.ask(&format!("{id} {target}"));
+        assert!(ack.starts_with(&format!("ACK {id}")), "{ack}");
         host.inject("sensor-flip 0 on");
         let end = host.reply();
         assert!(end.starts_with(&format!("ABS {id} 213 ")), "{end}");
@@ -706,14 +709,14 @@ fn a_transfer_from_the_far_side_of_the_robot_runs_instead_of_ending_abs_113() {
     assert_eq!(host.motion(2, "HOME"), "INF 2");
     assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
     for (id, slot) in [(10, 1), (20, 19)] {
-        assert_eq!(host.motion(id, "MOVJ 60 60 -90 100"), format!("INF {id}"));
+        assert_eq!(host.motion(id, "MOVJ 60 60 -90 0"), format!("INF {id}"));
         assert_eq!(
             host.motion(id + 1, &format!("GET LP1 {slot}")),
             format!("INF {} W{slot}", id + 1)
         );
         assert!(!host.hand_empty());
         assert_eq!(
-            host.motion(id + 2, "MOVJ 60 60 -90 100"),
+            host.motion(id + 2, "MOVJ 60 60 -90 0"),
             format!("INF {}", id + 2)
         );
         assert_eq!(

@@ -125,12 +125,12 @@ fn a_stall_longer_than_the_watchdog_stops_the_axes_within_their_limits() {
     assert_eq!(v[v.len() - 20..], [0; 20], "{v:?}");
     // RESET takes the board's position; the robot moves again, exactly.
     assert_eq!(host.ask("5 RESET"), "ACK 5");
-    assert_eq!(host.motion(6, "MOVJ 0 90 0 10"), "INF 6");
+    assert_eq!(host.motion(6, "MOVJ 0 90 0 5"), "INF 6");
     let (j, _, _) = host.where_();
-    assert_eq!(j, vec![0.0, 90.0, 0.0, 10.0]);
+    assert_eq!(j, vec![0.0, 90.0, 0.0, 5.0]);
     let board = host.sim.board(0).unwrap();
     assert_eq!(board.axis(0).unwrap().commanded(), 0);
-    assert_eq!(board.axis(3).unwrap().commanded(), 10_000);
+    assert_eq!(board.axis(3).unwrap().commanded(), 5_000);
 }
 
 #[test]
@@ -174,7 +174,7 @@ fn an_estop_during_a_stall_is_braked_by_the_board_on_time() {
     );
     // The robot goes on after the RESET: the board was released.
     assert_eq!(host.ask("8 RESET"), "ACK 8");
-    assert_eq!(host.motion(9, "MOVJ 0 90 0 10"), "INF 9");
+    assert_eq!(host.motion(9, "MOVJ 0 90 0 5"), "INF 9");
 }
 
 /// The look-ahead (100 ms) is kept while moving only: at rest the Pulse Generator queues

@@ -119,7 +119,7 @@ fn session(dir: &Path) -> (Vec<String>, Vec<(u64, Vec<i64>)>) {
     sim.record_pulses(true);
     let mut host = sim.connect().unwrap();
     let program = "SPEED 80\nHOME\nMAP \"LP1\"\nMAP \"LP2\"\nGET \"LP1\", 3\nPUT \"LP2\", 3\n\
-                   MOVEJ JOINTS(30, 60, -90, 100)\nOUT 5, 1\nDELAY 0.25\nOUT 5, 0\n\
+                   MOVEJ JOINTS(30, 60, -90, 0)\nOUT 5, 1\nDELAY 0.25\nOUT 5, 0\n\
                    PRINT \"at\", HERE()\nEND\n";
     let mut heard: Vec<String> = run_program(&mut sim, &mut host, "session", program)
         .into_iter()
@@ -212,9 +212,7 @@ fn trace_save_writes_the_last_seconds_and_an_estop_saves_its_own() {
             .filter(|n| n.starts_with("estop-"))
             .collect()
     };
-    let ack = sim
-        .ask(&mut host, "5 MOVJ 30 60 -90 100", REPLY_NS)
-        .unwrap();
+    let ack = sim.ask(&mut host, "5 MOVJ 30 60 -90 0", REPLY_NS).unwrap();
     assert_eq!(ack, "ACK 5");
     until_line(&mut sim, &mut host, "EVT STATE MOVING");
     // A few periods into the move.

@@ -94,6 +94,7 @@ bench: check-toolchain
 	$(CARGO) bench -p wrc-motion --bench velocity_generator
 	$(CARGO) bench -p wrc-lang --bench compile
 	$(CARGO) bench -p wrc-trace --bench trace
+	$(CARGO) bench -p wrc-controller --bench cell_check
 
 # Real-time runtime benchmark (docs/realtime.md): the paper's Tables 3-5 with cyclictest in
 # the same run, idle and under load. Installs cyclictest (rt-tests) and stress-ng when root.

@@ -199,6 +199,39 @@ mod tests {
     }
 
     #[test]
+    fn the_arms_shape_is_read_and_checked() {
+        let config = Config::parse(
+            &with("blade_front_mm = 128.0", "blade_front_mm = 140.0"),
+            "cell.toml",
+        )
+        .unwrap();
+        assert_eq!(config.robot.shape().blade_front_mm, 140.0);
+        assert_eq!(
+            *Config::embedded_default().robot.shape(),
+            wrc_robot::ArmShape::default()
+        );
+        let e = err(&with("link2_radius_mm = 38.0", "link2_radius_mm = -1.0"));
+        assert!(
+            e.contains("robot.shape.link2_radius_mm") && e.contains("greater than 0"),
+            "{e}"
+        );
+        let e = err(&with(
+            "link1_z_mm = [-91.0, -57.0]",
+            "link1_z_mm = [-50.0, -57.0]",
+        ));
+        assert!(
+            e.contains("robot.shape.link1_z_mm") && e.contains("bottom below top"),
+            "{e}"
+        );
+        let e = err(&with(
+            "wafer_radius_mm = 150.0",
+            "wafer_radius_mm = 150.0
+wafer_mm = 1",
+        ));
+        assert!(e.contains("wafer_mm"), "{e}");
+    }
+
+    #[test]
     fn host_admission_is_read_and_checked() {
         let config = Config::embedded_default();
         assert_eq!(config.host, HostConfig::default());

@@ -1878,6 +1878,47 @@ impl VelocityGenerator {
         self.stopped |= cut_short;
     }
 
+    /// What is left of the move under way, when that is a Cartesian path with nothing after
+    /// it (a straight line, a path, the line of a blended approach past its first part),
+    /// handed to `visit` as joints at points no more than `step_mm` [mm] of the TCP's path
+    /// apart, from where it stands (not included) to its end, each continued from the one
+    /// before: for a check of its geometry without its timing (its law keeps the TCP on the
+    /// path, and a stop on it brakes along it). `visit` returning false ends the walk.
+    /// `Some(false)` when it did, `Some(true)` when it reached the end, `None` for any other
+    /// move (nothing visited). Allocation-free.
+    pub fn walk_path_ahead(
+        &self,
+        step_mm: f64,
+        visit: &mut dyn FnMut(&Joints) -> bool,
+    ) -> Option<bool> {
+        let Active::Line {
+            path,
+            law: LineLaw::Timed { profile, scale, .. },
+            last,
+            t0,
+            then: Then::End,
+            ..
+        } = &self.active
+        else {
+            return None;
+        };
+        let now = self.k as f64 * self.settings.period_s;
+        let (u, _, _) = profile.state((now - t0).max(0.0) * scale);
+        let u = u.clamp(0.0, 1.0);
+        let left = path.length_mm() * (1.0 - u);
+        let n = (left / step_mm.max(0.1)).ceil().clamp(1.0, 1e6) as u32;
+        let mut reference = *last;
+        for i in 1..=n {
+            let v = u + (1.0 - u) * f64::from(i) / f64::from(n);
+            let q = path.joints_at(&self.robot, v, &reference)?;
+            if !visit(&q) {
+                return Some(false);
+            }
+            reference = q;
+        }
+        Some(true)
+    }
+
     /// The path parameter of the move under way and its first two time derivatives after the
     /// last period, in real time [1, 1/s, 1/s²]: a joint move's fraction of its distance
     /// (phase-synchronised or single-axis, default profile), a straight line's u (default

@@ -22,7 +22,7 @@ use crate::velocity_generator::plan_order;
 
 /// Where a motion would touch the cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Touch {
+pub struct Touch {
     /// What touches what.
     pub contact: Contact,
     /// Where the arm is then [deg, mm].
@@ -31,6 +31,9 @@ pub(crate) struct Touch {
     pub fraction: f64,
     /// On the brake of a stop at that point, not on the motion itself.
     pub brake: bool,
+    /// Found walking the path's geometry ahead of period `fraction` (the walk's steps so
+    /// far), not playing it; the fraction is made right at the end.
+    walked: Option<u32>,
 }
 
 /// What the checks have cost so far.
@@ -46,7 +49,7 @@ pub struct CheckFigures {
 
 /// The Command Interpreter's cell check: a generator to play motions on and the cell it
 /// reads from the cell service.
-pub(crate) struct CellCheck {
+pub struct CellCheck {
     generator: Box<Generator>,
     view: MailboxReader<CellView>,
     offsets: [f64; MAX_BLADES],
@@ -58,15 +61,15 @@ pub(crate) struct CellCheck {
 /// end: 20 minutes at 10 ms).
 const MAX_PERIODS: u64 = 120_000;
 
+/// The steps of the TCP in which the geometry of a line or path is walked [mm]; the sweep
+/// halves them where the arm comes near the cell.
+const PATH_STEP_MM: f64 = 5.0;
+
 impl CellCheck {
     /// A check playing motions on `generator` (a copy of the Velocity Generator's, same robot
     /// and settings) against the cell `view` publishes, for a hand with blades at `offsets`
     /// [mm] (the hand's, 0, first).
-    pub(crate) fn new(
-        generator: Generator,
-        view: MailboxReader<CellView>,
-        offsets: &[f64],
-    ) -> CellCheck {
+    pub fn new(generator: Generator, view: MailboxReader<CellView>, offsets: &[f64]) -> CellCheck {
         let mut o = [0.0; MAX_BLADES];
         for (d, s) in o.iter_mut().zip(offsets) {
             *d = *s;
@@ -81,7 +84,7 @@ impl CellCheck {
     }
 
     /// What the checks have cost so far.
-    pub(crate) fn figures(&self) -> CheckFigures {
+    pub fn figures(&self) -> CheckFigures {
         self.figures
     }
 
@@ -99,7 +102,7 @@ impl CellCheck {
     }
 
     /// The height the arm travels at through the cell, if any [mm].
-    pub(crate) fn travel_z(&mut self, robot: &Robot, sensed: [bool; MAX_BLADES]) -> Option<f64> {
+    pub fn travel_z(&mut self, robot: &Robot, sensed: [bool; MAX_BLADES]) -> Option<f64> {
         let view = *self.view.read();
         let blades = self.blades(&view, sensed);
         view.model.travel_z(robot, &blades[..self.blades])
@@ -107,7 +110,7 @@ impl CellCheck {
 
     /// What a body of the arm at `end` touches, of what it did not touch at `start` already
     /// (a motion may take the arm out of what a fault left it touching).
-    pub(crate) fn target_touch(
+    pub fn target_touch(
         &mut self,
         robot: &Robot,
         start: &Joints,
@@ -134,7 +137,7 @@ impl CellCheck {
     }
 
     /// Whether there is a cell to check against.
-    pub(crate) fn active(&mut self) -> bool {
+    pub fn active(&mut self) -> bool {
         !self.view.read().model.is_empty()
     }
 
@@ -146,7 +149,7 @@ impl CellCheck {
     /// something, as an operator must.
     // The touch is returned by value on purpose: boxing it would allocate.
     #[allow(clippy::result_large_err)]
-    pub(crate) fn check(
+    pub fn check(
         &mut self,
         robot: &Robot,
         order: &MoveOrder,
@@ -187,13 +190,44 @@ impl CellCheck {
             let mut k = 0u64;
             let period_s = g.settings().period_s;
             while g.is_moving() && k < MAX_PERIODS {
+                // What is left of a line or a path with nothing after it is its geometry
+                // alone: walked in steps of the TCP, not played period by period.
+                let mut found = None;
+                let mut walked = 0u32;
+                let walk = g.walk_path_ahead(PATH_STEP_MM, &mut |q| {
+                    walked += 1;
+                    match sweep.to(q) {
+                        Ok(()) => {
+                            last = *q;
+                            true
+                        }
+                        Err(c) => {
+                            found = Some(c);
+                            false
+                        }
+                    }
+                });
+                match (walk, found) {
+                    (Some(_), Some(c)) => {
+                        let mut t = touch(c, k as f64, false);
+                        t.walked = Some(walked);
+                        return Err(t);
+                    }
+                    (Some(_), None) => return Ok(last),
+                    (None, _) => {}
+                }
                 // A stop in this period brakes from the state after the last one.
                 if !g.state().brakes_on_path() {
                     let room = sweep.min_clearance() - margin;
                     let reach = brake_reach(robot, &levers, &before, &last, period_s);
                     if room <= reach {
                         let at = g.state();
-                        for limits in [BrakeLimits::Full, BrakeLimits::Override] {
+                        // STOP's brake is ESTOP's at full speed.
+                        let kinds = if order.speed_pct >= 100.0 { 1 } else { 2 };
+                        for limits in [BrakeLimits::Full, BrakeLimits::Override]
+                            .into_iter()
+                            .take(kinds)
+                        {
                             let mut brake = sweep;
                             let base = brake.evaluations();
                             brake.restart();
@@ -234,7 +268,25 @@ impl CellCheck {
                 self.generator.next_period(&mut period);
                 total += 1;
             }
-            t.fraction = if total > 0 { done / total as f64 } else { 0.0 };
+            t.fraction = if total == 0 {
+                0.0
+            } else if let Some(steps) = t.walked {
+                // How far along the walk, of the periods left when it began.
+                let mut rest = 0u32;
+                self.generator.abandon_at(start);
+                let _ = plan_order(&mut self.generator, order);
+                for _ in 0..done as u64 {
+                    self.generator.next_period(&mut period);
+                }
+                let _ = self.generator.walk_path_ahead(PATH_STEP_MM, &mut |_| {
+                    rest += 1;
+                    true
+                });
+                let share = f64::from(steps) / f64::from(rest.max(1));
+                (done + share * (total as f64 - done)) / total as f64
+            } else {
+                done / total as f64
+            };
             t
         });
         self.generator.abandon_at(start);
@@ -252,6 +304,7 @@ fn touch(c: SweepContact, fraction: f64, brake: bool) -> Touch {
         joints: c.joints,
         fraction,
         brake,
+        walked: None,
     }
 }
 

@@ -24,7 +24,7 @@ use wrc_rt::{CycleContext, Release, Task};
 
 mod admission;
 mod blend;
-mod clearance;
+pub mod clearance;
 mod debug;
 mod job;
 mod motion;
@@ -33,7 +33,6 @@ mod requests;
 mod reset;
 mod urgent;
 
-pub use clearance::CheckFigures;
 pub use urgent::UrgentPath;
 
 use crate::messages::{
@@ -219,10 +218,11 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// What the cell checks have cost so far (zeros without a cell).
-    pub fn check_figures(&self) -> CheckFigures {
-        self.cell
-            .as_ref()
-            .map_or_else(CheckFigures::default, clearance::CellCheck::figures)
+    pub fn check_figures(&self) -> clearance::CheckFigures {
+        self.cell.as_ref().map_or_else(
+            clearance::CheckFigures::default,
+            clearance::CellCheck::figures,
+        )
     }
 
     /// MOVING, STOPPING and HELD end when nothing is open, queued, in flight or stopping

@@ -40,7 +40,7 @@ fuzz_target!(|data: &[u8]| {
     let _ = stations.validate(&robot);
     for s in &stations {
         assert!(s.check().is_ok(), "a parsed station fails its own check");
-        assert!(!stn_line(s).contains('\n'), "an STN line holds an LF");
+        assert!(!stn_line(s, 150.0).contains('\n'), "an STN line holds an LF");
         for slot in [0, 1, s.slots, s.slots.saturating_add(1)] {
             assert_eq!(plan_get(s, slot).is_ok(), s.has_slot(slot), "GET {slot}");
             assert_eq!(plan_put(s, slot).is_ok(), s.has_slot(slot), "PUT {slot}");

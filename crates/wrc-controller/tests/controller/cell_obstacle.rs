@@ -135,3 +135,46 @@ fn free_moves_anywhere_are_refused_or_run_without_touching_the_cell() {
     );
     assert!(tally.stopped >= 6, "{tally:?}");
 }
+
+/// A transfer keeps its own way into the station, along its line; its move there is checked
+/// like any PTP: BF1, entered with the left elbow, from where the right elbow stands (the
+/// elbow's turn swings the stretched arm through the stations at their height) goes round
+/// through the travel height, and nothing touches the cell.
+#[test]
+fn a_transfer_whose_move_would_sweep_through_the_cell_goes_round() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    assert!(host.motion(3, "MAP LP1").starts_with("INF 3"));
+    assert!(host.motion(4, "MAP BF1").starts_with("INF 4"));
+    assert_eq!(host.motion(5, "GET LP1 1"), "INF 5 W1");
+    // Home with the wafer: the right elbow.
+    assert_eq!(host.motion(9, "HOME"), "INF 9");
+    let sides = host.world().side_collisions();
+    let (start, _, _) = host.where_();
+    assert!(start[1] > 0.0, "the right elbow: {start:?}");
+    host.sim.record_pulses(true);
+    assert_eq!(host.ask("6 PUT BF1 3"), "ACK 6");
+    assert_eq!(host.reply(), "INF 6 W1");
+    // The elbow turned over (through the stretched arm) at the travel height, under every
+    // station: j2 [pulse] within ±30 deg only with z [pulse] at most the travel height.
+    let pulses = host.sim.take_pulses();
+    let swing: Vec<(i64, i64)> = pulses
+        .iter()
+        .map(|(_, p)| (p[1], p[3]))
+        .filter(|(j2, _)| j2.abs() < 30_000)
+        .collect();
+    assert!(!swing.is_empty(), "the elbow turned over");
+    assert!(swing.iter().all(|&(_, z)| z <= 7_300), "{swing:?}");
+    assert_eq!(host.motion(7, "GET BF1 3"), "INF 7 W1");
+    assert_eq!(host.motion(8, "PUT LP1 1"), "INF 8 W1");
+    let world = host.world();
+    assert_eq!(
+        world.side_collisions(),
+        sides,
+        "{:?}",
+        world.last_side_collision()
+    );
+    assert!(host.hand_empty());
+    assert_eq!(&host.truth("LP1")[..1], "1");
+}

@@ -312,10 +312,7 @@ fn a_put_interrupted_at_each_record_after_a_power_loss() {
 /// wafer may still be on the blade or in the slot.
 #[test]
 fn no_judgement_takes_a_wafer_out_of_the_map() {
-    for (kind, plan) in [
-        (TransferKind::Get, &GET[..]),
-        (TransferKind::Put, &PUT[..]),
-    ] {
+    for (kind, plan) in [(TransferKind::Get, &GET[..]), (TransferKind::Put, &PUT[..])] {
         let t = transfer(kind);
         for n in 0..=2 * plan.len() {
             for e in [VALVE_OFF, HELD, NOT_HELD] {
@@ -353,7 +350,10 @@ fn a_swap_is_judged_by_its_current_half_and_a_closed_or_empty_journal_by_nothing
     // Released at the seat: the PUT half's line in was its GET half's.
     assert_eq!((j.on_blade, j.in_slot, j.inside), (No, Yes, true));
     assert_eq!(
-        (judge(&all, NOT_HELD).on_blade, judge(&all, NOT_HELD).in_slot),
+        (
+            judge(&all, NOT_HELD).on_blade,
+            judge(&all, NOT_HELD).in_slot
+        ),
         (Perhaps, Perhaps)
     );
     all.push(Record::Done {

@@ -80,12 +80,18 @@ impl IoConfig {
         n < SIGNALS && self.guarded_outputs & (1 << n) != 0
     }
 
-    /// Every signal the configuration names: each blade's vacuum valve (guarded) and sensor,
-    /// the mapping sensor, the E-stop button (`estop_input`), the outputs
-    /// `guarded_outputs` lists, and `[io] names` (whose name wins over a role's). Outputs
-    /// first, then inputs, each by number. The stations' interlock inputs are the stations
-    /// file's; the controller adds them.
-    pub fn signals(&self, hand: &HandConfig, estop_input: Option<u8>) -> Vec<Signal> {
+    /// Every named signal: each blade's vacuum valve (guarded) and sensor, the mapping
+    /// sensor, the E-stop button (`estop_input`), the stations' interlock inputs
+    /// (`interlocks`: each input and its name, e.g. `interlock LP1 LP2`, from the stations
+    /// file), the outputs `guarded_outputs` lists, and `[io] names`, whose name wins over a
+    /// role's (a signal with two roles shows both, joined by a comma). Outputs first, then
+    /// inputs, each by number.
+    pub fn signals(
+        &self,
+        hand: &HandConfig,
+        estop_input: Option<u8>,
+        interlocks: &[(u8, String)],
+    ) -> Vec<Signal> {
         let mut named: BTreeMap<(SignalDir, u8), String> = BTreeMap::new();
         let mut add = |dir: SignalDir, n: u8, name: String| {
             named
@@ -118,6 +124,11 @@ impl IoConfig {
         add(SignalDir::Out, hand.mapping_output, "mapping sensor".into());
         if let Some(n) = estop_input {
             add(SignalDir::In, n, "E-stop button".into());
+        }
+        for (n, name) in interlocks {
+            if *n < SIGNALS {
+                add(SignalDir::In, *n, name.clone());
+            }
         }
         for n in 0..SIGNALS {
             if self.lists_guarded(n) && !named.contains_key(&(SignalDir::Out, n)) {
@@ -263,7 +274,7 @@ mod tests {
     fn the_default_names_the_hands_signals_and_the_estop_button() {
         let c = Config::embedded_default();
         assert_eq!(c.io, IoConfig::default());
-        let lines: Vec<String> = c.signals().iter().map(line).collect();
+        let lines: Vec<String> = c.signals(&[]).iter().map(line).collect();
         assert_eq!(
             lines,
             [
@@ -274,7 +285,7 @@ mod tests {
             ]
         );
         let dual = Config::embedded_dual_blade();
-        let lines: Vec<String> = dual.signals().iter().map(line).collect();
+        let lines: Vec<String> = dual.signals(&[]).iter().map(line).collect();
         assert_eq!(
             lines,
             [
@@ -295,7 +306,7 @@ mod tests {
         )
         .unwrap();
         assert!(c.io.lists_guarded(7) && c.io.lists_guarded(3) && !c.io.lists_guarded(0));
-        let lines: Vec<String> = c.signals().iter().map(line).collect();
+        let lines: Vec<String> = c.signals(&[]).iter().map(line).collect();
         assert_eq!(
             lines,
             [
@@ -306,6 +317,24 @@ mod tests {
                 "in 0 - vacuum OK",
                 "in 5 - door closed",
                 "in 15 - E-stop button",
+            ]
+        );
+        // The stations' interlocks, and an [io] name over a role's.
+        let interlocks = [
+            (14, "interlock LP1 LP2".to_string()),
+            (15, "interlock PM1".into()),
+        ];
+        let lines: Vec<String> =
+            c.io.signals(&c.hand, c.estop_input(), &interlocks)
+                .iter()
+                .map(line)
+                .filter(|l| l.starts_with("in 1"))
+                .collect();
+        assert_eq!(
+            lines,
+            [
+                "in 14 - interlock LP1 LP2",
+                "in 15 - E-stop button, interlock PM1"
             ]
         );
         // The table form reads the same.

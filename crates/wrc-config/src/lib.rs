@@ -160,9 +160,10 @@ impl Config {
         self.boards.first().and_then(|b| b.sim.estop_input)
     }
 
-    /// Every signal the configuration names ([`IoConfig::signals`]).
-    pub fn signals(&self) -> Vec<Signal> {
-        self.io.signals(&self.hand, self.estop_input())
+    /// Every signal the configuration names, with the stations' interlock inputs
+    /// (`interlocks`: each input and its name; [`IoConfig::signals`]).
+    pub fn signals(&self, interlocks: &[(u8, String)]) -> Vec<Signal> {
+        self.io.signals(&self.hand, self.estop_input(), interlocks)
     }
 
     /// Load `path`, or the embedded default when `path` is `None`.

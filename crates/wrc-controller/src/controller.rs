@@ -362,6 +362,7 @@ pub(crate) fn assemble<H: Host>(
         reason,
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone())
+    .with_signals(config)
     .with_shared(shared.clone());
     let store = match &options.cell {
         Some(files) => store.with_cell(
@@ -523,8 +524,9 @@ pub(crate) fn assemble<H: Host>(
             store: links,
         },
     );
-    interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
+    interpreter.estop_input = config.estop_input();
     interpreter.hand = config.hand;
+    interpreter.name_outputs(&config.signals(&[]), config.io.guarded_outputs);
     let ci_applied = ci_wake.notifier();
     host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
     // Released by every output request, so a vacuum valve opens at once; it releases the

@@ -25,6 +25,7 @@ use wrc_rt::{CycleContext, Release, Task};
 mod admission;
 mod blend;
 mod debug;
+mod guard;
 mod job;
 mod motion;
 mod program;
@@ -150,9 +151,15 @@ pub struct CommandInterpreter<B: MotionBoard> {
     pub hand: wrc_config::HandConfig,
     job: Option<job::RunningJob>,
     scan: wrc_board::MappingScan,
-    /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
-    /// hand moved outside a job.
-    hand_dropped: u32,
+    /// Outside a job: the watch of each blade's vacuum sensor while the map has a certain
+    /// wafer on it (index: [`wrc_cell::Blade::index`]).
+    blade_watch: [job::BladeWatch; wrc_cell::MAX_BLADES],
+    /// Job ends told to the cell service ([`crate::messages::cell_job::CellEvent::Ended`]):
+    /// until it has settled as many ([`Shared::jobs_settled`]), the blades outside a job are
+    /// not watched (the map may not show yet what the job left).
+    jobs_ended: u32,
+    /// The outputs the configuration guards and the outputs' names (`OUT`'s 141).
+    output_guard: guard::OutputGuard,
     /// The hand may be inside a station (found at start-up by the cell service): HOME and
     /// RETRACT take it straight out first.
     retract: Option<crate::messages::cell_job::RetractPlan>,
@@ -194,7 +201,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             hand: wrc_config::HandConfig::default(),
             job: None,
             scan: wrc_board::MappingScan::default(),
-            hand_dropped: 0,
+            blade_watch: Default::default(),
+            jobs_ended: 0,
+            output_guard: guard::OutputGuard::default(),
             retract: None,
             retract_ticket: None,
         }

@@ -710,7 +710,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.vm.resume(Resume::Ok);
                 return true;
             }
-            R::Out { n, on } => Command::Out { n, on },
+            // A program never forces a guarded output: that is an operator's decision.
+            R::Out { n, on } => Command::Out {
+                n,
+                on,
+                force: false,
+            },
             R::Speed { pct } => Command::Speed(pct),
             R::Accel { pct } => {
                 if let Some(p) = self.program.as_mut() {

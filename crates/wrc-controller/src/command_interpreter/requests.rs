@@ -252,11 +252,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self.buf.ack(to, body);
                 deliver(&self.io.out, from, line);
             }
-            Command::Out { n, on } => {
-                self.shared.set_output(n, on);
-                let line = self.buf.ack(to, "");
-                deliver(&self.io.out, from, line);
-            }
+            Command::Out { n, on, force } => self.out_request(from, to, n, on, force),
             Command::Wait => {
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);

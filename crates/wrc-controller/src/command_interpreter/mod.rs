@@ -54,6 +54,10 @@ pub const PROGRAM_BUDGET: u32 = 2_000;
 pub const PROGRAM_REQUESTS: u32 = 16;
 /// How long a RESET may wait for the board to clear its faults before it is refused [ns].
 pub const RESET_TIMEOUT_NS: u64 = 1_000_000_000;
+/// How long a RESET sent while a stop still brakes waits for the arm to stand still before
+/// it is refused [ns]: far longer than any brake (an ESTOP's at full limits takes well under
+/// a second), short enough that an operator is not left without an answer.
+pub const RESET_REST_TIMEOUT_NS: u64 = 5_000_000_000;
 
 /// Send `line` to `to`; replies to the running program need not be sent (its refusals are
 /// recorded by [`CommandInterpreter::nak`]).
@@ -128,8 +132,9 @@ pub struct CommandInterpreter<B: MotionBoard> {
     planned_end: Joints,
     buf: ReplyBuf,
     feedback: wrc_board::Feedback,
-    /// A RESET the board has not yet carried out: who asked, and when it is refused [ns].
-    reset_pending: Option<(SourceId, ReplyTo, u64)>,
+    /// A RESET not answered yet: waiting for a stop's brake to end, or for the board to
+    /// carry it out.
+    reset_pending: Option<reset::PendingReset>,
     /// Input bit of the E-stop circuit (board 0), if the cell has one.
     pub estop_input: Option<u8>,
     vm: Vm,

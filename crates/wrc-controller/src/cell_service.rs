@@ -151,16 +151,17 @@ pub struct CellService {
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum SettleEnded {
     /// Nothing to settle.
     No,
     /// Waiting for the arm to stand still (a stop's brake may still carry the hand through
     /// a slot's support height, picking or leaving the wafer).
     UntilRest,
-    /// Standing still: settle from the I/O Monitor's reading after this count (the sensor
-    /// answers a pick or a release after its delay, at most `vacuum_settle_ms`).
-    UntilSample(u64),
+    /// Standing still, the hand where the stop left it: settle from the I/O Monitor's
+    /// reading after this count (the sensor answers a pick or a release after its delay, at
+    /// most `vacuum_settle_ms`).
+    UntilSample(u64, wrc_robot::Pose),
 }
 
 impl CellService {
@@ -541,6 +542,12 @@ impl CellService {
             .ok_or((Code::Internal, "the station list changed".to_string()))?;
         let mut job = CellJob::new(from, to, kind, station.name);
         job.station_index = index as u32;
+        // The job watches the vacuum of every blade that holds a certain wafer, a MAP's too:
+        // a wafer lost on the way is 213, and the map learns it at the job's end.
+        job.holding = Blade::ALL
+            .into_iter()
+            .filter(|b| self.wafers.hand_of(*b).is_some() && !self.wafers.is_uncertain(*b))
+            .fold(0, |m, b| m | 1 << b.index());
         if kind == JobKind::Map {
             job.slot = station.slots;
             let here = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
@@ -677,10 +684,6 @@ impl CellService {
         }
         job.slot = slot;
         job.wafer = transfer.wafer.0;
-        job.holding = Blade::ALL
-            .into_iter()
-            .filter(|b| self.wafers.hand_of(*b).is_some())
-            .fold(0, |m, b| m | 1 << b.index());
         // The pending transfer is on disk before anything moves.
         self.wafers
             .begin(transfer)
@@ -757,7 +760,8 @@ impl CellService {
                 }
                 if !started {
                     // Refused before anything moved: judged now, by the same rules.
-                    self.settle_ended_transfer();
+                    let here = self.hand_pose();
+                    self.settle_ended_transfer(&here);
                     self.job_settled();
                 } else {
                     // Judged by the journal and the vacuum sensors, exactly as after a
@@ -910,15 +914,18 @@ impl CellService {
         let samples = self.shared.io_samples.load(Ordering::Acquire);
         match self.settle_ended {
             SettleEnded::UntilRest if self.stands_still() => {
-                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples);
+                // Where the stop left the hand: the settling judges from it, whatever moves
+                // the arm meanwhile.
+                let rest = self.hand_pose();
+                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples, rest);
             }
-            SettleEnded::UntilSample(after)
+            SettleEnded::UntilSample(after, rest)
                 if samples > after
                     && self.reconciled
                     && !self.shared.board_dead.load(Ordering::Acquire) =>
             {
                 self.settle_ended = SettleEnded::No;
-                self.settle_ended_transfer();
+                self.settle_ended_transfer(&rest);
                 self.job_settled();
             }
             _ => {}

@@ -266,7 +266,7 @@ impl CellService {
     }
 
     /// Where the hand is (the board's commanded position).
-    fn hand_pose(&self) -> Pose {
+    pub(super) fn hand_pose(&self) -> Pose {
         let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
         self.robot.forward(&joints)
     }
@@ -423,14 +423,37 @@ impl CellService {
     /// transfer found pending at start-up (a crash, a power loss) and one that ended
     /// abnormally or was refused while the controller ran. Returns what left places
     /// uncertain, for the operator (empty when nothing did).
-    pub(super) fn settle_pending(&mut self, records: &[Record]) -> Vec<String> {
+    ///
+    /// `rest` is where the hand stood still when the transfer ended (at start-up: where it
+    /// stands now). A `PUT` moves its wafer only inward until it releases it at the seat, so
+    /// a wafer never released whose hand came to rest outside the station cannot have gone
+    /// into the slot, whatever the journal's line in had begun.
+    pub(super) fn settle_pending(&mut self, records: &[Record], rest: &Pose) -> Vec<String> {
         let Some(t) = self.wafers.pending().copied() else {
             return Vec::new();
         };
         let ev = self.evidence(t.blade);
         let j = judge(records, ev);
         let (on_blade, in_slot, text) = if j.open() && j.transfer == Some(t) {
-            (j.on_blade, j.in_slot, j.text.clone())
+            let short = t.kind == TransferKind::Put
+                && j.in_slot == Maybe::Perhaps
+                && j.on_blade != Maybe::No
+                && self
+                    .stations
+                    .get(t.station.as_str())
+                    .is_some_and(|s| !s.hand_inside(rest));
+            if short {
+                (
+                    j.on_blade,
+                    Maybe::No,
+                    format!(
+                        "{}; the hand stopped short of {}, outside it: the wafer cannot be in the slot",
+                        j.text, t.station
+                    ),
+                )
+            } else {
+                (j.on_blade, j.in_slot, j.text.clone())
+            }
         } else if !j.open() {
             // The journal never opened it: no step had begun, nothing moved. The sensor
             // confirms a PUT's wafer still held; one it does not see stays uncertain on
@@ -493,7 +516,7 @@ impl CellService {
     /// A transfer that ended abnormally (once the arm stands still and the sensor has
     /// answered) or was refused before it moved: settle it from its journal and the sensors
     /// ([`CellService::settle_pending`]), save, and tell what it left uncertain.
-    pub(super) fn settle_ended_transfer(&mut self) {
+    pub(super) fn settle_ended_transfer(&mut self, rest: &Pose) {
         let records = match read_journal(&self.journal_path) {
             Ok(j) => j.records,
             Err(e) => {
@@ -504,7 +527,7 @@ impl CellService {
                 Vec::new()
             }
         };
-        let notes = self.settle_pending(&records);
+        let notes = self.settle_pending(&records, rest);
         self.tell_uncertain(notes);
     }
 
@@ -615,7 +638,8 @@ impl CellService {
         let blade = self.wafers.pending().map_or(Blade::A, |t| t.blade);
         let j = judge(&journal.records, self.evidence(blade));
         if pending {
-            notes.extend(self.settle_pending(&journal.records));
+            let now = self.hand_pose();
+            notes.extend(self.settle_pending(&journal.records, &now));
         } else if j.open() {
             // The map had committed it but the journal was not closed yet: a GET whose hand
             // had not left the slot when the vacuum went off may have set its wafer back.

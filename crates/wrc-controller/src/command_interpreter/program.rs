@@ -304,9 +304,16 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// Whether the robot is safe for an error handler: it stands still, nothing of the
-    /// program's moves or brakes, and no wafer job runs.
+    /// program's moves or brakes, no wafer job runs, and the cell service has settled every
+    /// job that ended (a handler that asks `SLOT` after a failed `GET` reads the map as the
+    /// journal and the sensors judged the failure, not as it was before).
     fn safe_for_handler(&self) -> bool {
         self.job.is_none()
+            && self
+                .shared
+                .jobs_settled
+                .load(std::sync::atomic::Ordering::Acquire)
+                == self.jobs_ended
             && self.stands_still()
             && !self
                 .tickets

@@ -754,7 +754,8 @@ impl CellService {
                 if matches!(kind, JobKind::Map | JobKind::Sense) {
                     return self.job_settled();
                 }
-                if self.wafers.pending().is_none() {
+                // Finished, or committed and nothing went wrong after: nothing to judge.
+                if self.wafers.pending().is_none() && (code.is_none() || self.jjob.is_none()) {
                     self.journal_close(wrc_cell::journal::Closed::Committed);
                     return self.job_settled();
                 }

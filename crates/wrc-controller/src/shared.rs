@@ -92,10 +92,12 @@ pub struct Shared {
     /// number in the low 32 bits, with [`BLADE_UNCERTAIN`] when the map is not sure of it
     /// and [`BLADE_PENDING`] when a transfer under way takes or gives it with that blade.
     pub blade_wafers: [AtomicU64; wrc_cell::MAX_BLADES],
-    /// How many job ends ([`crate::messages::cell_job::CellEvent::Ended`]) the cell service
-    /// has settled: while it is behind the Command Interpreter's own count, the map (and
-    /// `hand_wafers`) may not yet show what the job left, and the watch of the blades outside
-    /// a job waits.
+    /// How many wafer jobs the Command Interpreter has ended and told the cell service of
+    /// ([`crate::messages::cell_job::CellEvent::Ended`]).
+    pub jobs_ended: AtomicU32,
+    /// How many of those the cell service has settled: while it is behind
+    /// [`Shared::jobs_ended`], the map (and `hand_wafers`) may not yet show what the last job
+    /// left ([`Shared::map_settled`]).
     pub jobs_settled: AtomicU32,
     /// The speed [%] a motion may have while a blade perhaps holds a wafer its vacuum does
     /// not clamp (after a power loss), set by the cell service; 0: no limit.
@@ -151,6 +153,7 @@ impl Default for Shared {
             board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
             blade_wafers: std::array::from_fn(|_| AtomicU64::new(0)),
+            jobs_ended: AtomicU32::new(0),
             jobs_settled: AtomicU32::new(0),
             careful_pct: AtomicU32::new(0),
             journal_waits: AtomicU64::new(0),
@@ -173,6 +176,16 @@ impl Shared {
     /// Set the state.
     pub fn set_state(&self, state: RobotState) {
         self.state.store(state.to_u8(), Ordering::Release);
+    }
+
+    /// Whether the cell service has settled every wafer job that ended: the wafer map shows
+    /// what the last one left (a transfer that ended abnormally is settled once the arm
+    /// stands still and the vacuum sensor has answered). The watch of the blades outside a
+    /// job and a program's error handler wait for it.
+    pub fn map_settled(&self) -> bool {
+        // The count settled first: what the service published before it is then visible.
+        let settled = self.jobs_settled.load(Ordering::Acquire);
+        settled == self.jobs_ended.load(Ordering::Acquire)
     }
 
     /// Request a stop of `kind`; returns the new stop epoch. The kind is raised before the

@@ -527,8 +527,53 @@ impl CellService {
                 Vec::new()
             }
         };
-        let notes = self.settle_pending(&records, rest);
+        let notes = if self.wafers.pending().is_some() {
+            self.settle_pending(&records, rest)
+        } else {
+            self.settle_committed(&records)
+        };
         self.tell_uncertain(notes);
+    }
+
+    /// A transfer the map had committed ended abnormally before its job did (a wafer lost
+    /// on the line out): judged as after a power loss, a GET whose hand had not left the
+    /// slot when its wafer was lost may have set it back there: the slot and the blade
+    /// become uncertain. The journal is closed. Returns what left places uncertain.
+    fn settle_committed(&mut self, records: &[Record]) -> Vec<String> {
+        let mut notes = Vec::new();
+        let blade = self.jjob_transfer_blade(records);
+        let j = judge(records, self.evidence(blade));
+        if let Some(t) = j.transfer {
+            let back = t.kind == TransferKind::Get
+                && self.wafers.hand_of(t.blade) == Some(t.wafer)
+                && j.in_slot == Maybe::Perhaps
+                && self.wafers.doubt_back_in_slot(t.blade, t.slot_location());
+            if back {
+                tracing::warn!("wrc: {}", j.text);
+                notes.push(j.text.clone());
+            }
+        }
+        self.jjob = None;
+        let how = if notes.is_empty() {
+            Closed::Committed
+        } else {
+            Closed::Uncertain
+        };
+        self.journal_append(&Record::Close(how));
+        notes
+    }
+
+    /// The blade of the journal's open transfer (a SWAP's current half), or blade A.
+    fn jjob_transfer_blade(&self, records: &[Record]) -> Blade {
+        judge(
+            records,
+            Evidence {
+                valve_on: false,
+                sensed: false,
+            },
+        )
+        .transfer
+        .map_or(Blade::A, |t| t.blade)
     }
 
     /// Save the map and tell every connection; when `notes` say what left places

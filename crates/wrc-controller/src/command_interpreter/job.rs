@@ -546,7 +546,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 w.armed = true;
             }
         }
-        let settled = self.shared.jobs_settled.load(Ordering::Acquire) == self.jobs_ended;
+        let settled = self.map_settled();
         let watching = self.job.is_none()
             && settled
             && self.shared.io_ready.load(Ordering::Acquire)
@@ -602,7 +602,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// the service has settled as many).
     fn send_ended(&mut self, ended: CellEvent) {
         if self.io.store.cell_events.try_send(ended).is_ok() {
-            self.jobs_ended = self.jobs_ended.wrapping_add(1);
+            self.shared.jobs_ended.fetch_add(1, Ordering::AcqRel);
         }
     }
 

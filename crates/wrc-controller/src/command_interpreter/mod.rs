@@ -159,10 +159,6 @@ pub struct CommandInterpreter<B: MotionBoard> {
     /// Outside a job: the watch of each blade's vacuum sensor while the map has a certain
     /// wafer on it (index: [`wrc_cell::Blade::index`]).
     blade_watch: [job::BladeWatch; wrc_cell::MAX_BLADES],
-    /// Job ends told to the cell service ([`crate::messages::cell_job::CellEvent::Ended`]):
-    /// until it has settled as many ([`Shared::jobs_settled`]), the blades outside a job are
-    /// not watched (the map may not show yet what the job left).
-    jobs_ended: u32,
     /// The outputs the configuration guards and the outputs' names (`OUT`'s 141).
     output_guard: guard::OutputGuard,
     /// The hand may be inside a station (found at start-up by the cell service): HOME and
@@ -207,7 +203,6 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             job: None,
             scan: wrc_board::MappingScan::default(),
             blade_watch: Default::default(),
-            jobs_ended: 0,
             output_guard: guard::OutputGuard::default(),
             retract: None,
             retract_ticket: None,
@@ -242,6 +237,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.shared.in_flight.load(Ordering::Acquire) == 0
             && self.shared.stopped_epoch.load(Ordering::Acquire)
                 == self.shared.stop_epoch.load(Ordering::Acquire)
+    }
+
+    /// Whether the cell service has settled every job this task ended
+    /// ([`Shared::map_settled`]).
+    pub(super) fn map_settled(&self) -> bool {
+        self.shared.map_settled()
     }
 
     /// The alarm's code in ERROR or ESTOP.

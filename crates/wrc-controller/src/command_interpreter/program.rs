@@ -309,11 +309,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     /// journal and the sensors judged the failure, not as it was before).
     fn safe_for_handler(&self) -> bool {
         self.job.is_none()
-            && self
-                .shared
-                .jobs_settled
-                .load(std::sync::atomic::Ordering::Acquire)
-                == self.jobs_ended
+            && self.map_settled()
             && self.stands_still()
             && !self
                 .tickets

@@ -5,7 +5,6 @@
 //! stations); named points, POINT/POINTS and TEACH; INCLUDE and CALL PROGRAM through the
 //! store; the debugger's verbs; blended motions that never stop, and arcs.
 
-use wrc_board::wrc_cell::World;
 use wrc_controller::simulation::SimCellFrom;
 
 use crate::vhost::{repo, VHost};
@@ -43,11 +42,7 @@ fn run(host: &mut VHost) -> String {
 /// Replace the simulated cell's ground truth by `edit` of its world file's text (the
 /// wafers an operator took away or put back by hand).
 fn edit_world(host: &VHost, edit: impl FnOnce(&str) -> String) {
-    let mut board = host.sim.board(0).unwrap();
-    let cell = board.take_cell().unwrap();
-    let text = edit(&cell.world().to_text());
-    let world = World::from_text(&text, cell.stations()).unwrap();
-    board.attach_cell(cell.with_world(world)).unwrap();
+    host.edit_world(edit);
 }
 
 /// The state field of `STATUS`.

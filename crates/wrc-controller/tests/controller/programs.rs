@@ -761,3 +761,31 @@ fn a_held_program_move_resumes_at_its_own_speed_and_acceleration() {
     let (j, _, _) = host.where_();
     assert!((j[0] - 150.0).abs() < 0.01, "{j:?}");
 }
+
+/// A program's `OUT` goes through the same guard as a host's: the vacuum valve of a blade
+/// that holds a wafer cannot be switched off (141, an error its TRY may catch), and a
+/// program has no FORCE. The wafer stays held, in the map and the cell.
+#[test]
+fn a_programs_out_of_the_valve_of_a_held_wafer_is_refused_with_141() {
+    let mut host = ready(
+        "\
+MAP \"LP1\"
+GET \"LP1\", 1
+TRY
+  OUT 0, 0
+  PRINT \"not reached\"
+CATCH 141
+  PRINT \"guarded\", ERR, HAND$()
+ENDTRY
+PUT \"LP1\", 1
+PRINT \"back\", WAFER$(\"LP1\", 1)
+",
+    );
+    assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
+    assert_eq!(printed(&host), ["guarded 141 W1", "back W1"]);
+    assert!(!host
+        .seen
+        .iter()
+        .any(|l| l.starts_with("EVT ERROR") || l.starts_with("EVT RECOVERY forced")));
+    assert_eq!(host.truth("LP1"), "1".repeat(25));
+}

@@ -765,3 +765,33 @@ fn a_get_stopped_right_after_its_pick_is_settled_once_the_sensor_has_answered() 
     assert!(!host.hand_empty());
     assert_eq!(host.truth("LP1"), "0111111111111111111111111");
 }
+
+/// `ROBOT` names the signals the configuration and the stations know, for the GUI: one
+/// `EVT SIGNAL <in|out> <n> <guarded|-> <name>` line each, after the axes, before the ACK
+/// (the format is a contract with the GUI; docs/protocol.md "Robot and task queries").
+#[test]
+fn robot_names_the_signals_after_the_axes_and_before_its_ack() {
+    let mut host = VHost::start();
+    host.seen.clear();
+    let ack = host.ask("1 ROBOT");
+    assert!(ack.starts_with("ACK 1 name=paper-300mm "), "{ack}");
+    let signals: Vec<&str> = host
+        .seen
+        .iter()
+        .filter(|l| l.starts_with("EVT SIGNAL "))
+        .map(String::as_str)
+        .collect();
+    assert_eq!(
+        signals,
+        [
+            "EVT SIGNAL out 0 guarded vacuum valve",
+            "EVT SIGNAL out 1 - mapping sensor",
+            "EVT SIGNAL in 0 - vacuum sensor",
+            "EVT SIGNAL in 14 - interlock LP1 LP2",
+            "EVT SIGNAL in 15 - E-stop button",
+        ]
+    );
+    let last_axis = host.seen.iter().rposition(|l| l.starts_with("EVT AXIS "));
+    let first_signal = host.seen.iter().position(|l| l.starts_with("EVT SIGNAL "));
+    assert!(last_axis < first_signal, "{:?}", host.seen);
+}

@@ -823,8 +823,8 @@ impl CellService {
 
     /// The motion board stopped answering (during a job of `during`): nothing moves in the
     /// map. A pending transfer stays pending, a wafer on a blade becomes uncertain, and
-    /// both are settled from the vacuum sensors once the board answers again (`poll`, as
-    /// at start-up); until then GET and PUT are refused.
+    /// both are settled by the journal and the vacuum sensors once the board answers again
+    /// (`poll`, as at start-up); until then GET and PUT are refused.
     fn board_lost(&mut self, during: Option<JobKind>) {
         let n = self.wafers.mark_uncertain();
         self.reconciled = false;

@@ -8,7 +8,9 @@
 //! (`WaferMap::begin`) *before* it hands the job over; the Command Interpreter reports
 //! [`CellEvent::Commit`] the moment the vacuum sensor has confirmed the wafer's new place,
 //! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
-//! from the vacuum sensor, as at start-up) and saves.
+//! by its journal and the vacuum sensors, as at start-up) and saves. Outside a job the
+//! Command Interpreter reports a wafer its sensor lost ([`CellEvent::WaferLost`]) and a
+//! forced switch of a guarded output ([`CellEvent::Forced`]).
 //!
 //! The transfer journal (`wrc_cell::journal`) goes the same way: the Command Interpreter
 //! reports every step of a GET, PUT or SWAP as it begins and ends ([`CellEvent::Step`]), the

@@ -535,10 +535,11 @@ impl CellService {
         self.tell_uncertain(notes);
     }
 
-    /// A transfer the map had committed ended abnormally before its job did (a wafer lost
-    /// on the line out): judged as after a power loss, a GET whose hand had not left the
-    /// slot when its wafer was lost may have set it back there: the slot and the blade
-    /// become uncertain. The journal is closed. Returns what left places uncertain.
+    /// A transfer the map had committed whose job did not end normally (a wafer lost on the
+    /// line out, a power loss before the journal was closed): a GET whose hand had not left
+    /// the slot when its wafer was lost (or its vacuum went off) may have set it back there:
+    /// the slot and the blade become uncertain. The journal is closed. Returns what left
+    /// places uncertain.
     fn settle_committed(&mut self, records: &[Record]) -> Vec<String> {
         let mut notes = Vec::new();
         let blade = self.jjob_transfer_blade(records);
@@ -688,21 +689,11 @@ impl CellService {
         } else if j.open() {
             // The map had committed it but the journal was not closed yet: a GET whose hand
             // had not left the slot when the vacuum went off may have set its wafer back.
-            if let Some(t) = j.transfer {
-                let back = t.kind == TransferKind::Get
-                    && self.wafers.hand_of(t.blade) == Some(t.wafer)
-                    && j.in_slot == Maybe::Perhaps
-                    && self.wafers.doubt_back_in_slot(t.blade, t.slot_location());
-                if back {
-                    tracing::warn!("wrc: {}", j.text);
-                    notes.push(j.text.clone());
-                }
-            }
             tracing::info!(
                 "wrc: the transfer journal's last job had not closed: {}",
                 j.text
             );
-            self.journal_append(&Record::Close(Closed::Settled));
+            notes.extend(self.settle_committed(&journal.records));
         }
         // A wafer on a blade whose vacuum is off (a power loss switched it off), or that
         // its sensor does not see: perhaps still there, perhaps fallen.

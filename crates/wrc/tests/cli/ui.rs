@@ -108,7 +108,10 @@ fn the_gui_bridges_requests_events_and_the_simulator_stream() {
 
     // The robot as the 3D view builds it, and its named signals.
     let (events, ack) = ask(&mut ws, "1 ROBOT");
-    let axes: Vec<&String> = events.iter().filter(|l| l.starts_with("EVT AXIS ")).collect();
+    let axes: Vec<&String> = events
+        .iter()
+        .filter(|l| l.starts_with("EVT AXIS "))
+        .collect();
     assert_eq!(axes.len(), 4, "{events:?}");
     assert!(
         axes[1].starts_with("EVT AXIS 2 name=j2 role=elbow unit=deg"),

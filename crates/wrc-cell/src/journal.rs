@@ -32,13 +32,22 @@
 //! [`judge`] reads an open transfer's records with what the sensors say now
 //! ([`Evidence`]) and decides, for its wafer, whether it may be on the blade and whether it
 //! may be in the slot ([`Maybe`]). A transfer is *committed* only when the journal shows the
-//! release at the seat done (`PUT`: its `VACOFF` step) or the vacuum confirmation after the
-//! lift done (`GET`: its `CHECK1` step), or when the vacuum sensor, read with the valve on,
-//! sees the wafer on the blade. It is *aborted* only when the journal proves the wafer never
-//! left its place (a `GET` whose vacuum was never switched on) or the sensor, read with the
-//! valve on, sees a `PUT`'s wafer still held. In every other case the wafer and the places
-//! it may be in become uncertain, until a `MAP`, a sensor reading or an operator settles
-//! them.
+//! release at the seat done (`PUT`: its `VACOFF` step, or begun with the valve off now: the
+//! hand stood at the seat) or the vacuum confirmation after the lift done (`GET`: its
+//! `CHECK1` step), or when the vacuum sensor, read with the valve on, sees the wafer on the
+//! blade. It is *aborted* only when the journal proves the wafer never left its place (a
+//! `GET` whose vacuum was never switched on, or whose lift had not ended and whose blade,
+//! its valve on, holds nothing) or the sensor, read with the valve on, sees a `PUT`'s wafer
+//! still held. In every other case the wafer and the places it may be in become uncertain,
+//! until a `MAP`, a sensor reading or an operator settles them.
+//!
+//! The sensor confirms; it never alone takes a wafer out of the place the journal last had
+//! it. Where the two disagree — a wafer the journal has on the blade (confirmed, or a `PUT`'s
+//! not yet released) that the sensor, its valve on, no longer senses; a `GET` whose blade
+//! rose through the slot and never sensed its wafer — the wafer becomes uncertain there
+//! (it may have fallen, the sensor may have failed, the slot may have been emptied by
+//! hand). The controller judges every transfer that ends abnormally this way, not only one
+//! a power loss interrupted.
 
 use std::fmt;
 use std::fs::{File, OpenOptions};
@@ -682,23 +691,33 @@ pub fn judge(records: &[Record], evidence: Evidence) -> Judgement {
                 if evidence.sensed {
                     (Maybe::Yes, Maybe::No, "the wafer is on the blade")
                 } else if done(Act::CheckWafer) {
-                    // Confirmed on the blade, then no longer sensed: lost on the way out
-                    // or back in the slot.
+                    // Confirmed on the blade, then no longer sensed: the journal and the
+                    // sensor disagree. It may have fallen (on the way out, or back into the
+                    // slot) or the sensor may have failed: uncertain where it was last.
                     let slot = if done(Act::Out) {
                         Maybe::No
                     } else {
                         Maybe::Perhaps
                     };
                     (
-                        Maybe::No,
+                        Maybe::Perhaps,
                         slot,
-                        "the wafer was confirmed on the blade and is no longer sensed",
+                        "the wafer was confirmed on the blade and is no longer sensed: it may have fallen, or the sensor failed",
+                    )
+                } else if done(Act::Lift) {
+                    // The blade rose through the slot with the vacuum on and never sensed
+                    // the wafer: the slot may have been empty (a wafer taken away by hand)
+                    // or the pick failed. Not on the blade, not certainly in the slot.
+                    (
+                        Maybe::No,
+                        Maybe::Perhaps,
+                        "the blade rose through the slot with the vacuum on and never sensed the wafer: the slot may be empty",
                     )
                 } else {
                     (
                         Maybe::No,
                         Maybe::Yes,
-                        "the blade did not take the wafer: it is still in the slot",
+                        "the lift through the slot had not ended and the blade does not hold the wafer: it is still in the slot",
                     )
                 }
             } else if done(Act::CheckWafer) {
@@ -735,6 +754,15 @@ pub fn judge(records: &[Record], evidence: Evidence) -> Judgement {
                     Maybe::Yes,
                     "the release at the seat was done: the wafer is in the slot",
                 )
+            } else if begun(Act::VacuumOff) && !evidence.valve_on {
+                // The release begins only once the line in has ended at the seat, and
+                // nothing moves while the valve switches: a valve off now (the release's
+                // own, or a power loss's) let the wafer down onto its supports there.
+                (
+                    Maybe::No,
+                    Maybe::Yes,
+                    "the release at the seat had begun and the vacuum is off: the wafer is in the slot",
+                )
             } else if evidence.valve_on {
                 if evidence.sensed {
                     (
@@ -743,15 +771,19 @@ pub fn judge(records: &[Record], evidence: Evidence) -> Judgement {
                         "the wafer is still held on the blade",
                     )
                 } else {
+                    // The journal has the wafer held (never released), the sensor sees
+                    // none: it may have fallen, or the sensor failed. Uncertain on the blade
+                    // (where it was last), and in the slot once the hand had entered; never
+                    // out of the map on the sensor's word alone.
                     let slot = if entered_slot {
                         Maybe::Perhaps
                     } else {
                         Maybe::No
                     };
                     (
-                        Maybe::No,
+                        Maybe::Perhaps,
                         slot,
-                        "the blade no longer holds the wafer, and the release was never done",
+                        "the wafer was never released, but the vacuum sensor senses none: it may have fallen, or the sensor failed",
                     )
                 }
             } else {

@@ -13,14 +13,16 @@
 //!   moves the wafer once the vacuum sensor confirmed it; the caller saves again.
 //!   [`WaferMap::abort`] keeps the wafer where it was. Saves are atomic, so after `kill -9`
 //!   at any moment the file holds either the state before `begin`, the pending transfer, or
-//!   the committed state — and [`WaferMap::reconcile`] resolves a pending transfer at
-//!   start-up from the vacuum sensor: the only place a wafer can be in the middle of a
-//!   transfer is its source or the hand.
-//! * After a power loss the vacuum sensor cannot tell (the valve is off): the transfer
-//!   journal ([`crate::journal`]) judges the pending transfer, and
-//!   [`WaferMap::settle_interrupted`] commits it, aborts it, or leaves its wafer
-//!   *uncertain* at each place it may be in (on the blade: `W3?`; in the slot:
-//!   [`SlotState::Uncertain`]). Nothing assumed, nothing lost: an uncertain place keeps its
+//!   the committed state: the only place a wafer can be in the middle of a transfer is its
+//!   source or the hand.
+//! * A transfer that ends abnormally, and one left pending by a crash or a power loss, is
+//!   judged by the transfer journal ([`crate::journal`]) and the vacuum sensors together
+//!   ([`crate::journal::judge`]): [`WaferMap::settle_interrupted`] commits it, aborts it, or
+//!   leaves its wafer *uncertain* at each place it may be in (on the blade: `W3?`; in the
+//!   slot: [`SlotState::Uncertain`]). The sensor alone never moves a wafer out of the place
+//!   the journal had it ([`WaferMap::reconcile`], the sensor-only rule, is for a map
+//!   without a journal whose sensors are known good, as the world model's crash tests
+//!   use it). Nothing assumed, nothing lost: an uncertain place keeps its
 //!   wafer id until a sensor ([`WaferMap::apply_mapping`] for a slot, [`WaferMap::sense_blade`]
 //!   for a blade) or an operator ([`WaferMap::confirm_at`], [`WaferMap::confirm_gone`],
 //!   [`WaferMap::confirm_empty`]) settles it, and GET and PUT refuse it until then.
@@ -29,8 +31,8 @@
 //!
 //! [`WaferMap::load`] the file (a missing one is an empty map), [`WaferMap::adopt_stations`]
 //! the current stations, then — before any output is written, so the vacuum valve is still
-//! as the previous run left it — [`WaferMap::reconcile`] with the vacuum-sensed input, and
-//! save. The vacuum output must survive the controller's death (the simulated board keeps
+//! as the previous run left it — settle a pending transfer as the journal and the vacuum
+//! sensors judge it ([`WaferMap::settle_interrupted`]), and save. The vacuum output must survive the controller's death (the simulated board keeps
 //! its outputs); a board that dropped it would drop the wafer.
 //!
 //! # Slots
@@ -1199,7 +1201,9 @@ impl WaferMap {
         self.pending.take().ok_or(WaferMapError::NoPendingTransfer)
     }
 
-    /// At start-up, before any output changes: resolve a pending transfer from whether the
+    /// The sensor-only rule, for a map without a transfer journal whose sensors are known
+    /// good (the controller judges with the journal instead: [`crate::journal::judge`] and
+    /// [`WaferMap::settle_interrupted`]): resolve a pending transfer from whether the
     /// vacuum sensor of each blade senses a wafer (`sensed[blade.index()]`; a single-hand
     /// robot gives `false` for blade B), or compare the blades with the map (the first that
     /// disagrees is reported). See [`Reconciled`]. Never adds or drops an id.
@@ -1240,9 +1244,10 @@ impl WaferMap {
         n
     }
 
-    /// The vacuum sensor of `blade` stopped sensing its wafer while it moved: the wafer
-    /// stays in the map, uncertain, until a sensor confirms it ([`WaferMap::reconcile`]) or
-    /// it is removed. The sensor cannot tell a wafer that fell from one it no longer sees.
+    /// The vacuum sensor of `blade` stopped sensing its wafer: the wafer stays in the map,
+    /// uncertain, until a sensor reading with the valve on ([`WaferMap::sense_blade`]) or an
+    /// operator settles it. The sensor cannot tell a wafer that fell from one it no longer
+    /// sees.
     /// False (nothing changed) when the map has no wafer on the blade.
     pub fn mark_blade_uncertain(&mut self, blade: Blade) -> bool {
         let i = blade.index();
@@ -1282,8 +1287,9 @@ impl WaferMap {
     /// judged it ([`crate::journal::judge`]): its wafer is certainly, perhaps or not on its
     /// blade and in its slot. A place that is `Perhaps` becomes uncertain (the wafer shows
     /// there with a `?`, GET and PUT refuse it); `Yes` on one side makes the other `No`.
-    /// `No` on both sides takes the wafer out of the map: only a sensor reading can say
-    /// that (the judge gives it only then), and the result names the wafer.
+    /// `No` on both sides takes the wafer out of the map, and the result names the wafer
+    /// ([`crate::journal::judge`] never gives it: the sensor alone does not say where a
+    /// wafer went).
     pub fn settle_interrupted(
         &mut self,
         on_blade: Maybe,

@@ -13,6 +13,7 @@
 mod board;
 mod hand;
 mod host;
+mod io;
 mod raw;
 mod tasks;
 
@@ -27,6 +28,7 @@ pub use board::{
 };
 pub use hand::{BladeB, HandConfig};
 pub use host::{canonical, listed, parse_net, HostConfig, MAX_CONNECTIONS};
+pub use io::{IoConfig, Signal, SignalDir, MAX_SIGNAL_NAME, SIGNALS};
 pub use ipnet::IpNet;
 
 /// The embedded default configuration (`config/default.toml`).
@@ -100,6 +102,8 @@ pub struct Config {
     pub trace: TraceConfig,
     /// The host port's admission (`[host]`; defaults when absent).
     pub host: HostConfig,
+    /// Guarded outputs and signal names (`[io]`; none when absent).
+    pub io: IoConfig,
 }
 
 /// Default `[motion] lookahead_ms`: the Pulse Generator's look-ahead in the board FIFO [ms]
@@ -148,6 +152,18 @@ impl Config {
         // Checked by a unit test, as the default is.
         Config::parse(DUAL_BLADE_TOML, "config/dual-blade.toml (embedded)")
             .expect("the embedded dual-blade config is valid")
+    }
+
+    /// The E-stop button's input (`[board.sim] estop_input` of the first board): RESET is
+    /// refused while it is asserted.
+    pub fn estop_input(&self) -> Option<u8> {
+        self.boards.first().and_then(|b| b.sim.estop_input)
+    }
+
+    /// Every signal the configuration names, with the stations' interlock inputs
+    /// (`interlocks`: each input and its name; [`IoConfig::signals`]).
+    pub fn signals(&self, interlocks: &[(u8, String)]) -> Vec<Signal> {
+        self.io.signals(&self.hand, self.estop_input(), interlocks)
     }
 
     /// Load `path`, or the embedded default when `path` is `None`.

@@ -24,6 +24,8 @@ pub(crate) struct RawConfig {
     trace: RawTrace,
     #[serde(default)]
     host: crate::host::RawHost,
+    #[serde(default)]
+    io: crate::io::RawIo,
 }
 
 #[derive(Debug, Deserialize)]
@@ -360,6 +362,7 @@ impl RawConfig {
             tasks: crate::tasks::tasks(self.task, file)?,
             hand: self.hand.into_hand(file)?,
             host: self.host.into_host(file)?,
+            io: self.io.into_io(file)?,
         })
     }
 }

@@ -4,11 +4,16 @@
 //! state (a refusal is a `NAK` and nothing moves), plans the steps (`wrc_cell::plan`), saves
 //! the pending transfer *before* anything moves, and hands the job to the Command
 //! Interpreter ([`crate::cell_job`]). It commits and saves the map when the Command
-//! Interpreter reports the vacuum sensor's confirmation, settles a failed transfer from the
-//! vacuum sensor (as at start-up, once the arm stands still and the sensor has answered),
-//! applies mappings, and tells every connection what changed (`EVT WAFER`).
+//! Interpreter reports the vacuum sensor's confirmation, settles a transfer that ended
+//! abnormally or was refused as the transfer journal and the vacuum sensors judge it (the
+//! same judgement as after a power loss, once the arm stands still and the sensor has
+//! answered: `recovery.rs`), makes a wafer a vacuum sensor lost uncertain, applies
+//! mappings, and tells every connection what changed (`EVT WAFER`, `EVT RECOVERY`). It
+//! publishes what the map has on each blade for the Command Interpreter
+//! ([`Shared::blade_wafers`], [`Shared::hand_wafers`]), which guards the vacuum valves and
+//! watches the vacuum sensors with it.
 //!
-//! At start-up it reconciles a transfer left pending by a crash from the vacuum sensor,
+//! At start-up it settles a transfer left pending by a crash or a power loss the same way,
 //! once the I/O Monitor has read the inputs; until then `GET` and `PUT` are refused (138).
 
 use std::path::{Path, PathBuf};
@@ -27,7 +32,7 @@ use crate::messages::cell_job::{
     CellEvent, CellJob, CellView, JobKind, JobOffer, JobRefusal, JobStep,
 };
 use crate::messages::{Outputs, SourceId, StoreLinks};
-use crate::shared::{RobotState, Shared};
+use crate::shared::{RobotState, Shared, BLADE_PENDING, BLADE_UNCERTAIN};
 use wrc_rt::ipc::mailbox::MailboxWriter;
 
 mod recovery;
@@ -120,9 +125,6 @@ pub struct CellService {
     swap_put: Option<Transfer>,
     /// Transfers blend their approach into the line in (`[motion] blend`).
     blend: bool,
-    /// A wafer the vacuum sensor lost in motion (213) is in the map, uncertain, until the
-    /// RESET that ends the fault settles it from the sensor ([`CellService::poll`]).
-    settle_at_reset: SettleAtReset,
     /// A transfer that ended abnormally stays pending until the arm stands still and the
     /// vacuum sensor has had its time to answer ([`CellService::poll`]).
     settle_ended: SettleEnded,
@@ -155,33 +157,17 @@ pub struct CellService {
 }
 
 /// Where the settling of a transfer that ended abnormally stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum SettleEnded {
     /// Nothing to settle.
     No,
     /// Waiting for the arm to stand still (a stop's brake may still carry the hand through
     /// a slot's support height, picking or leaving the wafer).
     UntilRest,
-    /// Standing still: settle from the I/O Monitor's reading after this count (the sensor
-    /// answers a pick or a release after its delay, at most `vacuum_settle_ms`).
-    UntilSample(u64),
-}
-
-/// Where the settling of wafers lost in motion stands: waiting for the fault's state
-/// (`ERROR`) to be seen, then for the RESET that ends it (`IDLE` again), then for the I/O
-/// Monitor to read the vacuum sensor after it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum SettleAtReset {
-    /// Nothing to settle.
-    No,
-    /// A wafer was lost; the fault has not yet been seen.
-    Lost,
-    /// The robot is in the fault; settle at the RESET.
-    InFault,
-    /// RESET ended the fault when the I/O Monitor had read the inputs this many times:
-    /// settle from its next reading (the one before may predate a sensor that answers
-    /// again).
-    Reset(u64),
+    /// Standing still, the hand where the stop left it: settle from the I/O Monitor's
+    /// reading after this count (the sensor answers a pick or a release after its delay, at
+    /// most `vacuum_settle_ms`).
+    UntilSample(u64, wrc_robot::Pose),
 }
 
 impl CellService {
@@ -223,7 +209,6 @@ impl CellService {
             reconciled: false,
             swap_put: None,
             blend: false,
-            settle_at_reset: SettleAtReset::No,
             settle_ended: SettleEnded::No,
             settle_samples: settle_samples(&hand, DEFAULT_IO_PERIOD_S),
             journal: None,
@@ -558,6 +543,8 @@ impl CellService {
                     .is_some_and(|l| l.jobs.try_send(JobOffer::Start(job)).is_ok());
                 if sent {
                     self.busy = Some(kind);
+                    // The transfer's blade is guarded from now on.
+                    self.publish();
                 } else {
                     self.swap_put = None;
                     if self.wafers.pending().is_some() {
@@ -599,10 +586,10 @@ impl CellService {
         if let Some(refusal) = self.inside_refusal() {
             return Err(refusal);
         }
-        if !self.reconciled || self.settle_at_reset != SettleAtReset::No {
+        if !self.reconciled {
             return Err((
                 Code::TransferBusy,
-                "the wafer map is being reconciled with the vacuum sensor; repeat in a moment"
+                "the wafer map is being settled with the vacuum sensors; repeat in a moment"
                     .to_string(),
             ));
         }
@@ -624,6 +611,12 @@ impl CellService {
             .ok_or((Code::Internal, "the station list changed".to_string()))?;
         let mut job = CellJob::new(from, to, kind, station.name);
         job.station_index = index as u32;
+        // The job watches the vacuum of every blade that holds a certain wafer, a MAP's too:
+        // a wafer lost on the way is 213, and the map learns it at the job's end.
+        job.holding = Blade::ALL
+            .into_iter()
+            .filter(|b| self.wafers.hand_of(*b).is_some() && !self.wafers.is_uncertain(*b))
+            .fold(0, |m, b| m | 1 << b.index());
         if kind == JobKind::Map {
             job.slot = station.slots;
             let here = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
@@ -760,10 +753,6 @@ impl CellService {
         }
         job.slot = slot;
         job.wafer = transfer.wafer.0;
-        job.holding = Blade::ALL
-            .into_iter()
-            .filter(|b| self.wafers.hand_of(*b).is_some())
-            .fold(0, |m, b| m | 1 << b.index());
         // The pending transfer is on disk before anything moves.
         self.wafers
             .begin(transfer)
@@ -813,35 +802,42 @@ impl CellService {
             } => {
                 self.busy = None;
                 self.swap_put = None;
-                if matches!(kind, JobKind::Map | JobKind::Sense) {
-                    return;
-                }
                 if code == Some(Code::BoardLost) {
                     // The board's sensors are stale: nothing is settled from them now
                     // (`poll` may have seen the board dead first).
                     if self.reconciled {
                         self.board_lost(Some(kind));
                     }
-                    return;
+                    return self.job_settled();
                 }
                 if code == Some(Code::WaferLost) {
-                    // The wafer was on a blade (a PUT not yet released, or after a GET).
-                    let _ = self.wafers.abort();
-                    self.doubt_unsensed(sensed);
-                    self.journal_close(wrc_cell::journal::Closed::Settled);
-                    return self.persist();
+                    // The job's own watch raised 213: a certain wafer on a blade its
+                    // sensor no longer sees becomes uncertain now (a transfer's own wafer is
+                    // judged with the journal below).
+                    let lost = Blade::ALL
+                        .into_iter()
+                        .filter(|b| !sensed[b.index()])
+                        .fold(0u8, |m, b| m | 1 << b.index());
+                    self.lost_from_blades(lost, Some(kind));
                 }
-                if self.wafers.pending().is_none() {
-                    return self.journal_close(wrc_cell::journal::Closed::Committed);
+                if matches!(kind, JobKind::Map | JobKind::Sense) {
+                    return self.job_settled();
+                }
+                // Finished, or committed and nothing went wrong after: nothing to judge.
+                if self.wafers.pending().is_none() && (code.is_none() || self.jjob.is_none()) {
+                    self.journal_close(wrc_cell::journal::Closed::Committed);
+                    return self.job_settled();
                 }
                 if !started {
-                    let _ = self.wafers.abort();
-                    self.journal_close(wrc_cell::journal::Closed::Aborted);
-                    self.persist();
+                    // Refused before anything moved: judged now, by the same rules.
+                    let here = self.hand_pose();
+                    self.settle_ended_transfer(&here);
+                    self.job_settled();
                 } else {
-                    // Settled by the vacuum sensor, exactly as at start-up, once the arm
-                    // stands still and the sensor has answered: the sensor this event
-                    // carries may predate a pick or a release the brake still makes.
+                    // Judged by the journal and the vacuum sensors, exactly as after a
+                    // power loss, once the arm stands still and the sensor has answered:
+                    // the sensor read now may predate a pick or a release the brake still
+                    // makes.
                     self.settle_ended = SettleEnded::UntilRest;
                 }
             }
@@ -875,22 +871,38 @@ impl CellService {
                     }
                 }
             }
-            CellEvent::WaferLost { sensed } => {
-                self.doubt_unsensed(sensed);
-                self.persist();
-            }
+            CellEvent::WaferLost { blades } => self.lost_from_blades(blades, None),
+            CellEvent::Forced {
+                n,
+                on,
+                from,
+                blade,
+                wafer,
+                valve,
+            } => self.forced(n, on, from, blade, wafer, valve),
         }
+    }
+
+    /// The cell service has settled a job that ended: publish the map's blades, then count
+    /// it (the Command Interpreter's watch of the blades outside a job waits for this).
+    fn job_settled(&mut self) {
+        self.publish();
+        self.shared.jobs_settled.fetch_add(1, Ordering::AcqRel);
     }
 
     /// The motion board stopped answering (during a job of `during`): nothing moves in the
     /// map. A pending transfer stays pending, a wafer on a blade becomes uncertain, and
-    /// both are settled from the vacuum sensors once the board answers again (`poll`, as
-    /// at start-up); until then GET and PUT are refused.
+    /// both are settled by the journal and the vacuum sensors once the board answers again
+    /// (`poll`, as at start-up); until then GET and PUT are refused.
     fn board_lost(&mut self, during: Option<JobKind>) {
         let n = self.wafers.mark_uncertain();
         self.reconciled = false;
-        // A pending transfer is settled when the board answers again, as at start-up.
-        self.settle_ended = SettleEnded::No;
+        // A pending transfer is settled when the board answers again, as at start-up; the
+        // job that left it is done with here.
+        if self.settle_ended != SettleEnded::No {
+            self.settle_ended = SettleEnded::No;
+            self.job_settled();
+        }
         let what = if self.wafers.pending().is_some() {
             "keeps the transfer pending"
         } else if n > 0 {
@@ -901,25 +913,6 @@ impl CellService {
         let during = during.map_or(String::new(), |k| format!(" during {}", k.verb()));
         tracing::warn!("wrc: the motion board stopped answering{during}: the wafer map {what} until the board's sensors answer again");
         self.persist();
-    }
-
-    /// The wafers on blades whose vacuum sensor no longer sees them in motion (213) stay in
-    /// the map, uncertain (`W3?`): the sensor cannot tell a wafer that fell from a wafer it
-    /// no longer sees (a failed sensor), and the vacuum stays on. The RESET that ends the
-    /// fault settles them from the sensor ([`CellService::poll`]): a wafer sensed again is
-    /// kept, one still not sensed leaves the map. Removing it at once left a wafer that was
-    /// still held out of the map, and the next GET drove it into a slot's wafer.
-    fn doubt_unsensed(&mut self, sensed: [bool; MAX_BLADES]) {
-        for b in Blade::ALL {
-            if sensed[b.index()] || !self.wafers.mark_blade_uncertain(b) {
-                continue;
-            }
-            if let Some(id) = self.wafers.hand_of(b) {
-                let at = wrc_cell::Location::Hand(b);
-                tracing::warn!("wrc: the vacuum sensor lost wafer {id} on the {at} in motion; it stays in the wafer map, uncertain, until RESET settles it from the sensor (kept if sensed, removed if not)");
-            }
-            self.settle_at_reset = SettleAtReset::Lost;
-        }
     }
 
     /// Whether the arm stands still: nothing in flight, at rest in the current stop epoch
@@ -940,32 +933,50 @@ impl CellService {
         })
     }
 
-    /// The RESET after a wafer was lost in motion: each uncertain wafer its sensor senses is
-    /// confirmed, each it does not leaves the map.
-    fn settle_lost(&mut self) {
-        let sensed = self.sensed();
-        let _ = self.wafers.reconcile(sensed);
-        for b in Blade::ALL {
-            if !self.wafers.is_uncertain(b) {
-                continue;
-            }
-            let at = wrc_cell::Location::Hand(b);
-            if let Ok(id) = self.wafers.remove(at) {
-                tracing::warn!("wrc: wafer {id} was lost from the {at}: its vacuum sensor still senses none at RESET; it left the wafer map");
-            }
-        }
-        self.persist();
-    }
-
     fn persist(&mut self) {
         if let Err(e) = self.save() {
             tracing::error!("wrc: cannot save the wafer map: {e}");
         }
+        self.publish();
         self.broadcast_map();
     }
 
-    /// Periodic work: reconcile a transfer left pending by a crash once the inputs are
-    /// known, and keep `shared.hand_wafers` saying which blades the map has a wafer on.
+    /// Tell the Command Interpreter what the map has on each blade ([`Shared::blade_wafers`]:
+    /// for the guard on the vacuum valves and the guarded outputs), which blades hold a
+    /// certain wafer no transfer uses ([`Shared::hand_wafers`]: their sensors are watched
+    /// outside a job; none until the start-up is settled), and the careful speed while a
+    /// blade may hold a wafer its vacuum does not clamp.
+    fn publish(&self) {
+        let pending = self.wafers.pending().copied();
+        let mut holding = 0u8;
+        for b in Blade::ALL {
+            let word = match (pending.filter(|t| t.blade == b), self.wafers.hand_of(b)) {
+                (Some(t), _) => u64::from(t.wafer.0) | BLADE_PENDING,
+                (None, Some(w)) if self.wafers.is_uncertain(b) => u64::from(w.0) | BLADE_UNCERTAIN,
+                (None, Some(w)) => u64::from(w.0),
+                (None, None) => 0,
+            };
+            self.shared.blade_wafers[b.index()].store(word, Ordering::Release);
+            if self.reconciled && word != 0 && word & (BLADE_PENDING | BLADE_UNCERTAIN) == 0 {
+                holding |= 1 << b.index();
+            }
+        }
+        self.shared.hand_wafers.store(holding, Ordering::Release);
+        // Everything moves at the careful speed while a blade may hold a wafer.
+        let careful = Blade::ALL
+            .into_iter()
+            .any(|b| self.wafers.hand_of(b).is_some() && self.wafers.is_uncertain(b));
+        let pct = if careful {
+            self.careful_speed_pct().round() as u32
+        } else {
+            0
+        };
+        self.shared.careful_pct.store(pct, Ordering::Release);
+    }
+
+    /// Periodic work: settle a transfer left pending by a crash once the inputs are known,
+    /// and one that ended abnormally once the arm stands still and the sensor has answered;
+    /// publish what the map has on each blade.
     pub fn poll(&mut self) {
         self.publish_view(false);
         if self.reconciled && self.shared.board_dead.load(Ordering::Acquire) {
@@ -974,34 +985,19 @@ impl CellService {
         let samples = self.shared.io_samples.load(Ordering::Acquire);
         match self.settle_ended {
             SettleEnded::UntilRest if self.stands_still() => {
-                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples);
+                // Where the stop left the hand: the settling judges from it, whatever moves
+                // the arm meanwhile.
+                let rest = self.hand_pose();
+                self.settle_ended = SettleEnded::UntilSample(samples + self.settle_samples, rest);
             }
-            SettleEnded::UntilSample(after)
+            SettleEnded::UntilSample(after, rest)
                 if samples > after
                     && self.reconciled
                     && !self.shared.board_dead.load(Ordering::Acquire) =>
             {
                 self.settle_ended = SettleEnded::No;
-                let r = self.wafers.reconcile(self.sensed());
-                tracing::info!("wrc: transfer ended abnormally; the wafer map settles it from the vacuum sensor: {r:?}");
-                self.journal_close(wrc_cell::journal::Closed::Settled);
-                self.persist();
-            }
-            _ => {}
-        }
-        match (self.settle_at_reset, self.shared.state()) {
-            (SettleAtReset::Lost, RobotState::Error | RobotState::Estop) => {
-                self.settle_at_reset = SettleAtReset::InFault;
-            }
-            (SettleAtReset::InFault, RobotState::Idle) => {
-                let samples = self.shared.io_samples.load(Ordering::Acquire);
-                self.settle_at_reset = SettleAtReset::Reset(samples);
-            }
-            (SettleAtReset::Reset(at), _)
-                if self.reconciled && self.shared.io_samples.load(Ordering::Acquire) > at =>
-            {
-                self.settle_at_reset = SettleAtReset::No;
-                self.settle_lost();
+                self.settle_ended_transfer(&rest);
+                self.job_settled();
             }
             _ => {}
         }
@@ -1012,22 +1008,7 @@ impl CellService {
             self.recover();
         }
         self.watch_rest();
-        // A blade whose wafer is uncertain is not watched (its vacuum is off, nothing to
-        // sense), but everything moves at the careful speed while it is.
-        let holding = Blade::ALL
-            .into_iter()
-            .filter(|b| self.wafers.hand_of(*b).is_some() && !self.wafers.is_uncertain(*b))
-            .fold(0u8, |m, b| m | 1 << b.index());
-        self.shared.hand_wafers.store(holding, Ordering::Release);
-        let careful = Blade::ALL
-            .into_iter()
-            .any(|b| self.wafers.hand_of(b).is_some() && self.wafers.is_uncertain(b));
-        let pct = if careful {
-            self.careful_speed_pct().round() as u32
-        } else {
-            0
-        };
-        self.shared.careful_pct.store(pct, Ordering::Release);
+        self.publish();
     }
 }
 

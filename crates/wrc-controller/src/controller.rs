@@ -362,6 +362,7 @@ pub(crate) fn assemble<H: Host>(
         reason,
     })?
     .with_queries(config.motion.period_s * 1000.0, task_cells.clone())
+    .with_signals(config)
     .with_shared(shared.clone());
     // The cell, for the Command Interpreter's check of every motion: published by the cell
     // service whenever the stations or the wafers on the blades change.
@@ -534,8 +535,9 @@ pub(crate) fn assemble<H: Host>(
             .collect();
         interpreter = interpreter.with_cell_check(generator.clone(), cell_view_rx, &offsets);
     }
-    interpreter.estop_input = config.boards.first().and_then(|b| b.sim.estop_input);
+    interpreter.estop_input = config.estop_input();
     interpreter.hand = config.hand;
+    interpreter.name_outputs(&config.signals(&[]), config.io.guarded_outputs);
     let ci_applied = ci_wake.notifier();
     host.add_released(spec("command_interpreter"), interpreter, ci_wake)?;
     // Released by every output request, so a vacuum valve opens at once; it releases the

@@ -95,6 +95,52 @@ pub fn robot_reply(robot: &Robot, period_ms: f64, blade_b: Option<f64>) -> (Vec<
     (axes, ack)
 }
 
+/// Each station interlock input of `stations` and its name for `ROBOT`: `interlock` and
+/// the stations that use it (`interlock LP1 LP2`), by input number.
+pub fn interlocks(stations: &wrc_cell::Stations) -> Vec<(u8, String)> {
+    let mut out: Vec<(u8, String)> = Vec::new();
+    for s in stations {
+        let Some(n) = s.interlock_input else { continue };
+        match out.iter_mut().find(|(m, _)| *m == n) {
+            Some((_, name)) => {
+                name.push(' ');
+                name.push_str(s.name.as_str());
+            }
+            None => out.push((n, format!("interlock {}", s.name))),
+        }
+    }
+    out.sort_by_key(|(n, _)| *n);
+    out
+}
+
+/// The `EVT SIGNAL` bodies of `ROBOT`, one per named signal
+/// ([`wrc_config::IoConfig::signals`], in its order): `<in|out> <n> <guarded|-> <name>`,
+/// the name the rest of the line.
+pub fn signal_lines(signals: &[wrc_config::Signal]) -> Vec<String> {
+    signals
+        .iter()
+        .map(|s| {
+            // A line stays well inside the protocol's reply limit, however many stations
+            // share an interlock.
+            let mut name = s.name.clone();
+            if name.len() > 200 {
+                let mut end = 197;
+                while !name.is_char_boundary(end) {
+                    end -= 1;
+                }
+                name.truncate(end);
+                name.push_str("...");
+            }
+            format!(
+                "{} {} {} {name}",
+                s.dir.as_str(),
+                s.n,
+                if s.guarded { "guarded" } else { "-" }
+            )
+        })
+        .collect()
+}
+
 /// The `EVT TASK` body of one task (the paper's Tables 3 and 4 plus a latency histogram, for
 /// its periodic cycles; then the count and execution times of its event-released cycles; for
 /// the Pulse Generator, its stops braked with a FIFO flush and behind the queue).
@@ -200,6 +246,41 @@ mod tests {
         let bins = power_of_two_bins(&h);
         assert_eq!(bins, vec![(1, 2), (2, 2), (4, 2), (64, 2), (128, 1)]);
         assert_eq!(bins.iter().map(|b| b.1).sum::<u64>(), h.count());
+    }
+
+    #[test]
+    fn the_demo_cells_signals_are_named_for_robot() {
+        let config = wrc_config::Config::embedded_default();
+        let stations = wrc_cell::Stations::embedded_demo();
+        let interlocks = interlocks(&stations);
+        assert_eq!(interlocks, [(14, "interlock LP1 LP2".to_string())]);
+        let lines = signal_lines(&config.signals(&interlocks));
+        assert_eq!(
+            lines,
+            [
+                "out 0 guarded vacuum valve",
+                "out 1 - mapping sensor",
+                "in 0 - vacuum sensor",
+                "in 14 - interlock LP1 LP2",
+                "in 15 - E-stop button",
+            ]
+        );
+        // Each line reads back as the contract says: direction, number, guard, name.
+        for l in &lines {
+            let mut w = l.splitn(4, ' ');
+            assert!(matches!(w.next(), Some("in" | "out")), "{l}");
+            assert!(w.next().unwrap().parse::<u8>().unwrap() < 32, "{l}");
+            assert!(matches!(w.next(), Some("guarded" | "-")), "{l}");
+            assert!(!w.next().unwrap().is_empty(), "{l}");
+        }
+        // A very long name is cut to keep the line short.
+        let long = wrc_config::Signal {
+            dir: wrc_config::SignalDir::In,
+            n: 3,
+            guarded: false,
+            name: "x".repeat(300),
+        };
+        assert_eq!(signal_lines(&[long])[0].len(), "in 3 - ".len() + 200);
     }
 
     #[test]

@@ -56,6 +56,9 @@ pub struct Service {
     recorder: Option<crate::recorder::Recorder>,
     /// The commanded position, for `POINT … HERE` (none: refused).
     shared: Option<Arc<Shared>>,
+    /// What names the signals in `ROBOT`'s `EVT SIGNAL` lines: `[io]`, the hand, the E-stop
+    /// input (the stations' interlocks come from the cell).
+    signals: Option<(wrc_config::IoConfig, wrc_config::HandConfig, Option<u8>)>,
 }
 
 impl Service {
@@ -79,6 +82,7 @@ impl Service {
             cell: None,
             recorder: None,
             shared: None,
+            signals: None,
         })
     }
 
@@ -112,6 +116,13 @@ impl Service {
     pub fn with_queries(mut self, period_ms: f64, tasks: TaskCells) -> Service {
         self.period_ms = period_ms;
         self.tasks = tasks;
+        self
+    }
+
+    /// Also name the configuration's signals in `ROBOT` (`EVT SIGNAL`; the stations'
+    /// interlock inputs are added from the stations file).
+    pub fn with_signals(mut self, config: &wrc_config::Config) -> Service {
+        self.signals = Some((config.io.clone(), config.hand, config.estop_input()));
         self
     }
 
@@ -303,6 +314,19 @@ impl Service {
                 let (axes, ack) = crate::queries::robot_reply(&self.robot, self.period_ms, blade_b);
                 for axis in &axes {
                     let line = self.buf.event(to.checksum, &Event::Axis(axis));
+                    self.out.send(from, line);
+                }
+                let interlocks = self
+                    .cell
+                    .as_ref()
+                    .map(|c| crate::queries::interlocks(&c.stations))
+                    .unwrap_or_default();
+                let signals = match &self.signals {
+                    Some((io, hand, estop)) => io.signals(hand, *estop, &interlocks),
+                    None => Vec::new(),
+                };
+                for signal in crate::queries::signal_lines(&signals) {
+                    let line = self.buf.event(to.checksum, &Event::Signal(&signal));
                     self.out.send(from, line);
                 }
                 let line = self.buf.ack(to, ack);

@@ -9,6 +9,12 @@ use wrc_rt::Notify;
 pub use wrc_protocol::State as RobotState;
 use wrc_robot::MAX_AXES;
 
+/// In [`Shared::blade_wafers`]: the map's wafer on the blade is uncertain.
+pub const BLADE_UNCERTAIN: u64 = 1 << 32;
+
+/// In [`Shared::blade_wafers`]: a transfer under way takes or gives the wafer with the blade.
+pub const BLADE_PENDING: u64 = 1 << 33;
+
 /// Everything the tasks share, as atomics.
 pub struct Shared {
     state: AtomicU8,
@@ -75,9 +81,24 @@ pub struct Shared {
     /// watches it every period): the board is not answering. Cleared when every heartbeat
     /// advances again; the controller stays in ERROR until a RESET re-attaches.
     pub board_dead: AtomicBool,
-    /// The blades the wafer map has a wafer on for certain (bit 0: A, the hand; bit 1: B),
-    /// set by the cell service: their vacuum sensors are watched while the arm moves.
+    /// The blades the wafer map has a wafer on for certain and that no transfer under way
+    /// uses (bit 0: A, the hand; bit 1: B), set by the cell service once it has settled the
+    /// start-up: outside a job the Command Interpreter watches their vacuum sensors, moving
+    /// or not (a wafer lost is alarm 213).
     pub hand_wafers: AtomicU8,
+    /// What the wafer map has on each blade (index: [`wrc_cell::Blade::index`]), set by the
+    /// cell service for the Command Interpreter, which may not look into the map (it guards
+    /// the vacuum valves and the guarded outputs with it): 0 nothing; otherwise the wafer's
+    /// number in the low 32 bits, with [`BLADE_UNCERTAIN`] when the map is not sure of it
+    /// and [`BLADE_PENDING`] when a transfer under way takes or gives it with that blade.
+    pub blade_wafers: [AtomicU64; wrc_cell::MAX_BLADES],
+    /// How many wafer jobs the Command Interpreter has ended and told the cell service of
+    /// ([`crate::messages::cell_job::CellEvent::Ended`]).
+    pub jobs_ended: AtomicU32,
+    /// How many of those the cell service has settled: while it is behind
+    /// [`Shared::jobs_ended`], the map (and `hand_wafers`) may not yet show what the last job
+    /// left ([`Shared::map_settled`]).
+    pub jobs_settled: AtomicU32,
     /// The speed [%] a motion may have while a blade perhaps holds a wafer its vacuum does
     /// not clamp (after a power loss), set by the cell service; 0: no limit.
     pub careful_pct: AtomicU32,
@@ -131,6 +152,9 @@ impl Default for Shared {
             io_samples: AtomicU64::new(0),
             board_dead: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
+            blade_wafers: std::array::from_fn(|_| AtomicU64::new(0)),
+            jobs_ended: AtomicU32::new(0),
+            jobs_settled: AtomicU32::new(0),
             careful_pct: AtomicU32::new(0),
             journal_waits: AtomicU64::new(0),
             journal_wait_ns: AtomicU64::new(0),
@@ -152,6 +176,16 @@ impl Shared {
     /// Set the state.
     pub fn set_state(&self, state: RobotState) {
         self.state.store(state.to_u8(), Ordering::Release);
+    }
+
+    /// Whether the cell service has settled every wafer job that ended: the wafer map shows
+    /// what the last one left (a transfer that ended abnormally is settled once the arm
+    /// stands still and the vacuum sensor has answered). The watch of the blades outside a
+    /// job and a program's error handler wait for it.
+    pub fn map_settled(&self) -> bool {
+        // The count settled first: what the service published before it is then visible.
+        let settled = self.jobs_settled.load(Ordering::Acquire);
+        settled == self.jobs_ended.load(Ordering::Acquire)
     }
 
     /// Request a stop of `kind`; returns the new stop epoch. The kind is raised before the

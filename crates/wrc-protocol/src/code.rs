@@ -122,6 +122,10 @@ pub enum Code {
     /// 140: the hand may be inside a station (after an interrupted transfer): RETRACT or
     /// HOME first.
     HandInside = 140,
+    /// 141: the output is guarded while a blade holds a wafer (a blade's vacuum valve
+    /// switched off, or an output the configuration guards): `OUT <n> <0|1> FORCE` if it is
+    /// meant.
+    OutputGuarded = 141,
 
     // 2xx alarm: an action ended abnormally (ABS) or the controller stopped (EVT ERROR).
     /// 200: the motion was stopped by `STOP`.
@@ -211,6 +215,7 @@ impl Code {
         Code::TransferBusy,
         Code::PlaceUncertain,
         Code::HandInside,
+        Code::OutputGuarded,
         Code::Stopped,
         Code::EmergencyStop,
         Code::EstopInput,
@@ -294,6 +299,9 @@ impl Code {
                 "the place is uncertain after an interrupted transfer; MAP, SENSE or CONFIRM it"
             }
             Code::HandInside => "the hand may be inside a station; RETRACT or HOME first",
+            Code::OutputGuarded => {
+                "the output is guarded while a blade holds a wafer; add FORCE if you mean it"
+            }
             Code::Stopped => "stopped by STOP",
             Code::EmergencyStop => "emergency stop",
             Code::EstopInput => "emergency-stop input opened",
@@ -386,6 +394,7 @@ mod tests {
             (Code::TransferBusy, 138),
             (Code::PlaceUncertain, 139),
             (Code::HandInside, 140),
+            (Code::OutputGuarded, 141),
             (Code::Stopped, 200),
             (Code::EmergencyStop, 201),
             (Code::EstopInput, 202),

@@ -429,6 +429,10 @@ pub enum Event<'a> {
     /// `EVT AXIS <n> name=… role=… unit=… ppu=… min=… max=… home=…`: one axis in the reply
     /// to `ROBOT` (to the requesting connection only); the body after `AXIS`.
     Axis(&'a str),
+    /// `EVT SIGNAL <in|out> <n> <guarded|-> <name>`: one named digital input or output in
+    /// the reply to `ROBOT` (to the requesting connection only); the body after `SIGNAL`
+    /// (the name is the rest of the line and may contain blanks).
+    Signal(&'a str),
     /// `EVT TASK <name> prio=… …`: one real-time task's timing in the reply to `TASKS` (to
     /// the requesting connection only); the body after `TASK`.
     Task(&'a str),
@@ -507,6 +511,7 @@ impl Event<'_> {
             Event::Print(_) => "PRINT",
             Event::Diag(_) => "DIAG",
             Event::Axis(_) => "AXIS",
+            Event::Signal(_) => "SIGNAL",
             Event::Task(_) => "TASK",
             Event::Station(_) => "STATION",
             Event::Obstacle(_) => "OBSTACLE",
@@ -554,6 +559,7 @@ impl Display for Event<'_> {
             Event::Print(text)
             | Event::Diag(text)
             | Event::Axis(text)
+            | Event::Signal(text)
             | Event::Task(text)
             | Event::Station(text)
             | Event::Obstacle(text)

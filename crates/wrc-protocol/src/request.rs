@@ -98,12 +98,15 @@ pub enum Command {
     Reset,
     /// `IO`.
     Io,
-    /// `OUT <n> 0|1`.
+    /// `OUT <n> 0|1 [FORCE]`.
     Out {
         /// Output number, 0 to 31 (bit `n` of the output word).
         n: u8,
         /// Switch it on (`1`) or off (`0`).
         on: bool,
+        /// `FORCE`: switch a guarded output even while a blade holds a wafer (the
+        /// controller refuses it with 141 otherwise), and say so to everyone.
+        force: bool,
     },
     /// `WAIT`.
     Wait,
@@ -647,6 +650,9 @@ pub enum ParseError {
     /// An output state other than `0` or `1`.
     #[error("output state \"{0}\" must be 0 or 1")]
     BadSwitch(Token),
+    /// An `OUT` option other than `FORCE`.
+    #[error("OUT takes FORCE after the state (OUT <n> 0|1 FORCE), not \"{0}\"")]
+    BadOutOption(Token),
     /// An output number outside 0 to 31.
     #[error("output {0} does not exist; outputs are 0 to 31")]
     OutputUnknown(i64),
@@ -709,6 +715,7 @@ impl ParseError {
             | ParseError::BadPosture(_)
             | ParseError::BadBlade(_)
             | ParseError::BadSwitch(_)
+            | ParseError::BadOutOption(_)
             | ParseError::BadProgramName(_)
             | ParseError::BadTraceName(_)
             | ParseError::TraceAction(_)
@@ -962,7 +969,7 @@ impl Parser {
             Verb::Reset => simple(Command::Reset),
             Verb::Io => simple(Command::Io),
             Verb::Out => {
-                args.exactly(2)?;
+                args.between(2, 3)?;
                 let n = whole(args.words[0])?;
                 if !(0..i64::from(OUTPUT_COUNT)).contains(&n) {
                     return Err(ParseError::OutputUnknown(n));
@@ -972,7 +979,16 @@ impl Parser {
                     b"1" => true,
                     other => return Err(ParseError::BadSwitch(Token::new(other))),
                 };
-                Ok(Command::Out { n: n as u8, on })
+                let force = match args.words[..args.count] {
+                    [_, _, word] if word.eq_ignore_ascii_case(b"FORCE") => true,
+                    [_, _, word] => return Err(ParseError::BadOutOption(Token::new(word))),
+                    _ => false,
+                };
+                Ok(Command::Out {
+                    n: n as u8,
+                    on,
+                    force,
+                })
             }
             Verb::Wait => simple(Command::Wait),
             Verb::Control => simple(Command::Control),
@@ -1767,8 +1783,25 @@ mod tests {
 
     #[test]
     fn out_sets_one_of_32_outputs() {
-        assert_eq!(ok("OUT 0 1").command, Command::Out { n: 0, on: true });
-        assert_eq!(ok("OUT 31 0").command, Command::Out { n: 31, on: false });
+        let out = |n, on, force| Command::Out { n, on, force };
+        assert_eq!(ok("OUT 0 1").command, out(0, true, false));
+        assert_eq!(ok("OUT 31 0").command, out(31, false, false));
+        // FORCE, in any case, says the request means to switch a guarded output.
+        assert_eq!(ok("OUT 0 0 FORCE").command, out(0, false, true));
+        assert_eq!(ok("out 7 1 force").command, out(7, true, true));
+        assert_eq!(ok("OUT 7 1 Force").command, out(7, true, true));
+        let e = err("OUT 0 0 PLEASE");
+        assert_eq!(e.code(), Code::BadArgument);
+        assert_eq!(
+            e.to_string(),
+            "OUT takes FORCE after the state (OUT <n> 0|1 FORCE), not \"PLEASE\""
+        );
+        let e = err("OUT 0 0 FORCE FORCE");
+        assert_eq!(e.code(), Code::ArgumentCount);
+        assert_eq!(err("OUT 0").code(), Code::ArgumentCount);
+        // The state is checked before the option.
+        assert_eq!(err("OUT 0 2 FORCE").code(), Code::BadArgument);
+        assert_eq!(err("OUT 40 0 FORCE").code(), Code::OutputUnknown);
         let e = err("OUT 32 1");
         assert_eq!(e.code(), Code::OutputUnknown);
         assert_eq!(

@@ -266,7 +266,7 @@ impl CellService {
     }
 
     /// Where the hand is (the board's commanded position).
-    fn hand_pose(&self) -> Pose {
+    pub(super) fn hand_pose(&self) -> Pose {
         let joints = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
         self.robot.forward(&joints)
     }
@@ -417,6 +417,248 @@ impl CellService {
         self.rest_pose = Some(pose);
     }
 
+    /// Settle the pending transfer as the journal's `records` and the vacuum sensors of its
+    /// blade judge it ([`judge`]): committed, aborted, or its wafer uncertain at each place
+    /// it may be in; the journal is closed with the verdict. One path for every end: a
+    /// transfer found pending at start-up (a crash, a power loss) and one that ended
+    /// abnormally or was refused while the controller ran. Returns what left places
+    /// uncertain, for the operator (empty when nothing did).
+    ///
+    /// `rest` is where the hand stood still when the transfer ended (at start-up: where it
+    /// stands now). A `PUT` moves its wafer only inward until it releases it at the seat, so
+    /// a wafer never released whose hand came to rest outside the station cannot have gone
+    /// into the slot, whatever the journal's line in had begun.
+    pub(super) fn settle_pending(&mut self, records: &[Record], rest: &Pose) -> Vec<String> {
+        let Some(t) = self.wafers.pending().copied() else {
+            return Vec::new();
+        };
+        let ev = self.evidence(t.blade);
+        let j = judge(records, ev);
+        let (on_blade, in_slot, text) = if j.open() && j.transfer == Some(t) {
+            let short = t.kind == TransferKind::Put
+                && j.in_slot == Maybe::Perhaps
+                && j.on_blade != Maybe::No
+                && self
+                    .stations
+                    .get(t.station.as_str())
+                    .is_some_and(|s| !s.hand_inside(rest));
+            if short {
+                (
+                    j.on_blade,
+                    Maybe::No,
+                    format!(
+                        "{}; the hand stopped short of {}, outside it: the wafer cannot be in the slot",
+                        j.text, t.station
+                    ),
+                )
+            } else {
+                (j.on_blade, j.in_slot, j.text.clone())
+            }
+        } else if !j.open() {
+            // The journal never opened it: no step had begun, nothing moved. The sensor
+            // confirms a PUT's wafer still held; one it does not see stays uncertain on
+            // the blade, never out of the map on its word.
+            let on_blade = match (t.kind, ev.valve_on, ev.sensed) {
+                (TransferKind::Get, ..) => Maybe::No,
+                (TransferKind::Put, true, true) => Maybe::Yes,
+                (TransferKind::Put, ..) => Maybe::Perhaps,
+            };
+            let in_slot = if t.kind == TransferKind::Get {
+                Maybe::Yes
+            } else {
+                Maybe::No
+            };
+            (
+                on_blade,
+                in_slot,
+                format!("{t} was pending but had not begun: nothing moved"),
+            )
+        } else {
+            (
+                Maybe::Perhaps,
+                Maybe::Perhaps,
+                format!(
+                    "{t} was pending but the journal holds another job ({}); its wafer is uncertain",
+                    j.text
+                ),
+            )
+        };
+        let mut notes = Vec::new();
+        let how = match self.wafers.settle_interrupted(on_blade, in_slot) {
+            Ok(wrc_cell::Interrupted::Committed(t)) => {
+                tracing::warn!("wrc: {text}: committed ({t})");
+                Closed::Committed
+            }
+            Ok(wrc_cell::Interrupted::Aborted(t)) => {
+                tracing::warn!("wrc: {text}: the wafer stays at its source ({t})");
+                Closed::Aborted
+            }
+            Ok(wrc_cell::Interrupted::Uncertain(t)) => {
+                tracing::warn!("wrc: {text}: wafer {} is uncertain", t.wafer);
+                notes.push(text);
+                Closed::Uncertain
+            }
+            Ok(wrc_cell::Interrupted::Gone(t)) => {
+                tracing::warn!("wrc: {text}: wafer {} is on neither its blade nor in its slot; it left the wafer map", t.wafer);
+                notes.push(format!("{text}; {} left the wafer map", t.wafer));
+                Closed::Uncertain
+            }
+            Err(e) => {
+                tracing::error!("wrc: cannot settle the pending transfer: {e}");
+                return notes;
+            }
+        };
+        self.jjob = None;
+        self.journal_append(&Record::Close(how));
+        notes
+    }
+
+    /// A transfer that ended abnormally (once the arm stands still and the sensor has
+    /// answered) or was refused before it moved: settle it from its journal and the sensors
+    /// ([`CellService::settle_pending`]), save, and tell what it left uncertain.
+    pub(super) fn settle_ended_transfer(&mut self, rest: &Pose) {
+        let records = match read_journal(&self.journal_path) {
+            Ok(j) => j.records,
+            Err(e) => {
+                tracing::error!(
+                    "wrc: cannot read the transfer journal {}: {e}; the transfer is judged without it",
+                    self.journal_path.display()
+                );
+                Vec::new()
+            }
+        };
+        let notes = if self.wafers.pending().is_some() {
+            self.settle_pending(&records, rest)
+        } else {
+            self.settle_committed(&records)
+        };
+        self.tell_uncertain(notes);
+    }
+
+    /// A transfer the map had committed whose job did not end normally (a wafer lost on the
+    /// line out, a power loss before the journal was closed): a GET whose hand had not left
+    /// the slot when its wafer was lost (or its vacuum went off) may have set it back there:
+    /// the slot and the blade become uncertain. The journal is closed. Returns what left
+    /// places uncertain.
+    fn settle_committed(&mut self, records: &[Record]) -> Vec<String> {
+        let mut notes = Vec::new();
+        let blade = self.jjob_transfer_blade(records);
+        let j = judge(records, self.evidence(blade));
+        if let Some(t) = j.transfer {
+            let back = t.kind == TransferKind::Get
+                && self.wafers.hand_of(t.blade) == Some(t.wafer)
+                && j.in_slot == Maybe::Perhaps
+                && self.wafers.doubt_back_in_slot(t.blade, t.slot_location());
+            if back {
+                tracing::warn!("wrc: {}", j.text);
+                notes.push(j.text.clone());
+            }
+        }
+        self.jjob = None;
+        let how = if notes.is_empty() {
+            Closed::Committed
+        } else {
+            Closed::Uncertain
+        };
+        self.journal_append(&Record::Close(how));
+        notes
+    }
+
+    /// The blade of the journal's open transfer (a SWAP's current half), or blade A.
+    fn jjob_transfer_blade(&self, records: &[Record]) -> Blade {
+        judge(
+            records,
+            Evidence {
+                valve_on: false,
+                sensed: false,
+            },
+        )
+        .transfer
+        .map_or(Blade::A, |t| t.blade)
+    }
+
+    /// Save the map and tell every connection; when `notes` say what left places
+    /// uncertain, keep them with the map's note and broadcast the `EVT RECOVERY` lines
+    /// (what happened, what is uncertain, what to do next).
+    pub(super) fn tell_uncertain(&mut self, notes: Vec<String>) {
+        if !notes.is_empty() {
+            let mut all: Vec<String> = self.wafers.note().map(str::to_string).into_iter().collect();
+            all.extend(notes.iter().cloned());
+            // The newest first: the note keeps its first 400 bytes.
+            all.reverse();
+            self.wafers.set_note(&all.join("; "));
+        }
+        self.persist();
+        if !notes.is_empty() {
+            for l in self.recovery_lines() {
+                self.event(SourceId::BROADCAST, false, &Event::Recovery(&l));
+            }
+        }
+    }
+
+    /// The vacuum sensors of `blades` (bit 0: A, bit 1: B) lost their wafers — outside a
+    /// job (`during` none: the Command Interpreter's watch, 213 raised) or in one: each
+    /// certain wafer there becomes uncertain on its blade (it may have fallen, or the sensor
+    /// failed; the sensor cannot tell), with a line on the log and `EVT RECOVERY` lines to
+    /// everyone. A transfer's own wafer is left to its judgement. Nothing leaves the map:
+    /// SENSE, MAP or an operator's CONFIRM settles it.
+    pub(super) fn lost_from_blades(&mut self, blades: u8, during: Option<JobKind>) {
+        let pending_blade = self.wafers.pending().map(|t| t.blade);
+        let mut notes = Vec::new();
+        for b in Blade::ALL {
+            if blades & (1 << b.index()) == 0 || Some(b) == pending_blade {
+                continue;
+            }
+            let Some(w) = self.wafers.hand_of(b) else {
+                continue;
+            };
+            if self.wafers.is_uncertain(b) || !self.wafers.mark_blade_uncertain(b) {
+                continue;
+            }
+            let ev = self.evidence(b);
+            let input = self.hand.blade(b.index()).map_or(0, |s| s.vacuum_input);
+            let when = match during {
+                None => "while no transfer ran".to_string(),
+                Some(k) => format!("during {}", k.verb()),
+            };
+            let valve = if ev.valve_on {
+                "its valve is on"
+            } else {
+                "its valve is off"
+            };
+            let text = format!(
+                "the vacuum sensor (input {input}) of blade {b} lost {w} {when} ({valve}): it may have fallen, or the sensor failed; {w} stays in the wafer map, uncertain, until SENSE, MAP or CONFIRM"
+            );
+            tracing::warn!("wrc: {text}");
+            notes.push(text);
+        }
+        if !notes.is_empty() {
+            self.tell_uncertain(notes);
+        }
+    }
+
+    /// `OUT <n> <0|1> FORCE` switched a guarded output while `blade` held `wafer`: on the
+    /// log, and to every connection.
+    pub(super) fn forced(
+        &mut self,
+        n: u8,
+        on: bool,
+        from: SourceId,
+        blade: Blade,
+        wafer: u32,
+        valve: bool,
+    ) {
+        let v = u8::from(on);
+        let meaning = if valve && !on {
+            format!("blade {blade} held W{wafer}: its vacuum is off, the wafer will drop")
+        } else {
+            format!("output {n} is guarded while a blade holds a wafer, and blade {blade} held W{wafer}")
+        };
+        let text = format!("forced OUT {n} {v} by {from}: {meaning}");
+        tracing::warn!("wrc: {text}");
+        self.event(SourceId::BROADCAST, false, &Event::Recovery(&text));
+    }
+
     /// At start-up, or when a board answers again, once the inputs are read: settle a
     /// transfer left pending by the journal and the sensors, doubt every wafer on a blade
     /// whose vacuum is off, find a hand left inside a station, and tell the Command
@@ -438,80 +680,20 @@ impl CellService {
         let mut notes: Vec<String> = Vec::new();
         // Saved and told only when something changes: a clean start says nothing.
         let before = self.wafers.wafers_line();
-        let pending = self.wafers.pending().copied();
-        let blade = pending.map_or(Blade::A, |t| t.blade);
+        let pending = self.wafers.pending().is_some();
+        let blade = self.wafers.pending().map_or(Blade::A, |t| t.blade);
         let j = judge(&journal.records, self.evidence(blade));
-        if let Some(t) = pending {
-            let ev = self.evidence(t.blade);
-            let (on_blade, in_slot, text) = if j.open() && j.transfer == Some(t) {
-                (j.on_blade, j.in_slot, j.text.clone())
-            } else if !j.open() {
-                // The journal never opened it: no step had begun, nothing moved.
-                let on_blade = match (t.kind, ev.valve_on, ev.sensed) {
-                    (TransferKind::Get, ..) => Maybe::No,
-                    (TransferKind::Put, true, true) => Maybe::Yes,
-                    (TransferKind::Put, true, false) => Maybe::No,
-                    (TransferKind::Put, false, _) => Maybe::Perhaps,
-                };
-                let in_slot = if t.kind == TransferKind::Get {
-                    Maybe::Yes
-                } else {
-                    Maybe::No
-                };
-                (
-                    on_blade,
-                    in_slot,
-                    format!("{t} was pending but had not begun: nothing moved"),
-                )
-            } else {
-                (
-                    Maybe::Perhaps,
-                    Maybe::Perhaps,
-                    format!(
-                        "{t} was pending but the journal holds another job ({}); its wafer is uncertain",
-                        j.text
-                    ),
-                )
-            };
-            match self.wafers.settle_interrupted(on_blade, in_slot) {
-                Ok(wrc_cell::Interrupted::Committed(t)) => {
-                    tracing::warn!("wrc: {text}: committed ({t})");
-                    self.journal_append(&Record::Close(Closed::Committed));
-                }
-                Ok(wrc_cell::Interrupted::Aborted(t)) => {
-                    tracing::warn!("wrc: {text}: the wafer stays at its source ({t})");
-                    self.journal_append(&Record::Close(Closed::Aborted));
-                }
-                Ok(wrc_cell::Interrupted::Uncertain(t)) => {
-                    tracing::warn!("wrc: {text}: wafer {} is uncertain", t.wafer);
-                    notes.push(text);
-                    self.journal_append(&Record::Close(Closed::Uncertain));
-                }
-                Ok(wrc_cell::Interrupted::Gone(t)) => {
-                    tracing::warn!("wrc: {text}: wafer {} is on neither its blade nor in its slot, as the sensor says; it left the wafer map", t.wafer);
-                    notes.push(format!("{text}; {} left the wafer map", t.wafer));
-                    self.journal_append(&Record::Close(Closed::Uncertain));
-                }
-                Err(e) => tracing::error!("wrc: cannot settle the pending transfer: {e}"),
-            }
+        if pending {
+            let now = self.hand_pose();
+            notes.extend(self.settle_pending(&journal.records, &now));
         } else if j.open() {
             // The map had committed it but the journal was not closed yet: a GET whose hand
             // had not left the slot when the vacuum went off may have set its wafer back.
-            if let Some(t) = j.transfer {
-                let back = t.kind == TransferKind::Get
-                    && self.wafers.hand_of(t.blade) == Some(t.wafer)
-                    && j.in_slot == Maybe::Perhaps
-                    && self.wafers.doubt_back_in_slot(t.blade, t.slot_location());
-                if back {
-                    tracing::warn!("wrc: {}", j.text);
-                    notes.push(j.text.clone());
-                }
-            }
             tracing::info!(
                 "wrc: the transfer journal's last job had not closed: {}",
                 j.text
             );
-            self.journal_append(&Record::Close(Closed::Settled));
+            notes.extend(self.settle_committed(&journal.records));
         }
         // A wafer on a blade whose vacuum is off (a power loss switched it off), or that
         // its sensor does not see: perhaps still there, perhaps fallen.

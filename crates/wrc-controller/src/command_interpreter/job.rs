@@ -84,6 +84,20 @@ pub(super) struct RunningJob {
     sensed: bool,
 }
 
+/// The watch of one blade's vacuum sensor outside a job ([`CommandInterpreter::watch_hand`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct BladeWatch {
+    /// Since when its valve is on [ns] (`None`: off).
+    valve_since: Option<u64>,
+    /// The valve has been on for the sensor's settling time while the map had a certain
+    /// wafer on the blade: from then on the sensor must see it, valve on or off.
+    armed: bool,
+    /// Successive periods its sensor read "no wafer".
+    dropped: u32,
+    /// The loss was raised (213): not again while the map still claims the wafer.
+    reported: bool,
+}
+
 /// The bit of `blade` in a blade mask.
 fn bit(blade: Blade) -> u8 {
     1 << blade.index()
@@ -232,7 +246,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.nak(job.from, job.to, code, text);
             }
             let sensed = self.vacuum_sensed_all();
-            let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
+            self.send_ended(CellEvent::Ended {
                 kind: job.kind,
                 started: false,
                 code: Some(code),
@@ -496,30 +510,99 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         None
     }
 
-    /// Outside a job: while the wafer map has a wafer on a blade and the robot moves, that
-    /// blade's vacuum sensor must keep seeing it; a wafer lost in motion stops the robot
-    /// (213).
+    /// Outside a job, moving or not: while the wafer map has a certain wafer on a blade,
+    /// that blade's vacuum sensor must keep seeing it once its valve has been on for
+    /// `[hand] vacuum_settle_ms` (and after the valve is switched off: a forced `OUT`). A
+    /// sensor that reads "no wafer" for [`LOST_CYCLES`] periods in a row raises 213 at once
+    /// (an ESTOP-class stop if the arm moves) and tells the cell service, which makes the
+    /// wafer uncertain on that blade; each loss is raised once. Not while a job runs (its
+    /// own watch does it) nor until the cell service has settled every job that ended.
     pub(super) fn watch_hand(&mut self) {
+        let outputs = self.shared.outputs[0].load(Ordering::Acquire);
         let holding = self.shared.hand_wafers.load(Ordering::Acquire);
-        let carrying =
-            self.job.is_none() && holding != 0 && self.shared.state() == RobotState::Moving;
-        if !carrying || self.all_sensed(holding) {
-            self.hand_dropped = 0;
+        let settle_ns = (self.hand.vacuum_settle_s * 1e9) as u64;
+        for b in Blade::ALL {
+            let w = &mut self.blade_watch[b.index()];
+            let valve_on = self
+                .hand
+                .blade(b.index())
+                .is_some_and(|s| outputs & (1u32 << (s.vacuum_output & 31)) != 0);
+            w.valve_since = match (valve_on, w.valve_since) {
+                (false, _) => None,
+                (true, None) => Some(self.now_ns),
+                (true, since) => since,
+            };
+            if holding & bit(b) == 0 {
+                // Not (or no longer) a certain wafer there: watched afresh next time.
+                *w = BladeWatch {
+                    valve_since: w.valve_since,
+                    ..BladeWatch::default()
+                };
+                continue;
+            }
+            if w.valve_since
+                .is_some_and(|t| self.now_ns.saturating_sub(t) >= settle_ns)
+            {
+                w.armed = true;
+            }
+        }
+        let settled = self.map_settled();
+        let watching = self.job.is_none()
+            && settled
+            && self.shared.io_ready.load(Ordering::Acquire)
+            && !self.shared.board_dead.load(Ordering::Acquire);
+        let mut lost = 0u8;
+        for b in Blade::ALL {
+            let sensed = self.vacuum_sensed_of(b);
+            let periodic = self.periodic;
+            let w = &mut self.blade_watch[b.index()];
+            if !watching || !w.armed || w.reported || sensed {
+                w.dropped = 0;
+                continue;
+            }
+            if periodic {
+                w.dropped += 1;
+            }
+            if w.dropped >= LOST_CYCLES {
+                w.reported = true;
+                lost |= bit(b);
+            }
+        }
+        if lost == 0 {
             return;
         }
-        if self.periodic {
-            self.hand_dropped += 1;
+        let _ = self
+            .io
+            .store
+            .cell_events
+            .try_send(CellEvent::WaferLost { blades: lost });
+        let mut text = FixedText::<200>::new();
+        let mut first = true;
+        for b in Blade::ALL.into_iter().filter(|b| lost & bit(*b) != 0) {
+            let wafer = self.shared.blade_wafers[b.index()].load(Ordering::Acquire) as u32;
+            let input = self.blade_signals(b).vacuum_input;
+            let _ = if first {
+                write!(
+                    text,
+                    "the vacuum sensor (input {input}) of blade {b} lost W{wafer}"
+                )
+            } else {
+                write!(text, ", and that of blade {b} (input {input}) W{wafer}")
+            };
+            first = false;
         }
-        if self.hand_dropped >= LOST_CYCLES {
-            self.hand_dropped = 0;
-            let sensed = self.vacuum_sensed_all();
-            let _ = self
-                .io
-                .store
-                .cell_events
-                .try_send(CellEvent::WaferLost { sensed });
-            self.shared.request_stop(StopKind::Estop);
-            self.handle_urgent(Urgent::Fault(Code::WaferLost.number()));
+        let _ = text.write_str(
+            " outside a transfer; it is uncertain in the wafer map: SENSE, MAP or CONFIRM",
+        );
+        self.shared.request_stop(StopKind::Estop);
+        self.fault(Code::WaferLost, text.as_str());
+    }
+
+    /// Tell the cell service a job ended, and count it (the watch outside a job waits until
+    /// the service has settled as many).
+    fn send_ended(&mut self, ended: CellEvent) {
+        if self.io.store.cell_events.try_send(ended).is_ok() {
+            self.shared.jobs_ended.fetch_add(1, Ordering::AcqRel);
         }
     }
 
@@ -762,7 +845,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             self.shared.set_output(self.hand.mapping_output, false);
         }
         let sensed = self.vacuum_sensed_all();
-        let _ = self.io.store.cell_events.try_send(CellEvent::Ended {
+        self.send_ended(CellEvent::Ended {
             kind: j.job.kind,
             started: true,
             code: failure.map(|f| f.0),

@@ -26,6 +26,7 @@ mod admission;
 mod blend;
 pub mod clearance;
 mod debug;
+mod guard;
 mod job;
 mod motion;
 mod program;
@@ -54,6 +55,10 @@ pub const PROGRAM_BUDGET: u32 = 2_000;
 pub const PROGRAM_REQUESTS: u32 = 16;
 /// How long a RESET may wait for the board to clear its faults before it is refused [ns].
 pub const RESET_TIMEOUT_NS: u64 = 1_000_000_000;
+/// How long a RESET sent while a stop still brakes waits for the arm to stand still before
+/// it is refused [ns]: far longer than any brake (an ESTOP's at full limits takes well under
+/// a second), short enough that an operator is not left without an answer.
+pub const RESET_REST_TIMEOUT_NS: u64 = 5_000_000_000;
 
 /// Send `line` to `to`; replies to the running program need not be sent (its refusals are
 /// recorded by [`CommandInterpreter::nak`]).
@@ -128,8 +133,9 @@ pub struct CommandInterpreter<B: MotionBoard> {
     planned_end: Joints,
     buf: ReplyBuf,
     feedback: wrc_board::Feedback,
-    /// A RESET the board has not yet carried out: who asked, and when it is refused [ns].
-    reset_pending: Option<(SourceId, ReplyTo, u64)>,
+    /// A RESET not answered yet: waiting for a stop's brake to end, or for the board to
+    /// carry it out.
+    reset_pending: Option<reset::PendingReset>,
     /// Input bit of the E-stop circuit (board 0), if the cell has one.
     pub estop_input: Option<u8>,
     vm: Vm,
@@ -151,9 +157,11 @@ pub struct CommandInterpreter<B: MotionBoard> {
     pub hand: wrc_config::HandConfig,
     job: Option<job::RunningJob>,
     scan: wrc_board::MappingScan,
-    /// Successive cycles the vacuum sensor read "no wafer" while the map's wafer on the
-    /// hand moved outside a job.
-    hand_dropped: u32,
+    /// Outside a job: the watch of each blade's vacuum sensor while the map has a certain
+    /// wafer on it (index: [`wrc_cell::Blade::index`]).
+    blade_watch: [job::BladeWatch; wrc_cell::MAX_BLADES],
+    /// The outputs the configuration guards and the outputs' names (`OUT`'s 141).
+    output_guard: guard::OutputGuard,
     /// The hand may be inside a station (found at start-up by the cell service): HOME and
     /// RETRACT take it straight out first.
     retract: Option<crate::messages::cell_job::RetractPlan>,
@@ -197,7 +205,8 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             hand: wrc_config::HandConfig::default(),
             job: None,
             scan: wrc_board::MappingScan::default(),
-            hand_dropped: 0,
+            blade_watch: Default::default(),
+            output_guard: guard::OutputGuard::default(),
             retract: None,
             retract_ticket: None,
             cell: None,
@@ -253,6 +262,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         self.shared.in_flight.load(Ordering::Acquire) == 0
             && self.shared.stopped_epoch.load(Ordering::Acquire)
                 == self.shared.stop_epoch.load(Ordering::Acquire)
+    }
+
+    /// Whether the cell service has settled every job this task ended
+    /// ([`Shared::map_settled`]).
+    pub(super) fn map_settled(&self) -> bool {
+        self.shared.map_settled()
     }
 
     /// The alarm's code in ERROR or ESTOP.

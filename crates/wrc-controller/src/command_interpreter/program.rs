@@ -304,9 +304,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// Whether the robot is safe for an error handler: it stands still, nothing of the
-    /// program's moves or brakes, and no wafer job runs.
+    /// program's moves or brakes, no wafer job runs, and the cell service has settled every
+    /// job that ended (a handler that asks `SLOT` after a failed `GET` reads the map as the
+    /// journal and the sensors judged the failure, not as it was before).
     fn safe_for_handler(&self) -> bool {
         self.job.is_none()
+            && self.map_settled()
             && self.stands_still()
             && !self
                 .tickets
@@ -710,7 +713,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 self.vm.resume(Resume::Ok);
                 return true;
             }
-            R::Out { n, on } => Command::Out { n, on },
+            // A program never forces a guarded output: that is an operator's decision.
+            R::Out { n, on } => Command::Out {
+                n,
+                on,
+                force: false,
+            },
             R::Speed { pct } => Command::Speed(pct),
             R::Accel { pct } => {
                 if let Some(p) = self.program.as_mut() {

@@ -13,7 +13,7 @@ use wrc_protocol::{
 use wrc_robot::{Posture, MAX_AXES};
 
 use super::admission::{admit, Refused, Situation};
-use super::{deliver, CommandInterpreter, RESET_TIMEOUT_NS};
+use super::{deliver, CommandInterpreter};
 use crate::clients::source_name;
 use crate::messages::{floor_char_boundary, MoveKind, SourceId, Urgent};
 use crate::velocity_generator::refusal_code;
@@ -200,50 +200,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
             Command::Hold => self.hold(from, to),
             Command::Resume => self.resume(from, to),
-            Command::Reset => {
-                if self.shared.board_dead.load(Ordering::Acquire) {
-                    return self.nak(
-                        from,
-                        to,
-                        Code::BoardLost,
-                        "the motion board does not answer (its heartbeat stands); RESET once it runs again",
-                    );
-                }
-                if let Some(input) = self.estop_input {
-                    if self.shared.inputs[0].load(Ordering::Acquire) & (1u32 << input) != 0 {
-                        return self.nak(
-                            from,
-                            to,
-                            Code::InEstop,
-                            "the E-stop input is still open; close it, then RESET",
-                        );
-                    }
-                }
-                // The board re-reads its position at a RESET: only once it has executed
-                // every period pushed and stands still.
-                if !self.stands_still() {
-                    return self.nak(
-                        from,
-                        to,
-                        Code::Busy,
-                        "the robot is still moving; STOP and WAIT first",
-                    );
-                }
-                if self.reset_pending.is_some() {
-                    return self.nak(from, to, Code::Busy, "a RESET is already in progress");
-                }
-                if self.board.reset().is_err() {
-                    return self.nak(
-                        from,
-                        to,
-                        Code::Busy,
-                        "the board is busy with a previous command; repeat RESET",
-                    );
-                }
-                // Answered once the board has carried it out and reports no fault (see
-                // `finish_reset`), so Error Check never sees the fault of before the RESET.
-                self.reset_pending = Some((from, to, self.now_ns.saturating_add(RESET_TIMEOUT_NS)));
-            }
+            Command::Reset => self.reset_request(from, to),
             Command::Io => {
                 let body = IoBody {
                     inputs: self.shared.inputs[0].load(Ordering::Acquire),
@@ -252,11 +209,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 let line = self.buf.ack(to, body);
                 deliver(&self.io.out, from, line);
             }
-            Command::Out { n, on } => {
-                self.shared.set_output(n, on);
-                let line = self.buf.ack(to, "");
-                deliver(&self.io.out, from, line);
-            }
+            Command::Out { n, on, force } => self.out_request(from, to, n, on, force),
             Command::Wait => {
                 let line = self.buf.ack(to, "");
                 deliver(&self.io.out, from, line);

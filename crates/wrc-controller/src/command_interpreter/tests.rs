@@ -1,7 +1,8 @@
 //! The Command Interpreter stepped by hand on made-up times (a mock clock: `step_released`
 //! takes the time), with the test playing the Velocity and Pulse Generators through the
 //! order and done queues: the motion runner (tickets, HOLD/RESUME, WAIT), the program
-//! runner (DELAY on the cycle's clock), RESET's deadline, and message-released cycles.
+//! runner (DELAY on the cycle's clock), RESET's deadline and its wait for a stop's brake,
+//! the guard on the vacuum valves and guarded outputs, and message-released cycles.
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -12,7 +13,7 @@ use wrc_config::Config;
 use wrc_protocol::{Command, ReplyTo, Request};
 use wrc_rt::ipc::MessageQueue;
 
-use super::{CommandInterpreter, CommandLinks, RESET_TIMEOUT_NS};
+use super::{CommandInterpreter, CommandLinks, RESET_REST_TIMEOUT_NS, RESET_TIMEOUT_NS};
 use crate::messages::{Incoming, MoveDone, MoveKind, MoveOrder, MoveOutcome, OutLine, SourceId};
 use crate::shared::{RobotState, Shared, StopKind};
 
@@ -21,7 +22,7 @@ const HOST: SourceId = SourceId(0x1000_0001);
 
 struct Rig {
     ci: CommandInterpreter<DpramBoard>,
-    _sim: SimBoard,
+    sim: SimBoard,
     shared: Arc<Shared>,
     incoming: Arc<MessageQueue<Incoming>>,
     orders: Arc<MessageQueue<MoveOrder>>,
@@ -65,7 +66,7 @@ impl Rig {
         );
         Rig {
             ci,
-            _sim: sim,
+            sim,
             shared,
             incoming,
             orders,
@@ -262,4 +263,132 @@ fn hold_at_rest_is_acknowledged_and_changes_nothing() {
     assert_eq!(r.shared.stop_epoch.load(Ordering::Acquire), epoch);
     assert_eq!(r.shared.state(), RobotState::Idle);
     let _ = ReplyTo::default();
+}
+
+/// Regression: a RESET sent while an ESTOP's brake was still under way was refused with
+/// "the robot is still moving; STOP and WAIT first" although a stop was already braking.
+/// Now it waits for the arm to stand still, then is carried out as at rest.
+#[test]
+fn a_reset_during_an_estops_brake_is_answered_once_the_arm_stands_still() {
+    let mut r = Rig::new();
+    r.movj(1, 10.0);
+    assert!(r.orders.try_recv().is_ok());
+    r.shared.in_flight.store(4, Ordering::Release);
+    let estop = r.send(2, Command::Estop);
+    assert!(estop.contains(&"EVT STATE ESTOP".to_string()), "{estop:?}");
+    // Braking: no answer yet, however many cycles.
+    assert!(r.send(3, Command::Reset).is_empty());
+    assert!(r.periods(10).is_empty());
+    // A second RESET meanwhile is refused: one is in progress.
+    assert!(r.send(4, Command::Reset)[0].starts_with("NAK 4 121 a RESET is already"));
+    // The brake ends; the RESET is carried out (the board's part takes a board period).
+    r.at_rest();
+    assert!(r.periods(1).is_empty());
+    r.sim.step();
+    assert_eq!(r.periods(1), ["ACK 3", "EVT STATE IDLE"]);
+    assert_eq!(r.shared.state(), RobotState::Idle);
+}
+
+#[test]
+fn a_reset_during_a_brake_gets_its_usual_refusal_once_the_arm_stands_still() {
+    let mut r = Rig::new();
+    r.ci.estop_input = Some(15);
+    r.shared.in_flight.store(4, Ordering::Release);
+    r.send(1, Command::Estop);
+    // The E-stop input is open: refused with 123, but only once the brake has ended.
+    r.shared.inputs[0].store(1 << 15, Ordering::Release);
+    assert!(r.send(2, Command::Reset).is_empty());
+    r.at_rest();
+    let t = r.periods(1);
+    assert!(
+        t[0].starts_with("NAK 2 123 the E-stop input is still open"),
+        "{t:?}"
+    );
+}
+
+#[test]
+fn a_reset_whose_stop_never_ends_is_refused_after_its_deadline() {
+    let mut r = Rig::new();
+    r.shared.in_flight.store(4, Ordering::Release);
+    r.send(1, Command::Estop);
+    assert!(r.send(2, Command::Reset).is_empty());
+    let before = r.now_ns;
+    let mut t = r.periods(1);
+    while t.is_empty() {
+        t = r.periods(1);
+    }
+    assert!(
+        t[0].starts_with("NAK 2 121 the stop under way did not end within 5 s"),
+        "{t:?}"
+    );
+    assert!(r.now_ns - before >= RESET_REST_TIMEOUT_NS - 50 * MS);
+    assert!(r.now_ns - before <= RESET_REST_TIMEOUT_NS + 50 * MS);
+}
+
+#[test]
+fn a_reset_while_the_arm_moves_with_no_stop_under_way_is_refused_at_once() {
+    let mut r = Rig::new();
+    r.movj(1, 10.0);
+    r.shared.in_flight.store(4, Ordering::Release);
+    let t = r.send(2, Command::Reset);
+    assert_eq!(
+        t,
+        ["NAK 2 121 the robot is still moving; STOP and WAIT first"]
+    );
+}
+
+#[test]
+fn out_of_a_vacuum_valve_holding_a_wafer_needs_force_and_is_told() {
+    use crate::messages::cell_job::CellEvent;
+    use crate::shared::BLADE_UNCERTAIN;
+    let mut r = Rig::new();
+    let config = Config::embedded_default();
+    r.ci.hand = config.hand;
+    r.ci.name_outputs(&config.signals(&[]), 1 << 7);
+    let out = |n, on, force| Command::Out { n, on, force };
+    // Nothing on the blade: free.
+    assert_eq!(r.send(1, out(0, true, false)), ["ACK 1"]);
+    assert_eq!(r.send(2, out(7, true, false)), ["ACK 2"]);
+    // W4 on blade A: the valve may not go off, output 7 not switch, without FORCE.
+    r.shared.blade_wafers[0].store(4, Ordering::Release);
+    let t = r.send(3, out(0, false, false));
+    assert_eq!(
+        t,
+        ["NAK 3 141 output 0 (vacuum valve) is blade A's vacuum valve and blade A holds W4: switched off, the wafer drops; send OUT 0 0 FORCE if you mean it"]
+    );
+    assert_ne!(
+        r.shared.outputs[0].load(Ordering::Acquire) & 1,
+        0,
+        "still on"
+    );
+    let t = r.send(4, out(7, false, false));
+    assert!(
+        t[0].starts_with("NAK 4 141 output 7 is guarded while a blade holds a wafer, and blade A holds W4; send OUT 7 0 FORCE"),
+        "{t:?}"
+    );
+    // Switching the valve on, or another output, is free.
+    assert_eq!(r.send(5, out(0, true, false)), ["ACK 5"]);
+    assert_eq!(r.send(6, out(5, true, false)), ["ACK 6"]);
+    assert!(
+        r.ci.io.store.cell_events.try_recv().is_err(),
+        "nothing forced"
+    );
+    // FORCE: done, and the cell service is told who forced what.
+    assert_eq!(r.send(7, out(0, false, true)), ["ACK 7"]);
+    assert_eq!(r.shared.outputs[0].load(Ordering::Acquire) & 1, 0);
+    match r.ci.io.store.cell_events.try_recv() {
+        Ok(CellEvent::Forced {
+            n: 0,
+            on: false,
+            from: HOST,
+            blade: wrc_cell::Blade::A,
+            wafer: 4,
+            valve: true,
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    // An uncertain wafer is guarded too.
+    r.shared.blade_wafers[0].store(4 | BLADE_UNCERTAIN, Ordering::Release);
+    let t = r.send(8, out(0, false, false));
+    assert!(t[0].contains("blade A may hold W4?"), "{t:?}");
 }

@@ -100,4 +100,20 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         }
         self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
     }
+
+    /// An alarm of this task's own (its stop already requested) with a text that says more
+    /// than the code's: every open motion ends with `ABS <code> <text>`, the state becomes
+    /// ERROR (an ESTOP stays ESTOP: RESET must still see the E-stop released), and everyone
+    /// is told (`EVT ERROR`).
+    pub(super) fn fault(&mut self, code: Code, text: &str) {
+        self.abort_all(code, text);
+        self.shared
+            .error_code
+            .store(u32::from(code.number()), Ordering::Release);
+        if self.shared.state() != RobotState::Estop {
+            self.set_state(RobotState::Error);
+        }
+        self.event(&Event::Error { code, text });
+        self.planned_end = self.robot.pulses_to_joints(&self.shared.commanded_pulses());
+    }
 }

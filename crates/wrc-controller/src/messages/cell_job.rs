@@ -8,7 +8,9 @@
 //! (`WaferMap::begin`) *before* it hands the job over; the Command Interpreter reports
 //! [`CellEvent::Commit`] the moment the vacuum sensor has confirmed the wafer's new place,
 //! and [`CellEvent::Ended`] at the end; the service commits (or settles a failed transfer
-//! from the vacuum sensor, as at start-up) and saves.
+//! by its journal and the vacuum sensors, as at start-up) and saves. Outside a job the
+//! Command Interpreter reports a wafer its sensor lost ([`CellEvent::WaferLost`]) and a
+//! forced switch of a guarded output ([`CellEvent::Forced`]).
 //!
 //! The transfer journal (`wrc_cell::journal`) goes the same way: the Command Interpreter
 //! reports every step of a GET, PUT or SWAP as it begins and ends ([`CellEvent::Step`]), the
@@ -359,10 +361,26 @@ pub enum CellEvent {
         /// The codes.
         codes: [u8; MAX_MAP_SLOTS],
     },
-    /// The vacuum sensor lost a blade's wafer outside a job (code 213); what each blade's
-    /// sensor read then.
+    /// The vacuum sensor lost a blade's wafer outside a job (code 213, raised already): the
+    /// map must not keep claiming it.
     WaferLost {
-        /// The vacuum-sensed input of each blade.
-        sensed: [bool; MAX_BLADES],
+        /// The blades whose sensor lost its wafer (bit 0: A, bit 1: B).
+        blades: u8,
+    },
+    /// `OUT <n> <0|1> FORCE` switched a guarded output while a blade held a wafer (the
+    /// Command Interpreter did it; the cell service logs it and tells everyone).
+    Forced {
+        /// The output.
+        n: u8,
+        /// Switched on (else off).
+        on: bool,
+        /// Who asked.
+        from: SourceId,
+        /// The blade whose wafer made it guarded.
+        blade: Blade,
+        /// That wafer's number.
+        wafer: u32,
+        /// The output is that blade's vacuum valve (else one the configuration guards).
+        valve: bool,
     },
 }

@@ -14,10 +14,10 @@ use wrc_controller::cell_service::transfer_steps;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
 use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JournalAck};
 use wrc_controller::messages::{
-    MoveDone, MoveOrder, MoveOutcome, OutLine, ProgramStart, SourceId, StoreLinks,
+    Incoming, MoveDone, MoveOrder, MoveOutcome, OutLine, ProgramStart, SourceId, StoreLinks,
 };
 use wrc_controller::shared::Shared;
-use wrc_protocol::{ProgramName, ReplyTo};
+use wrc_protocol::{Parser, ProgramName, ReplyTo};
 use wrc_robot::Robot;
 use wrc_rt::ipc::MessageQueue;
 
@@ -55,6 +55,8 @@ struct Rig {
     orders: Arc<MessageQueue<MoveOrder>>,
     done: Arc<MessageQueue<MoveDone>>,
     network: Arc<MessageQueue<OutLine>>,
+    /// Requests as the Ethernet task hands them over.
+    incoming: Arc<MessageQueue<Incoming>>,
     links: StoreLinks,
     /// Every line sent to the network, in order.
     lines: Vec<String>,
@@ -89,6 +91,7 @@ impl Rig {
         let done = Arc::new(MessageQueue::new(64));
         let network = Arc::new(MessageQueue::new(4096));
         let links = StoreLinks::new();
+        let incoming = Arc::new(MessageQueue::new(16));
         let ci = CommandInterpreter::new(
             robot.clone(),
             board,
@@ -96,7 +99,7 @@ impl Rig {
             CommandLinks {
                 store: links.clone(),
                 ..CommandLinks::new(
-                    Arc::new(MessageQueue::new(16)),
+                    incoming.clone(),
                     orders.clone(),
                     done.clone(),
                     network.clone(),
@@ -113,6 +116,7 @@ impl Rig {
             orders,
             done,
             network,
+            incoming,
             links,
             lines: Vec::with_capacity(256),
             motions: 0,
@@ -286,6 +290,69 @@ fn a_command_interpreter_cycle_running_a_wafer_job_allocates_and_frees_nothing()
             "allocations or frees in Command Interpreter cycles running a job (blend {blend})"
         );
     }
+}
+
+/// The guard on a blade's vacuum valve (a refusal with its text, a forced switch told to the
+/// cell service) and the watch of the blades outside a job (the wafer lost at rest: 213 with
+/// its text) allocate nothing.
+#[test]
+fn a_command_interpreter_cycle_guarding_and_watching_a_held_wafer_allocates_nothing() {
+    wrc_alloc_count::assert_installed();
+    let mut rig = Rig::new(true, true);
+    let config = Config::embedded_default();
+    rig.ci.hand = config.hand;
+    rig.ci.name_outputs(&config.signals(&[]), 1 << 7);
+    // The map has W4 on blade A, certain; its valve on (this board's sensor follows it).
+    rig.shared.set_output(0, true);
+    rig.shared.blade_wafers[0].store(4, Ordering::Release);
+    rig.shared.hand_wafers.store(1, Ordering::Release);
+    rig.shared.io_ready.store(true, Ordering::Release);
+    // The valve on for long enough that its sensor is watched.
+    rig.run_until(1_000_000_000, |_| {}, &["never"]);
+    assert!(rig.lines.is_empty(), "{:?}", rig.lines);
+    let host = SourceId::new(SourceId::TCP, 0, 1);
+    let parser = Parser::new(4);
+    let requests = [
+        parser.parse(b"1 OUT 0 0").unwrap(),
+        parser.parse(b"2 OUT 0 0 FORCE").unwrap(),
+    ];
+    let incoming = rig.incoming.clone();
+    rig.run_until(
+        30_000_000_000,
+        |_| {
+            for r in requests {
+                incoming.try_send(Incoming::Request(host, r)).ok().unwrap();
+            }
+        },
+        &["EVT ERROR 213"],
+    );
+    let lines = &rig.lines;
+    assert!(
+        lines[0].starts_with("NAK 1 141 output 0 (vacuum valve) "),
+        "{lines:?}"
+    );
+    assert_eq!(lines[1], "ACK 2", "{lines:?}");
+    let alarm = lines
+        .iter()
+        .find(|l| l.starts_with("EVT ERROR 213 "))
+        .unwrap();
+    assert!(alarm.contains("blade A lost W4"), "{alarm}");
+    assert!(rig.cell_events.iter().any(|e| matches!(
+        e,
+        CellEvent::Forced {
+            n: 0,
+            on: false,
+            wafer: 4,
+            ..
+        }
+    )));
+    assert!(rig
+        .cell_events
+        .contains(&CellEvent::WaferLost { blades: 1 }));
+    assert_eq!(
+        rig.heap_calls, 0,
+        "allocations or frees in Command Interpreter cycles guarding and watching"
+    );
 }
 
 #[test]

@@ -177,9 +177,11 @@ fn a_wafer_lost_during_a_blended_approach_stops_the_hand_outside_the_station() {
     assert!(host.status().contains("state=ERROR"));
     let past = past_lp2_approach(&mut host);
     assert!(past <= 1e-3, "stopped {past:.3} mm past the approach pose");
-    // The wafer stays in the map, uncertain, until RESET settles it from the sensor; LP2
+    // Once the stop has settled, the journal and the sensor judge the PUT: never released,
+    // no longer sensed, so the wafer stays in the map, uncertain, on the blade (SENSE, MAP or
+    // CONFIRM settles it, not RESET); the hand stopped short of LP2, so not in its slot: LP2
     // untouched, in the map and the cell.
-    let map = host.ask("WAFERS");
+    let map = host.settled_wafers();
     assert!(map.contains("hand=W1? "), "{map}");
     assert!(map.contains(" LP2=-x25 "), "{map}");
     assert_eq!(host.truth("LP2"), "0".repeat(25));

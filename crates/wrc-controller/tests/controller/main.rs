@@ -10,6 +10,7 @@ mod estop_input;
 mod ethernet;
 mod host_access;
 mod language_docs;
+mod map_truth;
 mod motion;
 mod paths;
 mod pipeline;

@@ -5,7 +5,6 @@
 //! stations); named points, POINT/POINTS and TEACH; INCLUDE and CALL PROGRAM through the
 //! store; the debugger's verbs; blended motions that never stop, and arcs.
 
-use wrc_board::wrc_cell::World;
 use wrc_controller::simulation::SimCellFrom;
 
 use crate::vhost::{repo, VHost};
@@ -43,11 +42,7 @@ fn run(host: &mut VHost) -> String {
 /// Replace the simulated cell's ground truth by `edit` of its world file's text (the
 /// wafers an operator took away or put back by hand).
 fn edit_world(host: &VHost, edit: impl FnOnce(&str) -> String) {
-    let mut board = host.sim.board(0).unwrap();
-    let cell = board.take_cell().unwrap();
-    let text = edit(&cell.world().to_text());
-    let world = World::from_text(&text, cell.stations()).unwrap();
-    board.attach_cell(cell.with_world(world)).unwrap();
+    host.edit_world(edit);
 }
 
 /// The state field of `STATUS`.
@@ -57,7 +52,10 @@ fn state(host: &mut VHost) -> String {
 }
 
 #[test]
-fn a_vacuum_miss_is_retried_once_then_alarmed_and_the_operator_lets_it_go_on() {
+fn a_vacuum_miss_is_mapped_then_alarmed_and_the_operator_lets_it_go_on() {
+    // After a miss the slot is uncertain (the wafer may have been taken away, or lie
+    // askew): a GET of it is refused (139) until the station is mapped again, so the handler
+    // maps it and retries only a slot the mapping found full.
     let mut host = ready(
         "\
 MAP \"LP1\"
@@ -68,13 +66,15 @@ TRY
   GET \"LP1\", 2
 CATCH 212
   tries = tries + 1
-  PRINT \"miss\", tries, ERR, ERRLINE, HAND$()
+  PRINT \"miss\", tries, ERR, ERRLINE, HAND$(), SLOT(\"LP1\", 2)
   RESET
-  IF tries < 2 THEN
+  MAP \"LP1\"
+  IF tries < 2 AND SLOT(\"LP1\", 2) = 1 THEN
     RETRY
   ENDIF
   ALARM 1001, \"no wafer on the hand from LP1 slot 2\"
   WAIT OPERATOR \"put the wafer back\"
+  MAP \"LP1\"
   tries = 0
   RETRY
 ENDTRY
@@ -98,22 +98,25 @@ PRINT \"LP2 slot 2:\", WAFER$(\"LP2\", 2), SLOT(\"LP2\", 2)
     });
     let alarm = host.until("EVT ALARM");
     assert!(
-        alarm.starts_with("EVT ALARM 1001 p p:14: no wafer on the hand from LP1 slot 2"),
+        alarm.starts_with("EVT ALARM 1001 p p:15: no wafer on the hand from LP1 slot 2"),
         "{alarm}"
     );
     let waiting = host.until("EVT PROGRAM p WAITING");
-    assert_eq!(waiting, "EVT PROGRAM p WAITING p:15 put the wafer back");
-    // Two misses, each handled with the robot still and its fault cleared by the program.
-    assert_eq!(printed(&host)[1..], ["miss 1 212 6", "miss 2 212 6"]);
+    assert_eq!(waiting, "EVT PROGRAM p WAITING p:16 put the wafer back");
+    // One miss, handled with the robot still and its fault cleared by the program; the slot
+    // was uncertain (-2) until the mapping found it empty, so nothing was retried blind.
+    assert_eq!(printed(&host)[1..], ["miss 1 212 6  -2"]);
     assert_eq!(state(&mut host), "IDLE");
     assert!(host.hand_empty());
     // The operator puts the wafer back and lets the program go on.
     edit_world(&host, |_| original.clone());
     assert_eq!(host.ask("10 CONTINUE"), "ACK 10");
     assert_eq!(host.reply(), "INF 9");
+    // The mapping took the wafer back as a new one (W2 left the map when its slot was found
+    // empty): W26.
     assert_eq!(
-        printed(&host)[3..],
-        ["got W2", "LP2 slot 2: W2 1"],
+        printed(&host)[2..],
+        ["got W26", "LP2 slot 2: W26 1"],
         "{:?}",
         host.seen
     );
@@ -757,4 +760,32 @@ fn a_held_program_move_resumes_at_its_own_speed_and_acceleration() {
     );
     let (j, _, _) = host.where_();
     assert!((j[0] - 150.0).abs() < 0.01, "{j:?}");
+}
+
+/// A program's `OUT` goes through the same guard as a host's: the vacuum valve of a blade
+/// that holds a wafer cannot be switched off (141, an error its TRY may catch), and a
+/// program has no FORCE. The wafer stays held, in the map and the cell.
+#[test]
+fn a_programs_out_of_the_valve_of_a_held_wafer_is_refused_with_141() {
+    let mut host = ready(
+        "\
+MAP \"LP1\"
+GET \"LP1\", 1
+TRY
+  OUT 0, 0
+  PRINT \"not reached\"
+CATCH 141
+  PRINT \"guarded\", ERR, HAND$()
+ENDTRY
+PUT \"LP1\", 1
+PRINT \"back\", WAFER$(\"LP1\", 1)
+",
+    );
+    assert_eq!(run(&mut host), "INF 9", "{:?}", host.seen);
+    assert_eq!(printed(&host), ["guarded 141 W1", "back W1"]);
+    assert!(!host
+        .seen
+        .iter()
+        .any(|l| l.starts_with("EVT ERROR") || l.starts_with("EVT RECOVERY forced")));
+    assert_eq!(host.truth("LP1"), "1".repeat(25));
 }

@@ -221,12 +221,14 @@ impl VHost {
         })
     }
 
-    /// `WAFERS` once no transfer is pending any more: one that ended abnormally is settled
-    /// from the vacuum sensor when the arm stands still and the sensor has answered.
+    /// `WAFERS` once the map has settled every wafer job that ended and no transfer is
+    /// pending any more: one that ended abnormally is judged by its journal and the vacuum
+    /// sensors when the arm stands still and the sensor has answered.
     pub fn settled_wafers(&mut self) -> String {
-        self.poll("no transfer pending in the map", |host| {
+        self.poll("the wafer map settled, no transfer pending", |host| {
+            let settled = host.sim.shared().map_settled();
             let map = host.ask("WAFERS");
-            if map.contains("pending=") {
+            if map.contains("pending=") || !settled {
                 Err(map)
             } else {
                 Ok(map)
@@ -255,6 +257,46 @@ impl VHost {
     pub fn hand_empty(&self) -> bool {
         let board = self.sim.board(0).unwrap();
         board.cell().unwrap().world().hand().is_none()
+    }
+
+    /// Replace the simulated cell's ground truth by `edit` of its world file's text (what an
+    /// operator did by hand, or a wafer that slipped off a blade).
+    pub fn edit_world(&self, edit: impl FnOnce(&str) -> String) {
+        let mut board = self.sim.board(0).unwrap();
+        let cell = board.take_cell().unwrap();
+        let text = edit(&cell.world().to_text());
+        let world = World::from_text(&text, cell.stations()).unwrap();
+        board.attach_cell(cell.with_world(world)).unwrap();
+    }
+
+    /// The wafer on `blade` slips off it in the simulated cell now (it is lost, as a wafer
+    /// dropped away from any slot is), whatever the vacuum does.
+    pub fn drop_from_blade(&self, blade: wrc_cell::Blade) {
+        let key = if blade == wrc_cell::Blade::A {
+            "hand = "
+        } else {
+            "hand_b = "
+        };
+        self.edit_world(|text| {
+            let line = text
+                .lines()
+                .find(|l| l.starts_with(key))
+                .unwrap_or_else(|| panic!("no wafer on blade {blade} in the cell:\n{text}"));
+            let tag = line[key.len()..].trim().to_string();
+            let lost = text
+                .lines()
+                .find(|l| l.starts_with("lost = "))
+                .unwrap_or_else(|| panic!("no lost list:\n{text}"));
+            let list = lost["lost = ".len()..].trim();
+            let more = if list == "[]" {
+                format!("lost = [{tag}]")
+            } else {
+                format!("lost = {}, {tag}]", list.trim_end_matches(']'))
+            };
+            text.replacen(&format!("{line}\n"), "", 1)
+                .replacen(lost, &more, 1)
+        });
+        assert!(self.blade_empty(blade));
     }
 
     /// A copy of the simulated cell's ground truth as it is now.

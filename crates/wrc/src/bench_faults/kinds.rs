@@ -74,7 +74,7 @@ impl Kind {
     pub(crate) fn about(self) -> &'static str {
         match self {
             Kind::Estop => "the E-stop input opens (fault mailbox `estop on`) during a GET or PUT; signal EVT ERROR 202; stopped: the arm at rest on the board within the brake bound; `estop off`, RESET, the next transfer",
-            Kind::VacuumLoss => "the vacuum sensor drops (`sensor-flip` of the vacuum input) while the hand carries a wafer on a MOVJ; signal EVT ERROR 213; stopped: at rest on the board; the sensor restored, RESET, the next transfer",
+            Kind::VacuumLoss => "the vacuum sensor drops (`sensor-flip` of the vacuum input) while the hand carries a wafer on a MOVJ; signal EVT ERROR 213; stopped: at rest on the board; the sensor restored, RESET, SENSE (the wafer stays uncertain until then), the next transfer",
             Kind::FollowingError => "an encoder sticks (`encoder-stuck`, J1 or J3) during a MOVJ; signal EVT ERROR 203; stopped: at rest on the board; the encoder freed, RESET, a MOVJ",
             Kind::ClientDrop => "a client that took CONTROL and started a GET or PUT closes its socket; signal EVT ERROR 208 to another client; stopped: at rest on the board; RESET, the next transfer",
             Kind::SerialGarbage => "random bytes (up to 600, seeded) on the pendant's serial line (a pty) during a GET or PUT from TCP; signal a NAK on the serial line; the transfer must carry on to its INF; the pendant answers STATUS afterwards",
@@ -379,6 +379,15 @@ fn board_fault_round(kind: Kind, s: &mut Session, ctx: &mut Ctx) -> anyhow::Resu
         Ok(()) => Verdict::Pass("RESET".into()),
         Err(r) => Verdict::Fail(format!("RESET refused: {r}")),
     };
+    if kind == Kind::VacuumLoss && round.recovered.is_pass() {
+        // RESET clears the alarm, not the uncertain wafer: the sensor, read with the valve
+        // on, settles it (the wafer is still held; the sensor answers again).
+        round.recovered = match s.host.run("SENSE") {
+            Ok(end) if end.starts_with("INF") => Verdict::Pass(format!("RESET, SENSE: {end}")),
+            Ok(end) => Verdict::Fail(format!("RESET, then SENSE: {end}")),
+            Err(e) => Verdict::Fail(format!("RESET, then SENSE: {e:#}")),
+        };
+    }
     let check = s.check_map();
     round.consistent = Verdict::from(
         check.problems.is_empty(),

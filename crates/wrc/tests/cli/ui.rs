@@ -106,12 +106,20 @@ fn the_gui_bridges_requests_events_and_the_simulator_stream() {
     let hello = text(&mut ws, &mut binaries);
     assert!(hello.starts_with("EVT UI CONNECTED unix:"), "{hello}");
 
-    // The robot as the 3D view builds it.
-    let (axes, ack) = ask(&mut ws, "1 ROBOT");
-    assert_eq!(axes.len(), 4, "{axes:?}");
+    // The robot as the 3D view builds it, and its named signals.
+    let (events, ack) = ask(&mut ws, "1 ROBOT");
+    let axes: Vec<&String> = events
+        .iter()
+        .filter(|l| l.starts_with("EVT AXIS "))
+        .collect();
+    assert_eq!(axes.len(), 4, "{events:?}");
     assert!(
         axes[1].starts_with("EVT AXIS 2 name=j2 role=elbow unit=deg"),
         "{axes:?}"
+    );
+    assert!(
+        events.contains(&"EVT SIGNAL out 0 guarded vacuum valve".to_string()),
+        "{events:?}"
     );
     assert!(
         ack.starts_with("ACK 1 name=paper-300mm link1=200 link2=200"),

@@ -231,9 +231,11 @@ fn kill_9_during_transfers_never_loses_or_duplicates_a_wafer() {
         let _ = host.ask("RESET");
         assert_eq!(host.motion(1, "HOME"), "INF 1", "round {round}");
         if round == 1 {
-            assert!(host.motion(2, "MAP LP1").starts_with("INF 2 LP1 "));
-            assert!(host.motion(3, "MAP LP2").starts_with("INF 3 LP2 "));
-            assert!(host.motion(4, "MAP AL").starts_with("INF 4 AL "));
+            for (id, station) in [(2, "LP1"), (3, "LP2"), (4, "AL")] {
+                let r = host.motion(id, &format!("MAP {station}"));
+                let want = format!("INF {id} {station} ");
+                assert!(r.starts_with(&want), "{r}: {:?}", host.seen);
+            }
             check_against_truth(&mut host, &world, "after mapping");
         }
         // Carry on: the hand's wafer to LP2, then LP1's wafers slot for slot through AL.

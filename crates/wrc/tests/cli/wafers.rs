@@ -49,7 +49,7 @@ fn a_vacuum_sensor_that_sees_no_wafer_stops_the_get_with_212() {
 }
 
 #[test]
-fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_reset_settles_the_map() {
+fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_sense_settles_the_map() {
     let c = Controller::start(&[]);
     let mut host = c.client();
     assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
@@ -67,7 +67,7 @@ fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_reset_settles_the_map() {
     }
     assert!(host.status().contains("state=ERROR"));
     // The sensor cannot tell a wafer that fell from one it no longer sees: the wafer stays
-    // in the map, uncertain, until RESET settles it from the sensor.
+    // in the map, uncertain, until SENSE (or MAP, or an operator's CONFIRM) settles it.
     wait_until("W1 uncertain on the hand", || {
         let map = host.ask("6 WAFERS");
         if map.starts_with("ACK 6 hand=W1? LP1=-,W2..W25 ") {
@@ -76,19 +76,16 @@ fn a_wafer_lost_in_motion_stops_the_robot_with_213_and_reset_settles_the_map() {
             Err(map)
         }
     });
-    // Still not sensed at RESET: taken as lost, it leaves the map; the map does not invent
+    // RESET clears the alarm, not the uncertainty.
+    assert_eq!(host.ask("7 RESET"), "ACK 7");
+    let map = host.ask("8 WAFERS");
+    assert!(map.starts_with("ACK 8 hand=W1? "), "{map}");
+    // SENSE: still not sensed, so taken as gone, it leaves the map; the map does not invent
     // where it is.
-    wait_until("RESET once the arm stands still", || {
-        let r = host.ask("7 RESET");
-        if r == "ACK 7" {
-            Ok(())
-        } else {
-            Err(r)
-        }
-    });
+    assert_eq!(host.motion(9, "SENSE"), "INF 9 none");
     wait_until("W1 off the hand and out of the map", || {
-        let map = host.ask("8 WAFERS");
-        if map.starts_with("ACK 8 hand=- LP1=-,W2..W25 ") {
+        let map = host.ask("10 WAFERS");
+        if map.starts_with("ACK 10 hand=- LP1=-,W2..W25 ") {
             Ok(())
         } else {
             Err(map)

@@ -16,6 +16,7 @@ import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import dgram from 'node:dgram';
 import net from 'node:net';
+import { connectSocket } from './host-client.mjs';
 import { SERVE_DIR, WEB_DIR, WRC_BIN } from './settings.mjs';
 
 export { expect };
@@ -140,13 +141,24 @@ class Controller {
       else seen();
     });
     console.log(`GUI at ${this.url}`);
-    this.#watchEvents(hostPort);
+    await this.#watchEvents(hostPort);
     await this.#checkBuild();
   }
 
-  #watchEvents(port) {
+  /**
+   * Listen to the controller's events on a host connection of its own. Under
+   * WRC_E2E_WEB_DIR the GUI serves before the controller listens: the connection is retried
+   * while refused (up to 30 s).
+   */
+  async #watchEvents(port) {
     const secs = () => ((Date.now() - this.#t0) / 1000).toFixed(1).padStart(6);
-    const sock = net.connect(port, '127.0.0.1');
+    let sock;
+    try {
+      sock = await connectSocket(port);
+    } catch (e) {
+      this.events += `[${secs()} s] (event connection: ${e.message})\n`;
+      return;
+    }
     this.#eventSocket = sock;
     sock.setEncoding('latin1');
     sock.on('data', (d) => {
@@ -324,3 +336,12 @@ export const test = base.extend({
     }
   },
 });
+
+/** The Editor's New…: a new program named `name` (the Editor tab is shown). */
+export async function newProgram(page, name) {
+  await page.getByTestId('editor-new').click();
+  await page.getByTestId('name-dialog-input').fill(name);
+  await page.getByTestId('name-dialog-ok').click();
+  await expect(page.getByTestId('name-dialog')).toHaveCount(0);
+  await expect(page.getByTestId('editor-name')).toHaveText(name);
+}

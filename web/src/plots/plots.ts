@@ -3,7 +3,7 @@
 // 4) from `TASKS`, polled every second while the panel is visible and the bus connected,
 // with each task's wake-up latency histogram as a small log-scale bar chart.
 
-import { h, injectStyle } from '../dom';
+import { h } from '../dom';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
 import type { Bus, RobotInfo, SimSample, TaskTiming } from '../protocol/bus';
@@ -19,6 +19,7 @@ import {
   logHeight,
   maxBinIndex,
 } from './plot-data';
+import './plots.css';
 
 /** Series colours (up to 16 axes; repeats beyond). */
 const COLORS = [
@@ -29,45 +30,6 @@ const COLORS = [
 const POLL_MS = 1000;
 const WINDOWS_S = [5, 10, 30, 60];
 
-const STYLE_ID = 'plot-style';
-const STYLE = `
-.plot-root { min-width: 0; display: flex; flex-direction: column; width: 100%; height: 100%; min-height: 0; box-sizing: border-box;
-  padding: 8px; gap: 8px; background: #14171b; color: #c8d0d8;
-  font: 12px/1.35 ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; overflow: hidden; }
-.plot-section { background: #181c21; border: 1px solid #2a3139; border-radius: 4px; display: flex;
-  flex-direction: column; min-height: 0; }
-.plot-chart-section { flex: 1 1 55%; min-height: 200px; }
-.plot-tasks-section { flex: 1 1 45%; min-height: 120px; }
-.plot-bar { display: flex; align-items: center; gap: 8px; padding: 5px 8px; border-bottom: 1px solid #2a3139;
-  flex-wrap: wrap; }
-.plot-title { font-weight: 700; color: #dfe6ee; letter-spacing: 0.03em; margin-right: auto; }
-.plot-note { color: #7d8894; }
-.plot-warn { color: #f0b23c; }
-.plot-bad { color: #ff6a5e; font-weight: 700; }
-.plot-bar button, .plot-bar select { background: #232930; color: #c8d0d8; border: 1px solid #3a434d;
-  border-radius: 3px; padding: 2px 8px; font: inherit; cursor: pointer; }
-.plot-bar button:hover { background: #2d353e; }
-.plot-bar button.plot-on { background: #4a3a12; border-color: #a07c24; color: #ffd27a; }
-.plot-chart { flex: 1 1 auto; min-height: 0; min-width: 0; position: relative; overflow: hidden; }
-.plot-chart > .uplot { position: absolute; left: 0; top: 0; }
-.plot-chart .uplot { font-family: inherit; color: #c8d0d8; }
-.plot-chart .u-legend { color: #c8d0d8; font-size: 11px; }
-.plot-chart .u-legend .u-marker { border-radius: 2px; }
-.plot-chart .u-select { background: rgba(120,160,220,0.15); }
-.plot-empty { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
-  color: #7d8894; pointer-events: none; }
-.plot-table-wrap { overflow: auto; flex: 1 1 auto; min-height: 0; }
-.plot-table { border-collapse: collapse; width: 100%; white-space: nowrap; }
-.plot-table th, .plot-table td { padding: 3px 7px; border-bottom: 1px solid #242a31; }
-.plot-table th { position: sticky; background: #1f242a; color: #9aa6b2; font-weight: 600; text-align: center; z-index: 1; }
-.plot-table thead tr:first-child th { top: 0; }
-.plot-table thead tr:nth-child(2) th { top: 22px; }
-.plot-table td { text-align: right; font-variant-numeric: tabular-nums; }
-.plot-table td.plot-name { text-align: left; color: #dfe6ee; }
-.plot-table tbody tr:hover { background: #1e242b; }
-.plot-table td.plot-hist { text-align: left; padding: 2px 7px; }
-.plot-table canvas { display: block; }
-`;
 
 export interface PlotsHandle {
   /** Call when the panel is shown or its size changed. */
@@ -77,7 +39,6 @@ export interface PlotsHandle {
 }
 
 export function mountPlots(root: HTMLElement, bus: Bus): PlotsHandle {
-  injectStyle(STYLE_ID, STYLE);
   const box = root.appendChild(h('div', { class: 'plot-root' }));
   const visible = (): boolean =>
     root.isConnected && box.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);

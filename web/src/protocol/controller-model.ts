@@ -32,6 +32,14 @@ export interface ControllerView {
   pulses: number[] | null;
   /** `performance.now()` of the last simulator sample (0: none yet). */
   lastSample: number;
+  /** Connections to the controller so far (1 after the first `EVT UI CONNECTED`). */
+  epoch: number;
+  /**
+   * The connection (`epoch`) in which `positions` were last read from the robot (a WHERE or
+   * STATUS reply, the status stream or a datagram); 0: never. Fields filled from the robot
+   * wait until it equals `epoch`: values from before a reconnection may be stale.
+   */
+  positionsEpoch: number;
 }
 
 /** Keeps a `ControllerView` up to date from the bus; `onChange` listeners see every change. */
@@ -56,6 +64,8 @@ export class ControllerModel {
     positions: [],
     pulses: null,
     lastSample: 0,
+    epoch: 0,
+    positionsEpoch: 0,
   };
   private readonly listeners = new Listeners<[ControllerView]>('controller view');
   private notify = frameThrottle(() => {
@@ -72,7 +82,12 @@ export class ControllerModel {
         this.v.me = null;
         this.v.state = null;
       } else {
+        this.v.epoch++;
         this.refresh();
+        this.bus
+          .request('WHERE')
+          .then(({ first }) => this.noteReply('WHERE', first))
+          .catch(() => undefined);
       }
       this.notify();
     });
@@ -136,7 +151,21 @@ export class ControllerModel {
 
   private sample(s: SimSample): void {
     const v = this.v;
-    v.lastSample = performance.now();
+    const now = performance.now();
+    // At rest every datagram says the same: nothing to draw (the 300 ms freshness of
+    // `lastSample` is kept by the datagrams that do change, and by this one once it ages).
+    const same =
+      v.positionsEpoch === v.epoch &&
+      v.state === s.state &&
+      v.homed === s.homed &&
+      v.inputs === s.inputs &&
+      v.outputs === s.outputs &&
+      sameNumbers(v.positions, s.positions) &&
+      v.pulses !== null &&
+      sameNumbers(v.pulses, s.pulses);
+    v.lastSample = now;
+    if (same) return;
+    v.positionsEpoch = v.epoch;
     v.state = s.state;
     v.homed = s.homed;
     v.inputs = s.inputs;
@@ -164,6 +193,7 @@ export class ControllerModel {
       else if (st.err !== v.err || v.errText === '') v.errText = errorText(st.err);
       v.err = st.err;
     }
+    if (st.joints) v.positionsEpoch = v.epoch;
     if (!fresh) {
       if (st.joints) {
         v.positions = st.joints;
@@ -213,6 +243,12 @@ export class ControllerModel {
     }
     this.notify();
   }
+}
+
+function sameNumbers(a: readonly number[], b: readonly number[]): boolean {
+  if (a.length !== b.length) return false;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) return false;
+  return true;
 }
 
 /**

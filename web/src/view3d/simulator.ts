@@ -2,17 +2,22 @@
 // (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample), or, while
 // the trace viewer has a trace open, the recorded robot at its scrubber (showRecorded).
 //
-// This module wires the parts together and runs the animation loop: the scene (scene.ts) with
-// the drawn robot (robot-model.ts), the live datagrams (live-stream.ts) and the text overlay
-// (overlay.ts).
+// This module wires the parts together and draws on demand: the scene (scene.ts) with the
+// drawn robot (robot-model.ts), the live datagrams (live-stream.ts), the text overlay
+// (overlay.ts) and the stations' names. Nothing runs at rest: a frame is asked for only when
+// a datagram changed something, the camera moved, the view was resized or the scene changed,
+// and drawn at most `RenderQuality.maxFps` times a second, never while the GPU (or the
+// software renderer) has not finished the last one: the page's main thread stays free for
+// the operator's clicks, the E-STOP first.
 
 import * as THREE from 'three';
-import type { Bus, RobotInfo, RobotState } from '../protocol/bus';
-import { h, injectStyle } from '../dom';
+import type { Bus, RobotInfo, RobotState, SimSample } from '../protocol/bus';
+import { h } from '../dom';
 import { LiveStream } from './live-stream';
 import { drawOverlay } from './overlay';
-import { SimScene, type StationSpec, type WaferDisc } from './scene';
+import { SimScene, renderQuality, type ObstacleSpec, type RenderQuality, type StationSpec, type WaferDisc } from './scene';
 import { armPose, homePositions, type ArmPose } from './sim-kinematics';
+import './simulator.css';
 
 /** A recorded pose to draw instead of the live robot (the trace viewer at its scrubber). */
 export interface RecordedFrame {
@@ -45,6 +50,16 @@ export interface SimulatorHandle {
    * stations change, not per frame.
    */
   setStationWafers(discs: readonly WaferDisc[]): void;
+  /** The fixed obstacles of the cell (replacing those drawn before). */
+  setObstacles(list: readonly ObstacleSpec[]): void;
+  /** The station of the transfer in progress (null: none): the default camera frames it. */
+  setWorkingStation(name: string | null): void;
+  /** Draw the view inside `el` (the Simulator tab, or beside the wafer map). */
+  moveTo(el: HTMLElement): void;
+  /** How the view draws (for tests and the console). */
+  quality(): RenderQuality | null;
+  /** Frames drawn so far (for tests and the console: none at rest). */
+  framesDrawn(): number;
   /**
    * Draw a recorded robot and pose instead of the live one, until called with null: then the
    * live robot and its latest datagram again. Live datagrams keep being counted meanwhile.
@@ -65,43 +80,35 @@ export interface SimulatorHandle {
   dispose(): void;
 }
 
-const STYLE_ID = 'sim-style';
-const STYLE = `
-.sim-root { position: relative; width: 100%; height: 100%; min-height: 0; overflow: hidden;
-  background: #14171b; font: 12px/1.35 ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; color: #c8d0d8; }
-.sim-root canvas { position: absolute; inset: 0; display: block; width: 100%; height: 100%; outline: none; }
-.sim-overlay { position: absolute; top: 8px; left: 8px; padding: 6px 9px; background: rgba(12,14,17,0.78);
-  border: 1px solid #2c333b; border-radius: 4px; pointer-events: none; white-space: pre; min-width: 190px; }
-.sim-overlay .sim-k { color: #7d8894; }
-.sim-state { font-weight: 700; letter-spacing: 0.04em; }
-.sim-state-IDLE { color: #9fb3c8; } .sim-state-MOVING { color: #5fd07a; } .sim-state-STOPPING { color: #f0b23c; }
-.sim-state-HELD { color: #6cb8ff; } .sim-state-ERROR { color: #ff5a4e; } .sim-state-ESTOP { color: #ff3b30; }
-.sim-warn { color: #f0b23c; }
-.sim-buttons { position: absolute; right: 8px; bottom: 8px; display: flex; gap: 6px; }
-.sim-buttons button { background: #232930; color: #c8d0d8; border: 1px solid #3a434d; border-radius: 3px;
-  padding: 3px 8px; font: inherit; cursor: pointer; }
-.sim-buttons button:hover { background: #2d353e; }
-.sim-msg { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
-  text-align: center; padding: 24px; color: #c8d0d8; font-size: 14px; pointer-events: none; }
-.sim-msg-box { background: rgba(12,14,17,0.85); border: 1px solid #3a434d; border-radius: 4px; padding: 12px 18px; max-width: 32em; }
-.sim-msg-error .sim-msg-box { border-color: #a33; color: #ffb4ae; }
-`;
-
 /** True when the browser can give three.js a WebGL 2 context. */
 export function webglAvailable(): boolean {
+  return webglRenderer() !== null;
+}
+
+/** The WebGL 2 renderer's name (`ANGLE (Google, Vulkan … SwiftShader …)`), '' when it is not told; null without WebGL 2. */
+function webglRenderer(): string | null {
   try {
     const c = h('canvas');
     const gl = c.getContext('webgl2');
+    if (!gl) return null;
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : String(gl.getParameter(gl.RENDERER));
     // Give the probe's context back at once: browsers allow only a few at a time.
-    gl?.getExtension('WEBGL_lose_context')?.loseContext();
-    return gl !== null;
+    gl.getExtension('WEBGL_lose_context')?.loseContext();
+    return name;
   } catch {
-    return false;
+    return null;
   }
 }
 
+/** Whether two samples draw the same robot (same joints and state). */
+function sameDrawing(a: SimSample | null, b: SimSample): boolean {
+  if (!a || a.state !== b.state || a.positions.length !== b.positions.length) return false;
+  for (let i = 0; i < a.positions.length; i++) if (Math.abs(a.positions[i] - b.positions[i]) > 1e-6) return false;
+  return true;
+}
+
 export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
-  injectStyle(STYLE_ID, STYLE);
   const root = el.appendChild(h('div', { class: 'sim-root' }));
   const msg = root.appendChild(h('div', { class: 'sim-msg' }));
   const msgBox = msg.appendChild(h('div', { class: 'sim-msg-box' }));
@@ -119,6 +126,13 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     setWafer() {},
     setBladeBWafer() {},
     setStationWafers() {},
+    setObstacles() {},
+    setWorkingStation() {},
+    moveTo(target) {
+      target.append(root);
+    },
+    quality: () => null,
+    framesDrawn: () => 0,
     showRecorded() {},
     drawnPose: () => null,
     drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
@@ -127,7 +141,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     },
   };
 
-  if (!webglAvailable()) {
+  const rendererName = webglRenderer();
+  if (rendererName === null) {
     showMessage(
       '3D simulator unavailable: this browser has no WebGL 2 (it may be disabled, or no GPU ' +
         'driver is available). Control, Editor and Plots keep working.',
@@ -135,15 +150,18 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     );
     return noop;
   }
+  const quality = renderQuality(rendererName, window.devicePixelRatio);
   let renderer: THREE.WebGLRenderer;
   try {
-    renderer = new THREE.WebGLRenderer({ antialias: true });
+    renderer = new THREE.WebGLRenderer({ antialias: quality.antialias, powerPreference: 'low-power' });
   } catch (e) {
     showMessage(`3D simulator unavailable: WebGL could not be started (${String(e)}).`, true);
     return noop;
   }
-  const view = new SimScene(renderer);
+  const view = new SimScene(renderer, quality);
   root.insertBefore(renderer.domElement, msg);
+  root.setAttribute('data-quality', quality.tier);
+  const labels = root.appendChild(h('div', { class: 'sim-labels', 'aria-hidden': 'true' }));
 
   // Overlay and buttons.
   const overlay = root.appendChild(h('div', { class: 'sim-overlay' }));
@@ -160,24 +178,41 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   let recorded: RecordedFrame | null = null;
   let state: RobotState = 'IDLE';
   let disposed = false;
-  const live = new LiveStream(bus, () => updateOverlay(performance.now()));
+  let working: string | null = null;
+  let frames = 0;
+  const live = new LiveStream(bus, () => {
+    updateOverlay(performance.now());
+    requestFrame();
+  });
+  // A datagram that changes nothing drawn asks for no frame (at rest: none at all).
+  const unsubSample = bus.onSample((smp) => {
+    if (recorded === null && !sameDrawing(live.applied, smp)) requestFrame();
+    else overlayDue = true;
+  });
+  view.onInvalidate = () => requestFrame();
 
   function applyState(s: RobotState): void {
     state = s;
     view.materials.tint(s);
+    view.invalidate(false);
   }
 
   function setRobot(robot: RobotInfo): void {
     const first = view.robot === null;
     const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB, handUncertain, bladeBUncertain });
     model.pose(armPose(model.axes, live.applied?.positions ?? live.latest?.positions ?? homePositions(robot)));
-    if (first) view.fitCamera(model.reach);
-    view.dirty = true;
+    if (first || !view.cameraMoved) defaultCamera();
+    view.robotMoved();
     updateOverlay(performance.now());
   }
 
+  /** The default camera: the robot and the station it works at. */
+  function defaultCamera(): void {
+    const s = live.latest;
+    view.fitCamera(view.robot?.reach ?? 600, false, s ? { x: s.x, y: s.y } : null, working);
+  }
   button('Top', 'View from above', () => view.fitCamera(view.robot?.reach ?? 600, true));
-  button('Reset view', 'Back to the default camera', () => view.fitCamera(view.robot?.reach ?? 600));
+  button('Reset view', 'Back to the default camera: the robot and the station it works at', () => defaultCamera());
   button('Reset counts', 'Reset the lost-datagram counters', () => {
     live.stats.reset();
     updateOverlay(performance.now());
@@ -227,33 +262,104 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   });
   renderer.domElement.addEventListener('webglcontextrestored', () => {
     contextLost = false;
-    view.dirty = true;
+    view.invalidate();
     showMessage(null);
   });
 
-  // Animation: the latest sample is applied once per frame, not per datagram.
-  let lastOverlay = 0;
+  // ---- drawing on demand ----
+  const gl = renderer.getContext() as WebGL2RenderingContext;
+  /** The fence after the last frame: the next waits until the GPU has finished it. */
+  let fence: WebGLSync | null = null;
   let raf = 0;
-  function frame(now: number): void {
-    if (disposed) return;
+  let lastFrame = -Infinity;
+  let lastOverlay = 0;
+  let overlayDue = false;
+  const minFrameMs = 1000 / quality.maxFps;
+
+  function visible(): boolean {
+    return root.isConnected && root.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
+  }
+
+  /** Ask for a frame (no-op while one is asked for). */
+  function requestFrame(): void {
+    if (raf !== 0 || disposed) return;
     raf = requestAnimationFrame(frame);
-    const visible = el.isConnected && root.offsetParent !== null;
-    if (!visible) return;
+  }
+
+  /** Whether the GPU has finished the last frame (no fence: yes). */
+  function gpuDone(): boolean {
+    if (fence === null) return true;
+    try {
+      if (gl.getSyncParameter(fence, gl.SYNC_STATUS) !== gl.SIGNALED) return false;
+    } catch {
+      /* no sync objects: draw */
+    }
+    gl.deleteSync(fence);
+    fence = null;
+    return true;
+  }
+
+  function frame(now: number): void {
+    raf = 0;
+    if (disposed || !visible()) return; // shown again: resize() asks for a frame
     if (!view.sized()) resize();
+    // Not before the GPU is done with the last frame, nor more often than maxFps: the
+    // main thread stays free.
+    if (!gpuDone() || now - lastFrame < minFrameMs) {
+      requestFrame();
+      return;
+    }
     const s = recorded === null ? live.takeNew() : null;
     if (s !== null) {
       view.robot?.pose(armPose(view.robot.axes, s.positions));
       if (s.state !== state) applyState(s.state);
-      view.dirty = true;
+      view.robotMoved();
     }
-    view.updateControls();
-    if (now - lastOverlay > 250) {
+    const gliding = view.updateControls();
+    if (overlayDue || now - lastOverlay > 250) {
       lastOverlay = now;
+      overlayDue = false;
       updateOverlay(now);
     }
-    if (!contextLost) view.render();
+    if (!contextLost && view.render()) {
+      lastFrame = now;
+      frames++;
+      placeLabels();
+      try {
+        fence = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+      } catch {
+        fence = null;
+      }
+    }
+    // The camera still glides, or a datagram came meanwhile: another frame.
+    if (gliding || view.needsRender() || (recorded === null && live.latest !== live.applied && !sameDrawing(live.applied, live.latest!))) {
+      requestFrame();
+    }
   }
-  raf = requestAnimationFrame(frame);
+
+  // ---- the stations' names, placed after each frame ----
+  const labelEls = new Map<string, HTMLElement>();
+  const v3 = new THREE.Vector3();
+  function placeLabels(): void {
+    const w = root.clientWidth;
+    const ht = root.clientHeight;
+    for (const [id, anchor] of view.labelAnchors) {
+      let l = labelEls.get(id);
+      if (!l) {
+        l = labels.appendChild(h('span', { class: 'sim-label', 'data-testid': 'sim-label', 'data-station': id }, id));
+        labelEls.set(id, l);
+      }
+      v3.copy(anchor).project(view.camera);
+      const onScreen = v3.z < 1 && Math.abs(v3.x) <= 1.05 && Math.abs(v3.y) <= 1.05;
+      l.hidden = !onScreen;
+      if (onScreen) l.style.transform = `translate(${((v3.x + 1) / 2) * w}px, ${((1 - v3.y) / 2) * ht}px) translate(-50%, -100%)`;
+    }
+    for (const [id, l] of labelEls) {
+      if (view.labelAnchors.has(id)) continue;
+      l.remove();
+      labelEls.delete(id);
+    }
+  }
 
   function showRecorded(frame: RecordedFrame | null): void {
     recorded = frame;
@@ -266,11 +372,12 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       if (robot && view.robot?.robot !== robot) setRobot(robot);
       // The next frame applies the latest datagram again.
       live.redraw();
+      requestFrame();
       const model = view.robot;
       if (model) model.pose(armPose(model.axes, live.latest?.positions ?? homePositions(model.robot)));
       applyState(live.latest?.state ?? 'IDLE');
     }
-    view.dirty = true;
+    view.robotMoved();
     updateOverlay(performance.now());
   }
 
@@ -281,9 +388,13 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     resize() {
       view.forgetSize(); // force: the container may have been hidden at the same size
       resize();
-      view.dirty = true;
+      view.invalidate(false);
     },
-    addStation: (spec) => view.addStation(spec),
+    addStation: (spec) => {
+      const id = view.addStation(spec);
+      if (!view.cameraMoved && view.robot) defaultCamera();
+      return id;
+    },
     removeStation: (id) => view.removeStation(id),
     clearStations: () => view.clearStations(),
     setWafer(onHand: boolean, uncertain = false) {
@@ -291,16 +402,29 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       waferOnHand = onHand;
       handUncertain = uncertain;
       view.robot?.showWafer(onHand, uncertain);
-      view.dirty = true;
+      view.invalidate();
     },
     setBladeBWafer(onBladeB: boolean, uncertain = false) {
       if (onBladeB === waferOnBladeB && uncertain === bladeBUncertain) return;
       waferOnBladeB = onBladeB;
       bladeBUncertain = uncertain;
       view.robot?.showBladeBWafer(onBladeB, uncertain);
-      view.dirty = true;
+      view.invalidate();
     },
     setStationWafers: (discs) => view.setStationWafers(discs),
+    setObstacles: (list) => view.setObstacles(list),
+    setWorkingStation(name) {
+      working = name;
+    },
+    moveTo(target) {
+      if (root.parentElement === target) return;
+      target.append(root);
+      view.forgetSize();
+      resize();
+      view.invalidate(false);
+    },
+    quality: () => quality,
+    framesDrawn: () => frames,
     showRecorded,
     drawnPose: () => view.robot?.drawnPose() ?? null,
     drawnWafers: () => {
@@ -312,6 +436,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       disposed = true;
       cancelAnimationFrame(raf);
       unsubRobot();
+      unsubSample();
       live.dispose();
       ro?.disconnect();
       view.dispose();

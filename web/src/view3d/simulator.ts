@@ -180,6 +180,13 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   let disposed = false;
   let working: string | null = null;
   let frames = 0;
+  // The frame loop's state (frames are asked for from the listeners below).
+  /** The fence after the last frame: the next waits until the GPU has finished it. */
+  let fence: WebGLSync | null = null;
+  let raf = 0;
+  let lastFrame = -Infinity;
+  let lastOverlay = 0;
+  let overlayDue = false;
   const live = new LiveStream(bus, () => {
     updateOverlay(performance.now());
     requestFrame();
@@ -268,12 +275,6 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
 
   // ---- drawing on demand ----
   const gl = renderer.getContext() as WebGL2RenderingContext;
-  /** The fence after the last frame: the next waits until the GPU has finished it. */
-  let fence: WebGLSync | null = null;
-  let raf = 0;
-  let lastFrame = -Infinity;
-  let lastOverlay = 0;
-  let overlayDue = false;
   const minFrameMs = 1000 / quality.maxFps;
 
   function visible(): boolean {

@@ -80,7 +80,7 @@ class Controller {
     let cmdArgs = args;
     if (SERVE_DIR) {
       const sock = join(this.stateDir, 'wrc.sock');
-      const ui = ['ui', '--controller', sock, '--sim-addr', `127.0.0.1:${udpPort}`, '--ui-port', String(uiPort), '--web-dir', SERVE_DIR];
+      const ui = ['ui', '--controller', sock, '--sim-addr', `127.0.0.1:${udpPort}`, '--ui-port', String(uiPort), '--web-dir', SERVE_DIR, '--programs', join(this.stateDir, 'programs')];
       cmd = '/bin/sh';
       cmdArgs = [
         '-c',

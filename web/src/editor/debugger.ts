@@ -99,7 +99,7 @@ export class ProgramDebugger {
     private readonly host: EditorHost,
     private readonly hooks: DebuggerHooks,
     tracker: ProgramTracker,
-    private readonly model: Pick<ControllerModel, 'mayCommand' | 'onChange'>,
+    private readonly model: Pick<ControllerModel, 'mayCommand' | 'onChange' | 'v'>,
   ) {
     this.bus = host.bus;
     this.state = tracker.state;
@@ -160,12 +160,13 @@ export class ProgramDebugger {
         if (a) this.host.say(`ALARM ${a.code} ${a.program} ${a.at ? `${a.at.file}:${a.at.line}` : ''}: ${a.text}`, 'err');
       }
     });
+    // After each connection the breakpoints go once who holds control is known (BREAK needs
+    // control: a tab without it keeps them quietly), and again whenever control comes free.
     this.bus.onConnection((up) => {
-      if (up) void this.syncBreakpoints(false);
+      if (up) this.unsent = true;
     });
-    // Control came free (or to this page): the breakpoints it kept go now.
     model.onChange(() => {
-      if (this.unsent && this.bus.connected() && model.mayCommand()) void this.syncBreakpoints(false);
+      if (this.unsent && this.ownerKnown() && model.mayCommand()) void this.syncBreakpoints(false);
     });
     this.changed(true);
   }
@@ -178,7 +179,7 @@ export class ProgramDebugger {
   /** A click in the gutter set or cleared the breakpoint of `line`: tell the controller. */
   async toggled(line: number, on: boolean): Promise<void> {
     if (!this.bus.connected()) return;
-    if (!this.model.mayCommand()) {
+    if (!this.ownerKnown() || !this.model.mayCommand()) {
       // Another source holds control: BREAK would be refused (120). Sent once it is free.
       this.unsent = true;
       this.host.setStatus('Breakpoint kept in the editor: another source holds control; it is sent when control is free.', 'info');
@@ -203,10 +204,15 @@ export class ProgramDebugger {
   }
 
   /** Send the editor's breakpoints (after `BREAK CLEAR` when `clear`). */
+  /** Whether this connection has been told who holds control. */
+  private ownerKnown(): boolean {
+    return this.bus.connected() && this.model.v.ownerEpoch === this.model.v.epoch && this.model.v.epoch > 0;
+  }
+
   async syncBreakpoints(clear: boolean): Promise<void> {
     if (!this.bus.connected()) return;
     const lines = breakpointLines(this.host.view().state);
-    if (!this.model.mayCommand()) {
+    if (!this.ownerKnown() || !this.model.mayCommand()) {
       // BREAK needs control: a tab without it keeps them quietly until control is free.
       this.unsent = lines.length > 0 || clear;
       return;

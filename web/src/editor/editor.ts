@@ -202,6 +202,8 @@ export function mountEditor(el: HTMLElement, deps: EditorDeps): EditorPanel {
     return view.state.doc.toString();
   }
   let programName = current.name;
+  /** The text as opened (a stored program, an example, a new one): unchanged, nothing is lost by replacing it. */
+  let openedText: string | null = saved[current.name] ?? EXAMPLES.find((e) => e.name === current.name)?.text ?? null;
   function name(): string {
     return programName;
   }
@@ -545,6 +547,7 @@ export function mountEditor(el: HTMLElement, deps: EditorDeps): EditorPanel {
   }
 
   function replaceText(t: string): void {
+    openedText = t;
     view.dispatch({ changes: { from: 0, to: view.state.doc.length, insert: t } });
     // Another program: its breakpoints are its own (none yet).
     view.dispatch({ effects: breakpointsEffects(view.state, []) });
@@ -553,9 +556,9 @@ export function mountEditor(el: HTMLElement, deps: EditorDeps): EditorPanel {
     markAbsLine(null);
   }
 
-  /** May the editor's text be replaced? Asks when it holds edits not stored. */
+  /** May the editor's text be replaced? Asks when it holds edits the operator made and did not store. */
   async function mayReplace(): Promise<boolean> {
-    if (!edited() || text().trim() === '') return true;
+    if (text().trim() === '' || text() === openedText || !edited()) return true;
     return confirmAction({
       title: `Discard the edits of ${name()}?`,
       text: `The text in the editor differs from what is stored as ${name()}. Opening another program drops these edits (Save as… keeps them under another name).`,

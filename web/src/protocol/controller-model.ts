@@ -40,6 +40,8 @@ export interface ControllerView {
    * wait until it equals `epoch`: values from before a reconnection may be stale.
    */
   positionsEpoch: number;
+  /** The connection (`epoch`) in which `owner` was last told (STATUS, the status stream, EVT CONTROL); 0: never. */
+  ownerEpoch: number;
 }
 
 /** Keeps a `ControllerView` up to date from the bus; `onChange` listeners see every change. */
@@ -66,6 +68,7 @@ export class ControllerModel {
     lastSample: 0,
     epoch: 0,
     positionsEpoch: 0,
+    ownerEpoch: 0,
   };
   private readonly listeners = new Listeners<[ControllerView]>('controller view');
   private notify = frameThrottle(() => {
@@ -187,7 +190,10 @@ export class ControllerModel {
     if (st.state && !fresh) v.state = st.state;
     if (st.homed !== undefined && !fresh) v.homed = st.homed;
     if (st.speed !== undefined) v.speed = st.speed;
-    if (st.owner !== undefined) v.owner = st.owner;
+    if (st.owner !== undefined) {
+      v.owner = st.owner;
+      v.ownerEpoch = v.epoch;
+    }
     if (st.err !== undefined) {
       if (st.err === 0) v.errText = '';
       else if (st.err !== v.err || v.errText === '') v.errText = errorText(st.err);
@@ -221,6 +227,7 @@ export class ControllerModel {
       }
       case 'CONTROL':
         v.owner = body.trim() || 'none';
+        v.ownerEpoch = v.epoch;
         break;
       case 'ERROR': {
         const e = parseErrorEvent(body);

@@ -72,6 +72,41 @@ export class RollingSeries {
   data(): Aligned {
     return [this.xs.slice(this.start), ...this.ys.map((y) => y.slice(this.start))];
   }
+
+  /** The oldest x kept, or null when empty. */
+  first(): number | null {
+    return this.length > 0 ? (this.xs[this.start] as number) : null;
+  }
+
+  /** A copy of the points with `from` ≤ x ≤ `to` (and one on each side, so lines reach the edges). */
+  range(from: number, to: number): Aligned {
+    const lo = Math.max(this.start, this.lowerBound(from) - 1);
+    const hi = Math.min(this.xs.length, this.lowerBound(to) + 1);
+    if (hi <= lo) return [[], ...this.ys.map(() => [])];
+    return [this.xs.slice(lo, hi), ...this.ys.map((y) => y.slice(lo, hi))];
+  }
+
+  /** The first index at or after `start` whose x is ≥ `x`. */
+  private lowerBound(x: number): number {
+    let a = this.start;
+    let b = this.xs.length;
+    while (a < b) {
+      const m = (a + b) >> 1;
+      if ((this.xs[m] as number) < x) a = m + 1;
+      else b = m;
+    }
+    return a;
+  }
+}
+
+/**
+ * The x range a chart shows: `windowS` wide, ending at the newest point while following it
+ * (`end` null), else at `end`, kept within what is kept [first, last].
+ */
+export function viewRange(first: number | null, last: number | null, windowS: number, end: number | null): [number, number] {
+  if (first === null || last === null) return [0, windowS];
+  const e = end === null ? last : Math.min(last, Math.max(first + Math.min(windowS, last - first), end));
+  return [e - windowS, e];
 }
 
 /** A histogram bin for drawing: upper bound [µs] and count. */

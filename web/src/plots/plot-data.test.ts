@@ -2,6 +2,7 @@ import { describe, expect, it } from 'vitest';
 import type { TaskTiming } from '../protocol/bus';
 import {
   RollingSeries,
+  viewRange,
   binIndex,
   binLabel,
   fmtCount,

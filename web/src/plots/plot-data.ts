@@ -81,7 +81,7 @@ export class RollingSeries {
   /** A copy of the points with `from` ≤ x ≤ `to` (and one on each side, so lines reach the edges). */
   range(from: number, to: number): Aligned {
     const lo = Math.max(this.start, this.lowerBound(from) - 1);
-    const hi = Math.min(this.xs.length, this.lowerBound(to) + 1);
+    const hi = Math.min(this.xs.length, this.lowerBound(to) + 2);
     if (hi <= lo) return [[], ...this.ys.map(() => [])];
     return [this.xs.slice(lo, hi), ...this.ys.map((y) => y.slice(lo, hi))];
   }

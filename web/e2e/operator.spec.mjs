@@ -271,13 +271,18 @@ test('at 1280 × 800: the header, the Wafers columns and the 3D view beside them
   await expect.poll(() => page.evaluate(() => Object.keys(window.wrc.sim.drawnWafers().slots).filter((k) => k.startsWith('LP1.')).length)).toBe(25);
   await expect(page.locator('[data-testid="sim-label"][data-station="LP1"]')).toBeVisible();
   await expect(page.locator('[data-testid="sim-label"]')).toHaveCount(6);
-  // At rest nothing is drawn: the frames counted do not move while datagrams keep coming.
+  // At rest nothing is drawn: after 2 s of datagrams for the last changes to settle, the
+  // frames counted do not move during 2 s more of datagrams.
   await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
   const framesAt = async () => page.evaluate(() => window.wrc.sim.framesDrawn());
-  const seq = async () => page.evaluate(() => window.wrc.model.v.lastSample);
+  const lastSample = async () => page.evaluate(() => window.wrc.model.v.lastSample);
+  const twoSeconds = async () => {
+    const s0 = await lastSample();
+    await expect.poll(lastSample, { message: 'datagrams keep coming' }).toBeGreaterThan(s0 + 2000);
+  };
+  await twoSeconds();
   const f0 = await framesAt();
-  const s0 = await seq();
-  await expect.poll(seq, { message: 'datagrams keep coming' }).toBeGreaterThan(s0 + 1000);
+  await twoSeconds();
   expect(await framesAt(), 'frames drawn at rest').toBe(f0);
   await shot(page, null, 'layout-1280-simulator.png');
 

@@ -10,10 +10,14 @@
 import type { Bus, FinalReply, FirstReply, Unsubscribe } from './bus';
 import type { ControllerModel } from './controller-model';
 import { Listeners } from './listeners';
+import { STOP_CODES } from './notices';
 import { replyRest, verbOf } from './protocol';
 
-/** What a log entry is: a request sent, a first reply, a final reply, or a note. */
-export type LogKind = 'out' | 'ack' | 'nak' | 'inf' | 'abs' | 'info';
+/**
+ * What a log entry is: a request sent, a first reply, a final reply (`stop`: an ABS of a stop
+ * someone asked for, 200-202, not a fault), or a note.
+ */
+export type LogKind = 'out' | 'ack' | 'nak' | 'inf' | 'abs' | 'stop' | 'info';
 
 /** One line of the command log. */
 export interface LogEntry {
@@ -108,7 +112,7 @@ export class Commander {
             // GET/PUT say which wafer moved (`INF 3 W3`), MAP the slots it found (`INF 7 LP1 1111…`).
             const rest = replyRest(f.line);
             this.log.add('inf', `INF ${verb} finished${rest ? `: ${rest}` : ''}`);
-          } else this.log.add('abs', `ABS ${verb}: ${f.code} ${f.text}`);
+          } else this.log.add(STOP_CODES.has(f.code) ? 'stop' : 'abs', `ABS ${verb}: ${f.code} ${f.text}`);
         })
         .catch((e: unknown) => {
           const error = e instanceof Error ? e.message : String(e);

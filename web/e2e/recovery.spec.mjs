@@ -195,6 +195,34 @@ test('recovery after a power loss cut a PUT: the panel, then control, reset, ret
     await expect(id('recovery-step-reset')).toHaveCount(0);
   });
 
+  await step("the page's own E-STOP while the dialog is open: it is pressable and sends ESTOP", async () => {
+    await id('recovery-step-retract').click();
+    await expect(dialog).toBeVisible();
+    // Playwright clicks only what receives the click: the dialog neither covers nor disables it.
+    await id('estop').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');
+    await expect(id('command-log')).toContainText('ACK ESTOP');
+    await expect(id('recovery-dialog-why')).toHaveText('Not sent now: the robot is in ESTOP: RESET first.');
+    await id('recovery-dialog-cancel').click();
+    await expect(dialog).toBeHidden();
+    await id('recovery-step-reset').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
+    await expect(id('recovery-step-reset')).toHaveCount(0);
+  });
+
+  await step('the confirmation dialog too: E-STOP sends ESTOP', async () => {
+    await id('recovery-confirm-choice').selectOption('gone-W1');
+    await id('recovery-confirm').click();
+    await expect(dialog).toBeVisible();
+    await id('estop').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');
+    await id('recovery-dialog-cancel').click();
+    await expect(dialog).toBeHidden();
+    await id('recovery-step-reset').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
+    await expect(id('command-log')).not.toContainText('CONFIRM');
+  });
+
   await step('CONFIRM is offered with what it does; Cancel sends nothing', async () => {
     await id('recovery-confirm-choice').selectOption('gone-W1');
     await id('recovery-confirm').click();

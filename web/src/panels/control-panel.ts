@@ -124,7 +124,7 @@ export function mountControl(el: HTMLElement, deps: ControlDeps, cards: readonly
   );
   const postureWrap = h('label', { class: 'field' }, h('span', { class: 'field-label' }, 'Posture'), posture);
   const poseFields = h('div', { class: 'fields' }, dx.wrap, dy.wrap, dz.wrap, dyaw.wrap, postureWrap);
-  const jointFields = h('div', { class: 'fields', hidden: true });
+  const jointFields = h('div', { class: 'fields' });
   let jointInputs: HTMLInputElement[] = [];
   const destError = h('div', { class: 'err-text', 'data-testid': 'dest-error' });
   /** Why Go, Home and jog are disabled (the gate's sentence), under the buttons. */
@@ -155,8 +155,8 @@ export function mountControl(el: HTMLElement, deps: ControlDeps, cards: readonly
   const destination = section(
     'Destination',
     h('div', { class: 'seg-group' }, modeBtns.ptp, modeBtns.line, modeBtns.joint, copyBtn),
-    poseFields,
-    jointFields,
+    // Both sets of fields in one place, the other one invisible: the buttons below stay put.
+    h('div', { class: 'dest-fields' }, poseFields, jointFields),
     destError,
     h('div', { class: 'btn-row' }, goBtn, homeBtn, stopBtn, holdBtn, resumeBtn),
     motionWhy,
@@ -166,8 +166,8 @@ export function mountControl(el: HTMLElement, deps: ControlDeps, cards: readonly
   function setMode(m: Mode): void {
     mode = m;
     for (const [k, b] of Object.entries(modeBtns)) b.classList.toggle('active', k === m);
-    poseFields.hidden = m === 'joint';
-    jointFields.hidden = m !== 'joint';
+    poseFields.style.visibility = m === 'joint' ? 'hidden' : '';
+    jointFields.style.visibility = m === 'joint' ? '' : 'hidden';
     // Kept in its place (invisible) for a straight line: the buttons below never jump.
     postureWrap.style.visibility = m === 'ptp' ? '' : 'hidden';
     setAttr(destination, 'data-mode', m);

@@ -182,7 +182,14 @@ export class ControllerModel {
     this.notify();
   }
 
+  /** What a status line can change, to tell whether one changed anything. */
+  private statusKey(): string {
+    const v = this.v;
+    return `${v.state}|${v.homed}|${v.speed}|${v.owner}|${v.ownerEpoch}|${v.err}|${v.errText}|${v.positionsEpoch}|${v.positions.join(',')}|${v.x}|${v.y}|${v.z}|${v.yaw}`;
+  }
+
   private status(fields: string | Record<string, string>): void {
+    const before = this.statusKey();
     const st = parseStatus(fields);
     const v = this.v;
     // Samples are newer and faster; lastSample 0 means none has come yet.
@@ -211,7 +218,8 @@ export class ControllerModel {
       if (st.z !== undefined) v.z = st.z;
       if (st.yaw !== undefined) v.yaw = st.yaw;
     }
-    this.notify();
+    // The status stream repeats itself at rest: nothing to draw then.
+    if (this.statusKey() !== before) this.notify();
   }
 
   private event(name: string, body: string): void {

@@ -191,9 +191,11 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     updateOverlay(performance.now());
     requestFrame();
   });
+  /** The datagram whose pose and state are drawn (null: none yet, or a recorded frame). */
+  let drawnSample: SimSample | null = null;
   // A datagram that changes nothing drawn asks for no frame (at rest: none at all).
   const unsubSample = bus.onSample((smp) => {
-    if (recorded === null && !sameDrawing(live.applied, smp)) requestFrame();
+    if (recorded === null && !sameDrawing(drawnSample, smp)) requestFrame();
     else overlayDue = true;
   });
   view.onInvalidate = () => requestFrame();
@@ -208,6 +210,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     const first = view.robot === null;
     const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB, handUncertain, bladeBUncertain });
     model.pose(armPose(model.axes, live.applied?.positions ?? live.latest?.positions ?? homePositions(robot)));
+    drawnSample = recorded === null ? (live.applied ?? live.latest) : null;
     if (first || !view.cameraMoved) defaultCamera();
     view.robotMoved();
     updateOverlay(performance.now());
@@ -311,7 +314,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       return;
     }
     const s = recorded === null ? live.takeNew() : null;
-    if (s !== null) {
+    if (s !== null && !sameDrawing(drawnSample, s)) {
+      drawnSample = s;
       view.robot?.pose(armPose(view.robot.axes, s.positions));
       if (s.state !== state) applyState(s.state);
       view.robotMoved();
@@ -332,8 +336,8 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
         fence = null;
       }
     }
-    // The camera still glides, or a datagram came meanwhile: another frame.
-    if (gliding || view.needsRender() || (recorded === null && live.latest !== live.applied && !sameDrawing(live.applied, live.latest!))) {
+    // The camera still glides, or a datagram that changes the drawing came meanwhile: another frame.
+    if (gliding || view.needsRender() || (recorded === null && live.latest !== null && !sameDrawing(drawnSample, live.latest))) {
       requestFrame();
     }
   }
@@ -373,6 +377,7 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
       if (robot && view.robot?.robot !== robot) setRobot(robot);
       // The next frame applies the latest datagram again.
       live.redraw();
+      drawnSample = null;
       requestFrame();
       const model = view.robot;
       if (model) model.pose(armPose(model.axes, live.latest?.positions ?? homePositions(model.robot)));

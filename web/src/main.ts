@@ -85,7 +85,7 @@ function start(): void {
   app.append(recovery.panel);
   const panels: Record<TabName, { resize(): void }> = {
     simulator: sim,
-    wafers: mountWaferPanel(wafersMain, wafers, model, cmd, stations),
+    wafers: mountWaferPanel(wafersMain, wafers, model, cmd, stations, program),
     editor: mountEditor(editorEl, { bus, model, program }),
     plots: mountPlots(plotsEl, bus),
   };

@@ -13,6 +13,8 @@
 import type { RobotInfo } from '../protocol/bus';
 import type { Commander } from '../protocol/commander';
 import type { ControllerModel } from '../protocol/controller-model';
+import { programRefusal } from '../protocol/motion-gate';
+import type { ProgramTracker } from '../protocol/program-tracker';
 import { h, setAttr, setText } from '../dom';
 import { frameThrottle } from '../frame-throttle';
 import type { StationInfo, StationsHandle } from '../cell/stations';
@@ -142,6 +144,11 @@ export function waferActions(input: {
   selection: WaferSelection | null;
   /** A GET, PUT, SWAP or MAP this page sent that has not ended yet (`GET LP1 3`), or null. */
   running?: string | null;
+  /**
+   * Why a program forbids transfers now (`wafer_cycle is running: ABORT it (Editor) first`),
+   * '' or absent when none runs: the controller refuses them (127) while one runs.
+   */
+  program?: string;
   /** Does the robot have blade B (`isDualBlade`)? Default no: GET/PUT use the hand, no SWAP. */
   dualBlade?: boolean;
   /** The blade GET and PUT use on a dual-blade robot (default A; A on a single-hand robot). */
@@ -170,7 +177,9 @@ export function waferActions(input: {
         ? 'waiting for the wafer map (WAFERS)'
         : !input.mayCommand
           ? 'control is held by another source; take control first'
-          : input.running
+          : input.program
+            ? input.program
+            : input.running
             ? `${input.running} is running`
             : map.pending
               ? `a transfer is in progress (${formatPending(map.pending)})`
@@ -283,6 +292,7 @@ export function mountWaferPanel(
   model: ControllerModel,
   cmd: Commander,
   stations?: Pick<StationsHandle, 'stations' | 'onChange'>,
+  program?: Pick<ProgramTracker, 'v' | 'onChange'>,
 ): WaferPanel {
   el.classList.add('wafer-panel');
   el.replaceChildren();
@@ -490,6 +500,7 @@ export function mountWaferPanel(
       running,
       dualBlade: dual,
       blade,
+      program: program ? programRefusal(program.v.state, program.v.program) : '',
     });
     const btn = (b: HTMLButtonElement, a: WaferAction, verb: string): void => {
       b.disabled = !a.enabled;
@@ -525,6 +536,7 @@ export function mountWaferPanel(
       schedule();
     }),
     ...(stations ? [stations.onChange(() => schedule())] : []),
+    ...(program ? [program.onChange((_v, stateChanged) => stateChanged && schedule())] : []),
   ];
   render();
 

@@ -36,13 +36,13 @@ function controlRefusal(g: GateInput): string {
   return '';
 }
 
-/** Why a motion of `kind` would be refused now ('' when the controller would take it). */
-export function motionRefusal(kind: MotionKind, g: GateInput): string {
-  const control = controlRefusal(g);
-  if (control) return control;
-  if (g.transfer) return `a transfer or mapping is in progress (${g.transfer}): wait for its end or STOP`;
-  const name = g.programName ?? 'a program';
-  switch (g.program) {
+/**
+ * Why a running program refuses motions and transfers from the page ('' when none runs): the
+ * controller answers them 127 while it runs, is paused or waits.
+ */
+export function programRefusal(program: RunState, programName?: string | null): string {
+  const name = programName ?? 'a program';
+  switch (program) {
     case 'running':
     case 'stepping':
       return `${name} is running: ABORT it (Editor) first`;
@@ -51,8 +51,17 @@ export function motionRefusal(kind: MotionKind, g: GateInput): string {
     case 'waiting':
       return `${name} waits for the operator: answer it (CONTINUE) or ABORT it first`;
     case 'none':
-      break;
+      return '';
   }
+}
+
+/** Why a motion of `kind` would be refused now ('' when the controller would take it). */
+export function motionRefusal(kind: MotionKind, g: GateInput): string {
+  const control = controlRefusal(g);
+  if (control) return control;
+  if (g.transfer) return `a transfer or mapping is in progress (${g.transfer}): wait for its end or STOP`;
+  const program = programRefusal(g.program, g.programName);
+  if (program) return program;
   switch (g.state) {
     case 'ERROR':
       return 'the robot is in ERROR: RESET first';

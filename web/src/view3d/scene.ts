@@ -1,4 +1,4 @@
-// The 3D view's scene: renderer, camera and orbit controls, lights, the floor grid, the drawn
+// The 3D view's scene: renderer, camera and its orbit (orbit.ts), lights, the floor grid, the drawn
 // robot, the stations as translucent boxes (with their names), fixed obstacles, and the
 // wafers in the stations. It renders only when something changed (`invalidate`, which asks
 // the simulator panel for a frame); what to draw comes from simulator.ts.
@@ -6,14 +6,15 @@
 // What it costs: the stations' wafers are instanced (one draw call per look — a wafer, a
 // double, a cross-slotted, an uncertain one — however many slots hold one: LP1's 25 are one);
 // the shadow map is drawn again only when the robot moved or the scene changed, never for a
-// camera move; a software renderer (no graphics card) gets no antialiasing, one pixel per
-// CSS pixel and a small hard-edged shadow map (`RenderQuality`).
+// camera move; a software renderer (no graphics card) gets no antialiasing, three pixels for
+// four CSS pixels and a small hard-edged shadow map (`RenderQuality`). It needs no DOM: it runs in
+// the render worker on an OffscreenCanvas (scene-host.ts), or on the page.
 
 import * as THREE from 'three';
-import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import type { RobotInfo } from '../protocol/bus';
 import { frameCamera, type Footprint } from './camera-frame';
 import { Materials } from './materials';
+import { orbitMove, orbitOf, orbitPosition, type Orbit } from './orbit';
 import { BASE_H, RobotModel, WAFER_GAP, WAFER_R, WAFER_T, sceneZ, zCylinder, type BladeWafers } from './robot-model';
 
 /** A station (cassette, aligner, process chamber) drawn as a box; all in the base frame. */
@@ -88,7 +89,7 @@ export function isSoftwareRenderer(name: string): boolean {
 /** What to draw with for a renderer `name` (from WEBGL_debug_renderer_info) and a display's pixel ratio. */
 export function renderQuality(name: string, devicePixelRatio: number): RenderQuality {
   if (isSoftwareRenderer(name)) {
-    return { tier: 'software', antialias: false, pixelRatio: 1, shadowMapSize: 512, softShadows: false, maxFps: 20 };
+    return { tier: 'software', antialias: false, pixelRatio: 0.75, shadowMapSize: 512, softShadows: false, maxFps: 20 };
   }
   return {
     tier: 'gpu',
@@ -135,7 +136,8 @@ export class SimScene {
   onInvalidate: () => void = () => undefined;
   /** The operator moved the camera since the default view was set. */
   cameraMoved = false;
-  private readonly controls: OrbitControls;
+  /** The camera's place about what it looks at. */
+  private orbit: Orbit = { target: { x: 0, y: 0, z: 0 }, azimuth: 0, polar: 1, distance: 1000 };
   private readonly sun = new THREE.DirectionalLight('#ffffff', 2.2);
   private readonly floorGroup = new THREE.Group();
   private readonly stationGroup = new THREE.Group();
@@ -165,23 +167,10 @@ export class SimScene {
     // Drawn again only when something that casts a shadow moved (`render`).
     renderer.shadowMap.autoUpdate = false;
     renderer.setClearColor('#14171b');
-    renderer.domElement.tabIndex = 0;
 
     const scene = this.scene;
     scene.background = new THREE.Color('#14171b');
     this.camera.up.set(0, 0, 1);
-    const controls = new OrbitControls(this.camera, renderer.domElement);
-    controls.enableDamping = true;
-    controls.dampingFactor = 0.12;
-    controls.maxPolarAngle = Math.PI * 0.495;
-    controls.minDistance = 100;
-    controls.maxDistance = 20000;
-    controls.addEventListener('change', () => this.invalidate(false));
-    controls.addEventListener('start', () => {
-      this.cameraMoved = true;
-    });
-    this.controls = controls;
-
     const hemi = new THREE.HemisphereLight('#dfe7f2', '#1a1d22', 1.4);
     hemi.position.set(0, 0, 1);
     scene.add(hemi);
@@ -285,29 +274,52 @@ export class SimScene {
     const f = frameCamera(footprints, hand, working, reach);
     const z0 = BASE_H * 0.8;
     if (top) {
-      this.controls.target.set(0, 0, z0);
-      camera.position.set(0, -r * 0.02, BASE_H + r * 3.4);
+      this.orbit = orbitOf({ x: 0, y: -r * 0.02, z: BASE_H + r * 3.4 }, { x: 0, y: 0, z: z0 });
     } else if (f.station === null) {
-      this.controls.target.set(0, 0, z0);
-      camera.position.set(r * 1.8, -r * 2.2, BASE_H + r * 1.5);
+      this.orbit = orbitOf({ x: r * 1.8, y: -r * 2.2, z: BASE_H + r * 1.5 }, { x: 0, y: 0, z: z0 });
     } else {
       // Looked at from 30° above, far enough for the frame's radius in the 40° view.
-      const dist = (f.radius / Math.tan((camera.fov * Math.PI) / 360)) * 1.15;
-      const a = (f.azimuth * Math.PI) / 180;
-      const el = (30 * Math.PI) / 180;
-      this.controls.target.set(f.target.x, f.target.y, z0);
-      camera.position.set(
-        f.target.x + Math.cos(a) * Math.cos(el) * dist,
-        f.target.y + Math.sin(a) * Math.cos(el) * dist,
-        z0 + Math.sin(el) * dist,
-      );
+      const dist = (f.radius / Math.tan((camera.fov * Math.PI) / 360)) * 1.5;
+      this.orbit = {
+        target: { x: f.target.x, y: f.target.y, z: z0 },
+        azimuth: (f.azimuth * Math.PI) / 180,
+        polar: (60 * Math.PI) / 180,
+        distance: dist,
+      };
     }
     camera.near = Math.max(1, r / 100);
     camera.far = r * 60;
     camera.updateProjectionMatrix();
-    this.controls.update();
+    this.placeCamera();
     this.cameraMoved = false;
     this.invalidate(false);
+  }
+
+  /** Put the camera where its orbit says. */
+  private placeCamera(): void {
+    const p = orbitPosition(this.orbit);
+    this.camera.position.set(p.x, p.y, p.z);
+    this.camera.lookAt(this.orbit.target.x, this.orbit.target.y, this.orbit.target.z);
+  }
+
+  /** The operator moved the camera: a drag (`rotate`, `pan`) or the wheel (`zoom`) [CSS px]. */
+  orbitBy(kind: 'rotate' | 'pan' | 'zoom', dx: number, dy: number): void {
+    this.orbit = orbitMove(this.orbit, kind, dx, dy, this.height || 600, this.camera.fov);
+    this.cameraMoved = true;
+    this.placeCamera();
+    this.invalidate(false);
+  }
+
+  /** Where each station's name goes on the canvas [CSS px], and whether it is in view. */
+  labelPositions(): { id: string; x: number; y: number; visible: boolean }[] {
+    const v = new THREE.Vector3();
+    const out: { id: string; x: number; y: number; visible: boolean }[] = [];
+    for (const [id, anchor] of this.labelAnchors) {
+      v.copy(anchor).project(this.camera);
+      const visible = v.z < 1 && Math.abs(v.x) <= 1.05 && Math.abs(v.y) <= 1.05;
+      out.push({ id, x: ((v.x + 1) / 2) * this.width, y: ((1 - v.y) / 2) * this.height, visible });
+    }
+    return out;
   }
 
   /** Add a station box; returns its id (the name, made unique). */
@@ -472,6 +484,7 @@ export class SimScene {
     if (width === this.width && height === this.height) return;
     this.width = width;
     this.height = height;
+    // An OffscreenCanvas has no style to set: only its drawing buffer is sized.
     this.renderer.setSize(width, height, false);
     this.camera.aspect = width / height;
     this.camera.updateProjectionMatrix();
@@ -486,13 +499,6 @@ export class SimScene {
   /** Forget the size, so that the next `setSize` applies it even when it did not change. */
   forgetSize(): void {
     this.width = 0;
-  }
-
-  /** Advance the orbit controls' damping; true while the camera still glides. */
-  updateControls(): boolean {
-    const moved = this.controls.update();
-    if (moved) this.dirty = true;
-    return moved;
   }
 
   /** The robot was posed anew: draw it (and its shadow) at the next frame. */
@@ -513,7 +519,6 @@ export class SimScene {
   }
 
   dispose(): void {
-    this.controls.dispose();
     this.robot?.dispose();
     disposeObject(this.scene);
     this.renderer.dispose();

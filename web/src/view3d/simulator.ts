@@ -2,24 +2,23 @@
 // (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample), or, while
 // the trace viewer has a trace open, the recorded robot at its scrubber (showRecorded).
 //
-// This module wires the parts together and draws on demand: the scene (scene.ts) with the
-// drawn robot (robot-model.ts), the live datagrams (live-stream.ts), the text overlay
-// (overlay.ts) and the stations' names. Nothing runs at rest: a frame is asked for only when
-// a datagram changed something, the camera moved, the view was resized or the scene changed,
-// and drawn at most `RenderQuality.maxFps` times a second, never while the GPU (or the
-// software renderer) has not finished the last one: the page's main thread stays free for
-// the operator's clicks, the E-STOP first.
+// This module is the page's side: the canvas, the overlay, the stations' names, the buttons and
+// the pointer (orbit, pan, zoom). The drawing itself is a SceneHost (scene-host.ts) in the
+// render worker on an OffscreenCanvas — nothing it draws can hold up the page's main thread,
+// where the E-STOP is handled — or, in a browser without OffscreenCanvas, on the page. It is
+// told only what changes: a datagram that moves nothing sends nothing, so at rest nothing is
+// drawn at all.
 
 import * as THREE from 'three';
 import type { Bus, RobotInfo, RobotState, SimSample } from '../protocol/bus';
 import { h } from '../dom';
 import { LiveStream } from './live-stream';
 import { drawOverlay } from './overlay';
-import { SimScene, renderQuality, type ObstacleSpec, type RenderQuality, type StationSpec, type WaferDisc } from './scene';
-import { armPose, homePositions, type ArmPose } from './sim-kinematics';
+import { renderQuality, type ObstacleSpec, type RenderQuality, type StationSpec, type WaferDisc } from './scene';
+import { SceneHost, type CameraAsk, type SceneMessage, type SceneReport } from './scene-host';
+import { armAxes, type ArmPose } from './sim-kinematics';
 import './simulator.css';
 
-/** A recorded pose to draw instead of the live robot (the trace viewer at its scrubber). */
 export interface RecordedFrame {
   /** The robot recorded; the drawing is rebuilt only when this object changes. */
   robot: RobotInfo;
@@ -30,7 +29,6 @@ export interface RecordedFrame {
   /** What the overlay says: which trace, where in it. */
   label: string;
 }
-
 export interface SimulatorHandle {
   /** Call when the panel is shown or its size changed. */
   resize(): void;
@@ -60,14 +58,20 @@ export interface SimulatorHandle {
   quality(): RenderQuality | null;
   /** Frames drawn so far (for tests and the console: none at rest). */
   framesDrawn(): number;
+  /** Where the view draws: `worker` (an OffscreenCanvas in the render worker) or `page`; null without WebGL. */
+  drawnIn(): 'worker' | 'page' | null;
+  /** Draw calls the stations' wafers take (one per look in use; LP1's 25 wafers are one). */
+  slotDrawCalls(): number;
+  /** The main thread's time in the last frame and the longest so far [ms] (the overlay shows them). */
+  frameTimes(): { lastMs: number; maxMs: number };
   /**
    * Draw a recorded robot and pose instead of the live one, until called with null: then the
    * live robot and its latest datagram again. Live datagrams keep being counted meanwhile.
    */
   showRecorded(frame: RecordedFrame | null): void;
   /**
-   * The joint values the 3D view draws now [deg, deg, deg, mm], read back from the scene
-   * (for tests and the console); null before a robot is known or without WebGL.
+   * The joint values the 3D view draws now [deg, deg, deg, mm], as the scene reported after
+   * its last frame (for tests and the console); null before a robot is drawn or without WebGL.
    */
   drawnPose(): ArmPose | null;
   /**
@@ -108,6 +112,47 @@ function sameDrawing(a: SimSample | null, b: SimSample): boolean {
   return true;
 }
 
+/** Where the scene runs: a function that takes its messages. */
+interface Driver {
+  post(m: SceneMessage): void;
+  dispose(): void;
+}
+
+/** The scene in the render worker, on `canvas` handed over as an OffscreenCanvas; null when the browser cannot. */
+function workerDriver(
+  canvas: HTMLCanvasElement,
+  quality: RenderQuality,
+  report: (r: SceneReport) => void,
+  failed: (why: string) => void,
+): Driver | null {
+  if (typeof Worker === 'undefined' || typeof canvas.transferControlToOffscreen !== 'function') return null;
+  let worker: Worker;
+  let offscreen: OffscreenCanvas;
+  try {
+    offscreen = canvas.transferControlToOffscreen();
+    worker = new Worker(new URL('./scene-worker.ts', import.meta.url), { type: 'module' });
+  } catch {
+    return null;
+  }
+  worker.onmessage = (ev: MessageEvent<{ t: 'report'; report: SceneReport } | { t: 'ready' } | { t: 'failed'; why: string }>) => {
+    if (ev.data.t === 'report') report(ev.data.report);
+    else if (ev.data.t === 'failed') failed(ev.data.why);
+  };
+  worker.onerror = (e) => failed(e.message || 'the render worker failed');
+  worker.postMessage({ t: 'init', canvas: offscreen, quality }, [offscreen]);
+  return {
+    post: (m) => worker.postMessage(m),
+    dispose: () => worker.terminate(),
+  };
+}
+
+/** The scene on the page (a browser without OffscreenCanvas). */
+function pageDriver(canvas: HTMLCanvasElement, quality: RenderQuality, report: (r: SceneReport) => void): Driver {
+  const renderer = new THREE.WebGLRenderer({ canvas, antialias: quality.antialias, powerPreference: 'low-power' });
+  const host = new SceneHost(renderer, quality, report, (cb) => requestAnimationFrame(cb));
+  return { post: (m) => host.handle(m), dispose: () => host.dispose() };
+}
+
 export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
   const root = el.appendChild(h('div', { class: 'sim-root' }));
   const msg = root.appendChild(h('div', { class: 'sim-msg' }));
@@ -118,29 +163,6 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     msgBox.textContent = text ?? '';
   };
 
-  const noop: SimulatorHandle = {
-    resize() {},
-    addStation: (spec) => spec.name,
-    removeStation() {},
-    clearStations() {},
-    setWafer() {},
-    setBladeBWafer() {},
-    setStationWafers() {},
-    setObstacles() {},
-    setWorkingStation() {},
-    moveTo(target) {
-      target.append(root);
-    },
-    quality: () => null,
-    framesDrawn: () => 0,
-    showRecorded() {},
-    drawnPose: () => null,
-    drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
-    dispose() {
-      root.remove();
-    },
-  };
-
   const rendererName = webglRenderer();
   if (rendererName === null) {
     showMessage(
@@ -148,20 +170,79 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
         'driver is available). Control, Editor and Plots keep working.',
       true,
     );
-    return noop;
+    return {
+      resize() {},
+      addStation: (spec) => spec.name,
+      removeStation() {},
+      clearStations() {},
+      setWafer() {},
+      setBladeBWafer() {},
+      setStationWafers() {},
+      setObstacles() {},
+      setWorkingStation() {},
+      moveTo(target) {
+        target.append(root);
+      },
+      quality: () => null,
+      framesDrawn: () => 0,
+      drawnIn: () => null,
+      slotDrawCalls: () => 0,
+      frameTimes: () => ({ lastMs: 0, maxMs: 0 }),
+      showRecorded() {},
+      drawnPose: () => null,
+      drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
+      dispose() {
+        root.remove();
+      },
+    };
   }
   const quality = renderQuality(rendererName, window.devicePixelRatio);
-  let renderer: THREE.WebGLRenderer;
-  try {
-    renderer = new THREE.WebGLRenderer({ antialias: quality.antialias, powerPreference: 'low-power' });
-  } catch (e) {
-    showMessage(`3D simulator unavailable: WebGL could not be started (${String(e)}).`, true);
-    return noop;
-  }
-  const view = new SimScene(renderer, quality);
-  root.insertBefore(renderer.domElement, msg);
   root.setAttribute('data-quality', quality.tier);
-  const labels = root.appendChild(h('div', { class: 'sim-labels', 'aria-hidden': 'true' }));
+
+  // ---- what the scene reported after its last frame ----
+  let last: SceneReport | null = null;
+  const labels = h('div', { class: 'sim-labels', 'aria-hidden': 'true' });
+  const labelEls = new Map<string, HTMLElement>();
+  function onReport(r: SceneReport): void {
+    last = r;
+    for (const l of r.labels) {
+      let e = labelEls.get(l.id);
+      if (!e) {
+        e = labels.appendChild(h('span', { class: 'sim-label', 'data-testid': 'sim-label', 'data-station': l.id }, l.id));
+        labelEls.set(l.id, e);
+      }
+      e.hidden = !l.visible;
+      if (l.visible) e.style.transform = `translate(${l.x}px, ${l.y}px) translate(-50%, -100%)`;
+    }
+    for (const [id, e] of labelEls) {
+      if (r.labels.some((l) => l.id === id)) continue;
+      e.remove();
+      labelEls.delete(id);
+    }
+  }
+
+  // ---- the canvas and where it is drawn ----
+  let canvas = h('canvas', { tabindex: '0' });
+  root.insertBefore(canvas, msg);
+  let where: 'worker' | 'page' = 'worker';
+  let driver: Driver;
+  const startOnPage = (): Driver => {
+    where = 'page';
+    return pageDriver(canvas, quality, onReport);
+  };
+  driver =
+    workerDriver(canvas, quality, onReport, (why) => {
+      // The worker could not draw (no WebGL there): draw on the page instead, on a new canvas.
+      console.warn(`wrc: the 3D view draws on the page: ${why}`);
+      driver.dispose();
+      const fresh = h('canvas', { tabindex: '0' });
+      canvas.replaceWith(fresh);
+      canvas = fresh;
+      listen(canvas);
+      driver = startOnPage();
+      replay();
+    }) ?? startOnPage();
+  root.append(labels);
 
   // Overlay and buttons.
   const overlay = root.appendChild(h('div', { class: 'sim-overlay' }));
@@ -170,282 +251,234 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     buttons.append(h('button', { type: 'button', title, onclick: fn }, label));
   };
 
-  let waferOnHand = true;
-  let waferOnBladeB = false;
-  let handUncertain = false;
-  let bladeBUncertain = false;
+  // ---- what the scene is told (kept, to tell it again after a fallback) ----
+  let robot: RobotInfo | null = null;
   /** While set, the view draws this instead of the live datagrams. */
   let recorded: RecordedFrame | null = null;
-  let state: RobotState = 'IDLE';
-  let disposed = false;
-  let working: string | null = null;
-  let frames = 0;
-  // The frame loop's state (frames are asked for from the listeners below).
-  /** The fence after the last frame: the next waits until the GPU has finished it. */
-  let fence: WebGLSync | null = null;
-  let raf = 0;
-  let lastFrame = -Infinity;
-  let lastOverlay = 0;
-  let overlayDue = false;
-  const live = new LiveStream(bus, () => {
-    updateOverlay(performance.now());
-    requestFrame();
-  });
-  /** The datagram whose pose and state are drawn (null: none yet, or a recorded frame). */
   let drawnSample: SimSample | null = null;
-  // A datagram that changes nothing drawn asks for no frame (at rest: none at all).
-  const unsubSample = bus.onSample((smp) => {
-    if (recorded === null && !sameDrawing(drawnSample, smp)) requestFrame();
-    else overlayDue = true;
-  });
-  view.onInvalidate = () => requestFrame();
+  let working: string | null = null;
+  const blades = { A: { on: true, uncertain: false }, B: { on: false, uncertain: false } };
+  let discs: readonly WaferDisc[] = [];
+  const stations = new Map<string, StationSpec & { id: string }>();
+  let obstacles: readonly ObstacleSpec[] = [];
+  let width = 0;
+  let height = 0;
+  let disposed = false;
+  const live = new LiveStream(bus, () => updateOverlay(performance.now()));
 
-  function applyState(s: RobotState): void {
-    state = s;
-    view.materials.tint(s);
-    view.invalidate(false);
+  function replay(): void {
+    driver.post({ t: 'size', width, height });
+    if (robot) driver.post({ t: 'robot', robot, positions: live.latest?.positions ?? null, state: live.latest?.state ?? 'IDLE' });
+    driver.post({ t: 'blade', blade: 'A', ...blades.A });
+    driver.post({ t: 'blade', blade: 'B', ...blades.B });
+    driver.post({ t: 'stations', specs: [...stations.values()] });
+    driver.post({ t: 'slots', discs: [...discs] });
+    driver.post({ t: 'obstacles', list: [...obstacles] });
   }
 
-  function setRobot(robot: RobotInfo): void {
-    const first = view.robot === null;
-    const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB, handUncertain, bladeBUncertain });
-    model.pose(armPose(model.axes, live.applied?.positions ?? live.latest?.positions ?? homePositions(robot)));
-    drawnSample = recorded === null ? (live.applied ?? live.latest) : null;
-    if (first || !view.cameraMoved) defaultCamera();
-    view.robotMoved();
+  function cameraAsk(top: boolean, unlessMoved: boolean): CameraAsk {
+    const s = live.latest;
+    return { top, hand: s ? { x: s.x, y: s.y } : null, working, unlessMoved };
+  }
+
+  function setRobot(r: RobotInfo, positions: number[] | null, state: RobotState): void {
+    robot = r;
+    driver.post({ t: 'robot', robot: r, positions, state });
+    driver.post({ t: 'camera', ask: cameraAsk(false, true) });
     updateOverlay(performance.now());
   }
 
-  /** The default camera: the robot and the station it works at. */
-  function defaultCamera(): void {
-    const s = live.latest;
-    view.fitCamera(view.robot?.reach ?? 600, false, s ? { x: s.x, y: s.y } : null, working);
-  }
-  button('Top', 'View from above', () => view.fitCamera(view.robot?.reach ?? 600, true));
-  button('Reset view', 'Back to the default camera: the robot and the station it works at', () => defaultCamera());
+  button('Top', 'View from above', () => driver.post({ t: 'camera', ask: cameraAsk(true, false) }));
+  button('Reset view', 'Back to the default camera: the robot and the station it works at', () =>
+    driver.post({ t: 'camera', ask: cameraAsk(false, false) }),
+  );
   button('Reset counts', 'Reset the lost-datagram counters', () => {
     live.stats.reset();
     updateOverlay(performance.now());
   });
 
   function updateOverlay(now: number): void {
-    const model = view.robot;
+    const shown = recorded?.robot ?? robot;
     drawOverlay(overlay, {
-      robot: model?.robot ?? bus.robot(),
-      drawn: model,
+      robot: shown ?? bus.robot(),
+      drawn: shown ? { robot: shown, axes: armAxes(shown) } : null,
       connected: live.connected,
-      live: recorded === null ? live.applied : null,
+      live: recorded === null ? drawnSample : null,
       recorded,
       rateHz: live.stats.rate(now),
       lost: live.stats.lost,
       gaps: live.stats.gaps,
     });
-    if (!model) showMessage(live.connected ? 'Waiting for the robot description (ROBOT)…' : 'Not connected to the controller.');
+    if (!shown) showMessage(live.connected ? 'Waiting for the robot description (ROBOT)…' : 'Not connected to the controller.');
     else showMessage(null);
   }
 
-  // A recorded frame keeps its own robot; the live one is drawn again when it ends.
+  // ---- the live robot: only what changes the drawing is sent ----
+  const unsubSample = bus.onSample((s) => {
+    if (recorded !== null || sameDrawing(drawnSample, s)) return;
+    drawnSample = s;
+    driver.post({ t: 'pose', positions: s.positions, state: s.state });
+  });
+  let lastOverlay = 0;
+  const overlayTimer = setInterval(() => {
+    if (!visible()) return;
+    const now = performance.now();
+    if (now - lastOverlay >= 250) {
+      lastOverlay = now;
+      updateOverlay(now);
+    }
+  }, 250);
   const unsubRobot = bus.onRobot((r) => {
-    if (recorded === null) setRobot(r);
+    if (recorded === null) setRobot(r, live.latest?.positions ?? null, live.latest?.state ?? 'IDLE');
   });
   const r0 = bus.robot();
-  if (r0) setRobot(r0);
-  else {
-    view.buildFloor(600);
-    view.fitCamera(600);
-  }
-  applyState(state);
+  if (r0) setRobot(r0, live.latest?.positions ?? null, live.latest?.state ?? 'IDLE');
 
-  // Size.
-  function resize(): void {
-    if (disposed) return;
-    view.setSize(root.clientWidth, root.clientHeight);
-  }
-  const ro = typeof ResizeObserver !== 'undefined' ? new ResizeObserver(() => resize()) : null;
-  ro?.observe(root);
-
-  let contextLost = false;
-  renderer.domElement.addEventListener('webglcontextlost', (e) => {
-    e.preventDefault();
-    contextLost = true;
-    showMessage('3D view lost its WebGL context; it resumes when the browser restores it.', true);
-  });
-  renderer.domElement.addEventListener('webglcontextrestored', () => {
-    contextLost = false;
-    view.invalidate();
-    showMessage(null);
-  });
-
-  // ---- drawing on demand ----
-  const gl = renderer.getContext() as WebGL2RenderingContext;
-  const minFrameMs = 1000 / quality.maxFps;
-
+  // ---- size and visibility ----
   function visible(): boolean {
     return root.isConnected && root.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
   }
-
-  /** Ask for a frame (no-op while one is asked for). */
-  function requestFrame(): void {
-    if (raf !== 0 || disposed) return;
-    raf = requestAnimationFrame(frame);
-  }
-
-  /** Whether the GPU has finished the last frame (no fence: yes). */
-  function gpuDone(): boolean {
-    if (fence === null) return true;
-    try {
-      if (gl.getSyncParameter(fence, gl.SYNC_STATUS) !== gl.SIGNALED) return false;
-    } catch {
-      /* no sync objects: draw */
+  let wasVisible = true;
+  function resize(): void {
+    if (disposed) return;
+    const shown = visible();
+    if (shown !== wasVisible) {
+      wasVisible = shown;
+      driver.post({ t: 'visible', visible: shown });
     }
-    gl.deleteSync(fence);
-    fence = null;
-    return true;
-  }
-
-  function frame(now: number): void {
-    raf = 0;
-    if (disposed || !visible()) return; // shown again: resize() asks for a frame
-    if (!view.sized()) resize();
-    // Not before the GPU is done with the last frame, nor more often than maxFps: the
-    // main thread stays free.
-    if (!gpuDone() || now - lastFrame < minFrameMs) {
-      requestFrame();
-      return;
-    }
-    const s = recorded === null ? live.takeNew() : null;
-    if (s !== null && !sameDrawing(drawnSample, s)) {
-      drawnSample = s;
-      view.robot?.pose(armPose(view.robot.axes, s.positions));
-      if (s.state !== state) applyState(s.state);
-      view.robotMoved();
-    }
-    const gliding = view.updateControls();
-    if (overlayDue || now - lastOverlay > 250) {
-      lastOverlay = now;
-      overlayDue = false;
-      updateOverlay(now);
-    }
-    if (!contextLost && view.render()) {
-      lastFrame = now;
-      frames++;
-      placeLabels();
-      try {
-        fence = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
-      } catch {
-        fence = null;
-      }
-    }
-    // The camera still glides, or a datagram that changes the drawing came meanwhile: another frame.
-    if (gliding || view.needsRender() || (recorded === null && live.latest !== null && !sameDrawing(drawnSample, live.latest))) {
-      requestFrame();
-    }
-  }
-
-  // ---- the stations' names, placed after each frame ----
-  const labelEls = new Map<string, HTMLElement>();
-  const v3 = new THREE.Vector3();
-  function placeLabels(): void {
     const w = root.clientWidth;
     const ht = root.clientHeight;
-    for (const [id, anchor] of view.labelAnchors) {
-      let l = labelEls.get(id);
-      if (!l) {
-        l = labels.appendChild(h('span', { class: 'sim-label', 'data-testid': 'sim-label', 'data-station': id }, id));
-        labelEls.set(id, l);
-      }
-      v3.copy(anchor).project(view.camera);
-      const onScreen = v3.z < 1 && Math.abs(v3.x) <= 1.05 && Math.abs(v3.y) <= 1.05;
-      l.hidden = !onScreen;
-      if (onScreen) l.style.transform = `translate(${((v3.x + 1) / 2) * w}px, ${((1 - v3.y) / 2) * ht}px) translate(-50%, -100%)`;
-    }
-    for (const [id, l] of labelEls) {
-      if (view.labelAnchors.has(id)) continue;
-      l.remove();
-      labelEls.delete(id);
-    }
+    if (w <= 0 || ht <= 0 || (w === width && ht === height)) return;
+    width = w;
+    height = ht;
+    driver.post({ t: 'size', width: w, height: ht });
   }
+  const ro = typeof ResizeObserver !== 'undefined' ? new ResizeObserver(() => resize()) : null;
+  ro?.observe(root);
+  const onVisibility = (): void => resize();
+  document.addEventListener('visibilitychange', onVisibility);
+
+  // ---- the pointer: orbit (left drag), pan (right or middle drag, or Shift), zoom (wheel) ----
+  function listen(c: HTMLCanvasElement): void {
+    let drag: { id: number; x: number; y: number; pan: boolean } | null = null;
+    c.addEventListener('pointerdown', (e) => {
+      c.focus();
+      drag = { id: e.pointerId, x: e.clientX, y: e.clientY, pan: e.button !== 0 || e.shiftKey };
+      c.setPointerCapture(e.pointerId);
+    });
+    c.addEventListener('pointermove', (e) => {
+      if (!drag || e.pointerId !== drag.id) return;
+      const dx = e.clientX - drag.x;
+      const dy = e.clientY - drag.y;
+      drag.x = e.clientX;
+      drag.y = e.clientY;
+      if (dx !== 0 || dy !== 0) driver.post({ t: 'orbit', kind: drag.pan ? 'pan' : 'rotate', dx, dy });
+    });
+    const end = (e: PointerEvent): void => {
+      if (drag && e.pointerId === drag.id) drag = null;
+    };
+    c.addEventListener('pointerup', end);
+    c.addEventListener('pointercancel', end);
+    c.addEventListener('contextmenu', (e) => e.preventDefault());
+    c.addEventListener(
+      'wheel',
+      (e) => {
+        e.preventDefault();
+        driver.post({ t: 'orbit', kind: 'zoom', dx: 0, dy: e.deltaY * (e.deltaMode === 1 ? 40 : 1) });
+      },
+      { passive: false },
+    );
+  }
+  listen(canvas);
 
   function showRecorded(frame: RecordedFrame | null): void {
     recorded = frame;
     if (frame !== null) {
-      if (view.robot?.robot !== frame.robot) setRobot(frame.robot);
-      view.robot?.pose(armPose(view.robot.axes, frame.positions));
-      applyState(frame.state ?? 'IDLE');
+      if (robot !== frame.robot) setRobot(frame.robot, frame.positions, frame.state ?? 'IDLE');
+      driver.post({ t: 'pose', positions: frame.positions, state: frame.state ?? 'IDLE' });
     } else {
-      const robot = bus.robot();
-      if (robot && view.robot?.robot !== robot) setRobot(robot);
-      // The next frame applies the latest datagram again.
-      live.redraw();
-      drawnSample = null;
-      requestFrame();
-      const model = view.robot;
-      if (model) model.pose(armPose(model.axes, live.latest?.positions ?? homePositions(model.robot)));
-      applyState(live.latest?.state ?? 'IDLE');
+      const r = bus.robot();
+      const s = live.latest;
+      if (r && robot !== r) setRobot(r, s?.positions ?? null, s?.state ?? 'IDLE');
+      drawnSample = s;
+      if (s) driver.post({ t: 'pose', positions: s.positions, state: s.state });
     }
-    view.robotMoved();
     updateOverlay(performance.now());
   }
 
   resize();
   updateOverlay(performance.now());
 
+  function postStations(): void {
+    driver.post({ t: 'stations', specs: [...stations.values()] });
+    driver.post({ t: 'camera', ask: cameraAsk(false, true) });
+  }
+
   return {
     resize() {
-      view.forgetSize(); // force: the container may have been hidden at the same size
+      width = 0; // force: the container may have been hidden at the same size
       resize();
-      view.invalidate(false);
     },
-    addStation: (spec) => {
-      const id = view.addStation(spec);
-      if (!view.cameraMoved && view.robot) defaultCamera();
+    addStation(spec) {
+      let id = spec.name || 'station';
+      for (let k = 2; stations.has(id); k++) id = `${spec.name}#${k}`;
+      stations.set(id, { ...spec, id });
+      postStations();
       return id;
     },
-    removeStation: (id) => view.removeStation(id),
-    clearStations: () => view.clearStations(),
-    setWafer(onHand: boolean, uncertain = false) {
-      if (onHand === waferOnHand && uncertain === handUncertain) return;
-      waferOnHand = onHand;
-      handUncertain = uncertain;
-      view.robot?.showWafer(onHand, uncertain);
-      view.invalidate();
+    removeStation(id) {
+      if (stations.delete(id)) postStations();
     },
-    setBladeBWafer(onBladeB: boolean, uncertain = false) {
-      if (onBladeB === waferOnBladeB && uncertain === bladeBUncertain) return;
-      waferOnBladeB = onBladeB;
-      bladeBUncertain = uncertain;
-      view.robot?.showBladeBWafer(onBladeB, uncertain);
-      view.invalidate();
+    clearStations() {
+      if (stations.size === 0) return;
+      stations.clear();
+      postStations();
     },
-    setStationWafers: (discs) => view.setStationWafers(discs),
-    setObstacles: (list) => view.setObstacles(list),
+    setWafer(on: boolean, uncertain = false) {
+      if (on === blades.A.on && uncertain === blades.A.uncertain) return;
+      blades.A = { on, uncertain };
+      driver.post({ t: 'blade', blade: 'A', on, uncertain });
+    },
+    setBladeBWafer(on: boolean, uncertain = false) {
+      if (on === blades.B.on && uncertain === blades.B.uncertain) return;
+      blades.B = { on, uncertain };
+      driver.post({ t: 'blade', blade: 'B', on, uncertain });
+    },
+    setStationWafers(d) {
+      discs = d;
+      driver.post({ t: 'slots', discs: [...d] });
+    },
+    setObstacles(list) {
+      obstacles = list;
+      driver.post({ t: 'obstacles', list: [...list] });
+    },
     setWorkingStation(name) {
       working = name;
     },
     moveTo(target) {
       if (root.parentElement === target) return;
       target.append(root);
-      view.forgetSize();
+      width = 0;
       resize();
-      view.invalidate(false);
     },
     quality: () => quality,
-    framesDrawn: () => frames,
+    framesDrawn: () => last?.frames ?? 0,
+    drawnIn: () => where,
+    slotDrawCalls: () => last?.slotDrawCalls ?? 0,
+    frameTimes: () => last?.frameMs ?? { lastMs: 0, maxMs: 0 },
     showRecorded,
-    drawnPose: () => view.robot?.drawnPose() ?? null,
-    drawnWafers: () => {
-      const blades = view.robot?.drawnBladeWafers() ?? null;
-      return { hand: blades?.hand ?? null, bladeB: blades?.bladeB ?? null, slots: view.drawnSlotWafers() };
-    },
+    drawnPose: () => last?.pose ?? null,
+    drawnWafers: () => ({ hand: last?.blades?.hand ?? null, bladeB: last?.blades?.bladeB ?? null, slots: { ...(last?.slots ?? {}) } }),
     dispose() {
       if (disposed) return;
       disposed = true;
-      cancelAnimationFrame(raf);
+      clearInterval(overlayTimer);
       unsubRobot();
       unsubSample();
       live.dispose();
       ro?.disconnect();
-      view.dispose();
+      document.removeEventListener('visibilitychange', onVisibility);
+      driver.dispose();
       root.remove();
     },
   };

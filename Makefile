@@ -116,11 +116,10 @@ bench-controller: build
 # page's CPU at rest and E-STOP press → ESTOP on the socket during GET/PUT transfers (median,
 # p99, samples); BENCH_ESTOPS clicks (40), BENCH_REST_S seconds at rest (20). Figures printed
 # and written to $(OUT)/gui/bench-gui.json.
-bench-gui: web check-toolchain
+bench-gui: build
 	@scripts/need.sh chromium chromium fonts-dejavu-core
-	$(CARGO) build --bin wrc
 	@mkdir -p $(OUT)/gui
-	cd web && WRC_BIN=$(CURDIR)/target/debug/wrc WRC_TEST_OUTPUT=$(CURDIR)/$(OUT)/gui npm run bench
+	cd web && WRC_BIN=$(CURDIR)/$(WRC) WRC_TEST_OUTPUT=$(CURDIR)/$(OUT)/gui npm run bench
 
 # Straight lines against the time-optimal lower bound: 200 random reachable lines and 20 long
 # ones (fixed seed), planned and run as the controller does; durations over the bound, limits

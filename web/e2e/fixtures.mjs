@@ -59,7 +59,8 @@ class Controller {
   #eventSocket = null;
   #t0 = Date.now();
 
-  async start() {
+  /** `realtime`: the controller's tasks at real-time priority (wrc up without --no-rt; root). */
+  async start({ realtime = false } = {}) {
     if (!existsSync(WRC_BIN)) throw new Error(`no wrc binary at ${WRC_BIN} (cargo build -p wrc, or set WRC_BIN)`);
     const hostPort = await freeTcpPort();
     this.hostPort = hostPort;
@@ -68,7 +69,7 @@ class Controller {
     const udpPort = await freeUdpPort();
     const args = [
       'up',
-      '--no-rt',
+      ...(realtime ? [] : ['--no-rt']),
       '--port', `127.0.0.1:${hostPort}`,
       '--sim-addr', `127.0.0.1:${udpPort}`,
       '--ui-port', String(uiPort),
@@ -277,8 +278,10 @@ const failed = (testInfo) => testInfo.status !== testInfo.expectedStatus;
 
 export const test = base.extend({
   wrcState: [null, { option: true }],
+  /** Run the controller at real-time priority (the benchmark: as `make run` does as root). */
+  wrcRealtime: [false, { option: true }],
 
-  wrc: async ({ wrcState }, use, testInfo) => {
+  wrc: async ({ wrcState, wrcRealtime }, use, testInfo) => {
     const wrc = new Controller();
     const tell = async () => {
       await report(testInfo, 'wrc up output (last 4000 chars)', wrc.output.slice(-4000));
@@ -286,7 +289,7 @@ export const test = base.extend({
     };
     try {
       wrcState?.write(wrc.stateDir);
-      await wrc.start();
+      await wrc.start({ realtime: wrcRealtime });
     } catch (e) {
       await wrc.stop();
       await tell();

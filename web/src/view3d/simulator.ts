@@ -319,12 +319,17 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     drawnSample = s;
     driver.post({ t: 'pose', positions: s.positions, state: s.state });
   });
+  // The overlay's figures: four times a second while the arm moves, once a second at rest
+  // (each update repaints the page: at rest that is the view's only cost).
   let lastOverlay = 0;
+  let overlaySample: SimSample | null = null;
   const overlayTimer = setInterval(() => {
     if (!visible()) return;
     const now = performance.now();
-    if (now - lastOverlay >= 250) {
+    const moving = drawnSample !== overlaySample;
+    if (moving || now - lastOverlay >= 1000) {
       lastOverlay = now;
+      overlaySample = drawnSample;
       updateOverlay(now);
     }
   }, 250);

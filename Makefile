@@ -113,9 +113,10 @@ bench-controller: build
 
 # The web GUI's cost on a PC without a graphics card (docs/gui.md, "What the GUI costs"): in
 # Chromium's software renderer with the Simulator tab open on the demo cell, LP1 full, the
-# page's CPU at rest and E-STOP press → ESTOP on the socket during GET/PUT transfers (median,
-# p99, samples); BENCH_ESTOPS clicks (40), BENCH_REST_S seconds at rest (20). Figures printed
-# and written to $(OUT)/gui/bench-gui.json.
+# page's CPU at rest and E-STOP press → ESTOP on the page's socket during GET/PUT transfers
+# (median, p99, samples); BENCH_ESTOPS clicks (40), BENCH_REST_S seconds at rest (20), the
+# controller at real-time priority (BENCH_RT=0: --no-rt). Figures printed and written to
+# $(OUT)/gui/bench-gui.json.
 bench-gui: build
 	@scripts/need.sh chromium chromium fonts-dejavu-core
 	@mkdir -p $(OUT)/gui

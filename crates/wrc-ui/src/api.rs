@@ -212,8 +212,13 @@ pub(crate) async fn program(
     let read = tokio::task::spawn_blocking(move || {
         let source = std::fs::read_to_string(dir.join(format!("{name}.wrl")))
             .map_err(|e| format!("{name} is not stored here ({e})"))?;
-        let points = std::fs::read_to_string(dir.join(format!("{name}.points.toml"))).unwrap_or_default();
-        Ok::<_, String>(StoredProgram { name, source, points })
+        let points =
+            std::fs::read_to_string(dir.join(format!("{name}.points.toml"))).unwrap_or_default();
+        Ok::<_, String>(StoredProgram {
+            name,
+            source,
+            points,
+        })
     })
     .await;
     match read {

@@ -40,10 +40,10 @@ describe('the default camera', () => {
 });
 
 describe('what a PC without a graphics card is given', () => {
-  it('a software renderer draws without antialiasing, at three pixels for four CSS pixels, with a small hard shadow map', () => {
+  it('a software renderer draws without antialiasing, at 0.6 pixels per CSS pixel, at most 12 frames a second, with a small hard shadow map', () => {
     const name = 'ANGLE (Google, Vulkan 1.3.0 (SwiftShader Device (Subzero) (0x0000C0DE)), SwiftShader driver)';
     expect(isSoftwareRenderer(name)).toBe(true);
-    expect(renderQuality(name, 2)).toEqual({ tier: 'software', antialias: false, pixelRatio: 0.75, shadowMapSize: 512, softShadows: false, maxFps: 20 });
+    expect(renderQuality(name, 2)).toEqual({ tier: 'software', antialias: false, pixelRatio: 0.6, shadowMapSize: 512, softShadows: false, maxFps: 12 });
     expect(isSoftwareRenderer('llvmpipe (LLVM 15.0.6, 256 bits)')).toBe(true);
   });
 

@@ -6,8 +6,9 @@
 // What it costs: the stations' wafers are instanced (one draw call per look — a wafer, a
 // double, a cross-slotted, an uncertain one — however many slots hold one: LP1's 25 are one);
 // the shadow map is drawn again only when the robot moved or the scene changed, never for a
-// camera move; a software renderer (no graphics card) gets no antialiasing, three pixels for
-// four CSS pixels and a small hard-edged shadow map (`RenderQuality`). It needs no DOM: it runs in
+// camera move; a software renderer (no graphics card) gets no antialiasing, 0.6 pixels per CSS
+// pixel, at most 12 frames a second and a small hard-edged shadow map (`RenderQuality`): its
+// frames cost the CPU the controller runs on. It needs no DOM: it runs in
 // the render worker on an OffscreenCanvas (scene-host.ts), or on the page.
 
 import * as THREE from 'three';
@@ -89,7 +90,7 @@ export function isSoftwareRenderer(name: string): boolean {
 /** What to draw with for a renderer `name` (from WEBGL_debug_renderer_info) and a display's pixel ratio. */
 export function renderQuality(name: string, devicePixelRatio: number): RenderQuality {
   if (isSoftwareRenderer(name)) {
-    return { tier: 'software', antialias: false, pixelRatio: 0.75, shadowMapSize: 512, softShadows: false, maxFps: 20 };
+    return { tier: 'software', antialias: false, pixelRatio: 0.6, shadowMapSize: 512, softShadows: false, maxFps: 12 };
   }
   return {
     tier: 'gpu',

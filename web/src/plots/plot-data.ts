@@ -10,11 +10,13 @@ export type Aligned = [number[], ...(number | null)[][]];
 /**
  * A rolling time window of points (x in seconds) for a fixed number of series. Points older
  * than `windowS` before the newest are dropped; a point whose x goes backwards clears the
- * window first (the controller restarted its clock).
+ * window first (the controller restarted its clock). A missing value is kept as NaN (arrays of
+ * plain doubles: minutes of history are no heap objects for the collector to walk) and given
+ * to uPlot as null, a break.
  */
 export class RollingSeries {
   private xs: number[] = [];
-  private ys: (number | null)[][];
+  private ys: number[][];
   private start = 0;
 
   constructor(
@@ -45,7 +47,7 @@ export class RollingSeries {
     this.xs.push(x);
     for (let i = 0; i < this.nSeries; i++) {
       const v = values[i];
-      (this.ys[i] as (number | null)[]).push(v === undefined || v === null || !Number.isFinite(v) ? null : v);
+      (this.ys[i] as number[]).push(v === undefined || v === null || !Number.isFinite(v) ? NaN : v);
     }
     this.trim();
   }
@@ -70,7 +72,7 @@ export class RollingSeries {
 
   /** A copy of the window, for uPlot's `setData`. */
   data(): Aligned {
-    return [this.xs.slice(this.start), ...this.ys.map((y) => y.slice(this.start))];
+    return [this.xs.slice(this.start), ...this.ys.map((y) => gaps(y.slice(this.start)))];
   }
 
   /** The oldest x kept, or null when empty. */
@@ -83,7 +85,7 @@ export class RollingSeries {
     const lo = Math.max(this.start, this.lowerBound(from) - 1);
     const hi = Math.min(this.xs.length, this.lowerBound(to) + 2);
     if (hi <= lo) return [[], ...this.ys.map(() => [])];
-    return [this.xs.slice(lo, hi), ...this.ys.map((y) => y.slice(lo, hi))];
+    return [this.xs.slice(lo, hi), ...this.ys.map((y) => gaps(y.slice(lo, hi)))];
   }
 
   /** The first index at or after `start` whose x is ≥ `x`. */
@@ -97,6 +99,11 @@ export class RollingSeries {
     }
     return a;
   }
+}
+
+/** NaN (a missing value) as null: a break in uPlot's line. */
+function gaps(values: number[]): (number | null)[] {
+  return values.map((v) => (Number.isNaN(v) ? null : v));
 }
 
 /**

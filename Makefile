@@ -21,7 +21,7 @@ CARGO ?= cargo
 WRC := target/release/wrc
 OUT ?= test-output
 
-.PHONY: test-fuzz fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-motion bench-stop soak faults demo clean
+.PHONY: test-fuzz fuzz run test build check-toolchain check-node lint test-rust test-web test-e2e web bench bench-rt bench-controller bench-ui bench-gui bench-motion bench-stop soak faults demo clean
 
 check-toolchain:
 	@command -v $(CARGO) >/dev/null || { echo "wrc: cargo is missing; install Rust from https://rustup.rs"; exit 1; }
@@ -111,6 +111,17 @@ bench-rt: build
 bench-controller: build
 	@mkdir -p $(OUT)
 	$(WRC) bench controller --json $(OUT)/bench-controller.json
+
+# The web GUI's cost on a PC without a graphics card (docs/gui.md, "What the GUI costs"): in
+# Chromium's software renderer with the Simulator tab open on the demo cell, LP1 full, the
+# page's CPU at rest and E-STOP press → ESTOP on the page's socket during GET/PUT transfers
+# (median, p99, samples); BENCH_ESTOPS clicks (40), BENCH_REST_S seconds at rest (20), the
+# controller at real-time priority (BENCH_RT=0: --no-rt). Figures printed and written to
+# $(OUT)/gui/bench-gui.json.
+bench-gui: build
+	@scripts/need.sh chromium chromium fonts-dejavu-core
+	@mkdir -p $(OUT)/gui
+	cd web && WRC_BIN=$(CURDIR)/$(WRC) WRC_TEST_OUTPUT=$(CURDIR)/$(OUT)/gui npm run bench
 
 # Straight lines against the time-optimal lower bound: 200 random reachable lines and 20 long
 # ones (fixed seed), planned and run as the controller does; durations over the bound, limits

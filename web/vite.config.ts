@@ -11,6 +11,8 @@ export default defineConfig({
     sourcemap: false,
     chunkSizeWarningLimit: 2000,
   },
+  // The 3D view's render worker (view3d/scene-worker.ts) is an ES module worker.
+  worker: { format: 'es' },
   server: {
     // `npm run dev` against a running `wrc ui` on :8080.
     proxy: {

@@ -5,7 +5,7 @@
 // for a condition (Playwright's expect), none for a time.
 
 import { join } from 'node:path';
-import { expect, test } from './fixtures.mjs';
+import { expect, newProgram, test } from './fixtures.mjs';
 import { OUT_DIR, STEP_MS } from './settings.mjs';
 
 const step = (title, body) => test.step(title, body, { timeout: 2 * STEP_MS });
@@ -21,13 +21,13 @@ async function setEditorText(page, text) {
   expect(got.trim(), 'the editor holds the program').toBe(text.trim());
 }
 
-/** Open the page, wait for `connected` (or not), show the Editor and name its program. */
+/** Open the page, wait for `connected` (or not), show the Editor and start a new program (New…). */
 async function openEditor(page, url, program, { connected = true } = {}) {
   await page.goto(url);
   if (connected) await expect(page.getByTestId('connection')).toHaveAttribute('data-connected', '1');
   await page.getByTestId('tab-editor').click();
   await expect(page.locator('#panel-editor .cm-content')).toBeVisible();
-  await page.getByTestId('editor-name').fill(program);
+  await newProgram(page, program);
 }
 
 /** The editor's line `n` [1-based]. */

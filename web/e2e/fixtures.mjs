@@ -16,6 +16,7 @@ import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import dgram from 'node:dgram';
 import net from 'node:net';
+import { connectSocket } from './host-client.mjs';
 import { SERVE_DIR, WEB_DIR, WRC_BIN } from './settings.mjs';
 
 export { expect };
@@ -58,7 +59,8 @@ class Controller {
   #eventSocket = null;
   #t0 = Date.now();
 
-  async start() {
+  /** `realtime`: the controller's tasks at real-time priority (wrc up without --no-rt; root). */
+  async start({ realtime = false } = {}) {
     if (!existsSync(WRC_BIN)) throw new Error(`no wrc binary at ${WRC_BIN} (cargo build -p wrc, or set WRC_BIN)`);
     const hostPort = await freeTcpPort();
     this.hostPort = hostPort;
@@ -67,7 +69,7 @@ class Controller {
     const udpPort = await freeUdpPort();
     const args = [
       'up',
-      '--no-rt',
+      ...(realtime ? [] : ['--no-rt']),
       '--port', `127.0.0.1:${hostPort}`,
       '--sim-addr', `127.0.0.1:${udpPort}`,
       '--ui-port', String(uiPort),
@@ -79,7 +81,7 @@ class Controller {
     let cmdArgs = args;
     if (SERVE_DIR) {
       const sock = join(this.stateDir, 'wrc.sock');
-      const ui = ['ui', '--controller', sock, '--sim-addr', `127.0.0.1:${udpPort}`, '--ui-port', String(uiPort), '--web-dir', SERVE_DIR];
+      const ui = ['ui', '--controller', sock, '--sim-addr', `127.0.0.1:${udpPort}`, '--ui-port', String(uiPort), '--web-dir', SERVE_DIR, '--programs', join(this.stateDir, 'programs')];
       cmd = '/bin/sh';
       cmdArgs = [
         '-c',
@@ -140,13 +142,24 @@ class Controller {
       else seen();
     });
     console.log(`GUI at ${this.url}`);
-    this.#watchEvents(hostPort);
+    await this.#watchEvents(hostPort);
     await this.#checkBuild();
   }
 
-  #watchEvents(port) {
+  /**
+   * Listen to the controller's events on a host connection of its own. Under
+   * WRC_E2E_WEB_DIR the GUI serves before the controller listens: the connection is retried
+   * while refused (up to 30 s).
+   */
+  async #watchEvents(port) {
     const secs = () => ((Date.now() - this.#t0) / 1000).toFixed(1).padStart(6);
-    const sock = net.connect(port, '127.0.0.1');
+    let sock;
+    try {
+      sock = await connectSocket(port);
+    } catch (e) {
+      this.events += `[${secs()} s] (event connection: ${e.message})\n`;
+      return;
+    }
     this.#eventSocket = sock;
     sock.setEncoding('latin1');
     sock.on('data', (d) => {
@@ -265,8 +278,10 @@ const failed = (testInfo) => testInfo.status !== testInfo.expectedStatus;
 
 export const test = base.extend({
   wrcState: [null, { option: true }],
+  /** Run the controller at real-time priority (the benchmark: as `make run` does as root). */
+  wrcRealtime: [false, { option: true }],
 
-  wrc: async ({ wrcState }, use, testInfo) => {
+  wrc: async ({ wrcState, wrcRealtime }, use, testInfo) => {
     const wrc = new Controller();
     const tell = async () => {
       await report(testInfo, 'wrc up output (last 4000 chars)', wrc.output.slice(-4000));
@@ -274,7 +289,7 @@ export const test = base.extend({
     };
     try {
       wrcState?.write(wrc.stateDir);
-      await wrc.start();
+      await wrc.start({ realtime: wrcRealtime });
     } catch (e) {
       await wrc.stop();
       await tell();
@@ -324,3 +339,12 @@ export const test = base.extend({
     }
   },
 });
+
+/** The Editor's New…: a new program named `name` (the Editor tab is shown). */
+export async function newProgram(page, name) {
+  await page.getByTestId('editor-new').click();
+  await page.getByTestId('name-dialog-input').fill(name);
+  await page.getByTestId('name-dialog-ok').click();
+  await expect(page.getByTestId('name-dialog')).toHaveCount(0);
+  await expect(page.getByTestId('editor-name')).toHaveText(name);
+}

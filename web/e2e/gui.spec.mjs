@@ -5,7 +5,7 @@
 import { mkdirSync, readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { encodeTrace } from './trace-fixture.mjs';
-import { expect, test } from './fixtures.mjs';
+import { expect, newProgram, test } from './fixtures.mjs';
 import { OUT_DIR, REPO, STEP_MS } from './settings.mjs';
 
 // ---------------------------------------------------------------------------------------------
@@ -304,7 +304,7 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
   await step('Editor: compile a program with an error, see it inline and in the problems', async () => {
     await id('tab-editor').click();
     await expect(page.locator('#panel-editor .cm-content')).toBeVisible();
-    await id('editor-name').fill('e2e_demo');
+    await newProgram(page, 'e2e_demo');
     await setEditorText(page, BAD_PROGRAM);
     await id('editor-compile').click();
     await expect(id('problem').filter({ hasText: 'TOTAL' }).first()).toBeVisible();
@@ -329,7 +329,7 @@ test('an operator session: control, motions, trace viewer, editor, plots, wafers
   });
 
   await step('Editor: a run-time error ends with ABS and marks its line', async () => {
-    await id('editor-name').fill('e2e_fault');
+    await newProgram(page, 'e2e_fault');
     await setEditorText(page, FAULT_PROGRAM);
     await id('editor-run').click(); // uploads first: the text is new
     await expect(id('console')).toContainText('ABS 210');

@@ -1,6 +1,9 @@
 // Playwright Test configuration of the GUI's end-to-end tests (gui.spec.mjs: an operator's session;
 // editor.spec.mjs: the editor's compiler, debugger and points; recovery.spec.mjs: the recovery
-// panel after a power loss cut a PUT): Debian's Chromium
+// panel after a power loss cut a PUT; operator.spec.mjs: the E-STOP, the status line, disabled
+// controls, other tabs, stored programs, the layout at 1280 × 800 and the 3D view at rest;
+// contracts.spec.mjs: the controller's issue-39 lines, skipped by a controller without them
+// unless WRC_E2E_CONTRACTS=1): Debian's Chromium
 // (never a downloaded browser), one worker, and a trace and a screenshot of a failed run.
 //
 //   npm run e2e                       (from web/; builds nothing: run `npm run build` and

@@ -6,9 +6,9 @@
 // is uncertain. Every wait is for a state or an event the page shows, never for a time.
 
 import { mkdirSync } from 'node:fs';
-import net from 'node:net';
 import { join } from 'node:path';
 import { expect, test } from './fixtures.mjs';
+import { connectHost } from './host-client.mjs';
 import { writeInterruptedPut } from './recovery-fixture.mjs';
 import { OUT_DIR, STEP_MS } from './settings.mjs';
 
@@ -32,45 +32,6 @@ function drawnWafers(page) {
     const d = window.wrc?.sim?.drawnWafers();
     return d && d.hand !== null ? d : null;
   });
-}
-
-/**
- * Another host client on the controller's TCP port: `send(verb)` resolves with its ACK or NAK
- * line (requests carry ids; events are skipped).
- */
-async function hostClient(port) {
-  const sock = net.connect(port, '127.0.0.1');
-  await new Promise((res, rej) => {
-    sock.once('connect', res);
-    sock.once('error', rej);
-  });
-  sock.setEncoding('latin1');
-  let buf = '';
-  const waiting = new Map();
-  sock.on('data', (d) => {
-    buf += d;
-    let nl;
-    while ((nl = buf.indexOf('\n')) >= 0) {
-      const line = buf.slice(0, nl).trim();
-      buf = buf.slice(nl + 1);
-      const m = /^(?:ACK|NAK) (\d+)/.exec(line);
-      if (m && waiting.has(Number(m[1]))) {
-        waiting.get(Number(m[1]))(line);
-        waiting.delete(Number(m[1]));
-      }
-    }
-  });
-  let next = 0;
-  return {
-    send(request) {
-      const n = ++next;
-      return new Promise((res) => {
-        waiting.set(n, res);
-        sock.write(`${n} ${request}\n`);
-      });
-    },
-    close: () => sock.destroy(),
-  };
 }
 
 test('recovery after a power loss cut a PUT: the panel, then control, reset, retract, home, sense and map from it', async ({
@@ -176,7 +137,7 @@ test('recovery after a power loss cut a PUT: the panel, then control, reset, ret
   });
 
   await step('another source holds control: the panel says so rather than send what it would refuse', async () => {
-    const host = await hostClient(wrc.hostPort);
+    const host = await connectHost(wrc.hostPort);
     try {
       expect(await host.send('CONTROL')).toMatch(/^ACK 1 owner=tcp\d+/);
       await expect(id('recovery-why-control')).toHaveText(/^control is held by tcp\d+; it must release it first$/);
@@ -215,7 +176,7 @@ test('recovery after a power loss cut a PUT: the panel, then control, reset, ret
     await expect(dialog).toBeVisible();
     await expect(id('recovery-dialog-request')).toHaveText('RETRACT');
     await expect(id('recovery-dialog-ok')).toBeEnabled();
-    const host = await hostClient(wrc.hostPort);
+    const host = await connectHost(wrc.hostPort);
     try {
       expect(await host.send('ESTOP')).toMatch(/^ACK 1/);
     } finally {
@@ -232,6 +193,34 @@ test('recovery after a power loss cut a PUT: the panel, then control, reset, ret
     await id('recovery-step-reset').click();
     await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
     await expect(id('recovery-step-reset')).toHaveCount(0);
+  });
+
+  await step("the page's own E-STOP while the dialog is open: it is pressable and sends ESTOP", async () => {
+    await id('recovery-step-retract').click();
+    await expect(dialog).toBeVisible();
+    // Playwright clicks only what receives the click: the dialog neither covers nor disables it.
+    await id('estop').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');
+    await expect(id('command-log')).toContainText('ACK ESTOP');
+    await expect(id('recovery-dialog-why')).toHaveText('Not sent now: the robot is in ESTOP: RESET first.');
+    await id('recovery-dialog-cancel').click();
+    await expect(dialog).toBeHidden();
+    await id('recovery-step-reset').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
+    await expect(id('recovery-step-reset')).toHaveCount(0);
+  });
+
+  await step('the confirmation dialog too: E-STOP sends ESTOP', async () => {
+    await id('recovery-confirm-choice').selectOption('gone-W1');
+    await id('recovery-confirm').click();
+    await expect(dialog).toBeVisible();
+    await id('estop').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'ESTOP');
+    await id('recovery-dialog-cancel').click();
+    await expect(dialog).toBeHidden();
+    await id('recovery-step-reset').click();
+    await expect(id('state')).toHaveAttribute('data-state', 'IDLE');
+    await expect(id('command-log')).not.toContainText('CONFIRM');
   });
 
   await step('CONFIRM is offered with what it does; Cancel sends nothing', async () => {

@@ -1,5 +1,6 @@
-// The DOM helpers every panel uses: one element builder (`h`), writes that touch the DOM only
-// when the value changed, and per-panel style sheets.
+// The DOM helpers every panel uses: one element builder (`h`) and writes that touch the DOM only
+// when the value changed. Styles are in style sheets (style.css and a panel's own .css), never
+// in strings.
 
 /**
  * Attributes for `h`: a function is an event listener (`onclick`), `true` an empty attribute,
@@ -33,13 +34,4 @@ export function setText(el: Element, text: string): void {
 /** Set an attribute, leaving the DOM alone when it already has `value`. */
 export function setAttr(el: Element, name: string, value: string): void {
   if (el.getAttribute(name) !== value) el.setAttribute(name, value);
-}
-
-/** Add a `<style>` holding `css` to the page once, keyed by `id`; a no-op outside a browser. */
-export function injectStyle(id: string, css: string): void {
-  if (typeof document === 'undefined' || document.getElementById(id)) return;
-  const s = document.createElement('style');
-  s.id = id;
-  s.textContent = css;
-  document.head.appendChild(s);
 }

@@ -1,7 +1,9 @@
-// The app shell: the header (robot, connection, state, error, a program's alarm, the recovery
-// banner, control lock, RESET and the E-STOP), the Control panel on the left (with the Trace
-// card), the tabs [Simulator (3D view and trace viewer) | Wafers | Editor | Plots] on the
-// right, and the recovery panel over them when a restart left something uncertain.
+// The app shell: the header (robot, connection, state, the running program, error, a
+// program's alarm, the recovery banner, control lock, RESET and the E-STOP), the status line
+// (refusals, alarms and stops until read), the Control panel on the left (with the Trace
+// card), the tabs [Simulator (3D view and trace viewer) | Wafers (with the 3D view beside the
+// map) | Editor | Plots] on the right, and the recovery panel over them when a restart left
+// something uncertain.
 
 import './style.css';
 import { h } from './dom';
@@ -17,6 +19,12 @@ import { mountSimulator } from './view3d/simulator';
 import { mountPlots } from './plots/plots';
 import { mountEditor } from './editor/editor';
 import { mountAlarmBanner } from './panels/alarm-banner';
+import { mountHeader } from './panels/header';
+import { mountStatusLine } from './panels/status-line';
+import { NoticeBoard } from './protocol/notices';
+import { feedNotices } from './protocol/notice-feed';
+import { ProgramTracker } from './protocol/program-tracker';
+import { TabPeers } from './protocol/tabs';
 import { mountRecovery } from './panels/recovery-panel';
 import { traceSaveCard } from './trace/trace-save';
 import { mountTraceViewer } from './trace/trace-viewer';
@@ -29,57 +37,26 @@ function start(): void {
   const bus = new Connection(defaultUrl(window.location));
   const model = new ControllerModel(bus);
   const cmd = new Commander(bus, model);
+  const board = new NoticeBoard();
+  feedNotices(board, bus, cmd);
+  const program = new ProgramTracker(bus);
+  const peers = new TabPeers();
 
-  // ---- header ----
-  const robotName = h('span', { class: 'robot-name', 'data-testid': 'robot-name' }, '');
-  const conn = h('span', { class: 'conn', 'data-testid': 'connection', 'data-connected': '0' }, 'connecting…');
-  const state = h('span', { class: 'state-badge big', 'data-testid': 'state', 'data-state': 'OFFLINE' }, 'OFFLINE');
-  const homed = h('span', { class: 'homed', 'data-testid': 'homed', 'data-homed': '0' }, '');
-  const err = h('span', { class: 'header-error', 'data-testid': 'header-error' }, '');
-  const owner = h('span', { class: 'owner', 'data-testid': 'lock-owner' }, 'nobody');
-  const lockBtn = h('button', {
-    class: 'btn lock',
-    'data-testid': 'take-control',
-    onclick: () => void cmd.send(model.holdsControl() ? 'RELEASE' : 'CONTROL'),
-  }, 'Take control');
-  const resetBtn = h('button', {
-    class: 'btn reset',
-    'data-testid': 'reset',
-    title: 'RESET: clear ERROR / ESTOP once the cause is gone',
-    onclick: () => void cmd.send('RESET'),
-  }, 'Reset');
+  // ---- header and status line ----
   // Filled once the stores exist (below): the header is built first.
   const recoveryBanner = h('span', { class: 'recovery-slot' });
-  const estop = h('button', {
-    class: 'estop',
-    'data-testid': 'estop',
-    title: 'Emergency stop (ESTOP)',
-    onclick: () => void cmd.send('ESTOP'),
-  }, 'E-STOP');
-
-  const header = h(
-    'header',
-    { class: 'app-header' },
-    h('div', { class: 'brand' }, h('span', { class: 'logo' }, 'wrc'), robotName),
-    conn,
-    state,
-    homed,
-    err,
-    mountAlarmBanner(bus),
-    recoveryBanner,
-    h('span', { class: 'spacer' }),
-    h('span', { class: 'lock-label' }, 'Control: ', owner),
-    lockBtn,
-    resetBtn,
-    estop,
-  );
+  const header = mountHeader({ model, cmd, board, program, tabs: peers, banners: [mountAlarmBanner(bus), recoveryBanner] });
+  const statusLine = mountStatusLine(board);
 
   // ---- body ----
   const controlEl = h('aside', { id: 'panel-control', class: 'panel' });
   const simEl = h('div', { id: 'panel-simulator', class: 'panel tab-panel sim-tab' });
   const simView = h('div', { class: 'sim-view' });
   simEl.append(simView);
-  const wafersEl = h('div', { id: 'panel-wafers', class: 'panel tab-panel' });
+  // The Wafers tab: the map, and the 3D view beside it (moved there while the tab is shown).
+  const wafersMain = h('div', { class: 'wafers-main' });
+  const wafersSide = h('div', { class: 'wafers-side', 'data-testid': 'wafers-3d' });
+  const wafersEl = h('div', { id: 'panel-wafers', class: 'panel tab-panel wafers-split' }, wafersMain, wafersSide);
   const editorEl = h('div', { id: 'panel-editor', class: 'panel tab-panel' });
   const plotsEl = h('div', { id: 'panel-plots', class: 'panel tab-panel' });
   const tabs: Record<TabName, { btn: HTMLButtonElement; el: HTMLElement; label: string }> = {
@@ -94,28 +71,30 @@ function start(): void {
     tabBar.append(t.btn);
   }
   const right = h('main', { class: 'right' }, tabBar, h('div', { class: 'tab-body' }, simEl, wafersEl, editorEl, plotsEl));
-  app.replaceChildren(header, h('div', { class: 'body' }, controlEl, right));
+  app.replaceChildren(header, statusLine, h('div', { class: 'body' }, controlEl, right));
 
-  mountControl(controlEl, model, cmd, [traceSaveCard(model, cmd)]);
   const sim = mountSimulator(simView, bus);
   const traces = mountTraceViewer(simEl, sim, bus);
   const stations = mountStations(bus, sim);
   const wafers = createWaferStore(bus);
   drawWafers(wafers, stations, sim);
+  mountControl(controlEl, { model, cmd, program, peers, wafers }, [traceSaveCard(model, cmd)]);
   const recoveryStore = createRecoveryStore(bus);
   const recovery = mountRecovery({ store: recoveryStore, model, cmd, wafers, stations });
   recoveryBanner.replaceWith(recovery.banner);
   app.append(recovery.panel);
   const panels: Record<TabName, { resize(): void }> = {
     simulator: sim,
-    wafers: mountWaferPanel(wafersEl, wafers, model, cmd, stations),
-    editor: mountEditor(editorEl, bus),
+    wafers: mountWaferPanel(wafersMain, wafers, model, cmd, stations, program),
+    editor: mountEditor(editorEl, { bus, model, program }),
     plots: mountPlots(plotsEl, bus),
   };
 
   let active: TabName = 'simulator';
   function show(name: TabName): void {
     active = name;
+    // One 3D view, drawn where it is seen: the Simulator tab, or beside the wafer map.
+    sim.moveTo(name === 'wafers' ? wafersSide : simView);
     for (const [n, t] of Object.entries(tabs) as [TabName, (typeof tabs)[TabName]][]) {
       const on = n === name;
       t.el.hidden = !on;
@@ -140,34 +119,13 @@ function start(): void {
   show(TAB_NAMES.find((t) => t === savedTab) ?? 'simulator');
   window.addEventListener('resize', () => panels[active].resize());
 
-  // ---- header updates ----
-  model.onChange((v) => {
-    conn.textContent = v.connected ? 'connected' : v.connDetail || 'disconnected';
-    conn.title = v.connDetail;
-    conn.setAttribute('data-connected', v.connected ? '1' : '0');
-    const s = v.connected ? (v.state ?? '…') : 'OFFLINE';
-    if (state.textContent !== s) state.textContent = s;
-    state.setAttribute('data-state', s);
-    homed.textContent = v.homed === null || !v.connected ? '' : v.homed ? 'homed' : 'not homed';
-    homed.setAttribute('data-homed', v.homed ? '1' : '0');
-    err.textContent = v.errText;
-    err.hidden = v.errText === '';
-    if (v.robot) robotName.textContent = v.robot.name;
-    const mine = model.holdsControl();
-    owner.textContent = v.owner === 'none' ? 'nobody' : mine ? `${v.owner} (this page)` : v.owner;
-    owner.setAttribute('data-owner', v.owner);
-    owner.setAttribute('data-mine', mine ? '1' : '0');
-    lockBtn.textContent = mine ? 'Release control' : 'Take control';
-    lockBtn.disabled = !v.connected || (v.owner !== 'none' && !mine);
-    resetBtn.disabled = !v.connected;
-    estop.disabled = false; // always pressable; a NAK/log says so when offline
-    document.title = `wrc — ${v.robot?.name ?? 'robot'} — ${s}`;
+  window.addEventListener('beforeunload', () => {
+    peers.close();
+    bus.close();
   });
-
-  window.addEventListener('beforeunload', () => bus.close());
   // For debugging from the browser console; the e2e test reads the drawn pose and wafers
   // (sim.drawnPose(), sim.drawnWafers()).
-  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers, sim, traces, recovery: recoveryStore };
+  (window as unknown as { wrc: unknown }).wrc = { bus, model, wafers, sim, traces, recovery: recoveryStore, notices: board, program };
 }
 
 start();

@@ -9,7 +9,8 @@
 //!   frames; a browser that is behind loses datagrams, never lines.
 //! - `/api/compile` and `/api/language`: the editor's compiler, which needs no controller
 //!   (a program, its libraries and points compiled against the configured robot on a
-//!   blocking thread; `compile.rs`, `api.rs`).
+//!   blocking thread; `compile.rs`, `api.rs`); `/api/programs[/<name>]`: the stored programs
+//!   and libraries the editor opens, read from the program folder.
 //! - Loopback by default; any other listening address needs a token that every WebSocket
 //!   and API request must present, and a page of another origin is refused.
 //!
@@ -355,6 +356,8 @@ async fn serve(listener: TcpListener, sim: Option<UdpSocket>, app: App) {
             any(api::compile).layer(DefaultBodyLimit::max(compile::MAX_REQUEST_BYTES)),
         )
         .route("/api/language", any(api::language))
+        .route("/api/programs", any(api::programs))
+        .route("/api/programs/{name}", any(api::program))
         .fallback(file)
         .with_state(app);
     // Lines go out the moment they are written (no Nagle delay waiting for the browser's

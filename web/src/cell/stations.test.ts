@@ -1,7 +1,7 @@
 import { describe, expect, it } from 'vitest';
 import type { Bus, FirstReply, RobotInfo } from '../protocol/bus';
 import type { StationSpec } from '../view3d/scene';
-import { mountStations, parseStationLine, stationSpec, type StationSink } from './stations';
+import { mountStations, parseObstacleLine, parseStationLine, stationSpec, type StationSink } from './stations';
 
 const LP1 =
   'LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220 stroke=6 ' +
@@ -25,6 +25,7 @@ describe('parseStationLine', () => {
       speed: 30,
       interlock: 14,
       posture: 'any',
+      volume: null,
     });
   });
 
@@ -264,5 +265,40 @@ describe('mountStations', () => {
     await flush();
     expect(sim.boxes.size).toBe(0);
     expect(bus.sent).toEqual(['STN']);
+  });
+});
+
+describe("the controller's solid volumes and obstacles (STN of a controller that checks motions against the cell)", () => {
+  const VOL = 'LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220 stroke=6 speed=60 interlock=14 posture=any mouth=160 depth=360 width=340 bottom=10 top=290 opening=70';
+
+  it('reads the volume keys and draws the box from them, not from its own sizes', () => {
+    const s = parseStationLine(VOL);
+    expect(s?.volume).toEqual({ mouth: 160, depth: 360, width: 340, bottom: 10, top: 290, opening: 70 });
+    const spec = stationSpec(s!);
+    // Centre 360/2 - 160 = 20 mm into the station from the seat, along yaw -30°.
+    expect(spec.x).toBeCloseTo(294.449 + 20 * Math.cos(-Math.PI / 6), 6);
+    expect(spec.y).toBeCloseTo(-170 + 20 * Math.sin(-Math.PI / 6), 6);
+    expect(spec).toMatchObject({ z: 10, yaw: -30, depth: 360, width: 340, height: 280, opening: 70 });
+  });
+
+  it('keeps its own drawing when a volume key is missing or makes no box', () => {
+    expect(parseStationLine(VOL.replace(' opening=70', ''))?.volume).toBeNull();
+    expect(parseStationLine(VOL.replace('top=290', 'top=5'))?.volume).toBeNull();
+    expect(parseStationLine(VOL.replace('width=340', 'width=x'))?.volume).toBeNull();
+    const plain = stationSpec(parseStationLine(LP1)!);
+    expect(plain.opening).toBeUndefined();
+  });
+
+  it('reads box and cylinder obstacles, and refuses malformed ones', () => {
+    expect(parseObstacleLine('wall kind=box x=0 y=-420 yaw=15 depth=900 width=40 bottom=-300 top=400')).toEqual({
+      name: 'wall', kind: 'box', x: 0, y: -420, yaw: 15, depth: 900, width: 40, bottom: -300, top: 400,
+    });
+    expect(parseObstacleLine('column kind=cylinder x=-300 y=300 radius=60 bottom=-300 top=400')).toEqual({
+      name: 'column', kind: 'cylinder', x: -300, y: 300, radius: 60, bottom: -300, top: 400,
+    });
+    for (const bad of ['', 'kind=box x=0', 'wall kind=cone x=0 y=0 bottom=0 top=1', 'wall kind=box x=0 y=0 depth=0 width=1 bottom=0 top=1',
+      'c kind=cylinder x=0 y=0 radius=-1 bottom=0 top=1', 'c kind=cylinder x=0 y=0 radius=5 bottom=3 top=1']) {
+      expect(parseObstacleLine(bad), bad).toBeNull();
+    }
   });
 });

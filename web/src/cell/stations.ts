@@ -10,10 +10,18 @@
 // Body: `LP1 kind=load_port x=294.449 y=-170 z=20 yaw=-30 slots=25 pitch=10 approach=220
 // stroke=6 speed=30 interlock=14 posture=any` (x, y: centre of a wafer in slot 1 [mm]; z: slot
 // 1's support height [mm]; yaw: the direction the hand points into the station [deg]).
+//
+// A controller that checks motions against the stations adds each one's solid volume: `mouth=
+// depth= width= bottom= top= opening=` [mm], in the station's frame (x along its yaw, into the
+// station, from the seat): x from -mouth to depth-mouth, y ±width/2, z from bottom to top (the
+// Z axis's frame), and the half-width of the open channel the hand enters through. The box is
+// then drawn from them; without them, from this module's own sizes. Fixed obstacles come in
+// the same reply: `EVT OBSTACLE <name> kind=box x= y= yaw= depth= width= bottom= top=` or
+// `kind=cylinder x= y= radius= bottom= top=`.
 
 import type { Bus, Unsubscribe } from '../protocol/bus';
 import { Listeners } from '../protocol/listeners';
-import type { StationSpec } from '../view3d/scene';
+import type { ObstacleSpec, StationSpec } from '../view3d/scene';
 import type { SimulatorHandle } from '../view3d/simulator';
 
 export type StationKind = 'load_port' | 'aligner' | 'process_module' | 'buffer';
@@ -44,6 +52,19 @@ export interface StationInfo {
   /** Interlock input number, or null (`none` or absent). */
   interlock: number | null;
   posture: StationPosture;
+  /** The solid volume the controller checks motions against, when it says it. */
+  volume: StationVolume | null;
+}
+
+/** A station's solid volume in its own frame [mm] (see the module doc). */
+export interface StationVolume {
+  mouth: number;
+  depth: number;
+  width: number;
+  bottom: number;
+  top: number;
+  /** Half-width of the open channel on the mouth face. */
+  opening: number;
 }
 
 /** A number from a `key=value` value; NaN for an empty or malformed one. */
@@ -87,6 +108,12 @@ export function parseStationLine(body: string): StationInfo | null {
   const interlock = il === undefined || il.toLowerCase() === 'none' ? null : optNum(il);
   const p = (f.posture ?? '').toLowerCase();
   const posture: StationPosture = p === 'right' || p === 'left' ? p : 'any';
+  const vol = ['mouth', 'depth', 'width', 'bottom', 'top', 'opening'].map((k) => num(f[k]));
+  const [mouth, vdepth, vwidth, bottom, top, opening] = vol;
+  const volume: StationVolume | null =
+    vol.every(Number.isFinite) && vdepth > 0 && vwidth > 0 && top > bottom && opening >= 0
+      ? { mouth, depth: vdepth, width: vwidth, bottom, top, opening }
+      : null;
   return {
     name,
     kind: f.kind ?? '',
@@ -101,7 +128,38 @@ export function parseStationLine(body: string): StationInfo | null {
     speed: optNum(f.speed),
     interlock,
     posture,
+    volume,
   };
+}
+
+/**
+ * One `EVT OBSTACLE` body (the text after `OBSTACLE `): `wall kind=box x=0 y=-420 yaw=0
+ * depth=900 width=40 bottom=-300 top=400`, `column kind=cylinder x=-300 y=300 radius=60
+ * bottom=-300 top=400`. Null when the name, the kind or a size is missing or not a number.
+ */
+export function parseObstacleLine(body: string): ObstacleSpec | null {
+  if (typeof body !== 'string') return null;
+  const tokens = body.trim().split(/\s+/).filter((t) => t !== '');
+  const name = tokens[0];
+  if (name === undefined || name.includes('=')) return null;
+  const f: Record<string, string> = {};
+  for (const t of tokens.slice(1)) {
+    const eq = t.indexOf('=');
+    if (eq > 0) f[t.slice(0, eq).toLowerCase()] = t.slice(eq + 1);
+  }
+  const [x, y, bottom, top] = [f.x, f.y, f.bottom, f.top].map(num);
+  if (![x, y, bottom, top].every(Number.isFinite) || top <= bottom) return null;
+  if (f.kind === 'box') {
+    const [yaw, depth, width] = [f.yaw ?? '0', f.depth, f.width].map(num);
+    if (![yaw, depth, width].every(Number.isFinite) || depth <= 0 || width <= 0) return null;
+    return { name, kind: 'box', x, y, yaw, depth, width, bottom, top };
+  }
+  if (f.kind === 'cylinder') {
+    const radius = num(f.radius);
+    if (!Number.isFinite(radius) || radius <= 0) return null;
+    return { name, kind: 'cylinder', x, y, radius, bottom, top };
+  }
+  return null;
 }
 
 // Drawing dimensions [mm].
@@ -127,11 +185,28 @@ const OTHER_COLOR = '#7d8894';
  * just below slot 1 to above the top slot.
  */
 export function stationSpec(s: StationInfo): StationSpec {
+  const v = s.volume;
+  const a = (s.yaw * Math.PI) / 180;
+  if (v) {
+    // The controller's own volume: what motions are checked against.
+    const off = v.depth / 2 - v.mouth; // box centre from the seat, along +yaw
+    return {
+      name: s.name,
+      x: s.x + off * Math.cos(a),
+      y: s.y + off * Math.sin(a),
+      z: v.bottom,
+      yaw: s.yaw,
+      depth: v.depth,
+      width: v.width,
+      height: v.top - v.bottom,
+      color: KIND_COLORS[s.kind] ?? OTHER_COLOR,
+      opening: v.opening,
+    };
+  }
   const back = WAFER_R + BACK_GAP; // from the wafer centre along +yaw
   const front = WAFER_R + FRONT_GAP; // from the wafer centre along -yaw
   const depth = back + front;
   const off = (back - front) / 2; // box centre from the wafer centre, along +yaw
-  const a = (s.yaw * Math.PI) / 180;
   return {
     name: s.name,
     x: s.x + off * Math.cos(a),
@@ -145,7 +220,8 @@ export function stationSpec(s: StationInfo): StationSpec {
   };
 }
 
-export type StationSink = Pick<SimulatorHandle, 'addStation' | 'removeStation' | 'clearStations'>;
+export type StationSink = Pick<SimulatorHandle, 'addStation' | 'removeStation' | 'clearStations'> &
+  Partial<Pick<SimulatorHandle, 'setObstacles'>>;
 
 export interface StationsHandle {
   /** The stations drawn, in the order received. */
@@ -204,11 +280,19 @@ export function mountStations(bus: Bus, sim: StationSink): StationsHandle {
     }
     // Last one wins (an EVT STATION after a TEACH may arrive among the reply's events).
     const list = new Map<string, StationInfo>();
+    const obstacles: ObstacleSpec[] = [];
     for (const e of events) {
+      const o = /^OBSTACLE[ \t]+(.*)$/i.exec(e);
+      if (o) {
+        const ob = parseObstacleLine(o[1]);
+        if (ob) obstacles.push(ob);
+        continue;
+      }
       const m = /^STATION[ \t]+(.*)$/i.exec(e);
       const info = m ? parseStationLine(m[1]) : null;
       if (info) list.set(info.name, info);
     }
+    sim.setObstacles?.(obstacles);
     sim.clearStations();
     drawn.clear();
     for (const info of list.values()) upsert(info);

@@ -459,7 +459,8 @@ export function bladeUncertain(s: WaferState, blade: Blade): boolean {
   return blade === 'B' ? s.map.handB !== null && s.map.handBUncertain : s.map.hand !== null && s.map.handUncertain;
 }
 
-export type WaferSink = Pick<SimulatorHandle, 'setWafer' | 'setBladeBWafer' | 'setStationWafers'>;
+export type WaferSink = Pick<SimulatorHandle, 'setWafer' | 'setBladeBWafer' | 'setStationWafers'> &
+  Partial<Pick<SimulatorHandle, 'setWorkingStation'>>;
 
 /**
  * Draw the map's wafers in the 3D view and follow it: the discs are placed again only when
@@ -478,6 +479,7 @@ export function drawWafers(
     onBlades(s);
   }
   function onBlades(s: WaferState): void {
+    sim.setWorkingStation?.(s.available === true ? (s.map.pending?.station ?? null) : null);
     sim.setWafer(handShowsWafer(s), bladeUncertain(s, 'A'));
     sim.setBladeBWafer(bladeBShowsWafer(s), bladeUncertain(s, 'B'));
   }

@@ -4,12 +4,14 @@
 // `EVT PROGRAM` and the status stream's `line=`, and the operator's prompt of a `WAIT OPERATOR`.
 
 import type { Bus } from '../protocol/bus';
+import type { ControllerModel } from '../protocol/controller-model';
+import type { ProgramTracker } from '../protocol/program-tracker';
 import { h } from '../dom';
 import { diagsFromEvents, isProgramName, programAbsLine, type Diag } from '../protocol/protocol';
 import { breakpointEffect, breakpointLines, showDebugLine } from './debug-marks';
-import { DEBUG_ACTIONS, DebugState, enabledActions, locate, type DebugAction, type DebugView } from './debug-state';
+import { DEBUG_ACTIONS, enabledActions, locate, type DebugAction, type DebugState, type DebugView } from './debug-state';
 import type { EditorHost } from './host';
-import { parseAlarm, parseProgramDetail, statusLine } from './program-events';
+import { parseAlarm } from './program-events';
 
 /** An answer to `WAIT OPERATOR`: 1-32 letters, digits, `_` or `-`. */
 export function answerOk(answer: string): boolean {
@@ -81,17 +83,26 @@ export class ProgramDebugger {
   readonly position: HTMLElement;
   /** The program's name and state. */
   readonly programState: HTMLElement;
-  readonly state = new DebugState();
+  readonly state: DebugState;
   private readonly buttons = {} as Record<DebugAction, HTMLButtonElement>;
   private readonly promptText: HTMLElement;
   private readonly answer: HTMLInputElement;
   private readonly bus: Bus;
 
+  /**
+   * Breakpoints the controller has not been told (BREAK needs control: a page without it
+   * keeps them until control is free or its own, then sends them).
+   */
+  private unsent = false;
+
   constructor(
     private readonly host: EditorHost,
     private readonly hooks: DebuggerHooks,
+    tracker: ProgramTracker,
+    private readonly model: Pick<ControllerModel, 'mayCommand' | 'onChange' | 'v'>,
   ) {
     this.bus = host.bus;
+    this.state = tracker.state;
     for (const a of DEBUG_ACTIONS) {
       const [label, title] = LABELS[a];
       const cls = a === 'run' ? 'btn go' : a === 'abort' ? 'btn warn' : 'btn';
@@ -135,24 +146,27 @@ export class ProgramDebugger {
     this.position = h('span', { class: 'debug-position', 'data-testid': 'debug-position' });
     this.programState = h('span', { class: 'program-state', 'data-testid': 'program-state', 'data-state': 'none' });
 
-    this.bus.onEvent((name, body) => {
-      if (name === 'PROGRAM') {
-        const e = parseProgramDetail(body);
-        if (!e) return;
+    tracker.onChange((v, stateChanged, e) => {
+      if (e) {
         const at = 'at' in e && e.at ? ` at ${e.at.file}:${e.at.line}` : '';
         this.host.say(`program ${e.name} ${e.state}${at}${e.state === 'WAITING' ? `: ${e.text}` : ''}`, 'info');
-        if (this.state.event(e)) this.changed(true);
-      } else if (name === 'STATUS') {
-        if (this.state.statusLine(statusLine(body))) this.changed(false);
-      } else if (name === 'ALARM') {
+      }
+      this.changed(stateChanged);
+      void v;
+    });
+    this.bus.onEvent((name, body) => {
+      if (name === 'ALARM') {
         const a = parseAlarm(body);
         if (a) this.host.say(`ALARM ${a.code} ${a.program} ${a.at ? `${a.at.file}:${a.at.line}` : ''}: ${a.text}`, 'err');
       }
     });
+    // After each connection the breakpoints go once who holds control is known (BREAK needs
+    // control: a tab without it keeps them quietly), and again whenever control comes free.
     this.bus.onConnection((up) => {
-      this.state.reset();
-      this.changed(true);
-      if (up) void this.syncBreakpoints(false);
+      if (up) this.unsent = true;
+    });
+    model.onChange(() => {
+      if (this.unsent && this.ownerKnown() && model.mayCommand()) void this.syncBreakpoints(false);
     });
     this.changed(true);
   }
@@ -165,6 +179,12 @@ export class ProgramDebugger {
   /** A click in the gutter set or cleared the breakpoint of `line`: tell the controller. */
   async toggled(line: number, on: boolean): Promise<void> {
     if (!this.bus.connected()) return;
+    if (!this.ownerKnown() || !this.model.mayCommand()) {
+      // Another source holds control: BREAK would be refused (120). Sent once it is free.
+      this.unsent = true;
+      this.host.setStatus('Breakpoint kept in the editor: another source holds control; it is sent when control is free.', 'info');
+      return;
+    }
     const request = on ? `BREAK ${line}` : `BREAK CLEAR ${line}`;
     try {
       const { first } = await this.bus.request(request);
@@ -184,9 +204,20 @@ export class ProgramDebugger {
   }
 
   /** Send the editor's breakpoints (after `BREAK CLEAR` when `clear`). */
+  /** Whether this connection has been told who holds control. */
+  private ownerKnown(): boolean {
+    return this.bus.connected() && this.model.v.ownerEpoch === this.model.v.epoch && this.model.v.epoch > 0;
+  }
+
   async syncBreakpoints(clear: boolean): Promise<void> {
     if (!this.bus.connected()) return;
     const lines = breakpointLines(this.host.view().state);
+    if (!this.ownerKnown() || !this.model.mayCommand()) {
+      // BREAK needs control: a tab without it keeps them quietly until control is free.
+      this.unsent = lines.length > 0 || clear;
+      return;
+    }
+    this.unsent = false;
     const requests = [...(clear ? ['BREAK CLEAR'] : []), ...lines.map((l) => `BREAK ${l}`)];
     for (const r of requests) {
       try {

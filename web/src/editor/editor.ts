@@ -5,6 +5,13 @@
 // the operator's prompt), the Debug pane (watch, variables) and the Points panel beside it; a
 // console with the program's PRINT output, its alarms and its end (INF or ABS, whose line is
 // marked).
+//
+// Opening and naming are kept apart: **Open** shows a stored program or library (its text read
+// by `wrc ui` from the program folder) or an example, **New…** starts a program under a new
+// name, **Save as…** stores the text under another name; the program's name is never edited
+// in place. While the program steps inside a library, the library's source is shown
+// (read-only) with its current line. Questions (discard edits?) are dialogs that leave the
+// E-STOP pressable, never the browser's blocking `confirm()`.
 
 import { EditorState, StateEffect, StateField, type Extension } from '@codemirror/state';
 import {
@@ -25,7 +32,12 @@ import { highlightSelectionMatches, searchKeymap } from '@codemirror/search';
 import { lintKeymap, setDiagnostics } from '@codemirror/lint';
 
 import type { Bus } from '../protocol/bus';
-import { h } from '../dom';
+import type { ControllerModel } from '../protocol/controller-model';
+import type { ProgramTracker } from '../protocol/program-tracker';
+import { h, setAttr } from '../dom';
+import { askName, confirmAction } from '../panels/confirm-dialog';
+import { fetchProgramNames, fetchProgramText, mergeNames } from './stored-programs';
+import { LibraryPeek } from './library-peek';
 import { diagsFromEvents, isProgramName, parsePrograms, type Diag } from '../protocol/protocol';
 import { LiveCompiler, apiUrl, fetchLanguage, libraryFiles, type CompileRequest, type CompileResult } from './compile-client';
 import { findDefinition, routineAt, wordAt, wrlCompletionSource, type LanguageInfo, type SymbolInfo } from './completion';
@@ -128,7 +140,17 @@ export interface EditorPanel {
   view: EditorView;
 }
 
-export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
+/** What the editor follows. */
+export interface EditorDeps {
+  bus: Bus;
+  /** Control (breakpoints wait for it). */
+  model: ControllerModel;
+  /** The running program (the debugger, the library's source while stepping in it). */
+  program: ProgramTracker;
+}
+
+export function mountEditor(el: HTMLElement, deps: EditorDeps): EditorPanel {
+  const { bus } = deps;
   el.classList.add('editor-panel');
   el.replaceChildren();
 
@@ -137,23 +159,15 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   const current = load<{ name: string; text: string; breaks?: number[] }>(STORE_CURRENT, { name: 'demo', text: DEFAULT_PROGRAM });
 
   // ---- toolbar ----
-  const nameInput = h('input', {
-    type: 'text',
-    class: 'name',
-    'data-testid': 'editor-name',
-    'aria-label': 'Program name',
-    maxlength: '32',
-    spellcheck: 'false',
-    value: current.name,
-  });
-  const programs = h('select', { 'data-testid': 'editor-programs', 'aria-label': 'Stored programs' }, h('option', { value: '' }, 'stored programs…'));
-  const refreshBtn = h('button', { class: 'btn small', 'data-testid': 'editor-refresh', title: 'PROGRAMS', onclick: () => void refreshPrograms() }, '⟳');
-  const examples = h(
+  const nameEl = h('span', { class: 'program-name', 'data-testid': 'editor-name', title: 'The program in the editor' }, current.name);
+  const newBtn = h('button', { class: 'btn small', 'data-testid': 'editor-new', title: 'Start a new program under a name', onclick: () => void newProgram() }, 'New…');
+  const programs = h(
     'select',
-    { 'data-testid': 'editor-example', 'aria-label': 'Examples' },
-    h('option', { value: '' }, 'load example…'),
-    ...EXAMPLES.map((e) => h('option', { value: e.name }, e.name)),
+    { 'data-testid': 'editor-open', 'aria-label': 'Open a stored program, library or example', title: 'Open a stored program or library (its text from the controller\u2019s program folder), or an example' },
+    h('option', { value: '' }, 'Open…'),
   );
+  const refreshBtn = h('button', { class: 'btn small', 'data-testid': 'editor-refresh', title: 'List the stored programs again (PROGRAMS)', onclick: () => void refreshPrograms() }, '⟳');
+  const saveAsBtn = h('button', { class: 'btn small', 'data-testid': 'editor-save-as', title: 'Store this text under another name (UPLOAD)', onclick: () => void saveAs() }, 'Save as…');
   const compileBtn = h('button', { class: 'btn primary', 'data-testid': 'editor-compile', title: 'UPLOAD: compile and store on the controller (Ctrl+S)', onclick: () => void compile() }, 'Compile & Save');
   const status = h('div', { class: 'editor-status', 'data-testid': 'editor-status' });
   const statusAction = h('button', { class: 'btn small', 'data-testid': 'editor-status-action', hidden: true }, '');
@@ -161,11 +175,12 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   const toolbar = h(
     'div',
     { class: 'toolbar' },
-    h('label', { class: 'field' }, h('span', { class: 'field-label' }, 'Program'), nameInput),
+    h('span', { class: 'field' }, h('span', { class: 'field-label' }, 'Program'), nameEl),
+    newBtn,
     programs,
     refreshBtn,
-    examples,
     h('span', { class: 'spacer' }),
+    saveAsBtn,
     compileBtn,
   );
 
@@ -186,8 +201,15 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   function text(): string {
     return view.state.doc.toString();
   }
+  let programName = current.name;
+  /** The text as opened (a stored program, an example, a new one): unchanged, nothing is lost by replacing it. */
+  let openedText: string | null = saved[current.name] ?? EXAMPLES.find((e) => e.name === current.name)?.text ?? null;
   function name(): string {
-    return nameInput.value.trim();
+    return programName;
+  }
+  function setName(n: string): void {
+    programName = n;
+    nameEl.textContent = n;
   }
   function persist(): void {
     store(STORE_CURRENT, { name: name(), text: text(), breaks: breakpointLines(view.state) });
@@ -199,6 +221,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     el.setAttribute('data-edited', edited() ? '1' : '0');
   }
   function setStatus(msg: string, kind: 'ok' | 'err' | 'info' = 'info', action?: { label: string; run: () => void }): void {
+    setAttr(status, 'data-kind', kind);
     status.textContent = msg;
     status.className = `editor-status ${kind}`;
     statusAction.hidden = !action;
@@ -264,7 +287,7 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
         : {
             label: `Open ${file}`,
             run: () => {
-              if (openProgram(file, t)) jumpTo(line, col);
+              void openProgram(file, t).then((ok) => ok && jumpTo(line, col));
             },
           },
     );
@@ -397,6 +420,8 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     }),
     EditorView.updateListener.of((u) => {
       if (!u.docChanged) return;
+      // A red status (a refused save, a failed run) was about the text before this edit.
+      if (status.classList.contains('err')) setStatus('Edited since: Compile & Save stores it.', 'info');
       if (saveTimer) clearTimeout(saveTimer);
       saveTimer = setTimeout(persist, 300);
       updateEdited();
@@ -411,12 +436,18 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
 
   const host: EditorHost = { bus, view: () => view, program: name, say, setStatus: (m, k) => setStatus(m, k) };
   const debugPane = new DebugPane(host);
-  dbg = new ProgramDebugger(host, {
-    ensureStored: async () => !(edited() || !(name() in saved)) || compile(),
-    markAbsLine,
-    showDiagnostics: (diags) => showProblems(uploadProblems(diags)),
-    stateChanged: (v) => debugPane.update(v),
-  });
+  dbg = new ProgramDebugger(
+    host,
+    {
+      ensureStored: async () => !(edited() || !(name() in saved)) || compile(),
+      markAbsLine,
+      showDiagnostics: (diags) => showProblems(uploadProblems(diags)),
+      stateChanged: (v) => debugPane.update(v),
+    },
+    deps.program,
+    deps.model,
+  );
+  const peek = new LibraryPeek(cmHost, deps.program, name, (lib) => readStored(lib));
   points = new PointsPanel(host, recheck);
 
   const side = h('aside', { class: 'editor-side' }, debugPane.el, points.el);
@@ -431,16 +462,15 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     dbg.toolbar,
     h('div', { class: 'status-line' }, status, statusAction, dbg.position, dbg.programState),
     dbg.prompt,
-    h('div', { class: 'editor-main' }, cmHost, side),
+    h('div', { class: 'editor-main' }, h('div', { class: 'cm-stack' }, cmHost, peek.el), side),
     bottom,
   );
 
-  /** Upload the buffer; true when the controller stored it. */
-  async function compile(): Promise<boolean> {
-    const n = name();
+  /** Upload the buffer (under `as`, default its own name); true when the controller stored it. */
+  async function compile(as?: string): Promise<boolean> {
+    const n = as ?? name();
     if (!isProgramName(n)) {
-      setStatus('The program name must be 1-32 letters, digits, _ or -.', 'err');
-      nameInput.focus();
+      setStatus('The program name must be 1-32 letters, digits, _ or -: store it with Save as….', 'err');
       return false;
     }
     if (!bus.connected()) {
@@ -465,6 +495,11 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
       const warnings = Number(r.first.fields.warnings ?? '0');
       saved[n] = body;
       store(STORE_SAVED, saved);
+      if (n !== name()) {
+        setName(n);
+        persist();
+        nameChanged();
+      }
       updateEdited();
       setStatus(`${n}: compiled, ${lines} lines, stored${warnings ? `; ${warnings} warning${warnings === 1 ? '' : 's'}` : ''}.`, 'ok');
       void refreshPrograms();
@@ -479,24 +514,40 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     return false;
   }
 
+  /** The stored programs and libraries (the controller's list and wrc ui's folder), then the examples. */
   async function refreshPrograms(): Promise<void> {
-    if (!bus.connected()) return;
-    try {
-      const { first } = await bus.request('PROGRAMS');
-      if (first.kind !== 'ACK') return;
-      const names = parsePrograms(first.fields);
-      const keep = programs.value;
-      programs.replaceChildren(
-        h('option', { value: '' }, names.length ? `stored programs (${names.length})…` : 'no stored programs'),
-        ...names.map((p) => h('option', { value: p }, p)),
-      );
-      programs.value = names.includes(keep) ? keep : '';
-    } catch {
-      /* shown by the connection state */
+    let fromController: string[] = [];
+    if (bus.connected()) {
+      try {
+        const { first } = await bus.request('PROGRAMS');
+        if (first.kind === 'ACK') fromController = parsePrograms(first.fields);
+      } catch {
+        /* shown by the connection state */
+      }
     }
+    const names = mergeNames(fromController, await fetchProgramNames((u) => fetch(u), window.location));
+    programs.replaceChildren(
+      h('option', { value: '' }, 'Open…'),
+      h(
+        'optgroup',
+        { label: names.length ? `Stored on the controller (${names.length})` : 'Stored on the controller: none' },
+        ...names.map((p) => h('option', { value: `stored:${p}` }, p)),
+      ),
+      h('optgroup', { label: 'Examples' }, ...EXAMPLES.map((e) => h('option', { value: `example:${e.name}` }, e.name))),
+    );
+    programs.value = '';
+  }
+
+  /** A stored program's text: wrc ui reads it from the program folder; else this browser's copy. */
+  async function readStored(n: string): Promise<{ text: string; from: 'controller' | 'browser' } | { text: null; why: string }> {
+    const r = await fetchProgramText((u) => fetch(u), window.location, n);
+    if (r.ok) return { text: r.source, from: 'controller' };
+    if (saved[n] !== undefined) return { text: saved[n], from: 'browser' };
+    return { text: null, why: r.why };
   }
 
   function replaceText(t: string): void {
+    openedText = t;
     view.dispatch({ changes: { from: 0, to: view.state.doc.length, insert: t } });
     // Another program: its breakpoints are its own (none yet).
     view.dispatch({ effects: breakpointsEffects(view.state, []) });
@@ -505,24 +556,66 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
     markAbsLine(null);
   }
 
-  /** Show program `n` (with `t`, or a note when this browser has no text of it); false when
-   * the operator kept the unsaved edits. */
-  function openProgram(n: string, t: string | undefined): boolean {
-    if (edited() && text().trim() !== '' && !confirm(`Discard the unsaved edits of ${name()}?`)) return false;
-    nameInput.value = n;
-    if (t !== undefined) replaceText(t);
-    else {
-      // The controller keeps the program but does not give its text back: show a note and
-      // treat it as unedited, so that Run runs what is stored.
-      const note = `' ${n}: stored on the controller; its text was not saved in this browser.\n' Run runs the stored program; type a new text and Compile & Save to replace it.\n`;
-      replaceText(note);
-      saved[n] = note;
+  /** May the editor's text be replaced? Asks when it holds edits the operator made and did not store. */
+  async function mayReplace(): Promise<boolean> {
+    if (text().trim() === '' || text() === openedText || !edited()) return true;
+    return confirmAction({
+      title: `Discard the edits of ${name()}?`,
+      text: `The text in the editor differs from what is stored as ${name()}. Opening another program drops these edits (Save as… keeps them under another name).`,
+      ok: 'Discard edits',
+      danger: true,
+    });
+  }
+
+  /** Show program `n` with text `t` (stored as that text: it is what the controller has). */
+  async function openProgram(n: string, t: string, storedText = true): Promise<boolean> {
+    if (!(await mayReplace())) return false;
+    setName(n);
+    replaceText(t);
+    if (storedText) {
+      saved[n] = t;
+      store(STORE_SAVED, saved);
     }
     persist();
     updateEdited();
     nameChanged();
     void dbg?.syncBreakpoints(true);
     return true;
+  }
+
+  /** Open a stored program or library by name. */
+  async function openStored(n: string): Promise<void> {
+    setStatus(`opening ${n}…`);
+    const r = await readStored(n);
+    if (r.text === null) {
+      setStatus(`${n}: its text cannot be read (${r.why}). Run runs the stored program.`, 'err');
+      return;
+    }
+    if (await openProgram(n, r.text, r.from === 'controller')) {
+      setStatus(r.from === 'controller' ? `${n}: opened as stored on the controller.` : `${n}: opened from this browser's copy (wrc ui cannot read the program folder).`, 'ok');
+    }
+  }
+
+  async function newProgram(): Promise<void> {
+    const n = await askName({
+      title: 'New program',
+      text: 'Its name (1-32 letters, digits, _ or -). Compile & Save stores it on the controller.',
+      ok: 'Create',
+      check: (x) => (isProgramName(x) ? '' : 'A name is 1-32 letters, digits, _ or -.'),
+    });
+    if (n === null) return;
+    if (await openProgram(n, saved[n] ?? `' ${n}.wrl\n`, false)) setStatus(`${n}: new program (not stored yet).`, 'info');
+  }
+
+  async function saveAs(): Promise<void> {
+    const n = await askName({
+      title: `Save ${name()} as…`,
+      text: 'Store the text in the editor under this name (UPLOAD); the editor then edits that program.',
+      ok: 'Save',
+      initial: name(),
+      check: (x) => (isProgramName(x) ? '' : 'A name is 1-32 letters, digits, _ or -.'),
+    });
+    if (n !== null) await compile(n);
   }
 
   function nameChanged(): void {
@@ -532,22 +625,13 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   }
 
   programs.addEventListener('change', () => {
-    const n = programs.value;
-    if (n) openProgram(n, saved[n]);
-  });
-  examples.addEventListener('change', () => {
-    const ex = EXAMPLES.find((e) => e.name === examples.value);
-    examples.value = '';
-    if (ex) openProgram(ex.name, ex.text);
-  });
-  let nameTimer: ReturnType<typeof setTimeout> | null = null;
-  nameInput.addEventListener('input', () => {
-    nameInput.classList.toggle('invalid', !isProgramName(name()));
-    persist();
-    updateEdited();
-    // Its points and checks once the operator stops typing the name.
-    if (nameTimer) clearTimeout(nameTimer);
-    nameTimer = setTimeout(nameChanged, 300);
+    const v = programs.value;
+    programs.value = '';
+    if (v.startsWith('stored:')) void openStored(v.slice('stored:'.length));
+    else if (v.startsWith('example:')) {
+      const ex = EXAMPLES.find((e) => e.name === v.slice('example:'.length));
+      if (ex) void openProgram(ex.name, ex.text, false);
+    }
   });
 
   // ---- events ----
@@ -556,10 +640,12 @@ export function mountEditor(el: HTMLElement, bus: Bus): EditorPanel {
   });
   bus.onConnection((up) => {
     compileBtn.disabled = !up;
+    saveAsBtn.disabled = !up;
     if (up) void refreshPrograms();
   });
   compileBtn.disabled = !bus.connected();
-  if (bus.connected()) void refreshPrograms();
+  saveAsBtn.disabled = !bus.connected();
+  void refreshPrograms();
   updateEdited();
   loadLanguage();
   void live.now(compileRequest());

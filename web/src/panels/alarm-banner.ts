@@ -3,19 +3,13 @@
 // Editor's console logs every alarm as well.
 
 import type { Bus } from '../protocol/bus';
-import { h, injectStyle } from '../dom';
+import { h } from '../dom';
 import { parseAlarm } from '../editor/program-events';
+import './alarm-banner.css';
 
-const CSS = `
-.alarm-banner { display: flex; align-items: center; gap: 8px; max-width: 520px; padding: 4px 6px 4px 10px;
-  border-radius: 4px; background: #7a1010; color: #fff; font-weight: 700; box-shadow: 0 0 0 2px #ff4d4f inset; }
-.alarm-banner .alarm-text { overflow: hidden; text-overflow: ellipsis; white-space: nowrap; }
-.alarm-banner button { background: transparent; border: 1px solid #ffb3b3; color: #fff; border-radius: 3px; cursor: pointer; }
-`;
 
 /** The banner element (hidden until an alarm comes). */
 export function mountAlarmBanner(bus: Bus): HTMLElement {
-  injectStyle('wrc-alarm-banner', CSS);
   const text = h('span', { class: 'alarm-text', 'data-testid': 'alarm-text' });
   const banner = h(
     'div',

@@ -25,9 +25,10 @@ export function commandLogView(log: CommandLog): HTMLElement {
     list.append(row);
     while (list.childElementCount > CommandLog.MAX_ENTRIES) list.firstElementChild?.remove();
     list.scrollTop = list.scrollHeight;
-    if (e.kind === 'nak' || e.kind === 'abs') {
+    if (e.kind === 'nak' || e.kind === 'abs' || e.kind === 'stop') {
       banner.hidden = false;
       banner.textContent = e.text;
+      banner.setAttribute('data-kind', e.kind);
     } else if (e.kind === 'ack' || e.kind === 'inf') {
       banner.hidden = true;
     }

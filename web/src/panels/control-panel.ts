@@ -2,13 +2,23 @@
 // Joint) with Go, Home, Stop, Hold and Resume, jog, signals, control lock, and the command log
 // that shows each request's ACK/NAK and INF/ABS. It draws the `ControllerModel` and sends
 // through the `Commander` (protocol/); this module is only the DOM.
+//
+// Go, Home, the jog buttons and the outputs are disabled, with the reason beside them and in
+// their tooltips, whenever the controller would refuse them (motion-gate.ts). The destination
+// is filled from the robot (WHERE) after every connection, before Go may send it: Go never
+// commands fields that were not read from the robot or typed.
 
 import type { RobotInfo } from '../protocol/bus';
 import type { Commander } from '../protocol/commander';
 import { resumeRefusal, type ControllerModel } from '../protocol/controller-model';
+import { motionRefusal, outputRefusal, type GateInput } from '../protocol/motion-gate';
+import type { ProgramTracker } from '../protocol/program-tracker';
 import { fmtNum } from '../protocol/protocol';
+import { ownerText, type TabPeers } from '../protocol/tabs';
+import { formatPending, type WaferStore } from '../cell/wafers';
 import { h, setAttr, setText } from '../dom';
 import { commandLogView } from './command-log';
+import { signalsCard } from './signals-card';
 
 /** Tooltip of the HOLD button. */
 export const HOLD_TITLE = 'HOLD: brake on the path and keep the motion (RESUME continues it)';
@@ -38,13 +48,21 @@ function section(title: string, ...children: (Node | null)[]): HTMLElement {
   return h('section', { class: 'card' }, h('h3', {}, title), ...children);
 }
 
+/** What the Control panel follows besides the controller. */
+export interface ControlDeps {
+  model: ControllerModel;
+  cmd: Commander;
+  /** The running program (motions are refused while one runs). */
+  program: ProgramTracker;
+  /** The other tabs of this browser (to name a holder of control). */
+  peers: TabPeers;
+  /** The wafer map (a transfer in progress; a guarded output's confirmation). */
+  wafers: WaferStore;
+}
+
 /** Mount the Control panel in `el`; `cards` (e.g. the Trace card) go above the command log. */
-export function mountControl(
-  el: HTMLElement,
-  model: ControllerModel,
-  cmd: Commander,
-  cards: readonly HTMLElement[] = [],
-): ControlPanel {
+export function mountControl(el: HTMLElement, deps: ControlDeps, cards: readonly HTMLElement[] = []): ControlPanel {
+  const { model, cmd, program, peers, wafers } = deps;
   el.classList.add('control-panel');
   el.replaceChildren();
 
@@ -106,9 +124,11 @@ export function mountControl(
   );
   const postureWrap = h('label', { class: 'field' }, h('span', { class: 'field-label' }, 'Posture'), posture);
   const poseFields = h('div', { class: 'fields' }, dx.wrap, dy.wrap, dz.wrap, dyaw.wrap, postureWrap);
-  const jointFields = h('div', { class: 'fields', hidden: true });
+  const jointFields = h('div', { class: 'fields' });
   let jointInputs: HTMLInputElement[] = [];
   const destError = h('div', { class: 'err-text', 'data-testid': 'dest-error' });
+  /** Why Go, Home and jog are disabled (the gate's sentence), under the buttons. */
+  const motionWhy = h('div', { class: 'hint motion-why', 'data-testid': 'motion-why' });
 
   const goBtn = h('button', { class: 'btn primary', 'data-testid': 'go', onclick: () => void go() }, 'Go');
   const homeBtn = h('button', { class: 'btn', 'data-testid': 'home', onclick: () => void cmd.send('HOME') }, 'Home');
@@ -135,19 +155,21 @@ export function mountControl(
   const destination = section(
     'Destination',
     h('div', { class: 'seg-group' }, modeBtns.ptp, modeBtns.line, modeBtns.joint, copyBtn),
-    poseFields,
-    jointFields,
+    // Both sets of fields in one place, the other one invisible: the buttons below stay put.
+    h('div', { class: 'dest-fields' }, poseFields, jointFields),
     destError,
     h('div', { class: 'btn-row' }, goBtn, homeBtn, stopBtn, holdBtn, resumeBtn),
+    motionWhy,
     h('div', { class: 'speed-row' }, h('span', { class: 'field-label' }, 'Speed'), speed, speedVal),
   );
 
   function setMode(m: Mode): void {
     mode = m;
     for (const [k, b] of Object.entries(modeBtns)) b.classList.toggle('active', k === m);
-    poseFields.hidden = m === 'joint';
-    jointFields.hidden = m !== 'joint';
-    postureWrap.hidden = m !== 'ptp';
+    poseFields.style.visibility = m === 'joint' ? 'hidden' : '';
+    jointFields.style.visibility = m === 'joint' ? '' : 'hidden';
+    // Kept in its place (invisible) for a straight line: the buttons below never jump.
+    postureWrap.style.visibility = m === 'ptp' ? '' : 'hidden';
     setAttr(destination, 'data-mode', m);
   }
   setMode('ptp');
@@ -161,6 +183,11 @@ export function mountControl(
 
   async function go(): Promise<void> {
     setText(destError, '');
+    const notRead = unfilled();
+    if (notRead) {
+      setText(destError, notRead);
+      return;
+    }
     let line: string;
     try {
       if (mode === 'joint') {
@@ -202,50 +229,10 @@ export function mountControl(
   const jog = section('Jog', h('div', { class: 'jog-head' }, h('span', { class: 'field-label' }, 'Step'), jogStep), jogRows);
 
   // ---- Signals ----
-  const inputsGrid = h('div', { class: 'io-grid', 'data-testid': 'inputs' });
-  const outputsGrid = h('div', { class: 'io-grid', 'data-testid': 'outputs' });
-  let inputLamps: HTMLElement[] = [];
-  let outputSwitches: HTMLButtonElement[] = [];
-  const signals = section(
-    'Signals',
-    h('div', { class: 'io-title' }, 'Inputs'),
-    inputsGrid,
-    h('div', { class: 'io-title' }, 'Outputs'),
-    outputsGrid,
-  );
-
-  function buildIo(nIn: number, nOut: number): void {
-    inputLamps = [];
-    outputSwitches = [];
-    inputsGrid.replaceChildren();
-    outputsGrid.replaceChildren();
-    for (let i = 0; i < nIn; i++) {
-      const lamp = h('span', { class: 'lamp', 'data-testid': `input-${i}`, 'data-on': '0', title: `input ${i}` }, String(i));
-      inputLamps.push(lamp);
-      inputsGrid.append(lamp);
-    }
-    for (let i = 0; i < nOut; i++) {
-      const sw = h(
-        'button',
-        {
-          class: 'switch',
-          'data-testid': `output-${i}`,
-          'data-on': '0',
-          role: 'switch',
-          'aria-checked': 'false',
-          title: `output ${i}`,
-          onclick: () => {
-            const on = sw.getAttribute('data-on') === '1';
-            void cmd.send(`OUT ${i} ${on ? 0 : 1}`);
-          },
-        },
-        String(i),
-      );
-      outputSwitches.push(sw);
-      outputsGrid.append(sw);
-    }
-  }
-  buildIo(32, 32);
+  const signals = signalsCard(cmd, () => {
+    const st = wafers.state();
+    return st.available === true ? st.map : null;
+  });
 
   // ---- Control lock and log ----
   const ownerEl = h('span', { class: 'owner', 'data-testid': 'control-owner' }, 'none');
@@ -277,7 +264,7 @@ export function mountControl(
     raw,
   );
 
-  el.append(current, destination, jog, signals, ...cards, logCard);
+  el.append(current, destination, jog, signals.el, ...cards, logCard);
 
   // ---- robot-dependent parts ----
   let axisCells: { pos: HTMLElement; pulses: HTMLElement }[] = [];
@@ -307,32 +294,45 @@ export function mountControl(
           'div',
           { class: 'jog-row' },
           h('span', { class: 'jog-name' }, `${a.name}`),
-          h('button', { class: 'btn jog', 'data-testid': `jog-minus-${a.index}`, onclick: jogBy(-1), title: `${a.name} −` }, '−'),
-          h('button', { class: 'btn jog', 'data-testid': `jog-plus-${a.index}`, onclick: jogBy(1), title: `${a.name} +` }, '+'),
+          h('button', { class: 'btn jog', 'data-testid': `jog-minus-${a.index}`, onclick: jogBy(-1), 'data-label': `JOG ${a.name} −` }, '−'),
+          h('button', { class: 'btn jog', 'data-testid': `jog-plus-${a.index}`, onclick: jogBy(1), 'data-label': `JOG ${a.name} +` }, '+'),
           h('span', { class: 'unit' }, `${a.unit}, ${a.ppu} pulse/${a.unit}`),
         ),
       );
     }
-    if (r.inputs !== inputLamps.length || r.outputs !== outputSwitches.length) buildIo(r.inputs, r.outputs);
+    signals.build(r);
+    // The new fields hold nothing read from the robot yet.
+    filledEpoch = -1;
   }
 
-  const motionButtons = (): HTMLButtonElement[] => [
-    goBtn,
-    homeBtn,
-    ...Array.from(jogRows.querySelectorAll('button')),
-    ...outputSwitches,
-  ];
-
-  // The destination starts at the current position (once), until the operator types in it.
-  let destTouched = false;
+  // The destination is filled from the robot after every connection (and after the robot is
+  // built anew), until the operator types in it.
+  let filledEpoch = -1;
+  let touchedEpoch = -1;
   destination.addEventListener('input', (ev) => {
-    if ((ev.target as HTMLElement).closest('.fields')) destTouched = true;
+    if ((ev.target as HTMLElement).closest('.fields')) touchedEpoch = model.v.epoch;
   });
 
-  model.onChange((v) => {
+  /** Why Go would send fields that were never read from the robot ('' when they were). */
+  function unfilled(): string {
+    const v = model.v;
+    if (filledEpoch === v.epoch || touchedEpoch === v.epoch) return '';
+    return 'the destination is not yet read from the robot (WHERE)';
+  }
+
+  function render(): void {
+    const v = model.v;
     if (v.robot && v.robot !== builtFor) buildRobot(v.robot);
-    if (!destTouched && v.robot && v.x !== null && v.positions.length > 0) {
-      destTouched = true;
+    if (
+      filledEpoch !== v.epoch &&
+      touchedEpoch !== v.epoch &&
+      v.robot &&
+      builtFor === v.robot &&
+      v.positionsEpoch === v.epoch &&
+      v.x !== null &&
+      v.positions.length > 0
+    ) {
+      filledEpoch = v.epoch;
       copyCurrent();
     }
     const state = v.connected ? (v.state ?? '—') : 'OFFLINE';
@@ -356,15 +356,32 @@ export function mountControl(
       const q = v.pulses?.[i];
       setText(c.pulses, q === undefined ? '—' : String(q));
     });
-    inputLamps.forEach((l, i) => setAttr(l, 'data-on', v.inputs !== null && (v.inputs >>> i) & 1 ? '1' : '0'));
-    outputSwitches.forEach((s, i) => {
-      const on = v.outputs !== null && (v.outputs >>> i) & 1 ? '1' : '0';
-      setAttr(s, 'data-on', on);
-      setAttr(s, 'aria-checked', on === '1' ? 'true' : 'false');
-    });
-    setText(ownerEl, v.owner === 'none' ? 'nobody' : v.owner + (v.me === v.owner ? ' (this page)' : ''));
+    const st = wafers.state();
+    const gate: GateInput = {
+      connected: v.connected,
+      state: v.state,
+      homed: v.homed,
+      owner: v.owner,
+      me: v.me,
+      ownerText: ownerText(v.owner, v.me, (x) => peers.isPeer(x)),
+      program: program.v.state,
+      programName: program.v.program,
+      transfer: st.available === true && st.map.pending ? formatPending(st.map.pending) : null,
+    };
+    const whyMove = motionRefusal('move', gate) || unfilled();
+    const whyHome = motionRefusal('home', gate);
+    const whyJog = motionRefusal('jog', gate);
+    const gated = (b: HTMLButtonElement, why: string, title: string): void => {
+      b.disabled = why !== '';
+      setAttr(b, 'title', why ? `${title} — ${why}` : title);
+    };
+    gated(goBtn, whyMove, 'Go: move to the destination');
+    gated(homeBtn, whyHome, 'HOME: every axis to its home position');
+    for (const b of Array.from(jogRows.querySelectorAll<HTMLButtonElement>('button'))) gated(b, whyJog, b.getAttribute('data-label') ?? 'JOG');
+    setText(motionWhy, whyMove && whyMove === whyHome ? whyMove : whyMove ? `Go: ${whyMove}` : whyHome ? `Home: ${whyHome}` : '');
+    signals.update(v, outputRefusal(gate));
+    setText(ownerEl, gate.ownerText ?? v.owner);
     const may = model.mayCommand();
-    for (const b of motionButtons()) b.disabled = !may;
     // STOP and HOLD are accepted from every source, with or without control.
     stopBtn.disabled = !v.connected;
     holdBtn.disabled = !v.connected;
@@ -377,9 +394,16 @@ export function mountControl(
         ? `not connected: ${v.connDetail}`
         : may
           ? ''
-          : `control is held by ${v.owner}; motions are refused until it is released`,
+          : `control is held by ${gate.ownerText}; motions are refused until it is released`,
     );
+  }
+
+  model.onChange(() => render());
+  program.onChange((_v, stateChanged) => {
+    if (stateChanged) render();
   });
+  wafers.onChange(() => render());
+  peers.onChange(() => render());
 
   return { resize: () => undefined };
 }

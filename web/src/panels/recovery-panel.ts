@@ -17,8 +17,9 @@ import type { FinalReply, FirstReply, RobotState } from '../protocol/bus';
 import type { Commander } from '../protocol/commander';
 import type { ControllerModel } from '../protocol/controller-model';
 import { fmtNum } from '../protocol/protocol';
-import { h, injectStyle, setAttr, setText } from '../dom';
+import { h, setAttr, setText } from '../dom';
 import { frameThrottle } from '../frame-throttle';
+import { showLayer } from './layer';
 import type { StationInfo, StationsHandle } from '../cell/stations';
 import type { Blade, WaferStore } from '../cell/wafers';
 import {
@@ -32,6 +33,7 @@ import {
   type RecoveryStore,
   type UncertainPlace,
 } from '../cell/recovery';
+import './recovery-panel.css';
 
 /**
  * The speed of a retract out of a station [%] (the controller's `RETRACT_SPEED_PCT`): the
@@ -363,52 +365,6 @@ export function finalReplyView(request: string, final: FinalReply): ReplyView {
 // ---------------------------------------------------------------------------------------------
 // The DOM
 
-const STYLE_ID = 'recovery-style';
-const STYLE = `
-.recovery-banner { display: flex; align-items: center; gap: 8px; max-width: 460px; padding: 4px 6px 4px 10px; border-radius: 4px;
-  background: repeating-linear-gradient(135deg, #6b4700 0 8px, #4e3400 8px 16px); color: #ffe3a8; font-weight: 700;
-  box-shadow: 0 0 0 2px var(--warn) inset; }
-.recovery-banner .recovery-banner-text { overflow: hidden; text-overflow: ellipsis; white-space: nowrap; }
-.recovery-banner button { background: #2a1d00; border: 1px solid var(--warn); color: #ffe3a8; border-radius: 3px; cursor: pointer;
-  font-weight: 700; white-space: nowrap; }
-.recovery-panel { position: fixed; top: 64px; right: 12px; width: 560px; max-width: calc(100vw - 24px); max-height: calc(100vh - 80px);
-  overflow: auto; z-index: 40; background: var(--card); border: 2px solid var(--warn); border-radius: 8px;
-  box-shadow: 0 8px 28px rgba(0, 0, 0, 0.7); padding: 10px 12px; }
-.recovery-panel h2 { margin: 0; font-size: 15px; color: var(--warn); }
-.recovery-panel h3 { margin: 10px 0 4px; font-size: 12px; text-transform: uppercase; letter-spacing: 1px; color: var(--accent); }
-.recovery-head { display: flex; align-items: center; gap: 8px; }
-.recovery-head .spacer { flex: 1; }
-.recovery-note { font-size: 13px; line-height: 1.4; background: #0d1319; border: 1px solid var(--line); border-radius: 4px; padding: 6px 8px; }
-.recovery-hand { font-family: var(--mono); }
-.recovery-inside { display: inline-block; margin-left: 8px; padding: 1px 8px; border-radius: 10px; font-family: var(--sans); font-weight: 700; }
-.recovery-inside[data-inside='1'] { background: #7a1010; color: #fff; box-shadow: 0 0 0 1px #ff4d4f inset; }
-.recovery-inside[data-inside='0'] { background: #173a26; color: #9ff0b8; }
-.recovery-uncertain { list-style: none; margin: 0; padding: 0; display: flex; flex-direction: column; gap: 3px; }
-.recovery-uncertain li { display: flex; gap: 8px; align-items: center; }
-.recovery-wafer { font-family: var(--mono); font-weight: 700; padding: 0 6px; border-radius: 3px; border: 1px dashed var(--warn);
-  background: repeating-linear-gradient(135deg, #6b4700 0 5px, #3d2a00 5px 10px); color: #ffd27a; }
-.recovery-steps { margin: 0; padding-left: 22px; display: flex; flex-direction: column; gap: 4px; }
-.recovery-steps li[data-next='1']::marker { color: var(--warn); font-weight: 700; }
-.recovery-steps li[data-next='1'] > button:not(:disabled) { box-shadow: 0 0 0 2px var(--warn); }
-.recovery-why { color: var(--dim); font-size: 12px; margin-left: 8px; }
-.recovery-confirm-row { display: flex; gap: 6px; align-items: center; flex-wrap: wrap; }
-.recovery-confirm-row select { max-width: 330px; }
-.recovery-result { margin-top: 8px; padding: 4px 8px; border-radius: 4px; font-family: var(--mono); font-size: 12px; }
-.recovery-result:empty { display: none; }
-.recovery-result[data-kind='nak'], .recovery-result[data-kind='abs'] { background: #4a1010; color: #ffb3b3; border: 1px solid #ff4d4f; font-weight: 700; }
-.recovery-result[data-kind='ack'], .recovery-result[data-kind='inf'] { background: #12301f; color: #9ff0b8; border: 1px solid #2a8a4f; }
-.recovery-result[data-kind='out'] { background: #1a2430; color: var(--fg); border: 1px solid var(--line); }
-.recovery-done { margin: 0; padding-left: 18px; color: var(--dim); font-size: 12px; }
-.recovery-suggest { color: var(--dim); font-size: 12px; margin-top: 6px; }
-.recovery-dialog { max-width: 520px; background: var(--card); color: var(--fg); border: 2px solid var(--warn); border-radius: 8px; padding: 14px 16px; }
-.recovery-dialog::backdrop { background: rgba(0, 0, 0, 0.55); }
-.recovery-dialog h3 { margin: 0 0 8px; color: var(--warn); font-size: 15px; }
-.recovery-dialog p { margin: 0 0 10px; line-height: 1.45; }
-.recovery-dialog code { font-family: var(--mono); background: #0d1319; padding: 1px 5px; border-radius: 3px; }
-.recovery-dialog .recovery-dialog-buttons { display: flex; justify-content: flex-end; gap: 8px; margin-top: 12px; }
-.recovery-dialog .recovery-dialog-why { color: #ffb3b3; font-weight: 700; }
-.recovery-dialog .recovery-dialog-why:empty { display: none; }
-`;
 
 export interface RecoveryHandle {
   /** The banner for the header (hidden while nothing is to recover). */
@@ -433,7 +389,6 @@ export function mountRecovery(deps: {
   stations: Pick<StationsHandle, 'stations' | 'onChange'>;
 }): RecoveryHandle {
   const { store, model, cmd, wafers, stations } = deps;
-  injectStyle(STYLE_ID, STYLE);
 
   // ---- banner ----
   const bannerText = h('span', { class: 'recovery-banner-text', 'data-testid': 'recovery-banner-text' });
@@ -499,7 +454,8 @@ export function mountRecovery(deps: {
     dlgWhy,
     h('div', { class: 'recovery-dialog-buttons' }, dlgCancel, dlgOk),
   );
-  panel.append(dialog);
+  /** Hides the dialog's layer (null while it is not shown). */
+  let hideLayer: (() => void) | null = null;
   /** What the open dialog asks about: a step's or a confirmation's id, and its request. */
   let asking: { kind: 'step' | 'confirm'; id: string; request: string } | null = null;
   /** Why the open dialog's request may not be sent any more ('' while it may): the plan now. */
@@ -517,13 +473,11 @@ export function mountRecovery(deps: {
   }
   function closeDialog(): void {
     asking = null;
-    if (dialog.open) dialog.close();
+    const hide = hideLayer;
+    hideLayer = null;
+    hide?.();
   }
   dlgCancel.addEventListener('click', () => closeDialog());
-  // Escape closes the dialog without sending.
-  dialog.addEventListener('close', () => {
-    asking = null;
-  });
   dlgOk.addEventListener('click', () => {
     // The state may have changed while the dialog was open (another source stopped the
     // robot, a RECOVERY reply settled the place): send only what the plan still allows.
@@ -539,8 +493,9 @@ export function mountRecovery(deps: {
     dlgOk.textContent = `Send ${what.request}`;
     asking = what;
     renderDialog();
-    if (typeof dialog.showModal === 'function') dialog.showModal();
-    else dialog.setAttribute('open', '');
+    // Never modal: the E-STOP it names stays pressable (layer.ts). Escape sends nothing.
+    hideLayer?.();
+    hideLayer = showLayer(dialog, () => closeDialog());
   }
   /** The open dialog's Send: disabled, with the reason, once its request may not be sent. */
   function renderDialog(): void {
@@ -747,6 +702,8 @@ export function mountRecovery(deps: {
     close,
     dispose() {
       for (const u of unsubs) u();
+      closeDialog();
+      dialog.remove();
       banner.remove();
       panel.remove();
     },

@@ -242,3 +242,12 @@ describe('actionsHint', () => {
     expect(actionsHint(c)).toBe('GET: the hand already holds W7');
   });
 });
+
+describe('a running program', () => {
+  it('disables GET, PUT and MAP with what to do first (the controller answers 127)', () => {
+    const why = 'wafer_cycle is paused: CONTINUE or ABORT it (Editor) first';
+    const a = waferActions({ ...ready, state: state(MAP), selection: sel('LP1', 1), program: why });
+    expect([a.get, a.put, a.map].map((x) => x.why)).toEqual([why, why, why]);
+    expect(waferActions({ ...ready, state: state(MAP), selection: sel('LP1', 1), program: '' }).get.enabled).toBe(true);
+  });
+});

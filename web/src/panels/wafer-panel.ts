@@ -13,7 +13,9 @@
 import type { RobotInfo } from '../protocol/bus';
 import type { Commander } from '../protocol/commander';
 import type { ControllerModel } from '../protocol/controller-model';
-import { h, injectStyle, setAttr, setText } from '../dom';
+import { programRefusal } from '../protocol/motion-gate';
+import type { ProgramTracker } from '../protocol/program-tracker';
+import { h, setAttr, setText } from '../dom';
 import { frameThrottle } from '../frame-throttle';
 import type { StationInfo, StationsHandle } from '../cell/stations';
 import {
@@ -26,6 +28,7 @@ import {
   type WaferState,
   type WaferStore,
 } from '../cell/wafers';
+import './wafer-panel.css';
 
 /** The slot (or, with `slot` null, only the station) the operator clicked. */
 export interface WaferSelection {
@@ -141,6 +144,11 @@ export function waferActions(input: {
   selection: WaferSelection | null;
   /** A GET, PUT, SWAP or MAP this page sent that has not ended yet (`GET LP1 3`), or null. */
   running?: string | null;
+  /**
+   * Why a program forbids transfers now (`wafer_cycle is running: ABORT it (Editor) first`),
+   * '' or absent when none runs: the controller refuses them (127) while one runs.
+   */
+  program?: string;
   /** Does the robot have blade B (`isDualBlade`)? Default no: GET/PUT use the hand, no SWAP. */
   dualBlade?: boolean;
   /** The blade GET and PUT use on a dual-blade robot (default A; A on a single-hand robot). */
@@ -169,7 +177,9 @@ export function waferActions(input: {
         ? 'waiting for the wafer map (WAFERS)'
         : !input.mayCommand
           ? 'control is held by another source; take control first'
-          : input.running
+          : input.program
+            ? input.program
+            : input.running
             ? `${input.running} is running`
             : map.pending
               ? `a transfer is in progress (${formatPending(map.pending)})`
@@ -264,58 +274,6 @@ function kindWords(kind: string): string {
   return kind.replace(/_/g, ' ');
 }
 
-const STYLE_ID = 'wafer-style';
-const STYLE = `
-.wafer-panel { display: flex; flex-direction: column; background: var(--bg); }
-.wafer-panel .toolbar { gap: 10px; }
-.wafer-hand, .wafer-hand-b, .wafer-pending, .wafer-selection { font-family: var(--mono); padding: 2px 8px; border-radius: 4px;
-  border: 1px solid var(--line); background: #0d1319; white-space: nowrap; }
-.wafer-hand[data-wafer]:not([data-wafer='']), .wafer-hand-b[data-wafer]:not([data-wafer='']) { background: #1d4f8c;
-  border-color: #3d7fd6; color: #fff; font-weight: 700; }
-.wafer-hand[data-wafer][data-uncertain='1'], .wafer-hand-b[data-wafer][data-uncertain='1'] {
-  background: repeating-linear-gradient(135deg, #6b4700 0 5px, #3d2a00 5px 10px); border: 1px dashed var(--warn); color: #ffd27a; }
-.wafer-blade-b, .wafer-blade-choice { display: inline-flex; gap: 6px; align-items: center; }
-.wafer-blade-b[hidden], .wafer-blade-choice[hidden] { display: none; }
-.wafer-pending[data-pending='1'] { background: #4a3500; border-color: var(--warn); color: #ffd27a; font-weight: 700; }
-.wafer-pending[data-pending='0'] { color: var(--dim); }
-.wafer-label { color: var(--dim); font-size: 12px; }
-.wafer-hint { padding: 3px 10px; min-height: 22px; font-size: 12px; color: var(--warn); background: #0f151c;
-  border-bottom: 1px solid var(--line); }
-.wafer-stations { flex: 1; min-height: 0; display: flex; gap: 12px; align-items: flex-start; overflow: auto; padding: 10px 12px; }
-.wafer-empty { color: var(--dim); padding: 20px; }
-.wcol { flex: 0 0 150px; display: flex; flex-direction: column; background: var(--card); border: 1px solid var(--line);
-  border-radius: 6px; padding: 6px; }
-.wcol[data-selected='1'] { border-color: var(--accent); }
-.wcol-head { display: flex; flex-direction: column; align-items: flex-start; background: none; border: none; padding: 0 2px 6px;
-  cursor: pointer; text-align: left; }
-.wcol-name { font-weight: 700; font-family: var(--mono); color: var(--accent); font-size: 14px; }
-.wcol-kind { color: var(--dim); font-size: 11px; }
-.wslots { display: flex; flex-direction: column; gap: 2px; }
-.wslot { display: grid; grid-template-columns: 22px 1fr; align-items: center; height: 19px; padding: 0 4px; cursor: pointer;
-  border: 1px solid #2c3a49; border-radius: 3px; background: #0d1319; font: 11px/1 var(--mono); color: var(--dim); text-align: left; }
-.wslot-n { color: #5d6b7a; text-align: right; padding-right: 6px; }
-.wslot-label { overflow: hidden; text-overflow: ellipsis; white-space: nowrap; }
-.wslot[data-state='wafer'], .wlegend-wafer { background: #1d4f8c; border-color: #3d7fd6; color: #fff; }
-.wslot[data-state='wafer'] .wslot-n, .wslot[data-state='double'] .wslot-n, .wslot[data-state='cross'] .wslot-n {
-  color: #e6edf5; }
-.wslot[data-state='empty'], .wlegend-empty { background: #0d1319; }
-.wslot[data-state='unknown'], .wlegend-unknown { background: repeating-linear-gradient(135deg, #232a33 0 4px, #1a2028 4px 8px);
-  color: #8795a5; }
-.wslot[data-state='double'], .wlegend-double { background: #8e1f17; border-color: #ff4d4f; color: #fff; font-weight: 700; }
-.wslot[data-state='cross'], .wlegend-cross { background: repeating-linear-gradient(160deg, #8a4a00 0 5px, #b36200 5px 10px);
-  border-color: #ffb020; color: #fff; font-weight: 700; }
-.wslot[data-state='uncertain'], .wlegend-uncertain {
-  background: repeating-linear-gradient(135deg, #6b4700 0 5px, #3d2a00 5px 10px); border: 1px dashed var(--warn);
-  color: #ffd27a; font-weight: 700; }
-.wslot[data-state='uncertain'] .wslot-n { color: #ffd27a; }
-.wslot[data-selected='1'], .wlegend-selected { outline: 2px solid var(--accent); outline-offset: 0; }
-.wslot[data-pending='1'], .wlegend-pending { box-shadow: 0 0 0 2px var(--warn), 0 0 8px var(--warn); }
-.wslot:focus-visible { outline: 2px solid #fff; }
-.wafer-legend { display: flex; gap: 12px; flex-wrap: wrap; align-items: center; padding: 5px 12px; border-top: 1px solid var(--line);
-  background: var(--bg2); font-size: 12px; color: var(--dim); }
-.wlegend-item { display: inline-flex; align-items: center; gap: 5px; }
-.wlegend-swatch { display: inline-block; width: 26px; height: 14px; border: 1px solid #2c3a49; border-radius: 3px; }
-`;
 
 export interface WaferPanel {
   resize(): void;
@@ -334,8 +292,8 @@ export function mountWaferPanel(
   model: ControllerModel,
   cmd: Commander,
   stations?: Pick<StationsHandle, 'stations' | 'onChange'>,
+  program?: Pick<ProgramTracker, 'v' | 'onChange'>,
 ): WaferPanel {
-  injectStyle(STYLE_ID, STYLE);
   el.classList.add('wafer-panel');
   el.replaceChildren();
 
@@ -542,6 +500,7 @@ export function mountWaferPanel(
       running,
       dualBlade: dual,
       blade,
+      program: program ? programRefusal(program.v.state, program.v.program) : '',
     });
     const btn = (b: HTMLButtonElement, a: WaferAction, verb: string): void => {
       b.disabled = !a.enabled;
@@ -577,6 +536,7 @@ export function mountWaferPanel(
       schedule();
     }),
     ...(stations ? [stations.onChange(() => schedule())] : []),
+    ...(program ? [program.onChange((_v, stateChanged) => stateChanged && schedule())] : []),
   ];
   render();
 

@@ -2,6 +2,7 @@ import { describe, expect, it } from 'vitest';
 import type { TaskTiming } from '../protocol/bus';
 import {
   RollingSeries,
+  viewRange,
   binIndex,
   binLabel,
   fmtCount,
@@ -100,5 +101,33 @@ describe('table formats', () => {
     expect(fmtCount(1234)).toBe('1234');
     expect(fmtMs(10)).toBe('10');
     expect(fmtMs(0.5)).toBe('0.5');
+  });
+});
+
+describe('history kept and a window over it', () => {
+  it('range() gives the points of a window (and one beyond each edge)', () => {
+    const s = new RollingSeries(1, 300);
+    for (let t = 0; t <= 100; t++) s.push(t, [t * 2]);
+    const [xs, ys] = s.range(10, 20);
+    expect(xs).toEqual([9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21]);
+    expect(ys?.[0]).toBe(18);
+    expect(s.first()).toBe(0);
+    expect(s.range(500, 600)[0]).toEqual([100]);
+  });
+
+  it('keeps minutes: a move made long before the window is still there', () => {
+    const s = new RollingSeries(1, 300);
+    for (let t = 0; t <= 240; t += 0.5) s.push(t, [t < 5 ? 100 : 0]);
+    // The window shows the last 10 s; the move at 0-5 s is kept.
+    expect(s.first()).toBe(0);
+    expect(s.range(0, 5)[1]?.some((v) => v === 100)).toBe(true);
+  });
+
+  it('viewRange follows the newest point, or ends where the operator put it, within what is kept', () => {
+    expect(viewRange(0, 240, 10, null)).toEqual([230, 240]);
+    expect(viewRange(0, 240, 10, 60)).toEqual([50, 60]);
+    expect(viewRange(0, 240, 10, 1)).toEqual([0, 10]);
+    expect(viewRange(0, 240, 10, 999)).toEqual([230, 240]);
+    expect(viewRange(null, null, 10, null)).toEqual([0, 10]);
   });
 });

@@ -10,11 +10,13 @@ export type Aligned = [number[], ...(number | null)[][]];
 /**
  * A rolling time window of points (x in seconds) for a fixed number of series. Points older
  * than `windowS` before the newest are dropped; a point whose x goes backwards clears the
- * window first (the controller restarted its clock).
+ * window first (the controller restarted its clock). A missing value is kept as NaN (arrays of
+ * plain doubles: minutes of history are no heap objects for the collector to walk) and given
+ * to uPlot as null, a break.
  */
 export class RollingSeries {
   private xs: number[] = [];
-  private ys: (number | null)[][];
+  private ys: number[][];
   private start = 0;
 
   constructor(
@@ -45,7 +47,7 @@ export class RollingSeries {
     this.xs.push(x);
     for (let i = 0; i < this.nSeries; i++) {
       const v = values[i];
-      (this.ys[i] as (number | null)[]).push(v === undefined || v === null || !Number.isFinite(v) ? null : v);
+      (this.ys[i] as number[]).push(v === undefined || v === null || !Number.isFinite(v) ? NaN : v);
     }
     this.trim();
   }
@@ -70,8 +72,48 @@ export class RollingSeries {
 
   /** A copy of the window, for uPlot's `setData`. */
   data(): Aligned {
-    return [this.xs.slice(this.start), ...this.ys.map((y) => y.slice(this.start))];
+    return [this.xs.slice(this.start), ...this.ys.map((y) => gaps(y.slice(this.start)))];
   }
+
+  /** The oldest x kept, or null when empty. */
+  first(): number | null {
+    return this.length > 0 ? (this.xs[this.start] as number) : null;
+  }
+
+  /** A copy of the points with `from` ≤ x ≤ `to` (and one on each side, so lines reach the edges). */
+  range(from: number, to: number): Aligned {
+    const lo = Math.max(this.start, this.lowerBound(from) - 1);
+    const hi = Math.min(this.xs.length, this.lowerBound(to) + 2);
+    if (hi <= lo) return [[], ...this.ys.map(() => [])];
+    return [this.xs.slice(lo, hi), ...this.ys.map((y) => gaps(y.slice(lo, hi)))];
+  }
+
+  /** The first index at or after `start` whose x is ≥ `x`. */
+  private lowerBound(x: number): number {
+    let a = this.start;
+    let b = this.xs.length;
+    while (a < b) {
+      const m = (a + b) >> 1;
+      if ((this.xs[m] as number) < x) a = m + 1;
+      else b = m;
+    }
+    return a;
+  }
+}
+
+/** NaN (a missing value) as null: a break in uPlot's line. */
+function gaps(values: number[]): (number | null)[] {
+  return values.map((v) => (Number.isNaN(v) ? null : v));
+}
+
+/**
+ * The x range a chart shows: `windowS` wide, ending at the newest point while following it
+ * (`end` null), else at `end`, kept within what is kept [first, last].
+ */
+export function viewRange(first: number | null, last: number | null, windowS: number, end: number | null): [number, number] {
+  if (first === null || last === null) return [0, windowS];
+  const e = end === null ? last : Math.min(last, Math.max(first + Math.min(windowS, last - first), end));
+  return [e - windowS, e];
 }
 
 /** A histogram bin for drawing: upper bound [µs] and count. */

@@ -1,9 +1,12 @@
-// Plots panel: (1) live output pulses per period of each axis (uPlot; the paper's Fig. 7 and
-// 8) from the simulator datagrams; (2) the live task timing table (the paper's Tables 3 and
+// Plots panel: (1) output pulses per period of each axis (uPlot; the paper's Fig. 7 and 8)
+// from the simulator datagrams, on the controller's clock (the datagram's timestamp): the last
+// `HISTORY_S` seconds are kept whatever tab is shown, and the chart is a window over them that
+// follows the newest point or is scrolled back (a move made while another tab was shown is
+// still there); redrawn only when visible and changed; (2) the live task timing table (the paper's Tables 3 and
 // 4) from `TASKS`, polled every second while the panel is visible and the bus connected,
 // with each task's wake-up latency histogram as a small log-scale bar chart.
 
-import { h, injectStyle } from '../dom';
+import { h } from '../dom';
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
 import type { Bus, RobotInfo, SimSample, TaskTiming } from '../protocol/bus';
@@ -11,6 +14,7 @@ import { PulseRate } from '../protocol/stream';
 import { parseTasks } from './tasks';
 import {
   RollingSeries,
+  viewRange,
   binLabel,
   fmtCount,
   fmtMs,
@@ -19,6 +23,7 @@ import {
   logHeight,
   maxBinIndex,
 } from './plot-data';
+import './plots.css';
 
 /** Series colours (up to 16 axes; repeats beyond). */
 const COLORS = [
@@ -27,47 +32,12 @@ const COLORS = [
 ];
 
 const POLL_MS = 1000;
-const WINDOWS_S = [5, 10, 30, 60];
+const WINDOWS_S = [5, 10, 30, 60, 300];
+/** The history kept [s]: the last five minutes. */
+export const HISTORY_S = 300;
+/** The chart is redrawn at most this often while the data change [ms]. */
+const REDRAW_MS = 100;
 
-const STYLE_ID = 'plot-style';
-const STYLE = `
-.plot-root { min-width: 0; display: flex; flex-direction: column; width: 100%; height: 100%; min-height: 0; box-sizing: border-box;
-  padding: 8px; gap: 8px; background: #14171b; color: #c8d0d8;
-  font: 12px/1.35 ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; overflow: hidden; }
-.plot-section { background: #181c21; border: 1px solid #2a3139; border-radius: 4px; display: flex;
-  flex-direction: column; min-height: 0; }
-.plot-chart-section { flex: 1 1 55%; min-height: 200px; }
-.plot-tasks-section { flex: 1 1 45%; min-height: 120px; }
-.plot-bar { display: flex; align-items: center; gap: 8px; padding: 5px 8px; border-bottom: 1px solid #2a3139;
-  flex-wrap: wrap; }
-.plot-title { font-weight: 700; color: #dfe6ee; letter-spacing: 0.03em; margin-right: auto; }
-.plot-note { color: #7d8894; }
-.plot-warn { color: #f0b23c; }
-.plot-bad { color: #ff6a5e; font-weight: 700; }
-.plot-bar button, .plot-bar select { background: #232930; color: #c8d0d8; border: 1px solid #3a434d;
-  border-radius: 3px; padding: 2px 8px; font: inherit; cursor: pointer; }
-.plot-bar button:hover { background: #2d353e; }
-.plot-bar button.plot-on { background: #4a3a12; border-color: #a07c24; color: #ffd27a; }
-.plot-chart { flex: 1 1 auto; min-height: 0; min-width: 0; position: relative; overflow: hidden; }
-.plot-chart > .uplot { position: absolute; left: 0; top: 0; }
-.plot-chart .uplot { font-family: inherit; color: #c8d0d8; }
-.plot-chart .u-legend { color: #c8d0d8; font-size: 11px; }
-.plot-chart .u-legend .u-marker { border-radius: 2px; }
-.plot-chart .u-select { background: rgba(120,160,220,0.15); }
-.plot-empty { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
-  color: #7d8894; pointer-events: none; }
-.plot-table-wrap { overflow: auto; flex: 1 1 auto; min-height: 0; }
-.plot-table { border-collapse: collapse; width: 100%; white-space: nowrap; }
-.plot-table th, .plot-table td { padding: 3px 7px; border-bottom: 1px solid #242a31; }
-.plot-table th { position: sticky; background: #1f242a; color: #9aa6b2; font-weight: 600; text-align: center; z-index: 1; }
-.plot-table thead tr:first-child th { top: 0; }
-.plot-table thead tr:nth-child(2) th { top: 22px; }
-.plot-table td { text-align: right; font-variant-numeric: tabular-nums; }
-.plot-table td.plot-name { text-align: left; color: #dfe6ee; }
-.plot-table tbody tr:hover { background: #1e242b; }
-.plot-table td.plot-hist { text-align: left; padding: 2px 7px; }
-.plot-table canvas { display: block; }
-`;
 
 export interface PlotsHandle {
   /** Call when the panel is shown or its size changed. */
@@ -77,7 +47,6 @@ export interface PlotsHandle {
 }
 
 export function mountPlots(root: HTMLElement, bus: Bus): PlotsHandle {
-  injectStyle(STYLE_ID, STYLE);
   const box = root.appendChild(h('div', { class: 'plot-root' }));
   const visible = (): boolean =>
     root.isConnected && box.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
@@ -122,14 +91,31 @@ function mountPulseChart(
   pauseBtn.title = 'Freeze the chart (data keeps being collected); drag to zoom while paused';
   const clearBtn = bar.appendChild(h('button', {}, 'Clear'));
   clearBtn.type = 'button';
-  clearBtn.title = 'Forget the data shown';
+  clearBtn.title = 'Forget the data kept';
   const area = section.appendChild(h('div', { class: 'plot-chart' }));
+  // The window's place in the history: at the right end it follows the newest point.
+  const scroll = section.appendChild(
+    h('input', {
+      type: 'range',
+      class: 'plot-scroll',
+      min: '0',
+      max: '1000',
+      step: '1',
+      value: '1000',
+      'data-testid': 'plot-scroll',
+      'aria-label': 'Where the window is in the last minutes kept',
+      title: `The window over the last ${HISTORY_S / 60} minutes kept (right: follow the newest)`,
+    }),
+  );
+  const span = bar.appendChild(h('span', { class: 'plot-note', 'data-testid': 'plot-span' }));
   const empty = area.appendChild(h('div', { class: 'plot-empty' }, 'Waiting for simulator datagrams…'));
 
   let windowS = 10;
   let paused = false;
   let names: string[] = [];
-  let series = new RollingSeries(0, windowS);
+  let series = new RollingSeries(0, HISTORY_S);
+  /** Where the window ends [s of the chart's time]; null: at the newest point. */
+  let end: number | null = null;
   const rate = new PulseRate(0);
   let t0: number | null = null;
   let lost = 0;
@@ -187,7 +173,7 @@ function mountPulseChart(
       scales: {
         x: {
           time: false,
-          range: (_u, _min, max) => (Number.isFinite(max) ? [max - windowS, max] : [0, windowS]),
+          range: () => viewRange(series.first(), series.last(), windowS, end),
         },
         y: {
           range: (_u, min, max) => {
@@ -210,21 +196,27 @@ function mountPulseChart(
         })),
       ],
       axes: [
-        { ...axisStyle, label: 'time [s]', labelSize: 18 },
+        { ...axisStyle, label: "controller's clock [s]", labelSize: 18 },
         { ...axisStyle, label: 'pulses / period', labelSize: 18, size: 60 },
       ],
       cursor: { drag: { x: true, y: false } },
       legend: { live: true },
     };
-    u = new uPlot(opts, series.data(), area);
+    u = new uPlot(opts, visibleData(), area);
     const s2 = chartSize();
     if (s2) u.setSize(s2);
     changed = true;
   }
 
+  /** The points of the window, and a little beyond. */
+  function visibleData(): ReturnType<RollingSeries['data']> {
+    const [a, b] = viewRange(series.first(), series.last(), windowS, end);
+    return series.range(a, b);
+  }
+
   function reset(n: number): void {
     names = axisNames(bus.robot(), n);
-    series = new RollingSeries(n, windowS);
+    series = new RollingSeries(n, HISTORY_S);
     rate.reset();
     t0 = null;
     createChart();
@@ -235,10 +227,13 @@ function mountPulseChart(
     rate.reset();
     t0 = null;
     lost = 0;
+    end = null;
+    scroll.value = '1000';
     changed = true;
     // Cleared even while paused.
-    if (paused) u?.setData(series.data(), true);
+    if (paused) u?.setData(visibleData(), true);
     updateTitle();
+    schedule();
   }
 
   function onSample(s: SimSample): void {
@@ -259,6 +254,7 @@ function mountPulseChart(
     }
     series.push(t, p.perPeriod);
     changed = true;
+    schedule();
   }
 
   pauseBtn.addEventListener('click', () => {
@@ -266,12 +262,21 @@ function mountPulseChart(
     pauseBtn.textContent = paused ? 'Resume' : 'Pause';
     pauseBtn.classList.toggle('plot-on', paused);
     changed = true;
+    schedule();
+  });
+  scroll.addEventListener('input', () => {
+    const v = Number(scroll.value);
+    const first = series.first();
+    const last = series.last();
+    end = v >= 1000 || first === null || last === null ? null : first + ((last - first) * v) / 1000;
+    changed = true;
+    schedule();
   });
   clearBtn.addEventListener('click', () => clear());
   windowSel.addEventListener('change', () => {
     windowS = Number(windowSel.value) || 10;
-    series.setWindow(windowS);
     changed = true;
+    schedule();
   });
 
   const onRobot = (r: RobotInfo): void => {
@@ -303,25 +308,37 @@ function mountPulseChart(
       : null;
   ro?.observe(area);
 
+  // Drawn on demand: a frame is asked for when the data or the view changed, and drawn only
+  // while the panel is visible (shown again, resize() draws it), at most every REDRAW_MS.
   let raf = 0;
-  let frameNo = 0;
-  function frame(): void {
-    if (disposed) return;
+  let lastDraw = -Infinity;
+  function schedule(): void {
+    if (raf !== 0 || disposed || !visible()) return;
     raf = requestAnimationFrame(frame);
-    frameNo++;
-    if (!visible()) return;
+  }
+  function frame(now: number): void {
+    raf = 0;
+    if (disposed || !visible()) return;
+    if (now - lastDraw < REDRAW_MS) {
+      schedule();
+      return;
+    }
     if (!u && names.length > 0) createChart();
     empty.style.display = series.length > 0 ? 'none' : '';
-    // Redraw at most every other frame (~30 Hz): the data come at the datagram rate.
-    if (!u || paused || !changed || frameNo % 2 !== 0) return;
+    const first = series.first();
+    const last = series.last();
+    span.textContent = first !== null && last !== null ? `kept ${(last - first).toFixed(0)} s of ${HISTORY_S} s${end === null ? '' : ' · scrolled back'}` : '';
+    if (!u || paused || !changed) return;
     changed = false;
-    u.setData(series.data(), true);
+    lastDraw = now;
+    u.setData(visibleData(), true);
   }
-  raf = requestAnimationFrame(frame);
   updateTitle();
 
   return {
     resize() {
+      changed = true;
+      schedule();
       if (!u) {
         createChart();
         return;

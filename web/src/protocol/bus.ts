@@ -22,6 +22,24 @@ export interface AxisInfo {
 }
 
 /**
+ * A named digital signal, from an `EVT SIGNAL <in|out> <n> <guarded|-> <name…>` line of the
+ * `ROBOT` reply (a controller that predates them sends none: signals are then numbers only).
+ */
+export interface SignalInfo {
+  /** `in`: an input (a lamp); `out`: an output (a switch). */
+  dir: 'in' | 'out';
+  /** Its number, 0 to 31 (`IO`'s bit, `OUT <n>`). */
+  n: number;
+  /**
+   * A guarded output (the hand's vacuum valve, …): switching it while the wafer map says a
+   * blade holds a wafer is refused (`NAK 141`) unless the request ends with `FORCE`.
+   */
+  guarded: boolean;
+  /** The configuration's name (`vacuum valve`, `E-stop button`); may contain blanks. */
+  name: string;
+}
+
+/**
  * The robot, from the `ROBOT` reply (`ACK … name= link1= link2= hand= axes= period_ms=`, and
  * `blade_b=` on a dual-blade robot).
  */
@@ -45,6 +63,8 @@ export interface RobotInfo {
   inputs: number;
   outputs: number;
   axes: AxisInfo[];
+  /** The named signals (empty from a controller that names none). */
+  signals?: SignalInfo[];
 }
 
 /**

@@ -71,8 +71,36 @@ describe('Commander', () => {
       'inf INF GET finished: W3',
       'out > MOVJ 1 2 3 4',
       'ack ACK MOVJ (started)',
-      'abs ABS MOVJ: 201 emergency stop',
+      // A stop someone asked for is logged as a stop, not as a fault.
+      'stop ABS MOVJ: 201 emergency stop',
     ]);
+  });
+
+  it('logs a fault that ends a motion as an ABS, and tells its listeners every reply', async () => {
+    const { bus } = fakeBus(() => ({
+      first: ack(5),
+      final: Promise.resolve<FinalReply>({ kind: 'ABS', id: 5, code: 203, text: 'following error', line: 'ABS 5 203 following error' }),
+    }));
+    const cmd = new Commander(bus, new ControllerModel(bus));
+    const heard: string[] = [];
+    cmd.onReply((o) => heard.push(`${o.kind} ${o.request}`));
+    await cmd.send('MOVJ 1 2 3 4');
+    await flush();
+    expect(texts(cmd.log).at(-1)).toBe('abs ABS MOVJ: 203 following error');
+    expect(heard).toEqual(['first MOVJ 1 2 3 4', 'final MOVJ 1 2 3 4']);
+  });
+
+  it('hands the request to the bus before it logs anything (the E-STOP leaves first)', async () => {
+    let loggedBefore = -1;
+    let cmd: Commander | null = null;
+    const { bus } = fakeBus(() => {
+      loggedBefore = cmd?.log.entries().length ?? -1;
+      return { first: ack(1), final: null };
+    });
+    cmd = new Commander(bus, new ControllerModel(bus));
+    await cmd.send('ESTOP');
+    expect(loggedBefore).toBe(0);
+    expect(texts(cmd.log)).toEqual(['out > ESTOP', 'ack ACK ESTOP']);
   });
 
   it('logs a request that could not be sent, and resolves null', async () => {

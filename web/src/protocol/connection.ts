@@ -5,8 +5,8 @@
 //   sends `SUBSCRIBE`, `ROBOT` and `IO` (each with an id), and learns the robot again.
 // - Requests get ids; first replies (ACK/NAK) and final replies (INF/ABS) are matched by id.
 //   An id-less first reply (`NAK 103`) belongs to the oldest request still waiting; the
-//   requester-only events before a first reply (`EVT AXIS`, `EVT TASK`, `EVT DIAG`, `EVT VAR`,
-//   `EVT POINT`, `EVT RECOVERY`) to the oldest waiting request of the verb that causes them (see
+//   requester-only events before a first reply (`EVT AXIS`, `EVT SIGNAL`, `EVT TASK`, `EVT DIAG`,
+//   `EVT VAR`, `EVT POINT`, `EVT RECOVERY`, `EVT OBSTACLE`) to the oldest waiting request of the verb that causes them (see
 //   `collect`).
 // - Binary frames are simulator datagrams, decoded by `decodeSample`.
 
@@ -60,6 +60,9 @@ const OPEN = 1;
 /** Events sent only to the requester, before the first reply of these verbs. */
 const REQUESTER_EVENTS: Record<string, string[]> = {
   AXIS: ['ROBOT'],
+  SIGNAL: ['ROBOT'],
+  // Sent with a STN reply only (a station's line also after TEACH, to everyone: not here).
+  OBSTACLE: ['STN'],
   TASK: ['TASKS'],
   DIAG: ['UPLOAD', 'RUN'],
   VAR: ['VARS'],
@@ -382,7 +385,7 @@ export class Connection implements Bus {
 
   /**
    * Give an event line to the requests waiting for their first reply. The requester-only
-   * events (`AXIS`, `TASK`, `DIAG`, `VAR`, `POINT`, `RECOVERY`) go to the oldest waiting request of the verb that causes
+   * events (`AXIS`, `SIGNAL`, `TASK`, `DIAG`, `VAR`, `POINT`, `RECOVERY`, `OBSTACLE`) go to the oldest waiting request of the verb that causes
    * them (first replies of different verbs may overtake each other: queries answered by other
    * controller threads come back before those of the Command Interpreter); every other event
    * but the status stream goes to every waiting request.

@@ -32,6 +32,16 @@ export interface ControllerView {
   pulses: number[] | null;
   /** `performance.now()` of the last simulator sample (0: none yet). */
   lastSample: number;
+  /** Connections to the controller so far (1 after the first `EVT UI CONNECTED`). */
+  epoch: number;
+  /**
+   * The connection (`epoch`) in which `positions` were last read from the robot (a WHERE or
+   * STATUS reply, the status stream or a datagram); 0: never. Fields filled from the robot
+   * wait until it equals `epoch`: values from before a reconnection may be stale.
+   */
+  positionsEpoch: number;
+  /** The connection (`epoch`) in which `owner` was last told (STATUS, the status stream, EVT CONTROL); 0: never. */
+  ownerEpoch: number;
 }
 
 /** Keeps a `ControllerView` up to date from the bus; `onChange` listeners see every change. */
@@ -56,6 +66,9 @@ export class ControllerModel {
     positions: [],
     pulses: null,
     lastSample: 0,
+    epoch: 0,
+    positionsEpoch: 0,
+    ownerEpoch: 0,
   };
   private readonly listeners = new Listeners<[ControllerView]>('controller view');
   private notify = frameThrottle(() => {
@@ -72,7 +85,12 @@ export class ControllerModel {
         this.v.me = null;
         this.v.state = null;
       } else {
+        this.v.epoch++;
         this.refresh();
+        this.bus
+          .request('WHERE')
+          .then(({ first }) => this.noteReply('WHERE', first))
+          .catch(() => undefined);
       }
       this.notify();
     });
@@ -136,7 +154,21 @@ export class ControllerModel {
 
   private sample(s: SimSample): void {
     const v = this.v;
-    v.lastSample = performance.now();
+    const now = performance.now();
+    // At rest every datagram says the same: nothing to draw (the 300 ms freshness of
+    // `lastSample` is kept by the datagrams that do change, and by this one once it ages).
+    const same =
+      v.positionsEpoch === v.epoch &&
+      v.state === s.state &&
+      v.homed === s.homed &&
+      v.inputs === s.inputs &&
+      v.outputs === s.outputs &&
+      sameNumbers(v.positions, s.positions) &&
+      v.pulses !== null &&
+      sameNumbers(v.pulses, s.pulses);
+    v.lastSample = now;
+    if (same) return;
+    v.positionsEpoch = v.epoch;
     v.state = s.state;
     v.homed = s.homed;
     v.inputs = s.inputs;
@@ -150,7 +182,14 @@ export class ControllerModel {
     this.notify();
   }
 
+  /** What a status line can change, to tell whether one changed anything. */
+  private statusKey(): string {
+    const v = this.v;
+    return `${v.state}|${v.homed}|${v.speed}|${v.owner}|${v.ownerEpoch}|${v.err}|${v.errText}|${v.positionsEpoch}|${v.positions.join(',')}|${v.x}|${v.y}|${v.z}|${v.yaw}`;
+  }
+
   private status(fields: string | Record<string, string>): void {
+    const before = this.statusKey();
     const st = parseStatus(fields);
     const v = this.v;
     // Samples are newer and faster; lastSample 0 means none has come yet.
@@ -158,12 +197,16 @@ export class ControllerModel {
     if (st.state && !fresh) v.state = st.state;
     if (st.homed !== undefined && !fresh) v.homed = st.homed;
     if (st.speed !== undefined) v.speed = st.speed;
-    if (st.owner !== undefined) v.owner = st.owner;
+    if (st.owner !== undefined) {
+      v.owner = st.owner;
+      v.ownerEpoch = v.epoch;
+    }
     if (st.err !== undefined) {
       if (st.err === 0) v.errText = '';
       else if (st.err !== v.err || v.errText === '') v.errText = errorText(st.err);
       v.err = st.err;
     }
+    if (st.joints) v.positionsEpoch = v.epoch;
     if (!fresh) {
       if (st.joints) {
         v.positions = st.joints;
@@ -175,7 +218,8 @@ export class ControllerModel {
       if (st.z !== undefined) v.z = st.z;
       if (st.yaw !== undefined) v.yaw = st.yaw;
     }
-    this.notify();
+    // The status stream repeats itself at rest: nothing to draw then.
+    if (this.statusKey() !== before) this.notify();
   }
 
   private event(name: string, body: string): void {
@@ -191,6 +235,7 @@ export class ControllerModel {
       }
       case 'CONTROL':
         v.owner = body.trim() || 'none';
+        v.ownerEpoch = v.epoch;
         break;
       case 'ERROR': {
         const e = parseErrorEvent(body);
@@ -213,6 +258,12 @@ export class ControllerModel {
     }
     this.notify();
   }
+}
+
+function sameNumbers(a: readonly number[], b: readonly number[]): boolean {
+  if (a.length !== b.length) return false;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) return false;
+  return true;
 }
 
 /**

@@ -21,6 +21,7 @@ import {
   parseStatus,
   programAbsLine,
   replyRest,
+  parseSignal,
   robotFromReply,
   traceSaveOutcome,
   traceSaveRequest,
@@ -339,5 +340,40 @@ describe('TRACE SAVE', () => {
       text: "the controller's reply names no file: ACK 7 samples=3",
     });
     expect(traceSaveOutcome(first('ACK 8 file='))).toMatchObject({ ok: false });
+  });
+});
+
+describe('named signals (EVT SIGNAL lines of the ROBOT reply)', () => {
+  const lines = [
+    'SIGNAL out 0 guarded vacuum valve',
+    'SIGNAL out 1 - mapping sensor',
+    'SIGNAL in 0 - vacuum sensor',
+    'SIGNAL in 14 - interlock LP1 LP2',
+    'SIGNAL in 15 - E-stop button',
+  ];
+
+  it('reads each line: direction, number, guarded, and the name with its blanks', () => {
+    expect(parseSignal('out 0 guarded vacuum valve')).toEqual({ dir: 'out', n: 0, guarded: true, name: 'vacuum valve' });
+    expect(parseSignal('in 14 - interlock LP1 LP2')).toEqual({ dir: 'in', n: 14, guarded: false, name: 'interlock LP1 LP2' });
+    expect(parseSignal('in 15 - E-stop button  ')).toEqual({ dir: 'in', n: 15, guarded: false, name: 'E-stop button' });
+  });
+
+  it('refuses what is not one', () => {
+    for (const bad of ['', 'out 0 guarded', 'out x - name', 'both 1 - name', 'out 32 - name', 'out 1 maybe name']) {
+      expect(parseSignal(bad), bad).toBeNull();
+    }
+  });
+
+  it('the ROBOT reply keeps them beside the axes, inputs first; an older controller gives none', () => {
+    const r = robotFromReply({ name: 'paper-300mm', axes: '1' }, ['AXIS 1 name=j1 role=shoulder unit=deg ppu=1000', ...lines, 'SIGNAL junk']);
+    expect(r.axes).toHaveLength(1);
+    expect(r.signals?.map((s) => `${s.dir}${s.n}${s.guarded ? '!' : ''} ${s.name}`)).toEqual([
+      'in0 vacuum sensor',
+      'in14 interlock LP1 LP2',
+      'in15 E-stop button',
+      'out0! vacuum valve',
+      'out1 mapping sensor',
+    ]);
+    expect(robotFromReply({}, ['AXIS 1 name=j1']).signals).toEqual([]);
   });
 });

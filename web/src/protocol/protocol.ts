@@ -1,7 +1,7 @@
 // Pure parsing and formatting of the controller's line protocol (docs/protocol.md) for the
 // browser: no DOM, no sockets, so every function here is unit-tested on plain strings.
 
-import type { AxisInfo, FirstReply, RobotInfo, RobotState } from './bus';
+import type { AxisInfo, FirstReply, RobotInfo, RobotState, SignalInfo } from './bus';
 
 /** One line from `wrc ui`, classified. */
 export type Line =
@@ -117,12 +117,35 @@ function bladeOffset(v: string | undefined): number | null {
 }
 
 /**
- * The robot from the `ROBOT` reply: its `ACK` fields and the `EVT AXIS` lines collected before
- * it (given as event lines without `EVT `, e.g. `AXIS 1 name=j1 …`; other events are skipped).
+ * `EVT SIGNAL <in|out> <n> <guarded|-> <name…>` (the body after `SIGNAL`): `out 0 guarded
+ * vacuum valve`, `in 14 - interlock LP1 LP2`. Null for anything else (a signal number beyond
+ * 31, another direction or mark, no name); the name is the rest of the line, blanks kept
+ * between its words.
+ */
+export function parseSignal(body: string): SignalInfo | null {
+  if (typeof body !== 'string') return null;
+  const m = /^\s*(in|out)[ \t]+(\d{1,2})[ \t]+(guarded|-)[ \t]+(\S.*?)\s*$/i.exec(body);
+  if (!m) return null;
+  const n = Number(m[2]);
+  if (n > 31) return null;
+  return { dir: m[1].toLowerCase() as 'in' | 'out', n, guarded: m[3].toLowerCase() === 'guarded', name: m[4] };
+}
+
+/**
+ * The robot from the `ROBOT` reply: its `ACK` fields and the `EVT AXIS` and `EVT SIGNAL` lines
+ * collected before it (given as event lines without `EVT `, e.g. `AXIS 1 name=j1 …`; other
+ * events are skipped, as are malformed lines; a signal named twice keeps its last name).
  */
 export function robotFromReply(fields: Record<string, string>, events: string[]): RobotInfo {
   const axes: AxisInfo[] = [];
+  const signals = new Map<string, SignalInfo>();
   for (const e of events) {
+    const sig = /^SIGNAL[ \t]+(.*)$/i.exec(e);
+    if (sig) {
+      const s = parseSignal(sig[1]);
+      if (s) signals.set(`${s.dir}${s.n}`, s);
+      continue;
+    }
     const m = /^AXIS[ \t]+(.*)$/i.exec(e);
     if (!m) continue;
     const a = parseAxis(m[1]);
@@ -139,6 +162,7 @@ export function robotFromReply(fields: Record<string, string>, events: string[])
     inputs: num(fields.inputs, 32),
     outputs: num(fields.outputs, 32),
     axes,
+    signals: [...signals.values()].sort((a, b) => (a.dir === b.dir ? a.n - b.n : a.dir === 'in' ? -1 : 1)),
   };
 }
 

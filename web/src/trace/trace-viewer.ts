@@ -9,44 +9,16 @@
 import type { Bus } from '../protocol/bus';
 import { parseState } from '../protocol/protocol';
 import type { SimulatorHandle } from '../view3d/simulator';
-import { h, injectStyle } from '../dom';
+import { h } from '../dom';
 import { byTime, describeMessage, hex32, messagesNear, readTrace, sourceName, type Trace, type TraceMessage } from './trace';
 import { positionsAt, traceRobot, type TraceRobot } from './trace-robot';
+import './trace-viewer.css';
 
 /** Messages within this much of the scrubber are listed [ns]. */
 const MESSAGE_WINDOW_NS = 1e9;
 /** At most this many of them are drawn, around the current one. */
 const MAX_MESSAGE_ROWS = 40;
 
-const STYLE_ID = 'trace-style';
-const STYLE = `
-.trace-bar { flex: none; background: var(--bg2, #121921); border-top: 1px solid var(--line, #253140); padding: 5px 8px;
-  display: flex; flex-direction: column; gap: 4px; font-size: 12px; }
-.trace-row { display: flex; align-items: center; gap: 8px; min-width: 0; }
-.trace-file { flex: 1; min-width: 0; overflow: hidden; text-overflow: ellipsis; white-space: nowrap; color: var(--dim, #8795a5); }
-.trace-file b { color: var(--fg, #dde4ec); font-weight: 600; }
-.trace-open-input { position: absolute; width: 1px; height: 1px; opacity: 0; pointer-events: none; }
-label.btn.trace-open { display: inline-block; }
-.trace-open-input:focus-visible + label.trace-open { outline: 1px solid var(--accent, #3da9fc); }
-.trace-error { color: #ff8a80; font-weight: 600; }
-.trace-note { color: var(--warn, #ffb020); }
-.trace-error:empty, .trace-note:empty { display: none; }
-.trace-scrubber { flex: 1; accent-color: var(--warn, #ffb020); }
-.trace-time { font-family: var(--mono, monospace); min-width: 150px; text-align: right; }
-.trace-play { min-width: 64px; }
-.trace-detail { display: grid; grid-template-columns: 230px 1fr; gap: 8px; min-height: 0; }
-.trace-readout { display: grid; grid-template-columns: auto 1fr; gap: 2px 8px; align-content: start; font-family: var(--mono, monospace); }
-.trace-readout .k { color: var(--dim, #8795a5); font-family: var(--sans, sans-serif); }
-.trace-messages { position: relative; height: 96px; overflow-y: auto; background: #0b1016; border: 1px solid var(--line, #253140);
-  border-radius: 3px; font: 11px/1.45 var(--mono, monospace); padding: 1px 4px; }
-.trace-message { display: flex; gap: 6px; white-space: pre; color: #9fb3c8; }
-.trace-message.reply { color: #8fd19e; }
-.trace-message.opened, .trace-message.closed { color: #7f8fa3; font-style: italic; }
-.trace-message.current { background: #3a2f10; color: #ffd27a; }
-.trace-message .dt { color: #5d6b7a; width: 64px; text-align: right; flex: none; }
-.trace-message .src { color: #5d6b7a; width: 64px; flex: none; overflow: hidden; }
-.trace-messages .none { color: #5d6b7a; }
-`;
 
 /** `1.234 s`. */
 function seconds(ns: number): string {
@@ -79,7 +51,6 @@ export interface TraceViewer {
 
 /** Mount the trace bar at the end of `el` (the Simulator tab), drawing into `sim`. */
 export function mountTraceViewer(el: HTMLElement, sim: SimulatorHandle, bus: Pick<Bus, 'robot'>): TraceViewer {
-  injectStyle(STYLE_ID, STYLE);
 
   const input = h('input', {
     type: 'file',

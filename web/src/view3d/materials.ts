@@ -34,12 +34,16 @@ const JOINT_COLOR: Record<RobotState, string> = {
  * disc's caps map the texture's centre to the wafer's centre). Null outside a browser.
  */
 function uncertainTexture(): THREE.Texture | null {
-  if (typeof document === 'undefined') return null;
   const size = 256;
-  const c = document.createElement('canvas');
-  c.width = size;
-  c.height = size;
-  const g = c.getContext('2d');
+  // The page's canvas, or in the render worker an OffscreenCanvas.
+  let c: HTMLCanvasElement | OffscreenCanvas;
+  if (typeof document !== 'undefined') {
+    c = document.createElement('canvas');
+    c.width = size;
+    c.height = size;
+  } else if (typeof OffscreenCanvas !== 'undefined') c = new OffscreenCanvas(size, size);
+  else return null;
+  const g = c.getContext('2d') as CanvasRenderingContext2D | OffscreenCanvasRenderingContext2D | null;
   if (!g) return null;
   g.fillStyle = '#ffffff';
   g.fillRect(0, 0, size, size);
@@ -56,7 +60,7 @@ function uncertainTexture(): THREE.Texture | null {
   g.textAlign = 'center';
   g.textBaseline = 'middle';
   g.fillText('?', size / 2, size / 2 + size * 0.03);
-  const t = new THREE.CanvasTexture(c);
+  const t = new THREE.CanvasTexture(c as HTMLCanvasElement);
   t.colorSpace = THREE.SRGBColorSpace;
   return t;
 }

@@ -2,19 +2,23 @@
 // (bus.robot / bus.onRobot) and animated from the simulator datagrams (bus.onSample), or, while
 // the trace viewer has a trace open, the recorded robot at its scrubber (showRecorded).
 //
-// This module wires the parts together and runs the animation loop: the scene (scene.ts) with
-// the drawn robot (robot-model.ts), the live datagrams (live-stream.ts) and the text overlay
-// (overlay.ts).
+// This module is the page's side: the canvas, the overlay, the stations' names, the buttons and
+// the pointer (orbit, pan, zoom). The drawing itself is a SceneHost (scene-host.ts) in the
+// render worker on an OffscreenCanvas — nothing it draws can hold up the page's main thread,
+// where the E-STOP is handled — or, in a browser without OffscreenCanvas, on the page. It is
+// told only what changes: a datagram that moves nothing sends nothing, so at rest nothing is
+// drawn at all.
 
 import * as THREE from 'three';
-import type { Bus, RobotInfo, RobotState } from '../protocol/bus';
-import { h, injectStyle } from '../dom';
+import type { Bus, RobotInfo, RobotState, SimSample } from '../protocol/bus';
+import { h } from '../dom';
 import { LiveStream } from './live-stream';
 import { drawOverlay } from './overlay';
-import { SimScene, type StationSpec, type WaferDisc } from './scene';
-import { armPose, homePositions, type ArmPose } from './sim-kinematics';
+import { renderQuality, type ObstacleSpec, type RenderQuality, type StationSpec, type WaferDisc } from './scene';
+import { SceneHost, type CameraAsk, type SceneMessage, type SceneReport } from './scene-host';
+import { armAxes, type ArmPose } from './sim-kinematics';
+import './simulator.css';
 
-/** A recorded pose to draw instead of the live robot (the trace viewer at its scrubber). */
 export interface RecordedFrame {
   /** The robot recorded; the drawing is rebuilt only when this object changes. */
   robot: RobotInfo;
@@ -25,7 +29,6 @@ export interface RecordedFrame {
   /** What the overlay says: which trace, where in it. */
   label: string;
 }
-
 export interface SimulatorHandle {
   /** Call when the panel is shown or its size changed. */
   resize(): void;
@@ -45,14 +48,30 @@ export interface SimulatorHandle {
    * stations change, not per frame.
    */
   setStationWafers(discs: readonly WaferDisc[]): void;
+  /** The fixed obstacles of the cell (replacing those drawn before). */
+  setObstacles(list: readonly ObstacleSpec[]): void;
+  /** The station of the transfer in progress (null: none): the default camera frames it. */
+  setWorkingStation(name: string | null): void;
+  /** Draw the view inside `el` (the Simulator tab, or beside the wafer map). */
+  moveTo(el: HTMLElement): void;
+  /** How the view draws (for tests and the console). */
+  quality(): RenderQuality | null;
+  /** Frames drawn so far (for tests and the console: none at rest). */
+  framesDrawn(): number;
+  /** Where the view draws: `worker` (an OffscreenCanvas in the render worker) or `page`; null without WebGL. */
+  drawnIn(): 'worker' | 'page' | null;
+  /** Draw calls the stations' wafers take (one per look in use; LP1's 25 wafers are one). */
+  slotDrawCalls(): number;
+  /** The main thread's time in the last frame and the longest so far [ms] (the overlay shows them). */
+  frameTimes(): { lastMs: number; maxMs: number };
   /**
    * Draw a recorded robot and pose instead of the live one, until called with null: then the
    * live robot and its latest datagram again. Live datagrams keep being counted meanwhile.
    */
   showRecorded(frame: RecordedFrame | null): void;
   /**
-   * The joint values the 3D view draws now [deg, deg, deg, mm], read back from the scene
-   * (for tests and the console); null before a robot is known or without WebGL.
+   * The joint values the 3D view draws now [deg, deg, deg, mm], as the scene reported after
+   * its last frame (for tests and the console); null before a robot is drawn or without WebGL.
    */
   drawnPose(): ArmPose | null;
   /**
@@ -65,43 +84,76 @@ export interface SimulatorHandle {
   dispose(): void;
 }
 
-const STYLE_ID = 'sim-style';
-const STYLE = `
-.sim-root { position: relative; width: 100%; height: 100%; min-height: 0; overflow: hidden;
-  background: #14171b; font: 12px/1.35 ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; color: #c8d0d8; }
-.sim-root canvas { position: absolute; inset: 0; display: block; width: 100%; height: 100%; outline: none; }
-.sim-overlay { position: absolute; top: 8px; left: 8px; padding: 6px 9px; background: rgba(12,14,17,0.78);
-  border: 1px solid #2c333b; border-radius: 4px; pointer-events: none; white-space: pre; min-width: 190px; }
-.sim-overlay .sim-k { color: #7d8894; }
-.sim-state { font-weight: 700; letter-spacing: 0.04em; }
-.sim-state-IDLE { color: #9fb3c8; } .sim-state-MOVING { color: #5fd07a; } .sim-state-STOPPING { color: #f0b23c; }
-.sim-state-HELD { color: #6cb8ff; } .sim-state-ERROR { color: #ff5a4e; } .sim-state-ESTOP { color: #ff3b30; }
-.sim-warn { color: #f0b23c; }
-.sim-buttons { position: absolute; right: 8px; bottom: 8px; display: flex; gap: 6px; }
-.sim-buttons button { background: #232930; color: #c8d0d8; border: 1px solid #3a434d; border-radius: 3px;
-  padding: 3px 8px; font: inherit; cursor: pointer; }
-.sim-buttons button:hover { background: #2d353e; }
-.sim-msg { position: absolute; inset: 0; display: flex; align-items: center; justify-content: center;
-  text-align: center; padding: 24px; color: #c8d0d8; font-size: 14px; pointer-events: none; }
-.sim-msg-box { background: rgba(12,14,17,0.85); border: 1px solid #3a434d; border-radius: 4px; padding: 12px 18px; max-width: 32em; }
-.sim-msg-error .sim-msg-box { border-color: #a33; color: #ffb4ae; }
-`;
-
 /** True when the browser can give three.js a WebGL 2 context. */
 export function webglAvailable(): boolean {
+  return webglRenderer() !== null;
+}
+
+/** The WebGL 2 renderer's name (`ANGLE (Google, Vulkan … SwiftShader …)`), '' when it is not told; null without WebGL 2. */
+function webglRenderer(): string | null {
   try {
     const c = h('canvas');
     const gl = c.getContext('webgl2');
+    if (!gl) return null;
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : String(gl.getParameter(gl.RENDERER));
     // Give the probe's context back at once: browsers allow only a few at a time.
-    gl?.getExtension('WEBGL_lose_context')?.loseContext();
-    return gl !== null;
+    gl.getExtension('WEBGL_lose_context')?.loseContext();
+    return name;
   } catch {
-    return false;
+    return null;
   }
 }
 
+/** Whether two samples draw the same robot (same joints and state). */
+function sameDrawing(a: SimSample | null, b: SimSample): boolean {
+  if (!a || a.state !== b.state || a.positions.length !== b.positions.length) return false;
+  for (let i = 0; i < a.positions.length; i++) if (Math.abs(a.positions[i] - b.positions[i]) > 1e-6) return false;
+  return true;
+}
+
+/** Where the scene runs: a function that takes its messages. */
+interface Driver {
+  post(m: SceneMessage): void;
+  dispose(): void;
+}
+
+/** The scene in the render worker, on `canvas` handed over as an OffscreenCanvas; null when the browser cannot. */
+function workerDriver(
+  canvas: HTMLCanvasElement,
+  quality: RenderQuality,
+  report: (r: SceneReport) => void,
+  failed: (why: string) => void,
+): Driver | null {
+  if (typeof Worker === 'undefined' || typeof canvas.transferControlToOffscreen !== 'function') return null;
+  let worker: Worker;
+  let offscreen: OffscreenCanvas;
+  try {
+    offscreen = canvas.transferControlToOffscreen();
+    worker = new Worker(new URL('./scene-worker.ts', import.meta.url), { type: 'module' });
+  } catch {
+    return null;
+  }
+  worker.onmessage = (ev: MessageEvent<{ t: 'report'; report: SceneReport } | { t: 'ready' } | { t: 'failed'; why: string }>) => {
+    if (ev.data.t === 'report') report(ev.data.report);
+    else if (ev.data.t === 'failed') failed(ev.data.why);
+  };
+  worker.onerror = (e) => failed(e.message || 'the render worker failed');
+  worker.postMessage({ t: 'init', canvas: offscreen, quality }, [offscreen]);
+  return {
+    post: (m) => worker.postMessage(m),
+    dispose: () => worker.terminate(),
+  };
+}
+
+/** The scene on the page (a browser without OffscreenCanvas). */
+function pageDriver(canvas: HTMLCanvasElement, quality: RenderQuality, report: (r: SceneReport) => void): Driver {
+  const renderer = new THREE.WebGLRenderer({ canvas, antialias: quality.antialias, powerPreference: 'low-power' });
+  const host = new SceneHost(renderer, quality, report, (cb) => requestAnimationFrame(cb));
+  return { post: (m) => host.handle(m), dispose: () => host.dispose() };
+}
+
 export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
-  injectStyle(STYLE_ID, STYLE);
   const root = el.appendChild(h('div', { class: 'sim-root' }));
   const msg = root.appendChild(h('div', { class: 'sim-msg' }));
   const msgBox = msg.appendChild(h('div', { class: 'sim-msg-box' }));
@@ -111,39 +163,86 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     msgBox.textContent = text ?? '';
   };
 
-  const noop: SimulatorHandle = {
-    resize() {},
-    addStation: (spec) => spec.name,
-    removeStation() {},
-    clearStations() {},
-    setWafer() {},
-    setBladeBWafer() {},
-    setStationWafers() {},
-    showRecorded() {},
-    drawnPose: () => null,
-    drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
-    dispose() {
-      root.remove();
-    },
-  };
-
-  if (!webglAvailable()) {
+  const rendererName = webglRenderer();
+  if (rendererName === null) {
     showMessage(
       '3D simulator unavailable: this browser has no WebGL 2 (it may be disabled, or no GPU ' +
         'driver is available). Control, Editor and Plots keep working.',
       true,
     );
-    return noop;
+    return {
+      resize() {},
+      addStation: (spec) => spec.name,
+      removeStation() {},
+      clearStations() {},
+      setWafer() {},
+      setBladeBWafer() {},
+      setStationWafers() {},
+      setObstacles() {},
+      setWorkingStation() {},
+      moveTo(target) {
+        target.append(root);
+      },
+      quality: () => null,
+      framesDrawn: () => 0,
+      drawnIn: () => null,
+      slotDrawCalls: () => 0,
+      frameTimes: () => ({ lastMs: 0, maxMs: 0 }),
+      showRecorded() {},
+      drawnPose: () => null,
+      drawnWafers: () => ({ hand: null, bladeB: null, slots: {} }),
+      dispose() {
+        root.remove();
+      },
+    };
   }
-  let renderer: THREE.WebGLRenderer;
-  try {
-    renderer = new THREE.WebGLRenderer({ antialias: true });
-  } catch (e) {
-    showMessage(`3D simulator unavailable: WebGL could not be started (${String(e)}).`, true);
-    return noop;
+  const quality = renderQuality(rendererName, window.devicePixelRatio);
+  root.setAttribute('data-quality', quality.tier);
+
+  // ---- what the scene reported after its last frame ----
+  let last: SceneReport | null = null;
+  const labels = h('div', { class: 'sim-labels', 'aria-hidden': 'true' });
+  const labelEls = new Map<string, HTMLElement>();
+  function onReport(r: SceneReport): void {
+    last = r;
+    for (const l of r.labels) {
+      let e = labelEls.get(l.id);
+      if (!e) {
+        e = labels.appendChild(h('span', { class: 'sim-label', 'data-testid': 'sim-label', 'data-station': l.id }, l.id));
+        labelEls.set(l.id, e);
+      }
+      e.hidden = !l.visible;
+      if (l.visible) e.style.transform = `translate(${l.x}px, ${l.y}px) translate(-50%, -100%)`;
+    }
+    for (const [id, e] of labelEls) {
+      if (r.labels.some((l) => l.id === id)) continue;
+      e.remove();
+      labelEls.delete(id);
+    }
   }
-  const view = new SimScene(renderer);
-  root.insertBefore(renderer.domElement, msg);
+
+  // ---- the canvas and where it is drawn ----
+  let canvas = h('canvas', { tabindex: '0' });
+  root.insertBefore(canvas, msg);
+  let where: 'worker' | 'page' = 'worker';
+  let driver: Driver;
+  const startOnPage = (): Driver => {
+    where = 'page';
+    return pageDriver(canvas, quality, onReport);
+  };
+  driver =
+    workerDriver(canvas, quality, onReport, (why) => {
+      // The worker could not draw (no WebGL there): draw on the page instead, on a new canvas.
+      console.warn(`wrc: the 3D view draws on the page: ${why}`);
+      driver.dispose();
+      const fresh = h('canvas', { tabindex: '0' });
+      canvas.replaceWith(fresh);
+      canvas = fresh;
+      listen(canvas);
+      driver = startOnPage();
+      replay();
+    }) ?? startOnPage();
+  root.append(labels);
 
   // Overlay and buttons.
   const overlay = root.appendChild(h('div', { class: 'sim-overlay' }));
@@ -152,169 +251,239 @@ export function mountSimulator(el: HTMLElement, bus: Bus): SimulatorHandle {
     buttons.append(h('button', { type: 'button', title, onclick: fn }, label));
   };
 
-  let waferOnHand = true;
-  let waferOnBladeB = false;
-  let handUncertain = false;
-  let bladeBUncertain = false;
+  // ---- what the scene is told (kept, to tell it again after a fallback) ----
+  let robot: RobotInfo | null = null;
   /** While set, the view draws this instead of the live datagrams. */
   let recorded: RecordedFrame | null = null;
-  let state: RobotState = 'IDLE';
+  let drawnSample: SimSample | null = null;
+  let working: string | null = null;
+  const blades = { A: { on: true, uncertain: false }, B: { on: false, uncertain: false } };
+  let discs: readonly WaferDisc[] = [];
+  const stations = new Map<string, StationSpec & { id: string }>();
+  let obstacles: readonly ObstacleSpec[] = [];
+  let width = 0;
+  let height = 0;
   let disposed = false;
   const live = new LiveStream(bus, () => updateOverlay(performance.now()));
 
-  function applyState(s: RobotState): void {
-    state = s;
-    view.materials.tint(s);
+  function replay(): void {
+    driver.post({ t: 'size', width, height });
+    if (robot) driver.post({ t: 'robot', robot, positions: live.latest?.positions ?? null, state: live.latest?.state ?? 'IDLE' });
+    driver.post({ t: 'blade', blade: 'A', ...blades.A });
+    driver.post({ t: 'blade', blade: 'B', ...blades.B });
+    driver.post({ t: 'stations', specs: [...stations.values()] });
+    driver.post({ t: 'slots', discs: [...discs] });
+    driver.post({ t: 'obstacles', list: [...obstacles] });
   }
 
-  function setRobot(robot: RobotInfo): void {
-    const first = view.robot === null;
-    const model = view.setRobot(robot, { hand: waferOnHand, bladeB: waferOnBladeB, handUncertain, bladeBUncertain });
-    model.pose(armPose(model.axes, live.applied?.positions ?? live.latest?.positions ?? homePositions(robot)));
-    if (first) view.fitCamera(model.reach);
-    view.dirty = true;
+  function cameraAsk(top: boolean, unlessMoved: boolean): CameraAsk {
+    const s = live.latest;
+    return { top, hand: s ? { x: s.x, y: s.y } : null, working, unlessMoved };
+  }
+
+  function setRobot(r: RobotInfo, positions: number[] | null, state: RobotState): void {
+    robot = r;
+    driver.post({ t: 'robot', robot: r, positions, state });
+    driver.post({ t: 'camera', ask: cameraAsk(false, true) });
     updateOverlay(performance.now());
   }
 
-  button('Top', 'View from above', () => view.fitCamera(view.robot?.reach ?? 600, true));
-  button('Reset view', 'Back to the default camera', () => view.fitCamera(view.robot?.reach ?? 600));
+  button('Top', 'View from above', () => driver.post({ t: 'camera', ask: cameraAsk(true, false) }));
+  button('Reset view', 'Back to the default camera: the robot and the station it works at', () =>
+    driver.post({ t: 'camera', ask: cameraAsk(false, false) }),
+  );
   button('Reset counts', 'Reset the lost-datagram counters', () => {
     live.stats.reset();
     updateOverlay(performance.now());
   });
 
   function updateOverlay(now: number): void {
-    const model = view.robot;
+    const shown = recorded?.robot ?? robot;
     drawOverlay(overlay, {
-      robot: model?.robot ?? bus.robot(),
-      drawn: model,
+      robot: shown ?? bus.robot(),
+      drawn: shown ? { robot: shown, axes: armAxes(shown) } : null,
       connected: live.connected,
-      live: recorded === null ? live.applied : null,
+      live: recorded === null ? drawnSample : null,
       recorded,
       rateHz: live.stats.rate(now),
       lost: live.stats.lost,
       gaps: live.stats.gaps,
     });
-    if (!model) showMessage(live.connected ? 'Waiting for the robot description (ROBOT)…' : 'Not connected to the controller.');
+    if (!shown) showMessage(live.connected ? 'Waiting for the robot description (ROBOT)…' : 'Not connected to the controller.');
     else showMessage(null);
   }
 
-  // A recorded frame keeps its own robot; the live one is drawn again when it ends.
+  // ---- the live robot: only what changes the drawing is sent ----
+  const unsubSample = bus.onSample((s) => {
+    if (recorded !== null || sameDrawing(drawnSample, s)) return;
+    drawnSample = s;
+    driver.post({ t: 'pose', positions: s.positions, state: s.state });
+  });
+  // The overlay's figures: four times a second while the arm moves, once a second at rest
+  // (each update repaints the page: at rest that is the view's only cost).
+  let lastOverlay = 0;
+  let overlaySample: SimSample | null = null;
+  const overlayTimer = setInterval(() => {
+    if (!visible()) return;
+    const now = performance.now();
+    const moving = drawnSample !== overlaySample;
+    if (moving || now - lastOverlay >= 1000) {
+      lastOverlay = now;
+      overlaySample = drawnSample;
+      updateOverlay(now);
+    }
+  }, 250);
   const unsubRobot = bus.onRobot((r) => {
-    if (recorded === null) setRobot(r);
+    if (recorded === null) setRobot(r, live.latest?.positions ?? null, live.latest?.state ?? 'IDLE');
   });
   const r0 = bus.robot();
-  if (r0) setRobot(r0);
-  else {
-    view.buildFloor(600);
-    view.fitCamera(600);
-  }
-  applyState(state);
+  if (r0) setRobot(r0, live.latest?.positions ?? null, live.latest?.state ?? 'IDLE');
 
-  // Size.
+  // ---- size and visibility ----
+  function visible(): boolean {
+    return root.isConnected && root.offsetParent !== null && !(typeof document !== 'undefined' && document.hidden);
+  }
+  let wasVisible = true;
   function resize(): void {
     if (disposed) return;
-    view.setSize(root.clientWidth, root.clientHeight);
+    const shown = visible();
+    if (shown !== wasVisible) {
+      wasVisible = shown;
+      driver.post({ t: 'visible', visible: shown });
+    }
+    const w = root.clientWidth;
+    const ht = root.clientHeight;
+    if (w <= 0 || ht <= 0 || (w === width && ht === height)) return;
+    width = w;
+    height = ht;
+    driver.post({ t: 'size', width: w, height: ht });
   }
   const ro = typeof ResizeObserver !== 'undefined' ? new ResizeObserver(() => resize()) : null;
   ro?.observe(root);
+  const onVisibility = (): void => resize();
+  document.addEventListener('visibilitychange', onVisibility);
 
-  let contextLost = false;
-  renderer.domElement.addEventListener('webglcontextlost', (e) => {
-    e.preventDefault();
-    contextLost = true;
-    showMessage('3D view lost its WebGL context; it resumes when the browser restores it.', true);
-  });
-  renderer.domElement.addEventListener('webglcontextrestored', () => {
-    contextLost = false;
-    view.dirty = true;
-    showMessage(null);
-  });
-
-  // Animation: the latest sample is applied once per frame, not per datagram.
-  let lastOverlay = 0;
-  let raf = 0;
-  function frame(now: number): void {
-    if (disposed) return;
-    raf = requestAnimationFrame(frame);
-    const visible = el.isConnected && root.offsetParent !== null;
-    if (!visible) return;
-    if (!view.sized()) resize();
-    const s = recorded === null ? live.takeNew() : null;
-    if (s !== null) {
-      view.robot?.pose(armPose(view.robot.axes, s.positions));
-      if (s.state !== state) applyState(s.state);
-      view.dirty = true;
-    }
-    view.updateControls();
-    if (now - lastOverlay > 250) {
-      lastOverlay = now;
-      updateOverlay(now);
-    }
-    if (!contextLost) view.render();
+  // ---- the pointer: orbit (left drag), pan (right or middle drag, or Shift), zoom (wheel) ----
+  function listen(c: HTMLCanvasElement): void {
+    let drag: { id: number; x: number; y: number; pan: boolean } | null = null;
+    c.addEventListener('pointerdown', (e) => {
+      c.focus();
+      drag = { id: e.pointerId, x: e.clientX, y: e.clientY, pan: e.button !== 0 || e.shiftKey };
+      c.setPointerCapture(e.pointerId);
+    });
+    c.addEventListener('pointermove', (e) => {
+      if (!drag || e.pointerId !== drag.id) return;
+      const dx = e.clientX - drag.x;
+      const dy = e.clientY - drag.y;
+      drag.x = e.clientX;
+      drag.y = e.clientY;
+      if (dx !== 0 || dy !== 0) driver.post({ t: 'orbit', kind: drag.pan ? 'pan' : 'rotate', dx, dy });
+    });
+    const end = (e: PointerEvent): void => {
+      if (drag && e.pointerId === drag.id) drag = null;
+    };
+    c.addEventListener('pointerup', end);
+    c.addEventListener('pointercancel', end);
+    c.addEventListener('contextmenu', (e) => e.preventDefault());
+    c.addEventListener(
+      'wheel',
+      (e) => {
+        e.preventDefault();
+        driver.post({ t: 'orbit', kind: 'zoom', dx: 0, dy: e.deltaY * (e.deltaMode === 1 ? 40 : 1) });
+      },
+      { passive: false },
+    );
   }
-  raf = requestAnimationFrame(frame);
+  listen(canvas);
 
   function showRecorded(frame: RecordedFrame | null): void {
     recorded = frame;
     if (frame !== null) {
-      if (view.robot?.robot !== frame.robot) setRobot(frame.robot);
-      view.robot?.pose(armPose(view.robot.axes, frame.positions));
-      applyState(frame.state ?? 'IDLE');
+      if (robot !== frame.robot) setRobot(frame.robot, frame.positions, frame.state ?? 'IDLE');
+      driver.post({ t: 'pose', positions: frame.positions, state: frame.state ?? 'IDLE' });
     } else {
-      const robot = bus.robot();
-      if (robot && view.robot?.robot !== robot) setRobot(robot);
-      // The next frame applies the latest datagram again.
-      live.redraw();
-      const model = view.robot;
-      if (model) model.pose(armPose(model.axes, live.latest?.positions ?? homePositions(model.robot)));
-      applyState(live.latest?.state ?? 'IDLE');
+      const r = bus.robot();
+      const s = live.latest;
+      if (r && robot !== r) setRobot(r, s?.positions ?? null, s?.state ?? 'IDLE');
+      drawnSample = s;
+      if (s) driver.post({ t: 'pose', positions: s.positions, state: s.state });
     }
-    view.dirty = true;
     updateOverlay(performance.now());
   }
 
   resize();
   updateOverlay(performance.now());
 
+  function postStations(): void {
+    driver.post({ t: 'stations', specs: [...stations.values()] });
+    driver.post({ t: 'camera', ask: cameraAsk(false, true) });
+  }
+
   return {
     resize() {
-      view.forgetSize(); // force: the container may have been hidden at the same size
+      width = 0; // force: the container may have been hidden at the same size
       resize();
-      view.dirty = true;
     },
-    addStation: (spec) => view.addStation(spec),
-    removeStation: (id) => view.removeStation(id),
-    clearStations: () => view.clearStations(),
-    setWafer(onHand: boolean, uncertain = false) {
-      if (onHand === waferOnHand && uncertain === handUncertain) return;
-      waferOnHand = onHand;
-      handUncertain = uncertain;
-      view.robot?.showWafer(onHand, uncertain);
-      view.dirty = true;
+    addStation(spec) {
+      let id = spec.name || 'station';
+      for (let k = 2; stations.has(id); k++) id = `${spec.name}#${k}`;
+      stations.set(id, { ...spec, id });
+      postStations();
+      return id;
     },
-    setBladeBWafer(onBladeB: boolean, uncertain = false) {
-      if (onBladeB === waferOnBladeB && uncertain === bladeBUncertain) return;
-      waferOnBladeB = onBladeB;
-      bladeBUncertain = uncertain;
-      view.robot?.showBladeBWafer(onBladeB, uncertain);
-      view.dirty = true;
+    removeStation(id) {
+      if (stations.delete(id)) postStations();
     },
-    setStationWafers: (discs) => view.setStationWafers(discs),
+    clearStations() {
+      if (stations.size === 0) return;
+      stations.clear();
+      postStations();
+    },
+    setWafer(on: boolean, uncertain = false) {
+      if (on === blades.A.on && uncertain === blades.A.uncertain) return;
+      blades.A = { on, uncertain };
+      driver.post({ t: 'blade', blade: 'A', on, uncertain });
+    },
+    setBladeBWafer(on: boolean, uncertain = false) {
+      if (on === blades.B.on && uncertain === blades.B.uncertain) return;
+      blades.B = { on, uncertain };
+      driver.post({ t: 'blade', blade: 'B', on, uncertain });
+    },
+    setStationWafers(d) {
+      discs = d;
+      driver.post({ t: 'slots', discs: [...d] });
+    },
+    setObstacles(list) {
+      obstacles = list;
+      driver.post({ t: 'obstacles', list: [...list] });
+    },
+    setWorkingStation(name) {
+      working = name;
+    },
+    moveTo(target) {
+      if (root.parentElement === target) return;
+      target.append(root);
+      width = 0;
+      resize();
+    },
+    quality: () => quality,
+    framesDrawn: () => last?.frames ?? 0,
+    drawnIn: () => where,
+    slotDrawCalls: () => last?.slotDrawCalls ?? 0,
+    frameTimes: () => last?.frameMs ?? { lastMs: 0, maxMs: 0 },
     showRecorded,
-    drawnPose: () => view.robot?.drawnPose() ?? null,
-    drawnWafers: () => {
-      const blades = view.robot?.drawnBladeWafers() ?? null;
-      return { hand: blades?.hand ?? null, bladeB: blades?.bladeB ?? null, slots: view.drawnSlotWafers() };
-    },
+    drawnPose: () => last?.pose ?? null,
+    drawnWafers: () => ({ hand: last?.blades?.hand ?? null, bladeB: last?.blades?.bladeB ?? null, slots: { ...(last?.slots ?? {}) } }),
     dispose() {
       if (disposed) return;
       disposed = true;
-      cancelAnimationFrame(raf);
+      clearInterval(overlayTimer);
       unsubRobot();
+      unsubSample();
       live.dispose();
       ro?.disconnect();
-      view.dispose();
+      document.removeEventListener('visibilitychange', onVisibility);
+      driver.dispose();
       root.remove();
     },
   };

@@ -2,6 +2,7 @@
 //! HTTP the way the web app does (docs/gui.md). The browser itself is exercised by web/e2e.
 
 mod compile;
+mod programs;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;

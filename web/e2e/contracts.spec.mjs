@@ -2,22 +2,17 @@
 // and guarded signals (`EVT SIGNAL`), a guarded output switched only after a confirmation and
 // then with FORCE (`NAK 141`, `EVT RECOVERY forced …`), a motion refused because it would
 // touch a station (`NAK 117`), and a RESET during an E-stop's brake answered once the arm
-// stands still. Each test first asks the controller whether it has the line it needs; one
-// that has not (a controller before issue 39) skips the test, unless WRC_E2E_CONTRACTS=1
-// says the controller must have them (then it fails).
+// stands still. Each test first asks the controller for the line it needs and fails, saying
+// which, when it does not have it.
 
 import { expect, test } from './fixtures.mjs';
 import { connectHost } from './host-client.mjs';
 import { STEP_MS } from './settings.mjs';
 
 const step = (title, body) => test.step(title, body, { timeout: 2 * STEP_MS });
-const REQUIRED = process.env.WRC_E2E_CONTRACTS === '1';
-
-/** Skip (or fail, when the contracts are required) without `what`. */
+/** Fail, naming `what`, unless the controller has it. */
 function need(has, what) {
-  if (has) return;
-  if (REQUIRED) throw new Error(`the controller does not have ${what} (WRC_E2E_CONTRACTS=1)`);
-  test.skip(true, `the controller does not have ${what} yet`);
+  if (!has) throw new Error(`the controller does not have ${what}`);
 }
 
 /** The controller's event lines of its ROBOT reply (`EVT SIGNAL …`). */

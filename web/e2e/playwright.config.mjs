@@ -2,8 +2,8 @@
 // editor.spec.mjs: the editor's compiler, debugger and points; recovery.spec.mjs: the recovery
 // panel after a power loss cut a PUT; operator.spec.mjs: the E-STOP, the status line, disabled
 // controls, other tabs, stored programs, the layout at 1280 × 800 and the 3D view at rest;
-// contracts.spec.mjs: the controller's issue-39 lines, skipped by a controller without them
-// unless WRC_E2E_CONTRACTS=1): Debian's Chromium
+// contracts.spec.mjs: the controller's named signals, guarded outputs, refusals of motions that
+// would touch the cell and RESET during a brake): Debian's Chromium
 // (never a downloaded browser), one worker, and a trace and a screenshot of a failed run.
 //
 //   npm run e2e                       (from web/; builds nothing: run `npm run build` and

@@ -98,7 +98,7 @@ const DEBUG_PROGRAM = `' e2e debugger
 SPEED 100
 HOME
 COUNT = 1
-MOVEP POSE(260, 40, 10, 0)
+MOVEP POSE(260, 40, 5, 0)
 COUNT = COUNT + 1
 PRINT "count", COUNT
 `;
@@ -121,7 +121,7 @@ test('the debugger: a breakpoint, the highlighted line, step over a motion, the 
     await expect(id('editor-run')).toBeEnabled();
     await id('editor-run').click();
     await expect(id('program-state')).toHaveAttribute('data-state', 'paused');
-    await expect(page.locator('#panel-editor .cm-line.cm-debug-line')).toHaveText('MOVEP POSE(260, 40, 10, 0)');
+    await expect(page.locator('#panel-editor .cm-line.cm-debug-line')).toHaveText('MOVEP POSE(260, 40, 5, 0)');
     await expect(id('debug-position')).toHaveText('line 5');
     await expect(id('watch-value')).toHaveText('1');
     await expect(id('variables').getByTestId('variable-row').filter({ hasText: 'COUNT' })).toContainText('1');

@@ -68,7 +68,7 @@ test('recovery after a power loss cut a PUT: the panel, then control, reset, ret
     await expect(id('recovery-banner-text')).toHaveText('Recovery needed: 2 uncertain places · the hand may be inside LP2');
     await expect(panel, 'the panel opens by itself after such a restart').toBeVisible();
     await expect(id('recovery-note')).toContainText(
-      'PUT LP2 1 (W1) was interrupted during step 6 (the release (vacuum off) at the seat); the vacuum is off, so its sensor cannot tell',
+      'PUT LP2 1 (W1) was interrupted during step 5 (the approach and the straight line in); the vacuum is off, so its sensor cannot tell',
     );
     // Where the board's encoders stood: LP2 slot 1's seat, lifted (294.449, 170, 26, 30°).
     await expect(id('recovery-hand')).toHaveText(/^x=294\.4\d* y=170(\.\d+)? z=26(\.\d+)? yaw=30(\.\d+)?$/);

@@ -52,11 +52,12 @@ import fig7 from '../../../examples/fig7_ptp.wrl?raw';
 import fig8 from '../../../examples/fig8_line.wrl?raw';
 import pickPlace from '../../../examples/pick_place.wrl?raw';
 
-export const DEFAULT_PROGRAM = `' demo.wrl — a short program: home, a PTP move, a straight line.
+export const DEFAULT_PROGRAM = `' demo.wrl — a short program: home, a PTP move, a straight line,
+' at the bottom of the Z axis, where the arm passes under every station of the demo cell.
 SPEED 50
 HOME
-MOVEP POSE(250, 100, 20, 30), L
-MOVEL POSE(300, -50, 20, 0)
+MOVEP POSE(250, 100, 0, 30), L
+MOVEL POSE(300, -50, 0, 0)
 PRINT "demo done at", HERE()
 END
 `;

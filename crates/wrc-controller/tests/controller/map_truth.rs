@@ -374,3 +374,44 @@ fn a_wafer_that_slips_off_at_rest_or_on_a_move_is_an_alarm_at_once() {
     truthful(&mut host, &mut t, "W3 slipped off on a move");
     assert_eq!(seen(&host, "EVT ERROR 213").len(), 1, "{:?}", host.seen);
 }
+
+/// An ESTOP anywhere in a PUT, then RESET, HOME and SENSE: the stopped transfer is settled
+/// (nothing stays pending, nothing refused with 138), SENSE answers, and the map is truthful.
+#[test]
+fn after_an_estop_anywhere_in_a_put_reset_home_and_sense_are_answered() {
+    for delay_ms in [200u64, 700, 1200, 1700, 2200, 2700, 3200] {
+        let (mut host, mut t) = mapped(&Config::embedded_default(), &["LP1", "LP2"]);
+        assert_eq!(host.motion(10, "GET LP1 1"), "INF 10 W1");
+        assert_eq!(host.ask("11 PUT LP2 1"), "ACK 11");
+        host.sim.run_for_ns(delay_ms * 1_000_000);
+        assert_eq!(host.ask("ESTOP"), "ACK");
+        let end = host.reply();
+        assert!(
+            end.starts_with("ABS 11 201") || end == "INF 11 W1",
+            "at {delay_ms} ms: {end}"
+        );
+        truthful(&mut host, &mut t, "after the ESTOP");
+        host.poll("RESET", |h| {
+            let r = h.ask("12 RESET");
+            if r == "ACK 12" {
+                Ok(())
+            } else {
+                Err(r)
+            }
+        });
+        assert_eq!(host.motion(13, "HOME"), "INF 13", "at {delay_ms} ms");
+        let sense = host.motion(14, "SENSE");
+        assert!(
+            sense == "INF 14 wafer" || sense == "INF 14 none",
+            "at {delay_ms} ms: {sense}"
+        );
+        truthful(&mut host, &mut t, "after SENSE");
+        let r = host.motion(15, "MAP LP2");
+        assert!(r.starts_with("INF 15 LP2 "), "at {delay_ms} ms: {r}");
+        let map = truthful(&mut host, &mut t, "after MAP");
+        assert!(
+            !map.contains("W1?"),
+            "at {delay_ms} ms: W1 still uncertain: {map}"
+        );
+    }
+}

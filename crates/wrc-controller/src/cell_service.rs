@@ -240,32 +240,20 @@ impl CellService {
     /// last time, or always with `stations` (they changed).
     fn publish_view(&mut self, stations: bool) {
         let wafers = Blade::ALL.map(|b| self.wafers.hand_of(b).is_some());
-        let model = if stations {
-            match self.stations.model(&self.robot) {
-                Ok(model) => Some(model),
-                Err(e) => {
-                    eprintln!("wrc: the cell cannot be checked against motions: {e}");
-                    None
-                }
-            }
-        } else {
-            None
-        };
-        let Some((writer, told)) = self.view.as_mut() else {
+        let Some((_, told)) = self.view.as_ref() else {
             return;
         };
         if !stations && *told == wafers {
             return;
         }
-        *told = wafers;
-        let model = match model {
-            Some(m) => m,
-            None => match self.stations.model(&self.robot) {
-                Ok(m) => m,
-                Err(_) => wrc_cell::CellModel::empty(&self.robot),
-            },
-        };
-        writer.write(CellView { model, wafers });
+        let model = self.stations.model(&self.robot).unwrap_or_else(|e| {
+            eprintln!("wrc: the cell cannot be checked against motions: {e}");
+            wrc_cell::CellModel::empty(&self.robot)
+        });
+        if let Some((writer, told)) = self.view.as_mut() {
+            *told = wafers;
+            writer.write(CellView { model, wafers });
+        }
     }
 
     /// The I/O Monitor's period [s] (Table 1: 0.1 s unless the configuration says

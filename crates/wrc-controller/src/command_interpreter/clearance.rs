@@ -90,12 +90,16 @@ impl CellCheck {
 
     /// The blades as the checks see them: a wafer where the map has one (certain or not) or
     /// the vacuum sensor senses one.
-    fn blades(&self, view: &CellView, sensed: [bool; MAX_BLADES]) -> [BladeLoad; MAX_BLADES] {
+    fn blades(
+        &self,
+        wafers: [bool; MAX_BLADES],
+        sensed: [bool; MAX_BLADES],
+    ) -> [BladeLoad; MAX_BLADES] {
         let mut out = [BladeLoad::default(); MAX_BLADES];
         for (b, blade) in out.iter_mut().enumerate().take(self.blades) {
             *blade = BladeLoad {
                 z_offset_mm: self.offsets[b],
-                wafer: view.wafers[b] || sensed[b],
+                wafer: wafers[b] || sensed[b],
             };
         }
         out
@@ -103,9 +107,10 @@ impl CellCheck {
 
     /// The height the arm travels at through the cell, if any [mm].
     pub fn travel_z(&mut self, robot: &Robot, sensed: [bool; MAX_BLADES]) -> Option<f64> {
-        let view = *self.view.read();
-        let blades = self.blades(&view, sensed);
-        view.model.travel_z(robot, &blades[..self.blades])
+        let wafers = self.view.read().wafers;
+        let blades = self.blades(wafers, sensed);
+        let n = self.blades;
+        self.view.read().model.travel_z(robot, &blades[..n])
     }
 
     /// What a body of the arm at `end` touches, of what it did not touch at `start` already
@@ -117,15 +122,10 @@ impl CellCheck {
         end: &Joints,
         sensed: [bool; MAX_BLADES],
     ) -> Option<Contact> {
-        let view = self.view.read();
-        let mut loads = [BladeLoad::default(); MAX_BLADES];
-        for (b, blade) in loads.iter_mut().enumerate().take(self.blades) {
-            *blade = BladeLoad {
-                z_offset_mm: self.offsets[b],
-                wafer: view.wafers[b] || sensed[b],
-            };
-        }
+        let wafers = self.view.read().wafers;
+        let loads = self.blades(wafers, sensed);
         let blades = &loads[..self.blades];
+        let view = self.view.read();
         let margin = view.model.settings().clearance_mm;
         let tol = LineTolerance::CONTROLLER;
         let (at_start, at_end) = (robot.bodies(start, blades), robot.bodies(end, blades));
@@ -156,20 +156,15 @@ impl CellCheck {
         start: &[i64; MAX_AXES],
         sensed: [bool; MAX_BLADES],
     ) -> Result<Joints, Touch> {
+        let wafers = self.view.read().wafers;
+        let loads = self.blades(wafers, sensed);
+        let blades = &loads[..self.blades];
         let view = self.view.read();
         let model: &CellModel = &view.model;
         let start_joints = robot.pulses_to_joints(start);
         if model.is_empty() {
             return Ok(start_joints);
         }
-        let mut loads = [BladeLoad::default(); MAX_BLADES];
-        for (b, blade) in loads.iter_mut().enumerate().take(self.blades) {
-            *blade = BladeLoad {
-                z_offset_mm: self.offsets[b],
-                wafer: view.wafers[b] || sensed[b],
-            };
-        }
-        let blades = &loads[..self.blades];
         let margin = model.settings().clearance_mm;
         let tol = LineTolerance::CONTROLLER;
         let g = &mut self.generator;

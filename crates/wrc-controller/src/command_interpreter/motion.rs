@@ -176,14 +176,19 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                     if self.robot.joints_to_pulses(via) == here {
                         continue;
                     }
-                    self.queue_motion(
+                    let leg = self.queue_motion(
                         SourceId::NONE,
                         ReplyTo::default(),
                         MoveKind::Joints(*via),
                         *via,
                         false,
                         "",
-                    )?;
+                    );
+                    if leg.is_none() {
+                        // The legs queued so far take the arm to a checked via point.
+                        self.nak(from, to, Code::Busy, "too many motions queued; WAIT first");
+                        return None;
+                    }
                 }
                 // From the route's last via point the target's joints, as checked (a pose
                 // from there could pick another solution).

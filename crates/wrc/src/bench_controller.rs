@@ -58,8 +58,10 @@ const ESTOP_STREAM_GOAL_PERIODS: f64 = 2.0;
 
 /// The two ends of the ESTOP runs' joint moves; each run heads for the one farther from
 /// J1's position, at least 170° away, so J1 cruises at its full 180 °/s from ~0.35 s after
-/// the start to at least ~0.95 s.
-const FAR_MOVES: [&str; 2] = ["MOVJ 170 40 -60 150", "MOVJ -170 120 60 20"];
+/// the start to at least ~0.95 s. The arm is folded (J2 150°), short of every station of
+/// the demo cell at any height: the move goes straight, as asked (a route round the cell
+/// through the travel height would move other axes first), and so does its brake.
+const FAR_MOVES: [&str; 2] = ["MOVJ 170 150 -60 150", "MOVJ -170 150 60 20"];
 /// ESTOP is sent this long after the move's first pulse, plus up to [`ESTOP_SPREAD_MS`]
 /// (spread over the Pulse Generator's grid): in the cruise of J1 [ms].
 const ESTOP_AFTER_FIRST_PULSE_MS: u64 = 450;

@@ -4,26 +4,30 @@
 //! drifts.
 //!
 //! One client holds control and keeps the robot moving (random joint moves within 90 % of
-//! each axis's range, straight lines to random poses — some refused, as they must be — speed
-//! changes; it resumes a motion another client held and resets after an E-stop). The others
-//! send, every 5 to 45 ms at random, queries (65.5 %), invalid lines (25 %: unknown verbs,
-//! bad numbers and arguments, non-ASCII bytes, over-long lines, checksums on TCP), `CONTROL`
-//! (4 %, refused: the mover holds it), `HOLD` and `STOP` (0.2 % each), `ESTOP` (0.02 %), and
-//! reconnect (5 %). Every request carries an id
-//! and must be answered within [`REPLY_S`]; an invalid line must get exactly one `NAK`
-//! before the reply to the request sent after it.
+//! each axis's range, straight lines to random poses, every target clear of the cell — see
+//! [`cell`]; a joint move may go round it through the travel height, and some lines are
+//! refused, as they must be, where they would cross a station or leave the workspace —
+//! speed changes; it resumes a motion another client held and resets after an E-stop). The
+//! others send, every 5 to 45 ms at random, queries (65.5 %), invalid lines (25 %: unknown
+//! verbs, bad numbers and arguments, non-ASCII bytes, over-long lines, checksums on TCP),
+//! `CONTROL` (4 %, refused: the mover holds it), `HOLD` and `STOP` (0.2 % each), `ESTOP`
+//! (0.02 %), and reconnect (5 %). Every request carries an id and must be answered within
+//! [`REPLY_S`]; an invalid line must get exactly one `NAK` before the reply to the request
+//! sent after it.
 //!
-//! Figures: requests and replies, motions ended (`INF`, `ABS` by code, refusals by code), the
-//! controller's resident memory after the warm-up (the first tenth of the run), at half time,
-//! every 30 s and at the end,
-//! its open descriptors before the clients connect and after they have gone, and the Pulse
+//! Figures: requests and replies, motions ended (`INF`, `ABS` by code, refusals by code —
+//! 117 where a motion would touch the cell — and the joint moves routed round it), the side
+//! collisions the simulated cell counted, the controller's resident memory after the warm-up
+//! (the first tenth of the run), at half time, every 30 s and at the end, its open
+//! descriptors before the clients connect and after they have gone, and the Pulse
 //! Generator's wake-up latency p99 in the first and the last tenth of the run (from the
 //! `TASKS` latency histograms). It passes when the controller runs to the end, every request
-//! was answered as the protocol says, no descriptor is left over, and its memory grew in the
-//! second half of the run by at most [`RSS_SLACK_KIB`] KiB or [`RSS_SLACK_PCT`] %. The first
-//! half may take a step that stays (buffers the allocator keeps once used; the runs measured
-//! took one step of about 10 MB in their first two minutes, then stayed flat); a leak keeps
-//! climbing.
+//! was answered as the protocol says, no body of the arm touched the cell (a station off its
+//! line, an obstacle: the simulated cell's ground truth, read when the board stops), no
+//! descriptor is left over, and its memory grew in the second half of the run by at most
+//! [`RSS_SLACK_KIB`] KiB or [`RSS_SLACK_PCT`] %. The first half may take a step that stays
+//! (buffers the allocator keeps once used; the runs measured took one step of about 10 MB in
+//! their first two minutes, then stayed flat); a leak keeps climbing.
 //!
 //! The servo loop, at the configuration's period or at `--period-ms` (1 for 1 kHz), idle or
 //! under `--load` (stress-ng): underruns, host-watchdog trips and following-error trips
@@ -32,6 +36,7 @@
 //! board FIFO drain against the look-ahead, and, at rest at the end, the pulse count of every
 //! axis on the board against the controller's (equal, or pulses were lost). See [`servo`].
 
+mod cell;
 mod period;
 mod pulses;
 mod servo;
@@ -50,11 +55,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::json;
 use wrc_config::Config;
-use wrc_robot::{Joints, MAX_AXES};
 
 use crate::bench_rt::cyclictest::{self, Cyclictest};
 use crate::bench_rt::load::Load;
 use crate::up_process::{reply_of, Conn, Up, UpOptions};
+use cell::Targets;
 use servo::Servo;
 use tasks::{Bins, TaskLine, PULSE_GENERATOR};
 use wrc_rt::fifo_priority;
@@ -189,6 +194,8 @@ struct Tally {
     unanswered: u64,
     wrong: Vec<String>,
     motions: u64,
+    /// Motions that went round the cell through the travel height (`ACK <id> route=travel`).
+    routed: u64,
     inf: u64,
     abs: BTreeMap<String, u64>,
     refused: BTreeMap<String, u64>,
@@ -204,6 +211,7 @@ impl Tally {
         self.unanswered += o.unanswered;
         self.wrong.extend(o.wrong);
         self.motions += o.motions;
+        self.routed += o.routed;
         self.inf += o.inf;
         for (k, v) in o.abs {
             *self.abs.entry(k).or_default() += v;
@@ -247,28 +255,22 @@ fn code_of(line: &str) -> String {
 fn mover(up: &Up, config: &Config, seed: u64, quit: &AtomicBool) -> anyhow::Result<Tally> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut t = Tally::default();
+    let robot = &config.robot;
+    let targets = Targets::new(robot, &up.state.join("stations.toml"))?;
     let mut c = up.conn()?;
     ask_counted(&mut c, &mut t, "CONTROL")?;
-    let robot = &config.robot;
-    let joint = |rng: &mut ChaCha8Rng, a: &wrc_robot::Axis| {
-        (a.min + a.max) / 2.0 + (rng.random::<f64>() - 0.5) * 0.9 * (a.max - a.min)
-    };
     while !quit.load(Ordering::Acquire) {
         let line = match rng.random_range(0..20) {
             0 => format!("SPEED {}", rng.random_range(20..=100)),
             1..=4 => {
-                let mut j: Joints = [0.0; MAX_AXES];
-                for (i, a) in robot.axes().iter().enumerate() {
-                    j[i] = joint(&mut rng, a);
-                }
-                let p = robot.forward(&j);
+                let p = robot.forward(&targets.joints(&mut rng));
                 format!("MOVL {:.3} {:.3} {:.3} {:.3}", p.x, p.y, p.z, p.yaw)
             }
             _ => {
-                let joints: Vec<String> = robot
-                    .axes()
+                let j = targets.joints(&mut rng);
+                let joints: Vec<String> = j[..robot.axes().len()]
                     .iter()
-                    .map(|a| format!("{:.3}", joint(&mut rng, a)))
+                    .map(|v| format!("{v:.3}"))
                     .collect();
                 format!("MOVJ {}", joints.join(" "))
             }
@@ -291,6 +293,7 @@ fn mover(up: &Up, config: &Config, seed: u64, quit: &AtomicBool) -> anyhow::Resu
             continue;
         }
         t.motions += 1;
+        t.routed += u64::from(reply.contains(" route=travel"));
         match motion_end(&mut c, mark, asked.id)? {
             Some(end) if end.starts_with("INF") => t.inf += 1,
             Some(end) => {
@@ -626,6 +629,9 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
     };
     // The load ends here (and on any early return above, when it is dropped).
     drop(load_process);
+    // The simulated cell's ground truth, saved by the board as it stops with the controller.
+    up.stop();
+    let touched = cell::side_collisions(&up.state).map_err(|e| format!("{e:#}"));
     let (p99_first, p99_last) = (window_p99(&h0, &h1), window_p99(&h2, &h3));
     let rss_allowed = rss_half + (rss_half * RSS_SLACK_PCT / 100).max(RSS_SLACK_KIB);
     let mut fails: Vec<String> = Vec::new();
@@ -638,6 +644,14 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
             "{} request(s) not answered as the protocol says",
             tally.unanswered
         ));
+    }
+    match &touched {
+        Ok((0, _)) => {}
+        Ok((n, latest)) => fails.push(format!(
+            "{n} side collision(s) in the simulated cell, the latest at {}",
+            latest.as_deref().unwrap_or("?")
+        )),
+        Err(e) => fails.push(format!("the simulated cell could not be read: {e}")),
     }
     if fds_end > fds_before {
         fails.push(format!(
@@ -676,8 +690,20 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
         }
     );
     println!(
-        "  motions            {} ended INF {}, ABS {:?}; refused {:?}",
-        tally.motions, tally.inf, tally.abs, tally.refused
+        "  motions            {} ({} round the cell through the travel height) ended INF {}, ABS {:?}; refused {:?} (117: would touch the cell)",
+        tally.motions, tally.routed, tally.inf, tally.abs, tally.refused
+    );
+    println!(
+        "  cell               {}",
+        match &touched {
+            Ok((n, latest)) => format!(
+                "{n} side collision(s){}",
+                latest
+                    .as_deref()
+                    .map_or(String::new(), |at| format!(", the latest at {at}"))
+            ),
+            Err(e) => e.clone(),
+        }
     );
     println!(
         "  reconnects         {}, ESTOPs {}",
@@ -731,11 +757,14 @@ pub fn run(args: SoakArgs) -> anyhow::Result<ExitCode> {
             "unanswered": tally.unanswered,
             "problems": tally.wrong,
             "motions": tally.motions,
+            "routed": tally.routed,
             "inf": tally.inf,
             "abs": tally.abs,
             "refused": tally.refused,
             "reconnects": tally.reconnects,
             "estops": tally.estops,
+            "side_collisions": touched.as_ref().ok().map(|(n, _)| n),
+            "last_side_collision": touched.as_ref().ok().and_then(|(_, at)| at.clone()),
             "alive": alive,
             "client_failures": failures,
             "fds_before": fds_before,

@@ -10,8 +10,10 @@ use anyhow::Context;
 use rand::Rng;
 use wrc_cell::WaferMap;
 
-use super::harness::{check_map, processes, tmpfs_namespaces_work, Tmpfs, Up, UpOptions, PATIENCE};
-use super::kinds::{judge_rest, recover};
+use super::harness::{
+    check_map, processes, read_world, tmpfs_namespaces_work, Tmpfs, Up, UpOptions, PATIENCE,
+};
+use super::kinds::{judge_rest, recover, untouched};
 use super::processes::OwnCell;
 use super::session::Session;
 use super::{Ctx, Round, Verdict};
@@ -33,8 +35,9 @@ fn fill(dir: &Path) -> anyhow::Result<()> {
     }
 }
 
-/// The station `name`'s pose `x y z yaw` from `STN`.
-fn station_pose(s: &mut Session, name: &str) -> anyhow::Result<String> {
+/// The station `name`'s pose and its approach pose (`approach` mm back along its line), each
+/// `x y z yaw` [mm, deg], from `STN`.
+fn station_poses(s: &mut Session, name: &str) -> anyhow::Result<(String, String)> {
     let mark = s.host.lines.mark();
     s.host.ask("STN")?;
     let lines = s.host.lines.since(mark);
@@ -42,12 +45,43 @@ fn station_pose(s: &mut Session, name: &str) -> anyhow::Result<String> {
         .iter()
         .find(|l| l.starts_with(&format!("EVT STATION {name} ")))
         .with_context(|| format!("no station {name} in STN"))?;
-    let f = |k: &str| {
+    let f = |k: &str| -> anyhow::Result<f64> {
         wrc_protocol::reply_field(line, k)
-            .unwrap_or("0")
-            .to_string()
+            .and_then(|v| v.parse().ok())
+            .with_context(|| format!("no number {k}= in {line}"))
     };
-    Ok(format!("{} {} {} {}", f("x"), f("y"), f("z"), f("yaw")))
+    let (x, y, z, yaw, back) = (f("x")?, f("y")?, f("z")?, f("yaw")?, f("approach")?);
+    let (sin, cos) = yaw.to_radians().sin_cos();
+    Ok((
+        format!("{x:.3} {y:.3} {z:.3} {yaw:.3}"),
+        format!(
+            "{:.3} {:.3} {z:.3} {yaw:.3}",
+            x - back * cos,
+            y - back * sin
+        ),
+    ))
+}
+
+/// Take the hand into station `name` as a transfer does — to its approach pose, then
+/// straight in along its line: any other way into a station touches it (the controller
+/// refuses it, NAK 117) — `TEACH` the station at its own pose there, and take the hand
+/// straight out to the approach pose again. The TEACH's reply, or what stopped the hand.
+fn teach_at_station(s: &mut Session, name: &str) -> anyhow::Result<String> {
+    let (seat, approach) = station_poses(s, name)?;
+    for line in [format!("MOVP {approach}"), format!("MOVL {seat}")] {
+        match s.host.run(&line) {
+            Ok(end) if end.starts_with("INF") => {}
+            Ok(end) => return Ok(format!("`{line}` ended `{end}`")),
+            Err(e) => return Ok(format!("`{line}`: {e:#}")),
+        }
+    }
+    let teach = s.host.request(&format!("TEACH {name}"))?.1;
+    let out = format!("MOVL {approach}");
+    Ok(match s.host.run(&out) {
+        Ok(end) if end.starts_with("INF") => teach,
+        Ok(end) => format!("{teach}; then `{out}` ended `{end}`"),
+        Err(e) => format!("{teach}; then `{out}`: {e:#}"),
+    })
 }
 
 /// The state directory filled (or made read-only) at a random moment of a transfer: the
@@ -72,6 +106,7 @@ pub(super) fn disk_round(
     }
     let cell = own.as_mut().context("no cell")?;
     let s = cell.session()?;
+    let touched = read_world(&s.world)?.side_collisions();
     let state = s.up.state.clone();
     let (wafers_file, stations_file) = (state.join("wafers.toml"), state.join("stations.toml"));
     let line = s.next_transfer(ctx)?;
@@ -101,12 +136,7 @@ pub(super) fn disk_round(
     let from = board.feedback().boards[0].period_count;
     let rest = judge_rest(&board, from);
     // TEACH at the station's own pose (PM2, empty): the stations cannot be saved either.
-    let pose = station_pose(s, "PM2")?;
-    let teach = match s.host.run(&format!("MOVP {pose}")) {
-        Ok(end) if end.starts_with("INF") => s.host.request("TEACH PM2")?.1,
-        Ok(end) => format!("MOVP to PM2 ended `{end}`"),
-        Err(e) => format!("MOVP to PM2: {e:#}"),
-    };
+    let teach = teach_at_station(s, "PM2")?;
     let teach_refused = teach.split_whitespace().nth(1) == Some("301")
         || teach.split_whitespace().nth(2) == Some("301");
     let log = s.up.log.find(log_mark, Duration::ZERO, |l| {
@@ -143,7 +173,7 @@ pub(super) fn disk_round(
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".tmp"))
         .collect();
-    // Room again; HOME out of the station, then the next transfer must run and save.
+    // Room again; HOME, then the next transfer must run and save.
     if read_only {
         s.up.remount(false)?;
     } else {
@@ -157,6 +187,8 @@ pub(super) fn disk_round(
         other => other,
     };
     let check = s.check_map();
+    // Into PM2 and out along its line, HOME, the transfers: the cell felt no touch.
+    round.stopped = untouched(round.stopped, &s.world, touched);
     let mut consistent = Vec::new();
     if !intact {
         consistent.push("a state file changed while it could not be saved".to_string());

@@ -1,6 +1,7 @@
 //! The fault kinds of the campaign, what each round judges, and the faults the simulated
 //! board plays through its fault mailbox (E-stop, vacuum loss, following error).
 
+use std::path::Path;
 use std::time::Duration;
 
 use anyhow::Context;
@@ -8,7 +9,7 @@ use rand::Rng;
 use wrc_board::Fault;
 use wrc_config::Config;
 
-use super::harness::{BoardView, UpOptions, PATIENCE};
+use super::harness::{read_world, BoardView, UpOptions, PATIENCE};
 use super::session::Session;
 use super::{Ctx, Round, Verdict};
 
@@ -73,16 +74,16 @@ impl Kind {
     /// How it is injected and how each property is judged.
     pub(crate) fn about(self) -> &'static str {
         match self {
-            Kind::Estop => "the E-stop input opens (fault mailbox `estop on`) during a GET or PUT; signal EVT ERROR 202; stopped: the arm at rest on the board within the brake bound; `estop off`, RESET, the next transfer",
-            Kind::VacuumLoss => "the vacuum sensor drops (`sensor-flip` of the vacuum input) while the hand carries a wafer on a MOVJ; signal EVT ERROR 213; stopped: at rest on the board; the sensor restored, RESET, SENSE (the wafer stays uncertain until then), the next transfer",
-            Kind::FollowingError => "an encoder sticks (`encoder-stuck`, J1 or J3) during a MOVJ; signal EVT ERROR 203; stopped: at rest on the board; the encoder freed, RESET, a MOVJ",
-            Kind::ClientDrop => "a client that took CONTROL and started a GET or PUT closes its socket; signal EVT ERROR 208 to another client; stopped: at rest on the board; RESET, the next transfer",
-            Kind::SerialGarbage => "random bytes (up to 600, seeded) on the pendant's serial line (a pty) during a GET or PUT from TCP; signal a NAK on the serial line; the transfer must carry on to its INF; the pendant answers STATUS afterwards",
-            Kind::BoardKill => "kill -9 of `wrc board-sim` during a GET or PUT (`wrc up --restart-boards`); signal EVT ERROR 300; stopped: the controller sends nothing more and the restarted board stands where the arm stood; RESET (re-attach), the next transfer",
-            Kind::GuiKill => "kill -9 of `wrc ui` while its browser (a WebSocket client) holds CONTROL and runs a GET or PUT; signal EVT ERROR 208; stopped: at rest on the board; RESET, the next transfer",
-            Kind::SerialUnplug => "the pendant's line is unplugged (the pty closed) while the pendant holds CONTROL and runs a GET or PUT; signal EVT ERROR 208; stopped: at rest on the board; RESET from TCP, the next transfer",
+            Kind::Estop => "the E-stop input opens (fault mailbox `estop on`) during a GET or PUT; signal EVT ERROR 202; stopped: the arm at rest on the board within the brake bound, no side collision in the simulated cell; `estop off`, RESET, the next transfer",
+            Kind::VacuumLoss => "the vacuum sensor drops (`sensor-flip` of the vacuum input) while the hand carries a wafer on a MOVJ; signal EVT ERROR 213; stopped: at rest on the board, no side collision; the sensor restored, RESET, SENSE (the wafer stays uncertain until then), the next transfer",
+            Kind::FollowingError => "an encoder sticks (`encoder-stuck`, J1 or J3) during a MOVJ; signal EVT ERROR 203; stopped: at rest on the board, no side collision; the encoder freed, RESET, a MOVJ",
+            Kind::ClientDrop => "a client that took CONTROL and started a GET or PUT closes its socket; signal EVT ERROR 208 to another client; stopped: at rest on the board, no side collision; RESET, the next transfer",
+            Kind::SerialGarbage => "random bytes (up to 600, seeded) on the pendant's serial line (a pty) during a GET or PUT from TCP; signal a NAK on the serial line; the transfer must carry on to its INF, no side collision; the pendant answers STATUS afterwards",
+            Kind::BoardKill => "kill -9 of `wrc board-sim` during a GET or PUT (`wrc up --restart-boards`); signal EVT ERROR 300; stopped: the controller sends nothing more and the restarted board stands where the arm stood, no side collision; RESET (re-attach), the next transfer",
+            Kind::GuiKill => "kill -9 of `wrc ui` while its browser (a WebSocket client) holds CONTROL and runs a GET or PUT; signal EVT ERROR 208; stopped: at rest on the board, no side collision; RESET, the next transfer",
+            Kind::SerialUnplug => "the pendant's line is unplugged (the pty closed) while the pendant holds CONTROL and runs a GET or PUT; signal EVT ERROR 208; stopped: at rest on the board, no side collision; RESET from TCP, the next transfer",
             Kind::ControllerKill => "kill -9 of `wrc up` during a GET or PUT (the board runs on its own); signal: the board's host watchdog trips (DPRAM), judged against its `watchdog_periods`; stopped: at rest within the brake bound; `wrc up --board` again, RESET, the next transfer",
-            Kind::DiskFull => "the state directory's tmpfs (own user+mount namespace) filled during a GET or PUT; signal `cannot save the wafer map` on the log or NAK 301; stopped: no transfer starts (NAK 301) and TEACH is refused; wafers.toml and stations.toml byte-identical; space freed, the next transfer",
+            Kind::DiskFull => "the state directory's tmpfs (own user+mount namespace) filled during a GET or PUT; signal `cannot save the wafer map` on the log or NAK 301; stopped: no transfer starts (NAK 301) and TEACH (at PM2's seat, entered and left along its line) is refused, no side collision; wafers.toml and stations.toml byte-identical; space freed, the next transfer",
             Kind::ReadOnly => "the state directory remounted read-only during a GET or PUT; as disk-full",
             Kind::CorruptWafers => "wafers.toml corrupted (seeded: cut at a byte or at a line's end, bytes overwritten, a garbage line, zeroed) before `wrc up` starts; signal: it refuses to start (exit ≠ 0) naming the file; the file byte-identical, no process left; the file restored, `wrc up` starts with the same map",
             Kind::CorruptStations => "stations.toml corrupted likewise before `wrc up` starts; as corrupt-wafers",
@@ -157,6 +158,29 @@ pub(super) fn judge_rest(board: &BoardView, from: u64) -> Verdict {
         None => Verdict::Fail(format!(
             "still moving on the board {bound} periods after the signal"
         )),
+    }
+}
+
+/// `stopped`, unless the simulated cell of the world file `world` has counted more side
+/// collisions than `before`: an arm that touched a station off its line, or an obstacle,
+/// did not stop safely. (The board writes the file a moment after each change; a round
+/// reads it after the arm has come to rest and the map has been compared with it.)
+pub(super) fn untouched(stopped: Verdict, world: &Path, before: u32) -> Verdict {
+    match read_world(world) {
+        Ok(w) if w.side_collisions() <= before => stopped,
+        Ok(w) => {
+            let seen = match stopped {
+                Verdict::Pass(t) | Verdict::Fail(t) => t,
+                Verdict::NotReached => "not reached".into(),
+            };
+            Verdict::Fail(format!(
+                "{} side collision(s) in the simulated cell, the latest at {}; {seen}",
+                w.side_collisions() - before,
+                w.last_side_collision()
+                    .map_or_else(|| "?".to_string(), |n| n.to_string())
+            ))
+        }
+        Err(e) => Verdict::Fail(format!("the simulated cell could not be read: {e:#}")),
     }
 }
 
@@ -236,7 +260,10 @@ fn with_shared(
     let s = shared.as_mut().context("no shared session")?;
     let (host, log) = (s.host.lines.clone(), s.up.log.clone());
     let (host_mark, log_mark) = (host.mark(), log.mark());
+    let world = s.world.clone();
+    let touched = read_world(&world)?.side_collisions();
     let r = round(s, ctx).map(|mut r| {
+        r.stopped = untouched(r.stopped, &world, touched);
         r.transcript = host.since(host_mark);
         r.disturbed = r
             .transcript
@@ -282,8 +309,12 @@ fn heal(s: &mut Session) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `MOVJ` targets far apart in every joint, for the moves faults fall into.
-const FAR_POSES: [&str; 2] = ["MOVJ 60 60 -90 100", "MOVJ -60 120 30 20"];
+/// `MOVJ` targets far apart in J1, J3 and Z (120°, 120°, 80 mm), for the moves faults fall
+/// into. The arm is folded (J2 150°): the hand, and a wafer on it, stay within about 255 mm
+/// of the base, short of every station of the demo cell (their boxes begin 270-315 mm out)
+/// at any height, so the move goes straight from a transfer's end or from the other target,
+/// and so does any brake along it.
+const FAR_POSES: [&str; 2] = ["MOVJ 60 150 -90 100", "MOVJ -60 150 30 20"];
 
 /// The one of [`FAR_POSES`] farther from the arm.
 pub(super) fn far_move(s: &mut Session) -> anyhow::Result<&'static str> {

@@ -3,9 +3,11 @@
 //! or a move of the demo cell, and each round judges, from outside the controller as an
 //! operator would: was the fault **detected** (and how long after it was injected), did the
 //! motion **stop safely** (the arm at rest on the board within a stated bound, or the motion
-//! carried on where that is the right answer), is the **wafer map consistent** with the
-//! simulated cell afterwards (in memory and on disk, wafer by wafer), and is the controller
-//! **recovered** and usable again (`RESET`, or a restart, then a transfer to its `INF`).
+//! carried on where that is the right answer; and, where the kind says so, no side collision
+//! in the simulated cell: no station touched off its line), is the **wafer map consistent**
+//! with the simulated cell afterwards (in memory and on disk, wafer by wafer), and is the
+//! controller **recovered** and usable again (`RESET`, or a restart, then a transfer to its
+//! `INF`).
 //!
 //! Everything runs in temporary directories on free loopback ports; the default state
 //! directory, ports and GUI of `wrc up` are never touched. The campaign is bounded in time

@@ -55,7 +55,7 @@ fn a_held_ptp_stays_on_its_joint_line_and_resumes_to_its_target() {
         assert!((fi - f).abs() < 1e-3, "axis {i} at {fi}, j1 at {f}");
     }
     // While held: no new motion, and the hold survives queries.
-    assert!(host.ask("4 MOVJ 0 90 0 10").starts_with("NAK 4 121 "));
+    assert!(host.ask("4 MOVJ 0 90 0 0").starts_with("NAK 4 121 "));
     assert!(host.status().starts_with("ACK state=HELD"));
     assert_eq!(host.ask("RESUME"), "ACK");
     assert_eq!(host.reply(), "INF 3");
@@ -64,4 +64,5 @@ fn a_held_ptp_stays_on_its_joint_line_and_resumes_to_its_target() {
         assert!((e - t).abs() < 0.002, "{end:?}");
     }
     assert!(host.status().starts_with("ACK state=IDLE"));
+    c.stop_clear_of_the_cell();
 }

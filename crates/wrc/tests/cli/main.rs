@@ -102,3 +102,22 @@ impl BoardView {
         });
     }
 }
+
+/// The side collisions the simulated cell of state directory `dir` has counted (its
+/// `world.toml`, read with its `stations.toml`), and the station or obstacle of the latest:
+/// a body of the arm that touched a station off its line, or an obstacle. The board writes
+/// the file a moment after each change and when it stops: read it once the board has
+/// stopped.
+pub fn side_collisions(dir: &Path) -> (u32, Option<String>) {
+    let stations = wrc_cell::Stations::load(&dir.join("stations.toml"))
+        .unwrap_or_else(|e| panic!("the stations in {}: {e}", dir.display()));
+    let world = dir.join("world.toml");
+    let text = std::fs::read_to_string(&world)
+        .unwrap_or_else(|e| panic!("the simulated cell {}: {e}", world.display()));
+    let world = wrc_cell::World::from_text(&text, &stations)
+        .unwrap_or_else(|e| panic!("the simulated cell {}: {e}", world.display()));
+    (
+        world.side_collisions(),
+        world.last_side_collision().map(|n| n.to_string()),
+    )
+}

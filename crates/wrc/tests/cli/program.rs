@@ -146,8 +146,10 @@ fn stop_aborts_a_running_program_and_other_sources_cannot_move_meanwhile() {
     let c = Controller::start(&[]);
     let mut host = c.client();
     let mut other = c.client();
+    // Back and forth with the arm folded (J2 150°, as up::LONG_MOVE): clear of the cell at
+    // any height, every MOVEJ goes straight.
     let source =
-        "HOME\nWHILE TRUE\nMOVEJ JOINTS(170, 30, 0, 250)\nMOVEJ JOINTS(-100, 30, 0, 0)\nENDWHILE\n";
+        "HOME\nWHILE TRUE\nMOVEJ JOINTS(170, 150, 0, 250)\nMOVEJ JOINTS(-100, 150, 0, 0)\nENDWHILE\n";
     assert!(upload(&mut host, 1, "forever", source)
         .last()
         .unwrap()
@@ -173,6 +175,7 @@ fn stop_aborts_a_running_program_and_other_sources_cannot_move_meanwhile() {
     assert_eq!(host.where_().0, a, "nothing moves after the stop");
     assert!(host.ask("ABORT").starts_with("NAK 128"));
     assert!(host.ask("PAUSE").starts_with("NAK 128"));
+    c.stop_clear_of_the_cell();
 }
 
 #[test]
@@ -227,7 +230,8 @@ fn sim_ok(program: &Path, state: &Path) -> String {
     sim_ok_with(program, state, &[])
 }
 
-/// `wrc sim` of `program` in `state` with more arguments (`--config …`); it must succeed.
+/// `wrc sim` of `program` in `state` with more arguments (`--config …`); it must succeed,
+/// and the simulated cell must have felt no touch of the arm.
 fn sim_ok_with(program: &Path, state: &Path, more: &[&str]) -> String {
     let mut args = vec![
         "sim",
@@ -245,6 +249,13 @@ fn sim_ok_with(program: &Path, state: &Path, more: &[&str]) -> String {
     );
     assert!(stdout.trim_end().ends_with("INF 2"), "{stdout}");
     assert!(stderr.contains("s of virtual time in"), "{stderr}");
+    let (collisions, latest) = crate::side_collisions(state);
+    assert_eq!(
+        collisions,
+        0,
+        "{}: side collisions in the simulated cell, the latest at {latest:?}",
+        program.display()
+    );
     stdout
 }
 

@@ -6,8 +6,9 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
+use crate::up::LONG_MOVE;
 use crate::wafer_cycle::KillOnDrop;
-use crate::{text, wait_until, wrc};
+use crate::{side_collisions, text, wait_until, wrc};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -45,7 +46,7 @@ fn a_program_runs_under_virtual_time_and_twice_gives_the_same_bytes() {
     // What `wrc run` prints against `wrc up`.
     assert_eq!(
         stdout,
-        "Fig. 7 PTP done at POSE(173.205081, 300, 100, 0)\nINF 2\n"
+        "Fig. 7 PTP done at POSE(173.205081, 300, 0, 0)\nINF 2\n"
     );
     assert!(
         stderr.contains("s of virtual time in") && stderr.contains("s of wall time"),
@@ -58,7 +59,7 @@ fn a_program_runs_under_virtual_time_and_twice_gives_the_same_bytes() {
     );
     assert!(transcript_text.contains("< INF 2"), "{transcript_text}");
     // The pulse stream: every board period of board 0 with its four axes, ending on the
-    // target (J1 30°, J2 60°, J3 -90°, Z 100 mm in pulses).
+    // target (J1 30°, J2 60°, J3 -90°, Z 0 mm in pulses).
     let rows: Vec<&str> = std::str::from_utf8(&pulses).unwrap().lines().collect();
     assert!(rows.len() > 50, "{} rows", rows.len());
     assert_eq!(rows[0].split(',').count(), 5, "{}", rows[0]);
@@ -184,7 +185,8 @@ fn listen_serves_a_host_session_faster_than_real_time() {
     let mut reader = BufReader::new(stream.try_clone().unwrap());
     let mut writer = stream;
     let mut heard = Vec::new();
-    for (id, request) in [(1, "HOME"), (2, "MOVJ 30 60 -90 100")] {
+    // The Fig. 7 move as examples/fig7_ptp.wrl makes it: Z stays at 0, under the stations.
+    for (id, request) in [(1, "HOME"), (2, "MOVJ 30 60 -90 0")] {
         writer
             .write_all(format!("{id} {request}\n").as_bytes())
             .unwrap();
@@ -214,6 +216,7 @@ fn listen_serves_a_host_session_faster_than_real_time() {
     assert!(status.success(), "{rest}\n{err}");
     assert!(rest.contains("wrc sim: stopped"), "{rest}");
     assert!(err.contains("s of virtual time in"), "{err}");
+    assert_eq!(side_collisions(dir.path()), (0, None));
 }
 
 #[test]
@@ -352,8 +355,8 @@ fn a_client_lost_mid_move_is_in_the_trace_and_its_loss_replays_identically() {
         owner.until("ACK 1");
         owner.send("2 HOME");
         owner.until("INF 2");
-        owner.send("3 MOVJ 170 30 0 250");
-        owner.until("ACK 3");
+        owner.send(&format!("3 {LONG_MOVE}"));
+        assert_eq!(owner.until("ACK 3"), "ACK 3");
         watcher.until("EVT STATE MOVING");
     } // the owner's connection drops here, mid-move
     watcher.until("EVT ERROR 208");
@@ -369,6 +372,8 @@ fn a_client_lost_mid_move_is_in_the_trace_and_its_loss_replays_identically() {
         libc::kill(child.0.id() as libc::pid_t, libc::SIGTERM);
     }
     assert!(child.0.wait().unwrap().success());
+    // The move's E-stop braked the folded arm clear of the cell.
+    assert_eq!(side_collisions(dir.path()), (0, None));
 
     // Two hosts connected, one closed: the recording says when.
     let trace = wrc_trace::TraceFile::load(&path).unwrap();
@@ -411,19 +416,19 @@ fn a_programs_points_and_those_of_the_program_it_calls_go_before_their_uploads()
     );
     write(
         "main.points.toml",
-        "[points]\nABOVE = { x = 250.0, y = 50.0, z = 20.0, yaw = 0.0 }\n",
+        "[points]\nABOVE = { x = 250.0, y = 50.0, z = 0.0, yaw = 0.0 }\n",
     );
     write("other.wrl", "MOVEJ PARK\nPRINT \"other at\", HERE()\n");
     write(
         "other.points.toml",
-        "[points]\nPARK = { joints = [30.0, 60.0, -90.0, 10.0] }\n",
+        "[points]\nPARK = { joints = [30.0, 60.0, -90.0, 0.0] }\n",
     );
     let program = dir.path().join("main.wrl");
     let out = wrc(&["sim", program.to_str().unwrap()]);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stdout}\n{stderr}");
     let lines: Vec<&str> = stdout.lines().collect();
-    assert_eq!(lines[0], "main at POSE(250, 50, 20, 0)", "{stdout}");
+    assert_eq!(lines[0], "main at POSE(250, 50, 0, 0)", "{stdout}");
     assert!(lines[1].starts_with("other at POSE("), "{stdout}");
     assert_eq!(lines[2], "INF 2");
 }

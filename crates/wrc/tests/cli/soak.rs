@@ -36,6 +36,9 @@ fn a_short_soak_answers_every_request_and_leaves_nothing_behind() {
     assert_eq!(report["requests"], report["replies"]);
     assert!(report["invalid_lines"].as_u64().unwrap() > 10, "{report:#}");
     assert!(report["motions"].as_u64().unwrap() > 0, "{report:#}");
+    // The random moves, and the brakes of the other clients' HOLDs and STOPs, kept clear of
+    // the cell: its ground truth counted no touch.
+    assert_eq!(report["side_collisions"], 0, "{report:#}");
     assert!(
         report["fds_after"].as_u64().unwrap() <= report["fds_before"].as_u64().unwrap(),
         "{report:#}"

@@ -47,30 +47,40 @@ fn stations_are_listed_taught_saved_and_kept_across_a_restart() {
     assert!(host
         .ask("6 TEACH a-name-longer-than-16")
         .starts_with("NAK 6 106 "));
-    assert_eq!(host.motion(7, "MOVP 290 -170 25 -30"), "INF 7");
-    let taught = host.ask("8 TEACH lp1");
-    assert!(taught.starts_with("ACK 8 LP1 kind=load_port "), "{taught}");
-    assert!((field(&taught, "x") - 290.0).abs() < 0.01, "{taught}");
-    assert!((field(&taught, "y") + 170.0).abs() < 0.01, "{taught}");
+    // Into LP1 as a transfer goes: to its approach pose (220 mm before the seat, LP1 at
+    // -30°) and straight in along its line, the only way into a station; the seat taught
+    // 10 mm short of the configured one (294.449, -170) and 5 mm higher.
+    let (x, y) = (294.449 - 10.0 * 0.866_025, -170.0 + 10.0 * 0.5);
+    assert_eq!(host.motion(7, "MOVP 103.923 -60 25 -30"), "INF 7");
+    assert_eq!(
+        host.motion(8, &format!("MOVL {x:.3} {y:.3} 25 -30")),
+        "INF 8"
+    );
+    let taught = host.ask("9 TEACH lp1");
+    assert!(taught.starts_with("ACK 9 LP1 kind=load_port "), "{taught}");
+    assert!((field(&taught, "x") - x).abs() < 0.01, "{taught}");
+    assert!((field(&taught, "y") - y).abs() < 0.01, "{taught}");
     assert!((field(&taught, "z") - 25.0).abs() < 0.01, "{taught}");
 
     // Another host may not teach while this one holds control.
-    assert!(host.ask("9 CONTROL").starts_with("ACK 9"));
+    assert!(host.ask("10 CONTROL").starts_with("ACK 10"));
     let mut other = c.client();
-    assert!(other.ask("10 TEACH LP2").starts_with("NAK 10 120 "));
+    assert!(other.ask("11 TEACH LP2").starts_with("NAK 11 120 "));
     drop(other);
 
     // The taught pose is in the file and survives a restart.
     let c = c.restart();
     let mut host = c.client();
     host.seen.clear();
-    assert_eq!(host.ask("11 STN"), "ACK 11 stations=6");
+    assert_eq!(host.ask("12 STN"), "ACK 12 stations=6");
     let lp1 = host
         .seen
         .iter()
         .find(|l| l.starts_with("EVT STATION LP1 "))
         .cloned()
         .unwrap();
-    assert!((field(&lp1, "x") - 290.0).abs() < 0.01, "{lp1}");
+    assert!((field(&lp1, "x") - x).abs() < 0.01, "{lp1}");
     assert!((field(&lp1, "z") - 25.0).abs() < 0.01, "{lp1}");
+    // Into LP1 only along its line: the simulated cell felt no touch.
+    c.stop_clear_of_the_cell();
 }

@@ -212,7 +212,9 @@ fn killing_the_gui_leaves_the_controller_serving() {
         "INF 1"
     );
     assert_eq!(ask(&mut ws, "2 CONTROL").1, "ACK 2 owner=gui0");
-    assert_eq!(ask(&mut ws, "3 MOVJ 170 -150 200 290").1, "ACK 3");
+    // Far in J1, J3 and Z with the arm folded (J2 150°): clear of the cell at any height,
+    // it goes straight, and so does its brake.
+    assert_eq!(ask(&mut ws, "3 MOVJ 170 150 200 290").1, "ACK 3");
     wait_for(&mut ws, |t| t == "EVT STATE MOVING");
 
     // SAFETY: signals the wrc ui process that wrc up started.
@@ -239,7 +241,7 @@ fn killing_the_gui_leaves_the_controller_serving() {
     let r = host.reply();
     assert!(r.starts_with("ABS 9 208"), "{r}");
     assert_eq!(host.ask("10 RESET"), "ACK 10");
-    assert_eq!(host.motion(11, "MOVJ 0 90 -90 10"), "INF 11");
+    assert_eq!(host.motion(11, "MOVJ 0 150 -90 10"), "INF 11");
 
     // A new GUI on the same controller socket serves again.
     let socket = c.dir_path().join("wrc.sock");
@@ -259,8 +261,9 @@ fn killing_the_gui_leaves_the_controller_serving() {
     let mut ws2 = connect_ws(ui_port2, "").unwrap();
     wait_for(&mut ws2, |t| t.starts_with("EVT UI CONNECTED"));
     let (_, r) = ask(&mut ws2, "12 WHERE");
-    assert!(r.starts_with("ACK 12 j=0,90,-90,10"), "{r}");
+    assert!(r.starts_with("ACK 12 j=0,150,-90,10"), "{r}");
     stop(&mut ui);
+    c.stop_clear_of_the_cell();
 }
 
 fn stop(child: &mut Child) {

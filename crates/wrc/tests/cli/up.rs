@@ -15,6 +15,13 @@ use crate::{wait_until, BoardView};
 /// Board periods (10 ms each) that a test watches the arm after a stop to see nothing move.
 pub(crate) const STILL_PERIODS: u64 = 30;
 
+/// A long PTP from HOME (J1 -75°, J2 150°, J3 -75° [deg], Z 0 [mm]) for a test to stop,
+/// hold or lose on the way: J1 turns 245°, J3 75° and Z rises 250 mm, with the arm folded
+/// (J2 150°) all the way, so that the hand and the links stay within about 230 mm of the
+/// base, short of every station of the demo cell (their boxes begin 270-315 mm out) at any
+/// height: it goes straight, and so does any brake along it.
+pub(crate) const LONG_MOVE: &str = "MOVJ 170 150 0 250";
+
 pub(crate) struct Controller {
     child: Child,
     pub(crate) port: u16,
@@ -129,6 +136,18 @@ impl Controller {
     /// The simulated board that `wrc up` started, seen through its DPRAM.
     pub(crate) fn board(&self) -> BoardView {
         BoardView::open(&self.dpram())
+    }
+
+    /// Stop this controller (SIGTERM: its board saves the simulated cell as it stops) and
+    /// assert that the cell counted no side collision: no body of the arm touched a station
+    /// off its line, or an obstacle, while this controller moved it.
+    pub(crate) fn stop_clear_of_the_cell(mut self) {
+        assert!(self.terminate().success());
+        let (count, latest) = crate::side_collisions(self.dir.path());
+        assert_eq!(
+            count, 0,
+            "side collisions in the simulated cell, the latest at {latest:?}"
+        );
     }
 
     fn terminate(&mut self) -> std::process::ExitStatus {
@@ -271,26 +290,28 @@ fn home_then_ptp_and_straight_moves_reach_their_targets() {
     let mut host = c.client();
     assert!(host.status().starts_with("ACK state=IDLE homed=0"));
     assert!(
-        host.ask("MOVJ 0 90 0 10").starts_with("NAK 110"),
+        host.ask("MOVJ 0 90 0 0").starts_with("NAK 110"),
         "motion before HOME is refused"
     );
     assert_eq!(host.motion(1, "HOME"), "INF 1");
     assert!(host.status().contains("homed=1"));
-    assert_eq!(host.motion(2, "MOVP 250 100 20 30"), "INF 2");
+    // At Z 0 the arm passes under every station of the demo cell (the lowest, the load
+    // ports, begin at 10 mm); higher, this pose would put the hand into LP2.
+    assert_eq!(host.motion(2, "MOVP 250 100 0 30"), "INF 2");
     let (j, x, y) = host.where_();
     assert!(
         (x - 250.0).abs() < 0.05 && (y - 100.0).abs() < 0.05,
         "{x} {y}"
     );
-    assert!((j[3] - 20.0).abs() < 0.01);
-    assert_eq!(host.motion(3, "MOVL 250 -100 20 30"), "INF 3");
+    assert!(j[3].abs() < 0.01);
+    assert_eq!(host.motion(3, "MOVL 250 -100 0 30"), "INF 3");
     let (_, x, y) = host.where_();
     assert!(
         (x - 250.0).abs() < 0.05 && (y + 100.0).abs() < 0.05,
         "{x} {y}"
     );
     assert_eq!(host.motion(4, "JOG z 5000"), "INF 4");
-    assert!((host.where_().0[3] - 25.0).abs() < 0.01);
+    assert!((host.where_().0[3] - 5.0).abs() < 0.01);
     // A queued pair: both accepted, both finish in order.
     host.send_raw(b"5 MOVJ 10 80 0 0\n6 MOVJ 20 70 0 0\n");
     assert_eq!(host.reply(), "ACK 5");
@@ -300,6 +321,7 @@ fn home_then_ptp_and_straight_moves_reach_their_targets() {
     assert_eq!(host.ask("7 WAIT"), "ACK 7");
     assert_eq!(host.reply(), "INF 7");
     assert!(host.seen.iter().any(|l| l == "EVT STATE MOVING"));
+    c.stop_clear_of_the_cell();
 }
 
 #[test]
@@ -338,7 +360,7 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
     let mut host = c.client();
     let mut other = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
-    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    assert_eq!(host.ask(&format!("2 {LONG_MOVE}")), "ACK 2");
     // STOP once j1 is on its way from -75, far from 170.
     other.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     assert_eq!(other.ask("3 STOP"), "ACK 3");
@@ -354,17 +376,18 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
     assert!(a[0] < 170.0 && a[0] > -75.0);
     assert!(host.status().starts_with("ACK state=IDLE"));
 
-    assert_eq!(host.ask("4 MOVJ -100 30 0 0"), "ACK 4");
+    // Folded, as LONG_MOVE: clear of the cell from wherever the STOP left the arm.
+    assert_eq!(host.ask("4 MOVJ -100 150 0 0"), "ACK 4");
     other.wait_moving("j1 on its way to -100 deg", |j, _, _| j[0] < a[0] - 2.0);
     assert_eq!(other.ask("5 ESTOP"), "ACK 5");
     assert_eq!(host.reply(), "ABS 4 201 emergency stop");
     // WAIT answers (with the E-stop's code) once the brake is over; RESET needs that.
     assert!(host.motion(8, "WAIT").starts_with("ABS 8 201"));
     assert!(host.status().starts_with("ACK state=ESTOP"));
-    assert!(host.ask("MOVJ 0 90 0 0").starts_with("NAK 123"));
+    assert!(host.ask("MOVJ 0 150 0 0").starts_with("NAK 123"));
     assert_eq!(host.ask("RESET"), "ACK");
     assert!(host.status().starts_with("ACK state=IDLE"));
-    assert_eq!(host.motion(6, "MOVJ 0 90 0 0"), "INF 6");
+    assert_eq!(host.motion(6, "MOVJ 0 150 0 0"), "INF 6");
 
     // TASKS counts both stops on the Pulse Generator's line: with a FIFO flush on this one
     // board, unless a board period began at every try (then behind the queue).
@@ -385,6 +408,7 @@ fn stop_and_estop_mid_move_abort_and_nothing_moves_afterwards() {
         2,
         "{pg}"
     );
+    c.stop_clear_of_the_cell();
 }
 
 #[test]
@@ -392,7 +416,7 @@ fn a_board_alarm_aborts_the_move_and_reset_recovers() {
     let c = Controller::start(&[]);
     let mut host = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
-    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    assert_eq!(host.ask(&format!("2 {LONG_MOVE}")), "ACK 2");
     host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     let out = Command::new(env!("CARGO_BIN_EXE_wrc"))
         .args(["board-sim", "inject", "--dpram"])
@@ -422,10 +446,11 @@ fn a_board_alarm_aborts_the_move_and_reset_recovers() {
         "{:?}",
         host.seen
     );
-    assert!(host.ask("MOVJ 0 90 0 0").starts_with("NAK 122"));
+    assert!(host.ask("MOVJ 0 150 0 0").starts_with("NAK 122"));
     assert_eq!(host.ask("RESET"), "ACK");
     assert!(host.status().contains("state=IDLE") && host.status().contains("err=0"));
-    assert_eq!(host.motion(3, "MOVJ 0 90 0 0"), "INF 3");
+    assert_eq!(host.motion(3, "MOVJ 0 150 0 0"), "INF 3");
+    c.stop_clear_of_the_cell();
 }
 
 #[test]
@@ -503,7 +528,7 @@ fn sigterm_stops_cleanly_and_leaves_no_process() {
     let mut c = Controller::start(&[]);
     let mut host = c.client();
     assert_eq!(host.motion(1, "HOME"), "INF 1");
-    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    assert_eq!(host.ask(&format!("2 {LONG_MOVE}")), "ACK 2");
     host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     let status = c.terminate();
     assert!(status.success(), "{status:?}");
@@ -688,7 +713,7 @@ fn losing_the_controlling_client_mid_move_stops_the_robot_in_error() {
         let mut owner = c.client();
         assert!(owner.ask("CONTROL").starts_with("ACK owner="));
         assert_eq!(owner.motion(1, "HOME"), "INF 1");
-        assert_eq!(owner.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+        assert_eq!(owner.ask(&format!("2 {LONG_MOVE}")), "ACK 2");
         watcher.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     } // the owner's connection drops here
     let s = watcher.wait_state("ERROR");
@@ -729,7 +754,7 @@ fn kill_board_mid_move(c: &Controller, host: &mut Client) -> u32 {
     // The board has run for more than a second (`--restart-boards` restarts only such a
     // board; one that dies as it starts is left dead).
     c.board().wait_periods(120);
-    assert_eq!(host.ask("2 MOVJ 170 30 0 250"), "ACK 2");
+    assert_eq!(host.ask(&format!("2 {LONG_MOVE}")), "ACK 2");
     host.wait_moving("j1 past -65 deg", |j, _, _| j[0] > -65.0);
     let pid = board_sim_pid(c.dir_path()).expect("a board-sim process");
     // SAFETY: signals the board process of our own wrc up.
@@ -806,7 +831,7 @@ fn a_killed_board_restarts_with_restart_boards_and_reset_reattaches_it() {
             "re-attached at {joints:?}, stood at {stood:?}"
         );
     }
-    assert_eq!(host.motion(5, "MOVJ 0 90 0 10"), "INF 5");
+    assert_eq!(host.motion(5, "MOVJ 0 150 0 10"), "INF 5");
 }
 
 /// Raise this process's descriptor limit to its hard limit; the descriptors it may open then.

@@ -269,6 +269,26 @@ enum OwnStop {
     Stopped(u32),
 }
 
+/// Board periods the host has, from the one in which the E-stop input opens, to take the stop
+/// with a flush of its own brake before the board brakes every axis itself (docs/dpram.md,
+/// "Stops" 6): that period and the next.
+pub const ESTOP_GRACE_PERIODS: u32 = 2;
+
+/// The E-stop input on the board: a time-monitored safe stop (SS1-t). The host's brake
+/// along the path first, the board's own brake of every axis when the host does not take
+/// the stop in time or its brake outlasts the window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Estop {
+    /// The input has not opened since the last RESET.
+    Off,
+    /// Opened `periods` board periods ago; `answered` once the board took a flush of the
+    /// host since (its brake): the FIFO still plays.
+    Window { periods: u32, answered: bool },
+    /// The board holds every axis itself (braking on its own first if one moves), FIFO
+    /// entries discarded, until RESET.
+    Hold,
+}
+
 /// The simulated board's DSP.
 #[derive(Debug)]
 pub struct SimBoard {
@@ -279,6 +299,10 @@ pub struct SimBoard {
     io: SimIo,
     watchdog: HostWatchdog,
     estop_latched: bool,
+    estop: Estop,
+    /// Board periods the host's brake may take after the E-stop input opens before the
+    /// board brakes on its own ([`SimBoard::estop_window`]).
+    estop_window: u32,
     own_stop: OwnStop,
     /// The `BOARD_STOPS` count of the latest brake the board took on its own: the host
     /// releases it by that number.
@@ -443,6 +467,8 @@ impl SimBoard {
             underrun: [false; AXES_PER_BOARD],
             io: SimIo::new(&settings.io),
             estop_latched: false,
+            estop: Estop::Off,
+            estop_window: estop_window(settings),
             own_stop: OwnStop::Idle,
             own_token: 0,
             period_s: f64::from(settings.period_us) / 1e6,
@@ -580,6 +606,11 @@ impl SimBoard {
                     self.own_stop = OwnStop::Idle;
                 }
             }
+            // After the E-stop input opened, the host's flush is its brake: the board plays
+            // it (within the window) instead of braking each axis off the path.
+            if let Estop::Window { answered, .. } = &mut self.estop {
+                *answered = true;
+            }
             self.flush(flush);
         }
         self.period();
@@ -654,23 +685,26 @@ impl SimBoard {
         let inputs = self.io.step(outputs);
         self.dpram.store(layout::io::OUTPUTS_APPLIED, outputs);
         self.dpram.store(layout::io::INPUTS, inputs);
-        if self.io.estop(inputs) {
-            self.estop_latched = true;
-        }
+        self.step_estop(self.io.estop(inputs));
         self.underrun = [false; AXES_PER_BOARD];
         self.take_stop_word();
         let ready = self.record_ready();
-        if !self.watchdog.is_tripped() && !self.estop_latched {
+        let hold = self.estop == Estop::Hold;
+        if !self.watchdog.is_tripped() && !hold {
             self.brake_on_underrun(ready);
         }
         let own = matches!(self.own_stop, OwnStop::Braking(_) | OwnStop::Stopped(_));
-        let stop = self.watchdog.is_tripped() || self.estop_latched || own;
+        if own && self.estop != Estop::Off {
+            // A brake of the board's own after the E-stop input opened ends in the E-stop's
+            // hold: the host's release does not start the FIFO again.
+            self.estop = Estop::Hold;
+        }
+        let hold = self.estop == Estop::Hold;
+        let stop = self.watchdog.is_tripped() || hold || own;
         // A watchdog trip or the E-stop input brakes with the full limits; a stop the board
         // takes on its own with the level the host asked for.
         let level = match self.own_stop {
-            OwnStop::Braking(w) | OwnStop::Stopped(w)
-                if !self.watchdog.is_tripped() && !self.estop_latched =>
-            {
+            OwnStop::Braking(w) | OwnStop::Stopped(w) if !self.watchdog.is_tripped() && !hold => {
                 f64::from(layout::stop::level(w)) / 100.0
             }
             _ => 1.0,
@@ -788,12 +822,38 @@ impl SimBoard {
                     if let Some(a) = self.axes[channel].as_mut() {
                         self.dpram.fifo_skip_to(channel, at);
                         self.streaming[channel] = false;
-                        if !self.watchdog.is_tripped() && !self.estop_latched {
+                        if !self.watchdog.is_tripped() && self.estop != Estop::Hold {
                             a.end_stop();
                         }
                     }
                 }
                 self.own_stop = OwnStop::Idle;
+            }
+        }
+    }
+
+    /// The E-stop input this period (`open`): latched when it opens (the status shows it
+    /// until RESET), then the window of the host's brake (docs/dpram.md, "Stops"
+    /// 6): the board holds every axis itself once the host has not flushed its brake
+    /// within [`ESTOP_GRACE_PERIODS`], or once the window ends.
+    fn step_estop(&mut self, open: bool) {
+        if open && !self.estop_latched {
+            self.estop_latched = true;
+            self.estop = Estop::Window {
+                periods: 0,
+                answered: false,
+            };
+            return;
+        }
+        if let Estop::Window { periods, answered } = &mut self.estop {
+            *periods += 1;
+            let limit = if *answered {
+                self.estop_window
+            } else {
+                ESTOP_GRACE_PERIODS
+            };
+            if *periods >= limit {
+                self.estop = Estop::Hold;
             }
         }
     }
@@ -870,6 +930,7 @@ impl SimBoard {
             command::RESET => {
                 self.watchdog.reset();
                 self.estop_latched = false;
+                self.estop = Estop::Off;
                 // A stop braked on its own ends too (a host that restarted does not know
                 // of it): what was queued before is dropped.
                 if !matches!(self.own_stop, OwnStop::Idle) {
@@ -944,6 +1005,23 @@ impl SimBoard {
         }
         self.dpram.store(control::BOARD_STATUS, status);
     }
+}
+
+/// The E-stop window in board periods: the grace, then twice the longest time-optimal brake
+/// of an axis from its motor limit with its stop limits, and at least a second (the host's
+/// brake along a path is slower than each axis's own, and a path's limits may be lower).
+fn estop_window(settings: &SimSettings) -> u32 {
+    let brake_s = settings
+        .axes
+        .iter()
+        .map(|s| {
+            let a = s.stop_deceleration_pps2.max(1.0);
+            s.max_velocity_pps / a + a / s.stop_jerk_pps3.max(1.0)
+        })
+        .fold(0.0, f64::max);
+    let period_s = f64::from(settings.period_us.max(1)) / 1e6;
+    let periods = ((2.0 * brake_s).clamp(1.0, 60.0) / period_s).ceil();
+    ESTOP_GRACE_PERIODS + periods as u32
 }
 
 /// The brake limits of axis `channel` at `level` (a fraction of them, 0..=1): those the host
@@ -1243,25 +1321,86 @@ pub(crate) mod tests {
         assert!(f.boards[0].status & board_status::WATCHDOG_TRIPPED == 0);
     }
 
+    /// Cruise at 400 pulses a period on axis 0 with the FIFO kept full; the increments of
+    /// `n` more periods, the FIFO topped up after each.
+    fn cruise(sim: &mut SimBoard, host: &mut DpramBoard, n: usize) -> Vec<i64> {
+        let mut incs = Vec::with_capacity(n);
+        for _ in 0..n {
+            while host.push(&inc(400, 0)).is_ok() {}
+            sim.step();
+            incs.push(feedback(host).axes[0].increment);
+        }
+        incs
+    }
+
     #[test]
-    fn estop_input_stops_and_latches_until_reset() {
+    fn the_estop_input_waits_its_grace_for_the_hosts_brake_then_brakes_every_axis_itself() {
         let (mut sim, mut host) = pair();
-        for _ in 0..3 {
-            host.push(&inc(400, 0)).unwrap();
-            sim.step();
-        }
+        cruise(&mut sim, &mut host, 5);
         assert!(Fault::Estop { on: true }.inject(sim.dpram()));
-        for _ in 0..20 {
-            sim.step();
-        }
+        // The period it opens and the next play the FIFO: the host has them to flush its
+        // brake along the path. It does not: the board brakes on its own.
+        let incs = cruise(&mut sim, &mut host, 40);
+        assert_eq!(incs[..ESTOP_GRACE_PERIODS as usize], [400, 400]);
+        assert!(incs[2] < 400, "{incs:?}");
+        assert!(incs.windows(2).all(|w| w[1] <= w[0]), "{incs:?}");
+        assert_eq!(incs[30..], [0; 10]);
         let f = feedback(&host);
         assert!(f.boards[0].inputs & (1 << 15) != 0);
         assert!(f.boards[0].status & board_status::ESTOP != 0);
-        assert_eq!(f.axes[0].increment, 0);
+        assert!(host.board_stop().estop);
+        // Held until RESET: what the host pushes is discarded.
+        let at = f.axes[0].commanded;
+        cruise(&mut sim, &mut host, 3);
+        assert_eq!(feedback(&host).axes[0].commanded, at);
         sim.apply_fault(Fault::Estop { on: false });
         host.reset().unwrap();
         sim.step();
         assert!(feedback(&host).boards[0].status & board_status::ESTOP == 0);
+        assert!(!host.board_stop().estop);
+        host.push(&inc(5, 0)).unwrap();
+        sim.step();
+        assert_eq!(feedback(&host).axes[0].commanded, at + 5);
+    }
+
+    #[test]
+    fn the_estop_input_plays_the_hosts_brake_flushed_in_its_grace_and_holds_after_the_window() {
+        let (mut sim, mut host) = pair();
+        cruise(&mut sim, &mut host, 5);
+        assert!(Fault::Estop { on: true }.inject(sim.dpram()));
+        assert_eq!(cruise(&mut sim, &mut host, 1), [400]);
+        assert!(host.board_stop().estop);
+        // The host sees the input and flushes its brake (a ramp down, as along a path): its
+        // first period with the flush, the rest behind it.
+        let at = host.fifo_position().unwrap();
+        assert!(host.flush_queued(&at, at.write, &[inc(300, 0)]));
+        let mut incs = run(&mut sim, &host, 1);
+        for i in [200, 100, 0] {
+            host.push(&inc(i, 0)).unwrap();
+        }
+        incs.extend(run(&mut sim, &host, 3));
+        assert_eq!(incs, [300, 200, 100, 0], "the host's brake, as flushed");
+        assert_eq!(sim.dpram().load(control::BOARD_STOPS), 0);
+        // Within the window the FIFO still plays (a time-monitored stop: the host's brake
+        // may take that long); after it the board holds every axis itself.
+        let window = estop_window(&settings()) as usize;
+        assert_eq!(window, 2 + 100, "grace, then at least 1 s");
+        let before = feedback(&host).axes[0].commanded;
+        host.push(&inc(7, 0)).unwrap();
+        host.push(&inc(0, 0)).unwrap();
+        run(&mut sim, &host, 2);
+        let played = feedback(&host).axes[0].commanded;
+        assert_eq!(played, before + 7);
+        run(&mut sim, &host, window);
+        assert_eq!(feedback(&host).axes[0].commanded, played);
+        host.push(&inc(7, 0)).unwrap();
+        sim.step();
+        let f = feedback(&host);
+        assert_eq!(
+            f.axes[0].commanded, played,
+            "moved after the E-stop's window"
+        );
+        assert!(f.boards[0].status & board_status::ESTOP != 0);
     }
 
     #[test]

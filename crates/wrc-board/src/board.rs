@@ -230,6 +230,9 @@ pub struct BoardStop {
     /// taken it otherwise (a flush of the host's brake answered it, or a RESET) and no flush
     /// is pending. A host that waits for a board's own brake then waits in vain.
     pub answered: bool,
+    /// Some board's E-stop input has opened (latched until RESET): the board plays the
+    /// host's brake only if the host flushes it at once (docs/dpram.md, "Stops" 6).
+    pub estop: bool,
 }
 
 /// A motion board (or several) as the controller's real-time tasks use it.

@@ -281,6 +281,7 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
             settled: true,
             braking: false,
             answered: true,
+            estop: false,
         };
         for b in &self.boards {
             let s = b.board_stop();
@@ -290,6 +291,7 @@ impl<B: MotionBoard> MotionBoard for MultiBoard<B> {
             }
             all.answered &= s.answered;
             all.braking |= s.braking;
+            all.estop |= s.estop;
         }
         all.settled &= all.braking_own;
         all.answered &= !all.braking_own;

@@ -175,12 +175,22 @@ impl<B: MotionBoard> ErrorCheck<B> {
         if matches!(state, RobotState::Idle | RobotState::Moving) {
             self.reported = false;
         }
+        // Cleared by the Pulse Generator when it sees the input closed.
+        let estop = &self.shared.estop_reported;
         if let Some(code) = fault {
-            if !self.reported && !matches!(state, RobotState::Error | RobotState::Estop) {
+            // The Pulse Generator watches the E-stop input every period and reports it.
+            let reported_elsewhere = code == Code::EstopInput && estop.load(Ordering::Acquire);
+            if !self.reported
+                && !reported_elsewhere
+                && !matches!(state, RobotState::Error | RobotState::Estop)
+            {
                 // Reported once it is on the urgent queue; a queue full of emergencies (a
                 // burst of STOP and ESTOP lines) leaves it for the next period.
                 if self.urgent.try_send(Urgent::Fault(code.number())).is_ok() {
                     self.reported = true;
+                    if code == Code::EstopInput {
+                        estop.store(true, Ordering::Release);
+                    }
                     self.wake.post();
                 } else if code == Code::ClientLost {
                     // The loss was taken from its flag: keep it for the next period.

@@ -288,6 +288,8 @@ pub struct PulseGenerator<B: MotionBoard> {
     liveness: Option<Liveness>,
     /// A board stopped answering: nothing is pushed until a RESET re-attaches.
     detached: bool,
+    /// The E-stop input is open and its stop asked for ([`PulseGenerator::watch_estop`]).
+    estop_seen: bool,
     /// The board(s) take a stop word directly from whoever asks for a stop
     /// ([`Shared::set_stop_line`]): a stop this task cannot answer with its brake in time
     /// is braked by the board.
@@ -352,6 +354,7 @@ impl<B: MotionBoard> PulseGenerator<B> {
             trace: None,
             liveness: None,
             detached: false,
+            estop_seen: false,
             board_stops: false,
             board_braked: false,
             board_braking: false,
@@ -405,6 +408,33 @@ impl<B: MotionBoard> PulseGenerator<B> {
         liveness.report();
         if newly_dead {
             self.detach();
+        }
+    }
+
+    /// The E-stop input, looked at every cycle: when it opens, the stop is asked for here, an
+    /// ESTOP, so that this cycle flushes the brake along the path within the board's grace
+    /// (docs/dpram.md, "Stops" 6; Error Check, at its slower period, would come
+    /// after the board has braked each axis on its own, off the path), and reported (202)
+    /// on the urgent path unless Error Check has already.
+    fn watch_estop(&mut self, open: bool) {
+        let reported = &self.shared.estop_reported;
+        if !open {
+            self.estop_seen = false;
+            if reported.load(Ordering::Acquire) {
+                reported.store(false, Ordering::Release);
+            }
+            return;
+        }
+        if self.estop_seen || self.detached {
+            return;
+        }
+        self.estop_seen = true;
+        self.shared.request_stop(StopKind::Estop);
+        if let Some(l) = self.liveness.as_ref() {
+            // A full urgent queue leaves the report to Error Check's next period.
+            if !reported.swap(true, Ordering::AcqRel) && !l.raise(Code::EstopInput) {
+                reported.store(false, Ordering::Release);
+            }
         }
     }
 
@@ -617,12 +647,14 @@ impl<B: MotionBoard> PulseGenerator<B> {
     /// for the next period of this task.
     pub fn step_released(&mut self, release: Release) {
         self.board.refresh_watchdog();
-        self.board_braking = self.board.board_stop().braking;
+        let board_stop = self.board.board_stop();
+        self.board_braking = board_stop.braking;
         if release == Release::Period {
             self.periods = self.periods.wrapping_add(1);
             self.watch_boards();
             self.watch_fifo();
         }
+        self.watch_estop(board_stop.estop);
         let mut braking_now = false;
         let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
         if epoch != self.epoch_seen {

@@ -81,6 +81,10 @@ pub struct Shared {
     /// watches it every period): the board is not answering. Cleared when every heartbeat
     /// advances again; the controller stays in ERROR until a RESET re-attaches.
     pub board_dead: AtomicBool,
+    /// The E-stop input's opening is on the urgent path (202), from the Pulse Generator,
+    /// which watches it every period, or Error Check: the other does not report it again.
+    /// Cleared once the input is seen closed.
+    pub estop_reported: AtomicBool,
     /// The blades the wafer map has a wafer on for certain and that no transfer under way
     /// uses (bit 0: A, the hand; bit 1: B), set by the cell service once it has settled the
     /// start-up: outside a job the Command Interpreter watches their vacuum sensors, moving
@@ -151,6 +155,7 @@ impl Default for Shared {
             io_ready: AtomicBool::new(false),
             io_samples: AtomicU64::new(0),
             board_dead: AtomicBool::new(false),
+            estop_reported: AtomicBool::new(false),
             hand_wafers: AtomicU8::new(0),
             blade_wafers: std::array::from_fn(|_| AtomicU64::new(0)),
             jobs_ended: AtomicU32::new(0),

@@ -213,6 +213,7 @@ impl MotionBoard for DpramBoard {
             settled: braking_own && status & board_status::STOPPING == 0,
             braking: status & board_status::STOPPING != 0,
             answered: !braking_own && acked && !flush_pending,
+            estop: status & board_status::ESTOP != 0,
         }
     }
 

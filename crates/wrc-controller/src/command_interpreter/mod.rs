@@ -320,7 +320,9 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         // An emergency taken here before the urgent thread got to it: request its stop now
         // (exactly one stop per message, whoever takes it).
         while let Ok(u) = self.io.urgent.try_recv() {
-            self.shared.request_stop(u.stop_kind());
+            if let Some(kind) = u.stop_kind() {
+                self.shared.request_stop(kind);
+            }
             self.handle_urgent(u);
         }
         while let Ok(u) = self.io.forwarded.try_recv() {

@@ -16,6 +16,7 @@ use super::admission::{admit, Refused, Situation};
 use super::{deliver, CommandInterpreter};
 use crate::clients::source_name;
 use crate::messages::{floor_char_boundary, MoveKind, SourceId, Urgent};
+use crate::shared::StopKind;
 use crate::velocity_generator::refusal_code;
 
 /// The refusal of the running program's last request (its requests go through the same
@@ -190,12 +191,12 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             // STOP and ESTOP from a connection take the urgent path; these are a program's
             // or a test's, which request the stop here.
             Command::Stop | Command::Estop => {
-                let urgent = if matches!(request.command, Command::Stop) {
-                    Urgent::Stop(from, to)
+                let (urgent, kind) = if matches!(request.command, Command::Stop) {
+                    (Urgent::Stop(from, to), StopKind::Stop)
                 } else {
-                    Urgent::Estop(from, to)
+                    (Urgent::Estop(from, to), StopKind::Estop)
                 };
-                self.shared.request_stop(urgent.stop_kind());
+                self.shared.request_stop(kind);
                 self.handle_urgent(urgent);
             }
             Command::Hold => self.hold(from, to),

@@ -16,7 +16,7 @@ use crate::shared::{RobotState, Shared};
 
 /// The blocking half of the urgent path: a thread that waits on the semaphore, takes each
 /// emergency off the urgent queue, requests its stop at once (the kind decides the brake:
-/// [`Urgent::stop_kind`]) and forwards it to the Command Interpreter for the replies.
+/// [`Urgent::stop_kind`]; the E-stop input's the Pulse Generator has asked for) and forwards it to the Command Interpreter for the replies.
 pub struct UrgentPath {
     /// The semaphore the receiving tasks post.
     pub wake: Arc<Semaphore>,
@@ -49,7 +49,9 @@ impl UrgentPath {
 
     fn forward(&self) {
         while let Ok(urgent) = self.urgent.try_recv() {
-            self.shared.request_stop(urgent.stop_kind());
+            if let Some(kind) = urgent.stop_kind() {
+                self.shared.request_stop(kind);
+            }
             // Sized like the urgent queue: a message taken from it always fits.
             let _ = self.forwarded.try_send(urgent);
         }

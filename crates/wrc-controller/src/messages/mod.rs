@@ -262,11 +262,15 @@ pub enum Urgent {
 }
 
 impl Urgent {
-    /// The stop it requests: ESTOP and faults brake with the axes' full limits.
-    pub fn stop_kind(&self) -> StopKind {
+    /// The stop it requests: ESTOP and faults brake with the axes' full limits. None for
+    /// the E-stop input (202): the Pulse Generator asked for its stop the period it saw the
+    /// input open, within the board's grace (docs/dpram.md, "Stops" 6); a second
+    /// stop would only brake again from where the first brake is.
+    pub fn stop_kind(&self) -> Option<StopKind> {
         match self {
-            Urgent::Stop(..) => StopKind::Stop,
-            Urgent::Estop(..) | Urgent::Fault(_) => StopKind::Estop,
+            Urgent::Stop(..) => Some(StopKind::Stop),
+            Urgent::Fault(n) if *n == wrc_protocol::Code::EstopInput.number() => None,
+            Urgent::Estop(..) | Urgent::Fault(_) => Some(StopKind::Estop),
         }
     }
 }

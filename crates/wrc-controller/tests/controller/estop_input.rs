@@ -1,8 +1,9 @@
 //! The board's E-stop input overtakes a busy Command Interpreter: the simulated board, the
-//! Pulse Generator, the Velocity Generator, Error Check, the urgent path and the Command
-//! Interpreter, stepped by hand on one thread (10 ms board periods; the Velocity Generator
-//! and the Command Interpreter every 5th, Error Check every 10th) except the urgent path,
-//! which runs on its own thread as in the controller and is waited on, never slept for.
+//! Pulse Generator (watching the boards and their stops as in the controller), the Velocity
+//! Generator, Error Check, the urgent path and the Command Interpreter, stepped by hand on
+//! one thread (10 ms board periods; the Velocity Generator and the Command Interpreter every
+//! 5th, Error Check every 10th) except the urgent path, which runs on its own thread as in
+//! the controller and is waited on, never slept for.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -14,12 +15,12 @@ use wrc_config::Config;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks, UrgentPath};
 use wrc_controller::error_check::{ErrorCheck, Limits};
 use wrc_controller::messages::{Incoming, MoveOrder, OutLine, SourceId, Urgent};
-use wrc_controller::pulse_generator::PulseGenerator;
+use wrc_controller::pulse_generator::{Liveness, PulseGenerator};
 use wrc_controller::shared::{RobotState, Shared};
 use wrc_controller::velocity_generator::VelocityGenerator;
 use wrc_protocol::{Code, Parser};
 use wrc_rt::ipc::{MessageQueue, Semaphore};
-use wrc_rt::{Clock, MonotonicClock, Release};
+use wrc_rt::{Clock, MonotonicClock};
 
 /// Requests the Command Interpreter's queue holds in this rig.
 const QUEUE: usize = 16;
@@ -71,6 +72,14 @@ impl Rig {
         let incoming = Arc::new(MessageQueue::new(QUEUE));
         let urgent = Arc::new(MessageQueue::new(8));
         let urgent_wake = Arc::new(Semaphore::new(0));
+        shared.set_stop_line(host.stop_line().unwrap());
+        let pg = pg.with_board_stops().with_liveness(Liveness::new(
+            3,
+            10_000,
+            10_000,
+            urgent.clone(),
+            urgent_wake.clone(),
+        ));
         let forwarded = Arc::new(MessageQueue::new(8));
         let network = Arc::new(MessageQueue::new(256));
         let owner_lost = Arc::new(AtomicBool::new(false));
@@ -163,10 +172,9 @@ impl Rig {
         fb.axes[0].commanded
     }
 
-    /// Run the urgent path's thread, as the controller does, until it has requested the
-    /// stop of every emergency posted (a far deadline bounds only a failure).
+    /// Run the urgent path's thread, as the controller does, until it has forwarded the
+    /// emergency posted to the Command Interpreter (a far deadline bounds only a failure).
     fn urgent_path(&self) {
-        let epoch = self.shared.stop_epoch.load(Ordering::Acquire);
         let quit = Arc::new(AtomicBool::new(false));
         let path = UrgentPath {
             wake: self.urgent_wake.clone(),
@@ -177,10 +185,10 @@ impl Rig {
         };
         let thread = std::thread::spawn(move || path.run());
         let deadline = MonotonicClock.now_ns() + 20_000_000_000;
-        while self.shared.stop_epoch.load(Ordering::Acquire) == epoch {
+        while self.forwarded.is_empty() {
             assert!(
                 MonotonicClock.now_ns() < deadline,
-                "the urgent path requested no stop"
+                "the urgent path forwarded nothing"
             );
             std::thread::yield_now();
         }
@@ -190,7 +198,7 @@ impl Rig {
 }
 
 #[test]
-fn the_estop_input_brakes_at_once_and_overtakes_a_full_request_queue() {
+fn the_estop_input_brakes_along_the_path_within_the_boards_grace_past_a_full_request_queue() {
     let mut rig = Rig::new();
     let mut target = Config::embedded_default().robot.home();
     target[0] = 170.0; // a long cruise of J1, from -75 deg
@@ -217,35 +225,46 @@ fn the_estop_input_brakes_at_once_and_overtakes_a_full_request_queue() {
     }
     assert_eq!(queued, QUEUE);
 
-    // The E-stop button is pressed between two board periods: the board brakes in the very
-    // next one (the E-stop circuit stops the axes, whatever the FIFO holds).
+    // The E-stop button is pressed between two board periods. The board's next period
+    // still plays its queued entry: the host has that period and the next to take the stop
+    // with its own brake, along the path (docs/dpram.md, "Stops" 6).
     rig.sim.apply_fault(Fault::Estop { on: true });
     let pressed_at = rig.increments.len();
-    rig.board_period();
-    let inc = &rig.increments;
-    assert!(
-        inc[pressed_at] < cruise,
-        "no deceleration in the board's next period: {:?}",
-        &inc[pressed_at - 2..]
-    );
-
-    // Error Check's next cycle (at the soonest: its period is 100 ms) hands the fault to
-    // the urgent path, past the full request queue, with one post of its semaphore.
     let epoch = rig.shared.stop_epoch.load(Ordering::Acquire);
-    rig.ec.step();
-    assert_eq!(rig.urgent_wake.count(), 1);
-    assert_eq!(rig.incoming.len(), QUEUE, "the request queue was bypassed");
-    rig.urgent_path();
+    rig.board_period();
+    assert_eq!(rig.increments[pressed_at], cruise, "{:?}", rig.increments);
+
+    // The Pulse Generator's next period sees the input: it asks for the stop (an ESTOP),
+    // flushes the first periods of its brake before the board's next period, and reports
+    // the fault on the urgent path, past the full request queue, with one post of its
+    // semaphore.
+    let decel_before = rig.shared.decel_ns.load(Ordering::Acquire);
+    rig.pg.step();
     assert_eq!(
         rig.shared.stop_epoch.load(Ordering::Acquire),
         epoch + 1,
         "one stop"
     );
-    // The stop releases the Pulse Generator at once: it pushes its first braking period
-    // without waiting for its period.
-    let decel_before = rig.shared.decel_ns.load(Ordering::Acquire);
-    rig.pg.step_released(Release::Event);
     assert!(rig.shared.decel_ns.load(Ordering::Acquire) > decel_before);
+    assert_eq!(rig.urgent_wake.count(), 1);
+    assert_eq!(rig.incoming.len(), QUEUE, "the request queue was bypassed");
+    let before = rig.j1_commanded();
+    rig.sim.step();
+    rig.increments.push(rig.j1_commanded() - before);
+    rig.k += 1;
+    let inc = &rig.increments;
+    assert!(
+        inc[pressed_at + 1] < cruise,
+        "no deceleration in the board's next period: {:?}",
+        &inc[pressed_at - 2..]
+    );
+
+    // Error Check's next cycle finds it reported: no second report. The urgent path hands
+    // the fault on without a second stop.
+    rig.ec.step();
+    assert_eq!(rig.urgent_wake.count(), 1);
+    rig.urgent_path();
+    assert_eq!(rig.shared.stop_epoch.load(Ordering::Acquire), epoch + 1);
 
     // The forwarded fault releases the Command Interpreter: it is handled before any queued
     // request, so every queued motion is refused in ESTOP and none reaches the Velocity
@@ -283,4 +302,7 @@ fn the_estop_input_brakes_at_once_and_overtakes_a_full_request_queue() {
     );
     assert!(inc[inc.len() - 50..].iter().all(|&i| i == 0), "{inc:?}");
     assert_eq!(rig.shared.state(), RobotState::Estop);
+    // The host's brake stopped it: the board never braked on its own.
+    assert_eq!(rig.shared.fifo.board_stops.load(Ordering::Acquire), 0);
+    assert!(rig.host.board_stop().estop);
 }

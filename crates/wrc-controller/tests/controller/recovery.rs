@@ -14,6 +14,7 @@ use std::sync::atomic::Ordering;
 
 use wrc_board::wrc_cell::journal::{read_journal, Act, Record};
 use wrc_board::wrc_cell::{parse_slot_list, SlotCode, SlotState, World};
+use wrc_board::Fault;
 use wrc_controller::simulation::{SimCellFrom, SimClient, Simulation};
 use wrc_protocol::reply_field;
 
@@ -479,7 +480,7 @@ enum StopAt {
 /// line or outside it (the simulated cell sees no side collision), the wafer map settled
 /// from the sensors agrees with the cell, and after RESET, HOME takes the hand out without
 /// a side collision.
-fn estop_keeps_the_line(put: bool, at: StopAt) {
+fn estop_keeps_the_line(put: bool, at: StopAt, by: EstopBy) {
     let (mut cell, line) = ready_for(put);
     let committed = cell.sim.shared().entry_committed.load(Ordering::Acquire);
     assert_eq!(cell.ask(&format!("7 {line}")), "ACK 7");
@@ -496,9 +497,17 @@ fn estop_keeps_the_line(put: bool, at: StopAt) {
             cell.sim.run_for_ns(periods * PERIOD_NS);
         }
     }
-    let when = format!("{line}, ESTOP at {at:?}");
+    let when = format!("{line}, {by:?} ESTOP at {at:?}");
     let sides = cell.world().side_collisions();
-    cell.sim.send(&mut cell.client, "8 ESTOP\n").unwrap();
+    match by {
+        EstopBy::Command => {
+            cell.sim.send(&mut cell.client, "8 ESTOP\n").unwrap();
+        }
+        EstopBy::Input => {
+            let mut board = cell.sim.board(0).unwrap();
+            board.apply_fault(Fault::Estop { on: true });
+        }
+    }
     cell.ended(7);
     // The map settles the ended transfer from the vacuum sensor once the arm stands still
     // and the sensor has answered (a HOME sent sooner, after a PUT's release, carries a
@@ -525,7 +534,16 @@ fn estop_keeps_the_line(put: bool, at: StopAt) {
     // The map settled from the sensors makes no claim the cell contradicts, and forgets no
     // wafer.
     check_claims(&wafers, &world, &when);
-    assert!(cell.ask("9 RESET").starts_with("ACK 9"), "{when}");
+    if by == EstopBy::Input {
+        cell.sim
+            .board(0)
+            .unwrap()
+            .apply_fault(Fault::Estop { on: false });
+        // The I/O Monitor reads the input closed at its next period (100 ms).
+        cell.sim.run_for_ns(200_000_000);
+    }
+    let reset = cell.ask("9 RESET");
+    assert!(reset.starts_with("ACK 9"), "{when}: {reset}");
     assert_eq!(cell.motion(10, "HOME"), "INF 10", "{when}: {:?}", cell.seen);
     let world = cell.world();
     assert_eq!(
@@ -553,7 +571,32 @@ fn an_estop_anywhere_in_a_get_or_a_put_leaves_the_hand_on_the_stations_line() {
         // stops 14 to 24 periods in ended inside the station, off its line.
         let committed = (0..=30).step_by(5).map(StopAt::Committed);
         for at in moments.into_iter().map(StopAt::Motion).chain(committed) {
-            estop_keeps_the_line(put, at);
+            estop_keeps_the_line(put, at, EstopBy::Command);
         }
     }
+}
+
+/// The E-stop button (the board's input) in a GET or a PUT: the same as ESTOP. Found by the
+/// controller's tests on the wrc crate: the board braked each axis itself the period the
+/// input opened, and a GET LP1 stopped on its line in leaves it (a side collision). The
+/// board now gives the host two periods to flush its brake along the path (docs/dpram.md,
+/// "Stops" 6).
+#[test]
+fn the_estop_button_anywhere_in_a_get_or_a_put_leaves_the_hand_on_the_stations_line() {
+    for put in [false, true] {
+        let (_, moments) = motion_cuts(put, &[0.3, 0.7]);
+        let committed = (0..=30).step_by(10).map(StopAt::Committed);
+        for at in moments.into_iter().map(StopAt::Motion).chain(committed) {
+            estop_keeps_the_line(put, at, EstopBy::Input);
+        }
+    }
+}
+
+/// How the emergency stop comes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum EstopBy {
+    /// `ESTOP` from the host.
+    Command,
+    /// The E-stop button: the board's E-stop input opens (and closes again before RESET).
+    Input,
 }

@@ -39,10 +39,7 @@ fn check(robot: &Robot, wafer: bool) -> CellCheck {
     let stations = Stations::embedded_demo();
     let model: CellModel = stations.model(robot).unwrap();
     let (mut w, r) = wrc_rt::ipc::mailbox(CellView::empty(robot));
-    w.write(CellView {
-        model,
-        wafers: [wafer, false],
-    });
+    w.write(CellView::of(model, [wafer, false], stations.iter()));
     let g = VelocityGenerator::new(robot.clone(), MotionSettings::default()).unwrap();
     CellCheck::new(g, r, &[0.0])
 }

@@ -252,7 +252,7 @@ impl CellService {
         });
         if let Some((writer, told)) = self.view.as_mut() {
             *told = wafers;
-            writer.write(CellView { model, wafers });
+            writer.write(CellView::of(model, wafers, self.stations.iter()));
         }
     }
 

@@ -136,6 +136,16 @@ impl CellCheck {
         })
     }
 
+    /// The way straight out of the station the hand at `pose` is inside, if it is inside
+    /// one ([`CellView::retract_from`]).
+    pub fn retract_from(
+        &mut self,
+        pose: &wrc_robot::Pose,
+        careful: bool,
+    ) -> Option<crate::messages::cell_job::RetractPlan> {
+        self.view.read().retract_from(pose, careful)
+    }
+
     /// Whether there is a cell to check against.
     pub fn active(&mut self) -> bool {
         !self.view.read().model.is_empty()

@@ -369,7 +369,17 @@ impl<B: MotionBoard> CommandInterpreter<B> {
                 return Cleared::Shortened { pulses, end };
             }
         }
-        self.describe_touch(&touch, travel, target.is_some(), note)
+        let verdict = self.describe_touch(&touch, travel, target.is_some(), note);
+        // From inside a station the way out is its line.
+        let here = self.robot.forward(&self.planned_end);
+        if let Some(plan) = cell.retract_from(&here, false) {
+            let _ = write!(
+                note,
+                "; the hand is inside {}: RETRACT or HOME takes it straight out first",
+                plan.station
+            );
+        }
+        verdict
     }
 
     /// The longest jog of `axis` towards `pulses` that keeps clear of the cell, if one of a
@@ -499,16 +509,19 @@ impl<B: MotionBoard> CommandInterpreter<B> {
     }
 
     /// The retract the cell service planned, if the hand (where the queued motions end) is
-    /// still past the station's approach pose; a plan the hand has left (moved out since)
-    /// is dropped.
+    /// still past the station's approach pose (a plan the hand has left, moved out since, is
+    /// dropped); otherwise the way out of the station the hand is inside now, from the
+    /// stations' lines (an operator who moved in to teach, a program stopped inside).
     fn retract_plan(&mut self) -> Option<crate::messages::cell_job::RetractPlan> {
-        let plan = self.retract?;
-        if plan.inside(&self.robot.forward(&self.planned_end)) {
-            Some(plan)
-        } else {
+        let here = self.robot.forward(&self.planned_end);
+        if let Some(plan) = self.retract {
+            if plan.inside(&here) {
+                return Some(plan);
+            }
             self.retract = None;
-            None
         }
+        let sensed = self.vacuum_sensed_all().iter().any(|s| *s);
+        self.cell.as_mut()?.retract_from(&here, sensed)
     }
 
     /// Queue the retract of `plan` (its reply to `from`); the reason when the hand is not on

@@ -18,6 +18,7 @@
 //! switches the vacuum starts only once the service has answered [`JournalAck`] for its
 //! beginning: after a power loss the journal bounds what the robot did.
 
+use wrc_cell::obstacle::MAX_SOLIDS;
 use wrc_cell::{Blade, CellModel, Step, MAX_BLADES};
 use wrc_protocol::{Code, ReplyTo, StationName};
 
@@ -32,6 +33,8 @@ pub struct CellView {
     pub model: CellModel,
     /// Per blade (the hand first): the map has a wafer on it.
     pub wafers: [bool; MAX_BLADES],
+    /// The stations' lines, to take a hand found inside one straight out.
+    pub lines: [Option<StationLine>; MAX_SOLIDS],
 }
 
 impl CellView {
@@ -40,7 +43,85 @@ impl CellView {
         CellView {
             model: CellModel::empty(robot),
             wafers: [false; MAX_BLADES],
+            lines: [None; MAX_SOLIDS],
         }
+    }
+
+    /// The cell of `stations` (as `model`) with `wafers` on the blades.
+    pub fn of<'a>(
+        model: CellModel,
+        wafers: [bool; MAX_BLADES],
+        stations: impl IntoIterator<Item = &'a wrc_cell::Station>,
+    ) -> CellView {
+        let mut lines = [None; MAX_SOLIDS];
+        for (l, s) in lines.iter_mut().zip(stations) {
+            *l = Some(StationLine::of(s));
+        }
+        CellView {
+            model,
+            wafers,
+            lines,
+        }
+    }
+
+    /// The way straight out of the station the hand at `pose` is inside, if it is inside
+    /// one (`careful`: a blade may hold a wafer, or the map has one on a blade).
+    pub fn retract_from(&self, pose: &wrc_robot::Pose, careful: bool) -> Option<RetractPlan> {
+        let careful = careful || self.wafers.iter().any(|w| *w);
+        self.lines
+            .iter()
+            .flatten()
+            .find_map(|l| l.retract_from(pose, careful))
+    }
+}
+
+/// A station's line as the Command Interpreter needs it to take a hand it finds inside the
+/// station straight out (`HOME`, `RETRACT`) when no recovery planned it: an operator who
+/// moved in to teach, a program stopped inside.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StationLine {
+    /// The station.
+    pub name: StationName,
+    /// Slot 1's taught pose: the line's seat and its yaw.
+    pub seat: wrc_robot::Pose,
+    /// How far the approach pose lies back from the seat along the line [mm].
+    pub approach_mm: f64,
+    /// The station's speed [%].
+    pub speed_pct: f64,
+}
+
+impl StationLine {
+    /// The line of `station`.
+    pub fn of(station: &wrc_cell::Station) -> StationLine {
+        StationLine {
+            name: station.name,
+            seat: station.pose,
+            approach_mm: station.approach_mm,
+            speed_pct: station.speed_pct,
+        }
+    }
+
+    /// The retract out of this station for a hand at `pose`, if the hand is inside it
+    /// ([`RetractPlan::inside`]): to the approach pose at the hand's height, at the
+    /// station's speed and at most [`crate::cell_service::RETRACT_SPEED_PCT`], as after a
+    /// power loss.
+    pub fn retract_from(&self, pose: &wrc_robot::Pose, careful: bool) -> Option<RetractPlan> {
+        let (s, c) = self.seat.yaw.to_radians().sin_cos();
+        let plan = RetractPlan {
+            station: self.name,
+            to: wrc_robot::Pose {
+                x: self.seat.x - self.approach_mm * c,
+                y: self.seat.y - self.approach_mm * s,
+                z: pose.z,
+                yaw: self.seat.yaw,
+            },
+            depth_mm: self.approach_mm,
+            speed_pct: self
+                .speed_pct
+                .min(crate::cell_service::RETRACT_SPEED_PCT),
+            careful,
+        };
+        plan.inside(pose).then_some(plan)
     }
 }
 

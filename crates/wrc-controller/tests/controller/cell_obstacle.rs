@@ -178,3 +178,54 @@ fn a_transfer_whose_move_would_sweep_through_the_cell_goes_round() {
     assert!(host.hand_empty());
     assert_eq!(&host.truth("LP1")[..1], "1");
 }
+
+/// Teaching: an operator moves the hand into LP1 along its line (MOVL from the approach
+/// pose), then wants it out. A move elsewhere is refused and says how; HOME and RETRACT
+/// take it straight out along the line first (no recovery planned that: the hand went in by
+/// hand), and nothing touches the cell.
+#[test]
+fn a_hand_moved_into_a_station_to_teach_leaves_along_its_line_with_home_or_retract() {
+    let mut host = VHost::start();
+    assert!(host.ask("1 CONTROL").starts_with("ACK 1"));
+    assert_eq!(host.motion(2, "HOME"), "INF 2");
+    let sides = host.world().side_collisions();
+    // LP1: seat (294.449, -170), yaw -30, approach 220 mm; slot 3 lowered is z 37.
+    let approach = "103.923 -60 37 -30";
+    let seat = "294.449 -170 37 -30";
+    for (id, out) in [(10, "HOME"), (20, "RETRACT")] {
+        assert_eq!(
+            host.motion(id, &format!("MOVP {approach} R")),
+            format!("INF {id}")
+        );
+        assert_eq!(
+            host.motion(id + 1, &format!("MOVL {seat}")),
+            format!("INF {}", id + 1)
+        );
+        let (_, x, y) = host.where_();
+        assert!((x - 294.449).abs() < 0.5 && (y + 170.0).abs() < 0.5, "{x} {y}");
+        // Anywhere else first: refused, and told the way out.
+        let nak = host.ask(&format!("{} MOVJ 0 150 0 0", id + 2));
+        assert!(nak.starts_with(&format!("NAK {} 117 ", id + 2)), "{nak}");
+        assert!(
+            nak.contains("the hand is inside LP1: RETRACT or HOME takes it straight out first"),
+            "{nak}"
+        );
+        assert_eq!(host.motion(id + 3, out), format!("INF {}", id + 3));
+        let (joints, x, y) = host.where_();
+        if out == "HOME" {
+            let home = wrc_config::Config::embedded_default().robot.home();
+            for (j, h) in joints.iter().zip(home.iter()) {
+                assert!((j - h).abs() < 0.01, "{joints:?} against {home:?}");
+            }
+        } else {
+            assert!((x - 103.923).abs() < 0.5 && (y + 60.0).abs() < 0.5, "{x} {y}");
+        }
+        let world = host.world();
+        assert_eq!(
+            world.side_collisions(),
+            sides,
+            "{out}: {:?}",
+            world.last_side_collision()
+        );
+    }
+}

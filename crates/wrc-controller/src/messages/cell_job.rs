@@ -116,9 +116,7 @@ impl StationLine {
                 yaw: self.seat.yaw,
             },
             depth_mm: self.approach_mm,
-            speed_pct: self
-                .speed_pct
-                .min(crate::cell_service::RETRACT_SPEED_PCT),
+            speed_pct: self.speed_pct.min(crate::cell_service::RETRACT_SPEED_PCT),
             careful,
         };
         plan.inside(pose).then_some(plan)

@@ -202,7 +202,10 @@ fn a_hand_moved_into_a_station_to_teach_leaves_along_its_line_with_home_or_retra
             format!("INF {}", id + 1)
         );
         let (_, x, y) = host.where_();
-        assert!((x - 294.449).abs() < 0.5 && (y + 170.0).abs() < 0.5, "{x} {y}");
+        assert!(
+            (x - 294.449).abs() < 0.5 && (y + 170.0).abs() < 0.5,
+            "{x} {y}"
+        );
         // Anywhere else first: refused, and told the way out.
         let nak = host.ask(&format!("{} MOVJ 0 150 0 0", id + 2));
         assert!(nak.starts_with(&format!("NAK {} 117 ", id + 2)), "{nak}");
@@ -218,7 +221,10 @@ fn a_hand_moved_into_a_station_to_teach_leaves_along_its_line_with_home_or_retra
                 assert!((j - h).abs() < 0.01, "{joints:?} against {home:?}");
             }
         } else {
-            assert!((x - 103.923).abs() < 0.5 && (y + 60.0).abs() < 0.5, "{x} {y}");
+            assert!(
+                (x - 103.923).abs() < 0.5 && (y + 60.0).abs() < 0.5,
+                "{x} {y}"
+            );
         }
         let world = host.world();
         assert_eq!(

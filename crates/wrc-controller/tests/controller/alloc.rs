@@ -1,5 +1,7 @@
 //! Counting allocator: a Command Interpreter cycle allocates and frees nothing, also while
-//! it runs a robot-language program (motions, PRINT, OUT, WAIT IN, DELAY, SUB calls).
+//! it runs a robot-language program (motions, PRINT, OUT, WAIT IN, DELAY, SUB calls) and
+//! while it checks motions against the cell (through, round, refused, stopped short, out of
+//! a station).
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -12,14 +14,17 @@ use wrc_cell::TransferKind;
 use wrc_config::Config;
 use wrc_controller::cell_service::transfer_steps;
 use wrc_controller::command_interpreter::{CommandInterpreter, CommandLinks};
-use wrc_controller::messages::cell_job::{CellEvent, CellJob, JobKind, JobOffer, JournalAck};
+use wrc_controller::messages::cell_job::{
+    CellEvent, CellJob, CellView, JobKind, JobOffer, JournalAck,
+};
 use wrc_controller::messages::{
     Incoming, MoveDone, MoveOrder, MoveOutcome, OutLine, ProgramStart, SourceId, StoreLinks,
 };
 use wrc_controller::shared::Shared;
+use wrc_controller::velocity_generator::plan_order;
 use wrc_protocol::{Parser, ProgramName, ReplyTo};
 use wrc_robot::Robot;
-use wrc_rt::ipc::MessageQueue;
+use wrc_rt::ipc::{mailbox, MessageQueue};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -69,6 +74,9 @@ struct Rig {
     cell_events: Vec<CellEvent>,
     /// Steps the journal was told about.
     journaled: usize,
+    /// Plays each order to its end and takes that as the commanded position (as the Velocity
+    /// and Pulse Generators would), when set; otherwise the position stays.
+    player: Option<wrc_motion::VelocityGenerator>,
 }
 
 impl Rig {
@@ -123,6 +131,7 @@ impl Rig {
             heap_calls: 0,
             cell_events: Vec::new(),
             journaled: 0,
+            player: None,
         }
     }
 
@@ -139,6 +148,19 @@ impl Rig {
             // The Velocity and Pulse Generators' part: every order completes at once.
             while let Ok(order) = self.orders.try_recv() {
                 self.motions += 1;
+                if let Some(g) = self.player.as_mut() {
+                    let at = self.shared.commanded_pulses();
+                    g.abandon_at(&at);
+                    if plan_order(g, &order).unwrap_or(false) {
+                        let mut period = wrc_motion::Period::default();
+                        while g.is_moving() {
+                            g.next_period(&mut period);
+                        }
+                    }
+                    for (c, p) in self.shared.commanded.iter().zip(g.position_pulses()) {
+                        c.store(*p, Ordering::Release);
+                    }
+                }
                 let _ = self.done.try_send(MoveDone {
                     ticket: order.ticket,
                     outcome: MoveOutcome::Completed,
@@ -446,4 +468,84 @@ fn a_trace_save_of_a_full_ring_grows_no_buffer() {
             "round {round}: a buffer grew"
         );
     }
+}
+
+/// The check of every motion against the cell (the demo stations), in the Command
+/// Interpreter's cycle: a PTP that passes under the stations, one that goes round through
+/// the travel height, a target inside a station refused with its text, a jog stopped short,
+/// and a hand moved into LP1 along its line taken out by HOME from the stations' lines —
+/// no allocation.
+#[test]
+fn a_command_interpreter_cycle_checking_motions_against_the_cell_allocates_nothing() {
+    wrc_alloc_count::assert_installed();
+    let config = Config::embedded_default();
+    let mut rig = Rig::new(true, false);
+    let stations = wrc_cell::Stations::embedded_demo();
+    let model = stations.model(&rig.robot).unwrap();
+    let (mut writer, reader) = mailbox(CellView::empty(&rig.robot));
+    writer.write(CellView::of(model, [false; 2], stations.iter()));
+    let generator = wrc_motion::VelocityGenerator::new(rig.robot.clone(), config.motion).unwrap();
+    rig.ci = rig.ci.with_cell_check(generator.clone(), reader, &[0.0]);
+    rig.player = Some(generator);
+    let parser = Parser::new(rig.robot.axis_count());
+    let from = SourceId::new(SourceId::TCP, 0, 1);
+    let mut now_ns = 1_000_000_000;
+    let mut said = Vec::new();
+    let steps: [(u32, &str, &str); 8] = [
+        (1, "HOME", "INF 1"),
+        (2, "MOVP 250 -150 100 0", "NAK 2"),
+        (3, "MOVP 250 -150 0 0", "INF 3"),
+        (4, "MOVJ 60 60 -90 50", "INF 4"),
+        (5, "JOG z 50000", "INF 5"),
+        (6, "MOVP 103.923 -60 37 -30 R", "INF 6"),
+        (7, "MOVL 294.449 -170 37 -30", "INF 7"),
+        (8, "HOME", "INF 8"),
+    ];
+    let mut orders = Vec::new();
+    for (id, line, end) in steps {
+        let before = rig.motions;
+        let request = parser.parse(format!("{id} {line}").as_bytes()).unwrap();
+        rig.lines.clear();
+        let incoming = rig.incoming.clone();
+        rig.run_until(
+            now_ns,
+            |_| {
+                incoming
+                    .try_send(Incoming::Request(from, request))
+                    .ok()
+                    .expect("room for the request")
+            },
+            &[end],
+        );
+        now_ns += 30_000_000_000;
+        orders.push(rig.motions - before);
+        said.push(
+            rig.lines
+                .iter()
+                .filter(|l| !l.starts_with("EVT"))
+                .cloned()
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert_eq!(said[0], ["ACK 1", "INF 1"], "{said:?}");
+    assert!(
+        said[1][0].starts_with("NAK 2 117 the target would put the hand into station LP1"),
+        "{said:?}"
+    );
+    assert_eq!(said[2], ["ACK 3", "INF 3"], "{said:?}");
+    assert_eq!(said[3], ["ACK 4 route=travel", "INF 4"], "{said:?}");
+    assert!(said[4][0].starts_with("ACK 5 limited="), "{said:?}");
+    assert_eq!(said[6], ["ACK 7", "INF 7"], "{said:?}");
+    assert_eq!(said[7], ["ACK 8", "INF 8"], "{said:?}");
+    // HOME went straight out of LP1 first (a line), then home.
+    assert_eq!(orders[7], 2, "{orders:?}");
+    assert!(
+        rig.ci.check_figures().checks >= 8,
+        "{:?}",
+        rig.ci.check_figures()
+    );
+    assert_eq!(
+        rig.heap_calls, 0,
+        "allocations or frees in Command Interpreter cycles checking motions"
+    );
 }

@@ -510,10 +510,10 @@ fn a_command_interpreter_cycle_checking_motions_against_the_cell_allocates_nothi
         rig.run_until(
             now_ns,
             |_| {
-                incoming
-                    .try_send(Incoming::Request(from, request))
-                    .ok()
-                    .expect("room for the request")
+                assert!(
+                    incoming.try_send(Incoming::Request(from, request)).is_ok(),
+                    "room for the request"
+                )
             },
             &[end],
         );

@@ -131,13 +131,13 @@ impl Host {
         let reply = self.reply_to(id, &["ACK", "NAK"])?;
         Ok((reply, t0.elapsed()))
     }
-    /// Send `line` as request `id` and fail unless it is accepted.
-    fn accepted(&mut self, id: u32, line: &str) -> anyhow::Result<()> {
+    /// Send `line` as request `id`; its ACK, or an error if it was refused.
+    fn accepted(&mut self, id: u32, line: &str) -> anyhow::Result<String> {
         let (reply, _) = self.request(id, line)?;
         if !reply.starts_with("ACK") {
             bail!("`{line}` was refused: {reply}");
         }
-        Ok(())
+        Ok(reply)
     }
 }
 
@@ -601,17 +601,28 @@ fn stop_run(
     spread_over_grid(u64::from(run), period);
     let id = ids.next();
     let t0 = Shared::now_ns();
-    host.accepted(id, target)?;
+    let ack = host.accepted(id, target)?;
     let first = wait_for(&shared.first_pulse_ns, t0, Duration::from_secs(5))
-        .context("no pulse within 5 s of a MOVJ")?;
+        .with_context(|| format!("no pulse within 5 s of `{target}` ({ack})"))?;
     out.first_pulse.push((first - t0) as f64 / 1e6);
     let delay_ms = ESTOP_AFTER_FIRST_PULSE_MS + u64::from(run) * 37 % ESTOP_SPREAD_MS;
     sleep_until_ns(first + delay_ms * 1_000_000);
 
     let t1 = Shared::now_ns();
     host.send(&format!("{} ESTOP", ids.next()))?;
-    let decel = wait_for(&shared.decel_ns, t1, Duration::from_secs(5))
-        .context("no deceleration within 5 s of an ESTOP")?;
+    let Some(decel) = wait_for(&shared.decel_ns, t1, Duration::from_secs(5)) else {
+        // What the controller said meanwhile: how the move ended, and why.
+        let mut said = Vec::new();
+        while let Ok(l) = host.read_line() {
+            said.push(l);
+            if said.len() >= 12 || said.last().is_some_and(|l| l.starts_with("ACK")) {
+                break;
+            }
+        }
+        bail!(
+            "no deceleration within 5 s of an ESTOP {delay_ms} ms into `{target}` ({ack}, run {run}); the controller said: {said:?}"
+        );
+    };
     let read = shared.urgent_read_ns.load(Ordering::Acquire);
     if read < t1 {
         out.read_unstamped += 1;

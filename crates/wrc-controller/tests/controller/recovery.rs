@@ -539,8 +539,22 @@ fn estop_keeps_the_line(put: bool, at: StopAt, by: EstopBy) {
             .board(0)
             .unwrap()
             .apply_fault(Fault::Estop { on: false });
-        // The I/O Monitor reads the input closed at its next period (100 ms).
-        cell.sim.run_for_ns(200_000_000);
+        // Until the I/O Monitor has read the input closed (at its next period).
+        let shared = cell.sim.shared().clone();
+        let bit = wrc_config::Config::embedded_default()
+            .estop_input()
+            .expect("the demo board has an E-stop input");
+        let open = || shared.inputs[0].load(Ordering::Acquire) & (1 << bit) != 0;
+        for _ in 0..100 {
+            if !open() {
+                break;
+            }
+            cell.sim.run_for_ns(PERIOD_NS);
+        }
+        assert!(
+            !open(),
+            "{when}: the controller never read the E-stop input closed"
+        );
     }
     let reset = cell.ask("9 RESET");
     assert!(reset.starts_with("ACK 9"), "{when}: {reset}");

@@ -505,19 +505,6 @@ impl Station {
             && lateral <= INSIDE_HALF_WIDTH_MM
     }
 
-    /// Where a hand inside the station at `pose` goes straight out to: the approach pose's
-    /// x and y, the station's yaw, at the hand's height `pose.z` (it stays clear of the
-    /// slots above and below it on the way).
-    pub fn retract_pose(&self, pose: &Pose) -> Pose {
-        let (s, c) = self.pose.yaw.to_radians().sin_cos();
-        Pose {
-            x: self.pose.x - self.approach_mm * c,
-            y: self.pose.y - self.approach_mm * s,
-            z: pose.z,
-            yaw: self.pose.yaw,
-        }
-    }
-
     /// The elbow postures a transfer may use here: the station's own, or both.
     pub fn postures(&self) -> &'static [Posture] {
         match self.posture {

@@ -21,8 +21,8 @@ use wrc_robot::Pose;
 
 use super::CellService;
 use crate::messages::cell_job::{
-    CellJob, JobKind, JobOffer, JobStep, JournalAck, RetractPlan, IN_STATION_DEG, IN_STATION_MM,
-    ON_LINE_DEG, ON_LINE_MM,
+    CellJob, JobKind, JobOffer, JobStep, JournalAck, RetractPlan, StationLine, ON_LINE_DEG,
+    ON_LINE_MM,
 };
 use crate::messages::SourceId;
 
@@ -281,16 +281,14 @@ impl CellService {
             .max(1.0)
     }
 
-    /// The station the hand is inside at `pose`, if any: in front of it past its approach
-    /// pose ([`wrc_cell::Station::hand_inside`]) and within [`IN_STATION_MM`] and
-    /// [`IN_STATION_DEG`] of its line; farther off the line the hand stands in the open
-    /// space before the station.
-    fn inside_station(&self, pose: &Pose) -> Option<&wrc_cell::Station> {
-        self.stations.iter().find(|s| {
-            let (_, lateral) = s.line_offset(pose);
-            let turned = wrc_robot::wrap180(pose.yaw - s.pose.yaw).abs();
-            s.hand_inside(pose) && lateral <= IN_STATION_MM && turned <= IN_STATION_DEG
-        })
+    /// The way straight out of the station the hand is inside at `pose`, if any
+    /// ([`StationLine::retract_from`]: past its approach pose and within
+    /// [`IN_STATION_MM`](crate::messages::cell_job::IN_STATION_MM) and its degrees of its line, the rule the Command Interpreter applies too;
+    /// farther off the line the hand stands in the open space before the station).
+    fn inside_plan(&self, pose: &Pose, careful: bool) -> Option<RetractPlan> {
+        self.stations
+            .iter()
+            .find_map(|s| StationLine::of(s).retract_from(pose, careful))
     }
 
     /// The retract out of the station the hand stands inside at `pose` (`None`: outside
@@ -298,25 +296,17 @@ impl CellService {
     /// stands off the station's line by more than [`ON_LINE_MM`] or [`ON_LINE_DEG`] (the
     /// Command Interpreter refuses HOME and RETRACT then, with the same reason).
     fn retract_from(&self, pose: &Pose) -> Option<(RetractPlan, Option<String>)> {
-        let s = self.inside_station(pose)?;
-        let (_, lateral) = s.line_offset(pose);
-        let turned = wrc_robot::wrap180(pose.yaw - s.pose.yaw).abs();
-        let off = (!(lateral <= ON_LINE_MM && turned <= ON_LINE_DEG)).then(|| {
-            format!(
-                "the hand stands in {} {lateral:.1} mm and {turned:.1} deg off its line: a straight move out would scrape it; move it out by hand (JOG) first",
-                s.name
-            )
-        });
         let careful = Blade::ALL
             .into_iter()
             .any(|b| self.wafers.hand_of(b).is_some());
-        let plan = RetractPlan {
-            station: s.name,
-            to: s.retract_pose(pose),
-            depth_mm: s.approach_mm,
-            speed_pct: s.speed_pct.min(RETRACT_SPEED_PCT),
-            careful,
-        };
+        let plan = self.inside_plan(pose, careful)?;
+        let (_, lateral, turned) = plan.offset(pose);
+        let off = (!(lateral <= ON_LINE_MM && turned <= ON_LINE_DEG)).then(|| {
+            format!(
+                "the hand stands in {} {lateral:.1} mm and {turned:.1} deg off its line: a straight move out would scrape it; move it out by hand (JOG) first",
+                plan.station
+            )
+        });
         Some((plan, off))
     }
 
@@ -760,13 +750,7 @@ impl CellService {
             || Blade::ALL
                 .into_iter()
                 .any(|b| self.wafers.hand_of(b).is_some());
-        self.inside = self.inside_station(&pose).map(|s| RetractPlan {
-            station: s.name,
-            to: s.retract_pose(&pose),
-            depth_mm: s.approach_mm,
-            speed_pct: s.speed_pct.min(RETRACT_SPEED_PCT),
-            careful,
-        });
+        self.inside = self.inside_plan(&pose, careful);
         match (&self.inside, journal) {
             (Some(plan), _) => tracing::warn!(
                 "wrc: the hand is inside {} (x={:.3} y={:.3} z={:.3}): HOME (or RETRACT) takes it straight out to the approach pose first, at {} %",
@@ -787,9 +771,10 @@ impl CellService {
     /// The station the hand is inside: the one a power loss left it in, or the one it stands
     /// in now.
     fn inside_now(&self) -> Option<StationName> {
-        self.inside
-            .map(|p| p.station)
-            .or_else(|| self.inside_station(&self.hand_pose()).map(|s| s.name))
+        self.inside.map(|p| p.station).or_else(|| {
+            self.inside_plan(&self.hand_pose(), false)
+                .map(|p| p.station)
+        })
     }
 
     /// The lines of `RECOVERY` (and of the broadcast after a recovery).

@@ -88,29 +88,11 @@ impl CellCheck {
         self.figures
     }
 
-    /// The blades as the checks see them: a wafer where the map has one (certain or not) or
-    /// the vacuum sensor senses one.
-    fn blades(
-        &self,
-        wafers: [bool; MAX_BLADES],
-        sensed: [bool; MAX_BLADES],
-    ) -> [BladeLoad; MAX_BLADES] {
-        let mut out = [BladeLoad::default(); MAX_BLADES];
-        for (b, blade) in out.iter_mut().enumerate().take(self.blades) {
-            *blade = BladeLoad {
-                z_offset_mm: self.offsets[b],
-                wafer: wafers[b] || sensed[b],
-            };
-        }
-        out
-    }
-
     /// The height the arm travels at through the cell, if any [mm].
     pub fn travel_z(&mut self, robot: &Robot, sensed: [bool; MAX_BLADES]) -> Option<f64> {
-        let wafers = self.view.read().wafers;
-        let blades = self.blades(wafers, sensed);
         let n = self.blades;
-        self.view.read().model.travel_z(robot, &blades[..n])
+        let (view, blades) = read(&mut self.view, &self.offsets, n, sensed);
+        view.model.travel_z(robot, &blades[..n])
     }
 
     /// What a body of the arm at `end` touches, of what it did not touch at `start` already
@@ -122,10 +104,9 @@ impl CellCheck {
         end: &Joints,
         sensed: [bool; MAX_BLADES],
     ) -> Option<Contact> {
-        let wafers = self.view.read().wafers;
-        let loads = self.blades(wafers, sensed);
-        let blades = &loads[..self.blades];
-        let view = self.view.read();
+        let n = self.blades;
+        let (view, loads) = read(&mut self.view, &self.offsets, n, sensed);
+        let blades = &loads[..n];
         let margin = view.model.settings().clearance_mm;
         let tol = LineTolerance::CONTROLLER;
         let (at_start, at_end) = (robot.bodies(start, blades), robot.bodies(end, blades));
@@ -166,10 +147,9 @@ impl CellCheck {
         start: &[i64; MAX_AXES],
         sensed: [bool; MAX_BLADES],
     ) -> Result<Joints, Touch> {
-        let wafers = self.view.read().wafers;
-        let loads = self.blades(wafers, sensed);
-        let blades = &loads[..self.blades];
-        let view = self.view.read();
+        let n = self.blades;
+        let (view, loads) = read(&mut self.view, &self.offsets, n, sensed);
+        let blades = &loads[..n];
         let model: &CellModel = &view.model;
         let start_joints = robot.pulses_to_joints(start);
         if model.is_empty() {
@@ -339,4 +319,24 @@ fn brake_reach(
             v * t * levers[i]
         })
         .sum()
+}
+
+/// The cell as published and the blades as the checks see them (the first `n`, at heights
+/// `offsets`): a wafer where the map has one (certain or not) or the vacuum sensor senses
+/// one. One read: the blades and the solids come from the same publication.
+fn read<'a>(
+    view: &'a mut MailboxReader<CellView>,
+    offsets: &[f64; MAX_BLADES],
+    n: usize,
+    sensed: [bool; MAX_BLADES],
+) -> (&'a CellView, [BladeLoad; MAX_BLADES]) {
+    let view = view.read();
+    let mut out = [BladeLoad::default(); MAX_BLADES];
+    for (b, blade) in out.iter_mut().enumerate().take(n) {
+        *blade = BladeLoad {
+            z_offset_mm: offsets[b],
+            wafer: view.wafers[b] || sensed[b],
+        };
+    }
+    (view, out)
 }

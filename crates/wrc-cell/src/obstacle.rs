@@ -404,6 +404,15 @@ pub enum SolidKind {
     Obstacle,
 }
 
+impl fmt::Display for SolidKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SolidKind::Station => "station",
+            SolidKind::Obstacle => "obstacle",
+        })
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum SolidShape {
     Block(Block),
@@ -507,14 +516,11 @@ pub struct Contact {
 
 impl fmt::Display for Contact {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let what = match self.kind {
-            SolidKind::Station => "station",
-            SolidKind::Obstacle => "obstacle",
-        };
         write!(
             f,
-            "{} would touch {what} {}",
+            "{} would touch {} {}",
             self.body.describe(),
+            self.kind,
             self.name
         )
     }

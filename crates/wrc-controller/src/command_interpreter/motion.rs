@@ -305,20 +305,13 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         // A target that touches the cell is refused: no way to it helps.
         if !matches!(kind, MoveKind::Jog { .. }) {
             if let Some(c) = cell.target_touch(&self.robot, &self.planned_end, &end, sensed) {
-                let what = match c.kind {
-                    wrc_cell::SolidKind::Station => "station",
-                    wrc_cell::SolidKind::Obstacle => "obstacle",
-                };
-                let at = self.robot.forward(&end);
                 let _ = write!(
                     note,
-                    "the target would put {} into {what} {} (x={} y={} z={} yaw={}): a station is entered only along its line, an obstacle never",
+                    "the target would put {} into {} {} ({}): a station is entered only along its line, an obstacle never",
                     c.body.describe(),
+                    c.kind,
                     c.name,
-                    Num(at.x),
-                    Num(at.y),
-                    Num(at.z),
-                    Num(at.yaw)
+                    PoseText(self.robot.forward(&end))
                 );
                 return Cleared::Refused;
             }
@@ -364,7 +357,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
             }
         }
         if let MoveKind::Jog { axis, pulses } = kind {
-            if let Some((pulses, end)) = self.shortest_clear_jog(cell, axis, pulses, sensed) {
+            if let Some((pulses, end)) = self.longest_clear_jog(cell, axis, pulses, sensed) {
                 let _ = write!(note, "limited={} jog={pulses}", touch.contact.name);
                 return Cleared::Shortened { pulses, end };
             }
@@ -384,7 +377,7 @@ impl<B: MotionBoard> CommandInterpreter<B> {
 
     /// The longest jog of `axis` towards `pulses` that keeps clear of the cell, if one of a
     /// pulse at least does: its pulses and its end.
-    fn shortest_clear_jog(
+    fn longest_clear_jog(
         &self,
         cell: &mut super::clearance::CellCheck,
         axis: usize,
@@ -422,33 +415,18 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         note: &mut FixedText<400>,
     ) -> Cleared {
         let c = &touch.contact;
-        let what = match c.kind {
-            wrc_cell::SolidKind::Station => "station",
-            wrc_cell::SolidKind::Obstacle => "obstacle",
-        };
-        let at = self.robot.forward(&touch.joints);
+        let (body, what, name) = (c.body.describe(), c.kind, c.name);
+        let at = PoseText(self.robot.forward(&touch.joints));
         let pct = (touch.fraction * 100.0).round();
         let _ = if touch.brake {
             write!(
                 note,
-                "a stop at {pct} % of the motion would brake {} into {what} {} (x={} y={} z={} yaw={})",
-                c.body.describe(),
-                c.name,
-                Num(at.x),
-                Num(at.y),
-                Num(at.z),
-                Num(at.yaw)
+                "a stop at {pct} % of the motion would brake {body} into {what} {name} ({at})"
             )
         } else {
             write!(
                 note,
-                "{} would touch {what} {} at {pct} % of the motion (x={} y={} z={} yaw={})",
-                c.body.describe(),
-                c.name,
-                Num(at.x),
-                Num(at.y),
-                Num(at.z),
-                Num(at.yaw)
+                "{body} would touch {what} {name} at {pct} % of the motion ({at})"
             )
         };
         let _ = note.write_str(": a station is entered only along its line, an obstacle never");
@@ -776,5 +754,22 @@ impl<B: MotionBoard> CommandInterpreter<B> {
         let line = self.buf.ack(to, "");
         deliver(&self.io.out, from, line);
         self.set_state(RobotState::Moving);
+    }
+}
+
+/// A pose in a refusal's text: `x=… y=… z=… yaw=…`.
+struct PoseText(wrc_robot::Pose);
+
+impl std::fmt::Display for PoseText {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = &self.0;
+        write!(
+            f,
+            "x={} y={} z={} yaw={}",
+            Num(p.x),
+            Num(p.y),
+            Num(p.z),
+            Num(p.yaw)
+        )
     }
 }
